@@ -1,0 +1,17 @@
+"""Blender layer: preferences (filled in by the issues that need it)."""
+
+classes = ()
+
+
+def register():
+    import bpy
+
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    import bpy
+
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,16 @@
+"""Shared test set-up: the repository root on sys.path and paths to the bundled CMU clips."""
+
+import pathlib
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+DATA = ROOT / "tests" / "data"
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+
+@pytest.fixture(scope="session")
+def data_dir():
+    return DATA
