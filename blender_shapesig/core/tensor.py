@@ -1,0 +1,426 @@
+"""Truncated tensor algebra T^(n)(R^d) in numpy (reference sec. 7).
+
+A truncated tensor of depth ``n`` over R^d is a list ``[a_0, a_1, ..., a_n]`` of 1-D float arrays,
+``a_k`` holding the d^k coefficients of level k in row-major order (the first letter of a word is the
+most significant index). This is the layout of iisignature: ``flatten`` drops level 0 and concatenates
+the rest, which is exactly what ``iisignature.sig`` returns.
+
+Contents:
+
+* products, the exponential, the logarithm (closed-form truncated series) and inverses;
+* ``signature_from_increments``: the signature of a piecewise-linear path by Chen's identity, the
+  levels below the top as cumulative sums over time and the top level as one matrix product over time;
+* Lyndon words, their standard bracketings and the projection of a Lie element (a log-signature in
+  tensor form) onto the Lyndon basis, giving the same coordinates as ``iisignature.logsig``;
+* the Witt formula for the dimension of the truncated free Lie algebra.
+
+Nothing here imports iisignature; this module is the fallback when it is missing.
+"""
+
+import math
+from functools import lru_cache
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import ShapeSigError
+
+__all__ = [
+    "MAX_TENSOR_ENTRIES",
+    "tensor_size",
+    "check_size",
+    "zero",
+    "one",
+    "flatten",
+    "unflatten",
+    "mul",
+    "exp",
+    "log",
+    "inverse",
+    "antipode",
+    "level_norms",
+    "signature_from_increments",
+    "lyndon_words",
+    "lyndon_projection",
+    "lyndon_coordinates",
+    "lyndon_to_tensor",
+    "log_signature_dim",
+]
+
+# Largest number of coefficients of one level we agree to build (d^n): 93 dimensions at level 3 is
+# 804,357; level 4 would be 74.8 million (600 MB per tensor) and is refused with a clear message.
+MAX_TENSOR_ENTRIES = 20_000_000
+
+
+def tensor_size(dim, level):
+    """Number of coefficients of levels 1..level: d + d^2 + ... + d^n (iisignature.siglength)."""
+    return sum(dim ** k for k in range(1, level + 1))
+
+
+def check_size(dim, level):
+    """Raise ShapeSigError when d^level is too large to hold in memory."""
+    if dim < 1 or level < 1:
+        raise ShapeSigError(f"signature needs dimension >= 1 and level >= 1, got {dim} and {level}")
+    if dim ** level > MAX_TENSOR_ENTRIES:
+        raise ShapeSigError(
+            f"a level-{level} signature of a {dim}-dimensional path has {dim ** level:,} coefficients "
+            f"at the top level (limit {MAX_TENSOR_ENTRIES:,}); use a lower level or fewer joints"
+        )
+
+
+def zero(dim, level):
+    return [np.zeros(dim ** k) for k in range(level + 1)]
+
+
+def one(dim, level):
+    t = zero(dim, level)
+    t[0][0] = 1.0
+    return t
+
+
+def flatten(t):
+    """Levels 1..n concatenated (level 0 dropped): the iisignature layout."""
+    return np.concatenate([np.asarray(a, dtype=np.float64).reshape(-1) for a in t[1:]])
+
+
+def unflatten(v, dim, level, scalar=1.0):
+    """Inverse of ``flatten``; level 0 is set to ``scalar`` (1 for a signature, 0 for a log)."""
+    v = np.asarray(v, dtype=np.float64).reshape(-1)
+    if v.size != tensor_size(dim, level):
+        raise ShapeSigError(
+            f"expected {tensor_size(dim, level)} coefficients for dimension {dim} level {level}, got {v.size}"
+        )
+    out = [np.array([float(scalar)])]
+    pos = 0
+    for k in range(1, level + 1):
+        out.append(v[pos:pos + dim ** k].copy())
+        pos += dim ** k
+    return out
+
+
+def _level_count(t):
+    return len(t) - 1
+
+
+def mul(a, b, level=None):
+    """Truncated tensor product a ⊗ b (levels 0..level)."""
+    n = min(_level_count(a), _level_count(b)) if level is None else level
+    out = []
+    for k in range(n + 1):
+        acc = None
+        for i in range(k + 1):
+            ai, bj = a[i], b[k - i]
+            if not ai.any() or not bj.any():
+                continue
+            term = np.multiply.outer(ai, bj).reshape(-1)
+            acc = term if acc is None else acc + term
+        if acc is None:
+            acc = np.zeros(a[1].size ** k if k else 1)
+        out.append(acc)
+    return out
+
+
+def exp(v, level):
+    """exp_⊗(v) = 1 + v + v⊗v/2! + ... truncated (eq. 7.3)."""
+    v = np.asarray(v, dtype=np.float64).reshape(-1)
+    out = [np.ones(1), v.copy()]
+    for k in range(2, level + 1):
+        out.append(np.multiply.outer(out[-1], v).reshape(-1) / k)
+    return out[: level + 1]
+
+
+def log(a):
+    """Truncated logarithm of a tensor with a_0 > 0 (sec. 7.5).
+
+    log a = log a_0 + sum_{k=1}^{n} (-1)^{k+1} X^{⊗k} / k with X = a / a_0 - 1, evaluated by Horner's
+    scheme: X (1 - X (1/2 - X (1/3 - ... ))).
+    """
+    n = _level_count(a)
+    a0 = float(a[0][0])
+    if not a0 > 0:
+        raise ShapeSigError("the logarithm needs a positive level-0 coefficient")
+    x = [np.zeros(1)] + [ak / a0 for ak in a[1:]]
+    # Horner: acc = 1/n; acc = 1/k - X acc for k = n-1 .. 1; log = X acc.
+    acc = [np.array([1.0 / n])] + [np.zeros_like(ak) for ak in x[1:]]
+    for k in range(n - 1, 0, -1):
+        prod = mul(x, acc, n)
+        acc = [np.array([1.0 / k]) - prod[0]] + [-p for p in prod[1:]]
+    out = mul(x, acc, n)
+    out[0] = np.array([math.log(a0)])
+    return out
+
+
+def inverse(a):
+    """Inverse in the truncated tensor algebra by the series (1 + X)^-1 = sum (-X)^k (any a_0 != 0)."""
+    n = _level_count(a)
+    a0 = float(a[0][0])
+    if a0 == 0:
+        raise ShapeSigError("the tensor is not invertible (level-0 coefficient 0)")
+    x = [np.zeros(1)] + [ak / a0 for ak in a[1:]]
+    # Horner: acc = 1; acc = 1 - X acc, n times.
+    acc = [np.ones(1)] + [np.zeros_like(ak) for ak in x[1:]]
+    for _ in range(n):
+        prod = mul(x, acc, n)
+        acc = [np.ones(1) - prod[0]] + [-p for p in prod[1:]]
+    return [ak / a0 for ak in acc]
+
+
+def antipode(a, dim):
+    """Word reversal with sign (-1)^k at level k: the inverse of a group-like element (a signature).
+
+    S(x)^-1 = S(reversed x) (eq. 7.6) and its coefficient of the word w is (-1)^|w| times that of w read
+    backwards. Exact also for truncated signatures. For a non-group-like tensor use ``inverse``.
+    """
+    out = [a[0].copy()]
+    for k in range(1, _level_count(a) + 1):
+        t = a[k].reshape((dim,) * k).transpose(tuple(range(k - 1, -1, -1)))
+        out.append(((-1.0) ** k) * t.reshape(-1))
+    return out
+
+
+def level_norms(t):
+    """Euclidean norm of every level 1..n."""
+    return np.array([float(np.linalg.norm(ak)) for ak in t[1:]])
+
+
+def signature_from_increments(dx, level):
+    """Signature (levels 0..level) of the piecewise-linear path with increments ``dx`` (m, d).
+
+    Chen's identity S = exp(dx_1) ⊗ ... ⊗ exp(dx_m) (sec. 7.1). Writing P_j[k] for level j of the
+    signature of the first k pieces, one step adds
+
+        P_j[k] - P_j[k-1] = (P_{j-1}[k-1] + B_{j-1}[k]) ⊗ dx_k,
+
+    where B is Horner's partial sum of the lower terms (B = dx/j, then B = (P_i + B) ⊗ dx / (j-i) for
+    i = 1 .. j-2). The levels below the top are therefore cumulative sums over time of outer
+    products, and the top level is the single matrix product T^T dx with T the (m, d^(n-1)) stack of
+    the bracketed terms: the top level, the costly one, is one BLAS call.
+    """
+    dx = np.asarray(dx, dtype=np.float64)
+    if dx.ndim != 2:
+        raise ShapeSigError(f"increments must have shape (steps, dim), got {dx.shape}")
+    m, d = dx.shape
+    check_size(d, level)
+    out = [np.ones(1)]
+    if m == 0:
+        return out + [np.zeros(d ** k) for k in range(1, level + 1)]
+    # prev[j]: (m, d^j), level j of the signature *before* each step (exclusive prefix); prev[0] = 1.
+    prev = [np.ones((m, 1))]
+    for j in range(1, level + 1):
+        if j == 1:
+            t_mat = np.ones((m, 1))
+        else:
+            # T_k = P_{j-1}[k-1] + B_{j-1}[k]; Horner with divisors j, j-1, ..., 2.
+            b = dx / j
+            for i in range(1, j - 1):
+                b = ((prev[i] + b)[:, :, None] * dx[:, None, :]).reshape(m, -1) / (j - i)
+            t_mat = prev[j - 1] + b
+        if j == level:
+            # Top level: sum_k T_k ⊗ dx_k = T^T dx, one matrix product over time.
+            out.append((t_mat.T @ dx).reshape(-1))
+            break
+        steps = (t_mat[:, :, None] * dx[:, None, :]).reshape(m, -1)
+        run = np.cumsum(steps, axis=0)
+        out.append(run[-1].copy())
+        excl = np.empty_like(run)
+        excl[0] = 0.0
+        excl[1:] = run[:-1]
+        prev.append(excl)
+    return out
+
+
+# --- Lyndon words and the Lyndon basis ------------------------------------------------------------
+#
+# A word of length m over the letters 0..d-1 is coded as the integer sum_i w_i d^(m-1-i), so that the
+# numeric order of codes is the lexicographic order of words and the code is the word's index in the
+# row-major level-m tensor. A word is Lyndon when it is strictly smaller than all its proper
+# rotations. Its standard bracketing is P_w = w for a letter and P_w = [P_u, P_v] for w = uv with v
+# the longest proper suffix that is Lyndon ([a, b] = a⊗b - b⊗a). These brackets form a basis of the
+# free Lie algebra (the basis of iisignature's ``logsig``, listed level by level in lexicographic
+# order), and P_w = w + (words lexicographically greater than w). So the coordinates c of a Lie
+# element L in this basis solve the unit-triangular system  L[u] = sum_w c_w <P_w, u>  over Lyndon
+# words u, w: the projection is exact, not a least-squares fit.
+
+
+@lru_cache(maxsize=None)
+def _is_lyndon(dim, m):
+    """Boolean mask over all d^m words of length m: is the word Lyndon."""
+    check_size(dim, m)
+    codes = np.arange(dim ** m, dtype=np.int64)
+    ok = np.ones(codes.size, dtype=bool)
+    for s in range(1, m):
+        hi = dim ** (m - s)
+        rot = (codes % hi) * dim ** s + codes // hi  # rotate left by s letters
+        ok &= codes < rot
+    ok.setflags(write=False)
+    return ok
+
+
+@lru_cache(maxsize=None)
+def lyndon_words(dim, m):
+    """Codes of the Lyndon words of length m over d letters, in lexicographic order."""
+    codes = np.flatnonzero(_is_lyndon(dim, m)).astype(np.int64)
+    codes.setflags(write=False)
+    return codes
+
+
+@lru_cache(maxsize=None)
+def _factorization(dim, m):
+    """(split, shape) per Lyndon word of length m: w = w[:split] w[split:] standard factorization;
+    shape is a nested tuple describing the bracketing tree (a leaf is 1)."""
+    codes = lyndon_words(dim, m)
+    if m == 1:
+        return np.zeros(codes.size, dtype=np.int64), np.zeros(codes.size, dtype=np.int64), [1]
+    split = np.zeros(codes.size, dtype=np.int64)
+    for s in range(m - 1, 0, -1):  # prefix length s; the smallest s with a Lyndon suffix wins
+        suffix = codes % dim ** (m - s)
+        lyn = _is_lyndon(dim, m - s)[suffix]
+        split[lyn] = s
+    shapes = []
+    shape_id = np.zeros(codes.size, dtype=np.int64)
+    for s in np.unique(split):
+        sel = split == s
+        u = codes[sel] // dim ** (m - s)
+        v = codes[sel] % dim ** (m - s)
+        _, su_id, su_shapes = _factorization(dim, int(s))
+        _, sv_id, sv_shapes = _factorization(dim, int(m - s))
+        iu = su_id[np.searchsorted(lyndon_words(dim, int(s)), u)]
+        iv = sv_id[np.searchsorted(lyndon_words(dim, int(m - s)), v)]
+        pairs = np.stack([iu, iv], axis=1)
+        uniq, inv = np.unique(pairs, axis=0, return_inverse=True)
+        for k, (a, b) in enumerate(uniq):
+            shape = (su_shapes[a], sv_shapes[b])
+            if shape not in shapes:
+                shapes.append(shape)
+            shape_id[np.flatnonzero(sel)[inv.reshape(-1) == k]] = shapes.index(shape)
+    return split, shape_id, shapes
+
+
+def _shape_length(shape):
+    return 1 if shape == 1 else _shape_length(shape[0]) + _shape_length(shape[1])
+
+
+def _expand_shape(shape, offset=0):
+    """Expansion of a bracketing tree over letter positions: list of (positions, sign)."""
+    if shape == 1:
+        return [((offset,), 1)]
+    left, right = shape
+    lu = _shape_length(left)
+    eu = _expand_shape(left, offset)
+    ev = _expand_shape(right, offset + lu)
+    out = []
+    for pu, su in eu:
+        for pv, sv in ev:
+            out.append((pu + pv, su * sv))
+            out.append((pv + pu, -su * sv))
+    return out
+
+
+def _letters(codes, dim, m):
+    powers = dim ** np.arange(m - 1, -1, -1, dtype=np.int64)
+    return (codes[:, None] // powers[None, :]) % dim
+
+
+@lru_cache(maxsize=None)
+def _bracket_matrix(dim, m):
+    """Sparse (d^m, n_lyndon) matrix whose column w is the tensor expansion of P_w."""
+    codes = lyndon_words(dim, m)
+    _, shape_id, shapes = _factorization(dim, m)
+    powers = dim ** np.arange(m - 1, -1, -1, dtype=np.int64)
+    rows, cols, vals = [], [], []
+    for h, shape in enumerate(shapes):
+        idx = np.flatnonzero(shape_id == h)
+        letters = _letters(codes[idx], dim, m)
+        for positions, sign in _expand_shape(shape):
+            rows.append(letters[:, list(positions)] @ powers)
+            cols.append(idx)
+            vals.append(np.full(idx.size, float(sign)))
+    mat = sp.csr_matrix(
+        (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(dim ** m, codes.size)
+    )
+    mat.sum_duplicates()
+    mat.eliminate_zeros()
+    return mat
+
+
+@lru_cache(maxsize=None)
+def _projection_level(dim, m):
+    """Sparse matrix Q (n_lyndon, n_lyndon) with c = Q L[lyndon codes] for a Lie element L at level m."""
+    codes = lyndon_words(dim, m)
+    mat = _bracket_matrix(dim, m)[codes].tocsr()  # rows restricted to Lyndon words: unit triangular
+    n = codes.size
+    eye = sp.identity(n, format="csr")
+    nil = (mat - eye).tocsr()
+    nil.eliminate_zeros()
+    # Unit lower-triangular: the inverse is the finite Neumann series sum_k (-N)^k (N nilpotent).
+    inv = eye.copy()
+    term = eye
+    for _ in range(n):
+        term = (-nil @ term).tocsr()
+        term.eliminate_zeros()
+        if term.nnz == 0:
+            break
+        inv = inv + term
+    inv = inv.tocsr()
+    inv.eliminate_zeros()
+    return inv
+
+
+def lyndon_projection(dim, level):
+    """Build (and cache) the Lyndon projection for all levels 1..level; returns nothing useful but
+    makes the first ``lyndon_coordinates`` call fast. Cost is reported by the benchmark."""
+    check_size(dim, level)
+    for m in range(1, level + 1):
+        _projection_level(dim, m)
+
+
+def lyndon_coordinates(t, dim):
+    """Coordinates in the Lyndon basis (iisignature's ``logsig`` order) of a Lie element given in
+    tensor form (levels 0..n, level 0 ignored). Returns one flat vector, level by level."""
+    out = []
+    for m in range(1, _level_count(t) + 1):
+        lm = np.asarray(t[m]).reshape(-1)
+        out.append(_projection_level(dim, m) @ lm[lyndon_words(dim, m)])
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def lyndon_to_tensor(c, dim, level):
+    """The Lie element sum_w c_w P_w in tensor form (levels 0..level): inverse of lyndon_coordinates."""
+    c = np.asarray(c, dtype=np.float64).reshape(-1)
+    if c.size != log_signature_dim(dim, level):
+        raise ShapeSigError(
+            f"expected {log_signature_dim(dim, level)} Lyndon coordinates for dimension {dim} level {level}, "
+            f"got {c.size}"
+        )
+    out = [np.zeros(1)]
+    pos = 0
+    for m in range(1, level + 1):
+        n = lyndon_words(dim, m).size
+        out.append(_bracket_matrix(dim, m) @ c[pos:pos + n])
+        pos += n
+    return out
+
+
+def _mobius(n):
+    result, k, p = 1, n, 2
+    while p * p <= k:
+        if k % p == 0:
+            k //= p
+            if k % p == 0:
+                return 0
+            result = -result
+        p += 1
+    if k > 1:
+        result = -result
+    return result
+
+
+def log_signature_dim(dim, level):
+    """Dimension of the free Lie algebra over R^dim truncated at ``level`` (Witt's formula):
+    sum_{m<=level} (1/m) sum_{k | m} mu(k) dim^(m/k); equals iisignature.logsiglength."""
+    if dim < 1 or level < 1:
+        raise ShapeSigError(f"log-signature needs dimension >= 1 and level >= 1, got {dim} and {level}")
+    total = 0
+    for m in range(1, level + 1):
+        total += sum(_mobius(k) * dim ** (m // k) for k in range(1, m + 1) if m % k == 0) // m
+    return total
