@@ -1,8 +1,611 @@
-"""Command line (issue 8)."""
+"""Command line: ``python -m blender_shapesig COMMAND ...`` (issue 8).
 
+Commands (see ``docs/cli.md`` and ``interfaces.md``): ``distance``, ``rank``, ``blend``, ``matrix``,
+``evaluate``. Every command takes ``--json`` (one JSON object on stdout, nothing else there) and
+``--debug`` (full traceback on errors). Errors exit with code 2 and one line on stderr.
+
+bpy is imported lazily: only when a .bvh or .blend file is read or a .blend file is written. Blender's
+C code writes to file descriptor 1, so all work runs with fd 1 pointed at stderr; stdout only receives
+the final report.
+"""
+
+import argparse
+import contextlib
+import json
+import math
+import os
 import sys
+import traceback
+
+PROG = "blender_shapesig"
+EXIT_ERROR = 2
+
+
+class CommandError(Exception):
+    """Bad command-line usage or input: reported as one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but usage errors become a CommandError (one line) instead of usage + exit."""
+
+    def error(self, message):
+        where = self.prog[len(PROG):].strip()
+        raise CommandError(f"{PROG}: error: {where + ': ' if where else ''}{message}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Output plumbing
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr():
+    """Send everything written to stdout (Python and C level) to stderr until the block ends."""
+    try:
+        sys.stdout.flush()
+    except Exception:
+        pass
+    saved_fd = None
+    try:
+        saved_fd = os.dup(1)
+        os.dup2(2, 1)
+    except OSError:
+        saved_fd = None
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        try:
+            sys.stderr.flush()
+        except Exception:
+            pass
+        if saved_fd is not None:
+            try:
+                # C-level buffers (Blender's printf) must be flushed before fd 1 is restored.
+                import ctypes
+
+                ctypes.CDLL(None).fflush(None)
+            except Exception:
+                pass
+            os.dup2(saved_fd, 1)
+            os.close(saved_fd)
+
+
+def _finite(x):
+    """A float for JSON: NaN / inf become None (JSON has no NaN)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _progress(args, total, desc):
+    """A tqdm progress bar on stderr (a no-op object when tqdm is missing or --no-progress)."""
+    if getattr(args, "no_progress", False) or total is None or total < 2:
+        return _NoBar()
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dev requirement
+        return _NoBar()
+    return tqdm(total=total, desc=desc, file=sys.stderr, leave=False, dynamic_ncols=True)
+
+
+class _NoBar:
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading clips
+
+
+def split_spec(spec):
+    """'FILE.blend#ACTION' -> ('FILE.blend', 'ACTION'); anything else -> (spec, None)."""
+    spec = str(spec)
+    if "#" in spec:
+        path, _, action = spec.rpartition("#")
+        if path.lower().endswith(".blend"):
+            return path, action
+    return spec, None
+
+
+def find_asf(amc_path, asf=None):
+    """The skeleton for an .amc file: ``asf`` when given, else the only .asf beside the .amc."""
+    if asf:
+        if not os.path.isfile(asf):
+            raise CommandError(f"skeleton file not found: {asf}")
+        return asf
+    folder = os.path.dirname(os.path.abspath(amc_path))
+    found = sorted(f for f in os.listdir(folder) if f.lower().endswith(".asf"))
+    if len(found) == 1:
+        return os.path.join(folder, found[0])
+    if not found:
+        raise CommandError(f"{amc_path}: no .asf skeleton beside it; give one with --asf")
+    raise CommandError(
+        f"{amc_path}: {len(found)} .asf files beside it ({', '.join(found)}); choose one with --asf"
+    )
+
+
+def load_clip_spec(spec, asf=None):
+    """Every clip named by one CLIP argument (a list; .blend files may hold several actions)."""
+    path, action = split_spec(spec)
+    if not os.path.exists(path):
+        raise CommandError(f"file not found: {path}")
+    if os.path.isdir(path):
+        raise CommandError(f"{path} is a folder, expected a .bvh, .amc or .blend file")
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in (".bvh", ".amc", ".blend"):
+        raise CommandError(f"{path}: unsupported file type {ext or '(none)'}; expected .bvh, .amc or .blend")
+    if ext == ".amc":
+        # Pure Python: no bpy for Acclaim files.
+        from .core.acclaim import load_acclaim
+
+        clip = load_acclaim(path, find_asf(path, asf))
+        return [clip]
+    from .clips import load_clips  # the Blender layer (imports bpy lazily)
+
+    clips = list(load_clips(spec, asf=asf))
+    if not clips:
+        what = f"action {action!r}" if action else "armature actions"
+        raise CommandError(f"{path}: no {what} found")
+    return clips
+
+
+def load_one(spec, asf=None):
+    clips = load_clip_spec(spec, asf)
+    if len(clips) != 1:
+        names = ", ".join(c.name for c in clips[:5])
+        raise CommandError(
+            f"{spec} holds {len(clips)} actions ({names}{', ...' if len(clips) > 5 else ''}); "
+            f"pick one with FILE.blend#ACTION"
+        )
+    return clips[0]
+
+
+def load_many(specs, asf=None, args=None):
+    out = []
+    bar = _progress(args, len(specs), "loading") if args is not None else _NoBar()
+    try:
+        for spec in specs:
+            out.extend(load_clip_spec(spec, asf))
+            bar.update()
+    finally:
+        bar.close()
+    return out
+
+
+def _display_name(clip):
+    return clip.name
+
+
+# ---------------------------------------------------------------------------------------------
+# Commands
+
+
+def cmd_distance(args):
+    from .core.metrics import clip_distance, metric_label, parse_metric
+
+    base, level = parse_metric(args.metric, args.level)
+    a = load_one(args.a, args.asf)
+    b = load_one(args.b, args.asf)
+    d = clip_distance(a, b, base, level=level, depth=args.depth)
+    label = metric_label(base, level)
+    out = {"distance": _finite(d), "metric": label, "a": _display_name(a), "b": _display_name(b)}
+    if base == "elastic":
+        out["depth"] = args.depth
+    text = f"{label}({a.name}, {b.name}) = {d:.6g}"
+    return out, text
+
+
+def _cache_dir(args):
+    return args.cache or os.environ.get("SHAPESIG_CACHE_DIR") or None
+
+
+def cmd_rank(args):
+    from .core.metrics import metric_label, parse_metric
+
+    base, level = parse_metric(args.metric, args.level)
+    if args.rerank is not None and args.rerank < 0:
+        raise CommandError("--rerank must be 0 or more")
+    if args.top is not None and args.top < 1:
+        raise CommandError("--top must be 1 or more")
+    query = load_one(args.query, args.asf)
+    library = load_many(args.clips, args.asf, args)
+    if not library:
+        raise CommandError("no clips to rank")
+    cache_dir = _cache_dir(args)
+    results = _rank(query, library, base, level, args, cache_dir)
+    rows = [
+        {
+            "clip": r.name,
+            "distance": _finite(r.distance),
+            "elastic": _finite(getattr(r, "elastic", None)),
+        }
+        for r in results
+    ]
+    out = {"query": query.name, "metric": metric_label(base, level), "results": rows}
+    lines = [f"query: {query.name}  metric: {metric_label(base, level)}"]
+    for i, r in enumerate(rows, 1):
+        el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
+        dist = "nan" if r["distance"] is None else f"{r['distance']:.6g}"
+        lines.append(f"{i:3d}. {r['clip']}  {dist}{el}")
+    return out, "\n".join(lines)
+
+
+def _rank(query, library, base, level, args, cache_dir):
+    from .core import search
+
+    kwargs = dict(metric=base, level=level, rerank=args.rerank or 0, top=args.top)
+    cache = None
+    if cache_dir:
+        os.makedirs(cache_dir, exist_ok=True)
+        cache = search.SignatureCache(cache_dir)
+    return search.rank_clips(query, library, cache=cache, **kwargs)
+
+
+def _source_armature(spec, asf=None):
+    """Load the armature of clip A into the current (fresh) Blender file; returns the armature object."""
+    import bpy
+
+    path, action_name = split_spec(spec)
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".blend":
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
+        arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
+        if action_name:
+            for o in arms:
+                ad = o.animation_data
+                if ad is not None and ad.action is not None and ad.action.name == action_name:
+                    return o
+        if not arms:
+            raise CommandError(f"{path}: no armature in the file")
+        return arms[0]
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    before = set(bpy.data.objects)
+    if ext == ".bvh":
+        from . import clips as clips_module
+
+        importer = getattr(clips_module, "import_bvh", None)
+        if importer is not None:
+            importer(path)
+        else:
+            bpy.ops.import_anim.bvh(filepath=os.path.abspath(path), rotate_mode="NATIVE")
+    elif ext == ".amc":
+        skeleton = find_asf(path, asf)
+        if not hasattr(bpy.ops.shapesig, "import_acclaim"):
+            import blender_shapesig
+
+            blender_shapesig.register()
+        bpy.ops.shapesig.import_acclaim(filepath=os.path.abspath(path), asf_path=os.path.abspath(skeleton))
+    new = [o for o in bpy.data.objects if o not in before and o.type == "ARMATURE"]
+    if not new:
+        raise CommandError(f"{path}: importing it created no armature")
+    return new[0]
+
+
+def write_blend_file(spec_a, blended, out_path, asf=None):
+    """Save a .blend with A's armature and one new action per blended clip; returns the action names."""
+    import bpy
+
+    from . import action_io
+
+    armature = _source_armature(spec_a, asf)
+    names = []
+    first = None
+    for clip in blended:
+        action = action_io.write_action(clip, armature, name=clip.name)
+        action.use_fake_user = True
+        names.append(action.name)
+        first = first or action
+    try:
+        from .compat import assign_action
+
+        assign_action(armature, first)
+    except ImportError:
+        armature.animation_data_create()
+        armature.animation_data.action = first
+    bpy.ops.wm.save_as_mainfile(filepath=out_path, check_existing=False)
+    return names
+
+
+def _parse_weights(args):
+    if args.inbetweens is not None:
+        if args.inbetweens < 1:
+            raise CommandError("--inbetweens must be 1 or more")
+        k = args.inbetweens
+        return [i / (k + 1) for i in range(1, k + 1)]
+    if args.weight is None:
+        raise CommandError("blend: give --weight s (0..1) or --inbetweens K")
+    if not 0.0 <= args.weight <= 1.0:
+        raise CommandError(f"--weight must lie in [0, 1], got {args.weight}")
+    return [args.weight]
+
+
+def cmd_blend(args):
+    weights = _parse_weights(args)
+    out_path = os.path.abspath(args.out)
+    if not out_path.lower().endswith(".blend"):
+        raise CommandError(f"--out must be a .blend file, got {args.out}")
+    if not os.path.isdir(os.path.dirname(out_path)):
+        raise CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
+    if args.frames is not None and args.frames < 2:
+        raise CommandError("--frames must be 2 or more")
+    a = load_one(args.a, args.asf)
+    b = load_one(args.b, args.asf)
+    from .core.blend import blend_clips
+
+    base = args.name or f"{a.name}_{b.name}_blend"
+    blended = []
+    bar = _progress(args, len(weights), "blending")
+    try:
+        for w in weights:
+            clip = blend_clips(a, b, w, align=args.align, depth=args.depth, frames=args.frames)
+            clip.name = base if len(weights) == 1 else f"{base}_{w:.3f}"
+            blended.append(clip)
+            bar.update()
+    finally:
+        bar.close()
+    names = write_blend_file(args.a, blended, out_path, asf=args.asf)
+    out = {
+        "out": out_path,
+        "actions": list(names),
+        "frames": [int(c.frames) for c in blended],
+        "weights": weights,
+        "align": bool(args.align),
+    }
+    text = "\n".join(
+        [f"wrote {out_path}"] + [f"  {n}: {c.frames} frames (weight {w:g})" for n, c, w in zip(names, blended, weights)]
+    )
+    return out, text
+
+
+def cmd_matrix(args):
+    from .core import evaluation
+
+    label = evaluation.check_metric(args.metric, args.level)
+    clips = load_many(args.clips, args.asf, args)
+    if len(clips) < 2:
+        raise CommandError("matrix needs at least two clips")
+    names = evaluation.unique_names([c.name for c in clips])
+    os.makedirs(args.out, exist_ok=True)
+    bar = _progress(args, len(clips) * (len(clips) - 1) // 2, f"{label} matrix")
+    try:
+        D, seconds = evaluation.clip_distance_matrix(
+            clips, label, depth=args.depth, workers=args.workers, progress=bar.update
+        )
+    finally:
+        bar.close()
+    paths = evaluation.write_matrix(D, names, args.out)
+    labels = None
+    if args.labels:
+        labels = evaluation.labels_from_csv(args.labels, names)
+    figures = []
+    if not args.no_figures and len(clips) >= 3:
+        figures.append(
+            evaluation.plot_mds(D, names, labels, os.path.join(args.out, "mds.png"), title=f"MDS, {label}")
+        )
+        figures.append(
+            evaluation.plot_dendrogram(
+                D, names, labels, os.path.join(args.out, "dendrogram.png"), title=f"Dendrogram, {label}"
+            )
+        )
+    out = {
+        "matrix": paths["csv"],
+        "npy": paths["npy"],
+        "figures": figures,
+        "metric": label,
+        "clips": names,
+        "seconds": seconds,
+    }
+    text = f"wrote {paths['csv']} ({len(clips)} clips, {label}, {seconds:.2f} s)"
+    if figures:
+        text += "\n" + "\n".join(f"wrote {f}" for f in figures)
+    return out, text
+
+
+def cmd_evaluate(args):
+    from .core import evaluation
+
+    if not os.path.isfile(args.index):
+        raise CommandError(f"index file not found: {args.index}")
+    if not os.path.isdir(args.data):
+        raise CommandError(f"data folder not found: {args.data}")
+    metrics = evaluation.DEFAULT_METRICS if not args.metrics else tuple(
+        m.strip() for m in args.metrics.split(",") if m.strip()
+    )
+    for m in metrics:
+        evaluation.check_metric(m)
+    entries = evaluation.read_index(args.index)
+
+    def loader(entry):
+        path = os.path.join(args.data, entry.file)
+        skeleton = os.path.join(args.data, entry.skeleton) if entry.skeleton else args.asf
+        return load_one(path, skeleton)
+
+    summary = evaluation.evaluate(
+        entries,
+        loader,
+        metrics,
+        args.out,
+        depth=args.depth,
+        workers=args.workers,
+        figures=not args.no_figures,
+        progress=None if args.no_progress else "tqdm",
+    )
+    lines = [f"{summary['clips']} clips; wrote {os.path.join(args.out, 'summary.json')}"]
+    for name, row in summary["metrics"].items():
+        lines.append(f"  {name:16s} accuracy {row['accuracy']:.3f}  {row['seconds']:.2f} s")
+    return summary, "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------
+# Parser
+
+
+def _add_common(p, asf=True):
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout and nothing else there")
+    p.add_argument("--debug", action="store_true", help="show the full traceback on errors")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    if asf:
+        p.add_argument("--asf", help="skeleton (.asf) for .amc clips (default: the only .asf beside each .amc)")
+
+
+def _metric_help(default):
+    return (
+        "l2 (d_P*), elastic (d_S*), group (rho^n), concat (sigma_*^n), linear (sigma_L^n) or sim (sim^n, eq. 9.1); "
+        f"a level may be appended (sim3) (default: {default})"
+    )
+
+
+def build_parser():
+    clip_help = "a .bvh, .amc, .blend (every armature action) or FILE.blend#ACTION"
+    parser = _Parser(
+        prog=PROG,
+        description="Shape analysis of motion-capture clips: SRVT elastic distance, geodesic blends, signatures.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    p = sub.add_parser("distance", help="distance between two clips", description="Distance between two clips.")
+    p.add_argument("a", metavar="A", help=clip_help)
+    p.add_argument("b", metavar="B", help=clip_help)
+    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
+    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
+    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    _add_common(p)
+    p.set_defaults(func=cmd_distance)
+
+    p = sub.add_parser(
+        "rank",
+        help="rank clips by similarity to a query",
+        description="Rank clips by their distance to QUERY, best first. Signatures are cached "
+        "(--cache DIR or $SHAPESIG_CACHE_DIR).",
+    )
+    p.add_argument("query", metavar="QUERY", help=clip_help)
+    p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
+    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
+    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
+    p.add_argument("--rerank", type=int, default=0, metavar="K", help="re-order the first K by elastic distance")
+    p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
+    p.add_argument("--cache", metavar="DIR", help="signature cache folder (default $SHAPESIG_CACHE_DIR)")
+    _add_common(p)
+    p.set_defaults(func=cmd_rank)
+
+    p = sub.add_parser(
+        "blend",
+        help="SRVT geodesic blend of two clips into a .blend file",
+        description="Blend clip A towards clip B along the SRVT geodesic (eq. 5.14) and save the armature "
+        "with the new action(s) in a .blend file.",
+    )
+    p.add_argument("a", metavar="A", help=clip_help)
+    p.add_argument("b", metavar="B", help=clip_help)
+    p.add_argument("--weight", type=float, help="blend weight s in [0, 1]; 0 gives A, 1 gives B")
+    p.add_argument("--align", action="store_true", help="time-align B to A (elastic DP) before blending")
+    p.add_argument("--depth", type=int, default=9, help="DP search depth D for --align (default 9)")
+    p.add_argument("--frames", type=int, help="frames of the result (default: A's frame count)")
+    p.add_argument(
+        "--inbetweens", type=int, metavar="K", help="write K blends at weights 1/(K+1) .. K/(K+1) instead of --weight"
+    )
+    p.add_argument("--name", help="name of the new action (default A_B_blend)")
+    p.add_argument("--out", required=True, metavar="FILE.blend", help="the .blend file to write")
+    _add_common(p)
+    p.set_defaults(func=cmd_blend)
+
+    p = sub.add_parser(
+        "matrix",
+        help="pairwise distance matrix, MDS and dendrogram",
+        description="Pairwise distances between clips (in parallel), written as DIR/matrix.csv and "
+        "DIR/matrix.npy with an MDS plot and a dendrogram.",
+    )
+    p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
+    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
+    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
+    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    p.add_argument("--labels", metavar="CSV", help="colour the figures by the 'label' column of an index CSV")
+    p.add_argument("--no-figures", action="store_true", help="write only the matrix")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    _add_common(p)
+    p.set_defaults(func=cmd_matrix)
+
+    p = sub.add_parser(
+        "evaluate",
+        help="leave-one-out 1-NN accuracy of several metrics on a labelled clip set",
+        description="Read an index CSV (file,label[,skeleton][,start][,end]; paths relative to --data, start/end "
+        "are inclusive frame numbers), compute the pairwise matrix of every metric, and write "
+        "DIR/summary.json, confusion tables, matrices and figures.",
+    )
+    p.add_argument("--index", required=True, metavar="CSV", help="the index CSV")
+    p.add_argument("--data", required=True, metavar="DIR", help="folder the CSV paths are relative to")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument(
+        "--metrics",
+        help="comma-separated metric names (default: l2,elastic,group3,concat3,linear3,sim2,sim3); "
+        "also sim3_levelnorm, sim3_tensor, linear3_tensor, elastic_numpy, sim3+elastic5, ...",
+    )
+    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    p.add_argument("--no-figures", action="store_true", help="write only the numbers")
+    _add_common(p)
+    p.set_defaults(func=cmd_evaluate)
+    return parser
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def _emit(args, out, text):
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(out) + "\n")
+    elif text:
+        sys.stdout.write(text + "\n")
+    sys.stdout.flush()
+
+
+def _error(message, debug):
+    if debug:
+        traceback.print_exc(file=sys.stderr)
+    line = " ".join(str(message).split()) or "error"
+    if not line.startswith(PROG):
+        line = f"{PROG}: error: {line}"
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+    return EXIT_ERROR
 
 
 def main(argv=None):
-    print("blender_shapesig: the command line is not implemented yet", file=sys.stderr)
-    return 2
+    """Run the command line; returns the exit code (0, or 2 on errors)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except CommandError as exc:
+        return _error(exc, debug)
+    except SystemExit as exc:  # --help
+        return int(exc.code or 0) if isinstance(exc.code, int) else 0
+    if not getattr(args, "command", None):
+        return _error("no command given: choose distance, rank, blend, matrix or evaluate (see --help)", False)
+    try:
+        with _stdout_to_stderr():
+            out, text = args.func(args)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{PROG}: interrupted\n")
+        return 130
+    except Exception as exc:  # every failure: one line (and the traceback with --debug)
+        from .core.errors import ShapeSigError
+
+        if isinstance(exc, (CommandError, ShapeSigError)):
+            return _error(exc, debug)
+        if isinstance(exc, OSError):
+            return _error(f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": "), debug)
+        return _error(f"{type(exc).__name__}: {exc}", debug)
+    _emit(args, out, text)
+    return 0

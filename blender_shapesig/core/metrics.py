@@ -13,7 +13,9 @@ from . import curves, elastic, signatures
 from .clip import Clip, restrict_to_shared
 from .errors import ShapeSigError
 
-__all__ = ["METRICS", "SIGNATURE_METRICS", "parse_metric", "clip_distance", "curve_distance"]
+__all__ = [
+    "METRICS", "SIGNATURE_METRICS", "parse_metric", "metric_label", "clip_distance", "curve_distance",
+]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
 METRICS = ("l2", "elastic") + SIGNATURE_METRICS
@@ -35,6 +37,12 @@ def parse_metric(name, level=None):
     if digits:
         raise ShapeSigError(f"metric {base!r} takes no level")
     return base, None
+
+
+def metric_label(name, level=None):
+    """The canonical name of a metric with its level: ('sim', 3) or 'sim3' -> 'sim3', 'elastic' -> 'elastic'."""
+    base, lvl = parse_metric(name, level)
+    return base if lvl is None else f"{base}{lvl}"
 
 
 def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
