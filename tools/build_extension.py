@@ -1,0 +1,450 @@
+#!/usr/bin/env python3
+"""Build the blender_shapesig extension zips (one per platform) with Blender's own extension builder.
+
+    python tools/build_extension.py --out DIR [--platforms linux-x64,windows-x64] [--no-wheels] [--validate-only]
+
+The top-level ``blender_manifest.toml`` is the one source of truth. This script
+
+1. stages the package: copies ``blender_shapesig/`` to a temporary folder, puts the manifest beside
+   ``__init__.py`` and adds ``wheels/`` plus the ``platforms = [...]`` and ``wheels = [...]`` lists;
+2. fetches the platform wheels from PyPI into a cache outside git (``~/.cache/blender_shapesig/wheels``,
+   or ``$SHAPESIG_WHEEL_CACHE``, or ``--wheel-cache``) with
+   ``pip download --only-binary=:all: --platform TAG --python-version 3.11 --implementation cp --no-deps``,
+   and builds the iisignature wheel from its sdist (it has no binary wheels on PyPI) when this machine can
+   (linux-x64, CPython 3.11, numpy/setuptools/wheel importable);
+3. runs ``blender_ext.py build --split-platforms --valid-tags TAGS`` (Blender's builder and tag list, found
+   inside the bpy module), then ``blender_ext.py validate`` on every zip, then checks each zip's contents.
+
+Wheels per platform: scipy is required (a platform without a scipy wheel is left out); numba + llvmlite are
+optional and go together (bundled where PyPI has both; the add-on falls back to numpy otherwise); iisignature
+is optional (linux-x64 only; the add-on falls back to its numpy signatures). numpy is never bundled: Blender
+ships it.
+
+Exit code 0 on success, 1 on a build/validation failure, 2 on a usage error. The last line on stdout is a
+JSON summary (``--json`` prints only that).
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import importlib.util
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = "blender_shapesig"
+MANIFEST = ROOT / "blender_manifest.toml"
+PYTHON_VERSION = "3.11"  # Blender 4.2 .. 5.0 all embed CPython 3.11.
+PYTHON_TAG = "cp311"
+
+# Blender platform -> pip --platform tags, most specific first. pip expands macOS versions downwards itself,
+# but not manylinux ones, hence the explicit list. Blender 4.2+ on Linux needs glibc >= 2.28, so
+# manylinux_2_28 is the newest tag we accept. scipy 1.15.3's arm64 wheels need macOS 12.
+PLATFORMS: dict[str, list[str]] = {
+    "linux-x64": ["manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_17_x86_64",
+                  "manylinux2014_x86_64"],
+    "windows-x64": ["win_amd64"],
+    "macos-arm64": ["macosx_12_0_arm64"],
+    "macos-x64": ["macosx_11_0_x86_64"],
+}
+
+# Pinned like tools/setup_env.sh. Each group is bundled whole or not at all.
+REQUIRED_GROUPS = {"scipy": ["scipy==1.15.3"]}
+OPTIONAL_GROUPS = {"numba": ["numba==0.68.1", "llvmlite==0.50.0"]}
+IISIGNATURE = "iisignature==0.24"
+NEVER_BUNDLE = {"numpy"}
+
+
+class BuildError(Exception):
+    pass
+
+
+def log(msg: str) -> None:
+    print(f"[build_extension] {msg}", file=sys.stderr, flush=True)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Blender's builder
+
+
+def find_blender_ext(explicit: str | None = None) -> tuple[Path, Path]:
+    """Return (blender_ext.py, tags.py) from the bpy module (no import of bpy needed)."""
+    candidates: list[Path] = []
+    if explicit:
+        candidates.append(Path(explicit))
+    if os.environ.get("SHAPESIG_BLENDER_EXT"):
+        candidates.append(Path(os.environ["SHAPESIG_BLENDER_EXT"]))
+    spec = importlib.util.find_spec("bpy")
+    roots = []
+    if spec is not None and spec.submodule_search_locations:
+        roots += [Path(p) for p in spec.submodule_search_locations]
+    # Fall back to the repository's development environments.
+    roots += [Path(p) for p in sorted(glob.glob(str(ROOT / ".venv*/lib/python3*/site-packages/bpy")), reverse=True)]
+    for root in roots:
+        # Newest Blender first (e.g. bpy/5.0 before bpy/4.2).
+        found = sorted(root.glob("*/scripts/addons_core/bl_pkg/cli/blender_ext.py"), reverse=True)
+        candidates += found
+    for cand in candidates:
+        if cand.is_file():
+            scripts = cand.parents[3]  # .../scripts
+            tags = scripts / "modules" / "_bpy_internal" / "extensions" / "tags.py"
+            if not tags.is_file():
+                raise BuildError(f"Blender's tag list not found beside the builder: {tags}")
+            return cand, tags
+    raise BuildError("Blender's extension builder (bl_pkg/cli/blender_ext.py) not found: install bpy "
+                     "(bash tools/setup_env.sh) or pass --blender-ext PATH")
+
+
+def load_blender_ext(path: Path):
+    """Import blender_ext.py as a module (it is a standalone script) to reuse its wheel/platform logic."""
+    spec = importlib.util.spec_from_file_location("_shapesig_blender_ext", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def run_blender_ext(blender_ext: Path, *args: str) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, str(blender_ext), *args]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    for line in (proc.stdout + proc.stderr).splitlines():
+        log(f"  blender_ext: {line}")
+    return proc
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Wheels
+
+
+def default_wheel_cache() -> Path:
+    if os.environ.get("SHAPESIG_WHEEL_CACHE"):
+        return Path(os.environ["SHAPESIG_WHEEL_CACHE"])
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "blender_shapesig" / "wheels"
+
+
+def wheel_fields(filename: str) -> dict[str, str]:
+    parts = filename[:-4].split("-")
+    if not filename.endswith(".whl") or not 5 <= len(parts) <= 6:
+        raise BuildError(f"not a wheel file name: {filename}")
+    return {"name": parts[0].lower().replace("_", "-"), "version": parts[1], "python": parts[-3],
+            "abi": parts[-2], "platform": parts[-1]}
+
+
+def wheel_blender_platforms(bext, filename: str) -> set[str]:
+    plat = wheel_fields(filename)["platform"]
+    out: set[str] = set()
+    for tag in plat.split("."):
+        if tag == "any":
+            return set(PLATFORMS)
+        out.update(bext.blender_platforms_from_wheel_platform(tag))
+    return out
+
+
+def find_cached_wheel(bext, cache: Path, spec: str, platform: str) -> Path | None:
+    name, version = spec.split("==")
+    hits = []
+    for path in sorted(cache.glob("*.whl")):
+        f = wheel_fields(path.name)
+        if f["name"] != name.lower() or f["version"] != version:
+            continue
+        if PYTHON_TAG not in f["python"].split(".") and not f["python"].startswith("py3"):
+            continue
+        if platform in wheel_blender_platforms(bext, path.name) and wheel_tags_acceptable(f["platform"], platform):
+            hits.append(path)
+    return hits[0] if hits else None
+
+
+def wheel_tags_acceptable(wheel_platform: str, platform: str) -> bool:
+    """Whether a wheel's platform tag(s) are ones we would download for ``platform``: one of PLATFORMS[platform],
+    an older macOS of the same architecture, or ``linux_x86_64`` (the locally built iisignature)."""
+    for tag in wheel_platform.split("."):
+        if tag in PLATFORMS[platform] or (platform == "linux-x64" and tag == "linux_x86_64"):
+            return True
+        m = re.fullmatch(r"macosx_(\d+)_(\d+)_(\w+)", tag)
+        for want in PLATFORMS[platform]:
+            w = re.fullmatch(r"macosx_(\d+)_(\d+)_(\w+)", want)
+            if m and w and m.group(3) == w.group(3) and (int(m.group(1)), int(m.group(2))) <= (int(w.group(1)), int(w.group(2))):
+                return True
+    return False
+
+
+def pip_download(cache: Path, spec: str, platform: str) -> bool:
+    cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--disable-pip-version-check",
+           "--only-binary=:all:", "--python-version", PYTHON_VERSION, "--implementation", "cp",
+           "--abi", PYTHON_TAG, "--no-deps", "--dest", str(cache)]
+    for tag in PLATFORMS[platform]:
+        cmd += ["--platform", tag]
+    cmd.append(spec)
+    log(f"pip download {spec} for {platform}")
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or ["?"])[-1]
+        log(f"  not available: {last}")
+        return False
+    return True
+
+
+def ensure_wheel(bext, cache: Path, spec: str, platform: str, offline: bool) -> Path | None:
+    hit = find_cached_wheel(bext, cache, spec, platform)
+    if hit is None and not offline:
+        pip_download(cache, spec, platform)
+        hit = find_cached_wheel(bext, cache, spec, platform)
+    return hit
+
+
+def host_can_build_iisignature() -> str | None:
+    """None if this machine can build the linux-x64 cp311 iisignature wheel, else the reason it cannot."""
+    import platform as _platform
+
+    if sys.platform != "linux" or _platform.machine().lower() not in {"x86_64", "amd64"}:
+        return f"host is {sys.platform}/{_platform.machine()}, not linux-x64"
+    if sys.version_info[:2] != (3, 11):
+        return f"host Python is {sys.version_info[0]}.{sys.version_info[1]}, not 3.11"
+    for mod in ("numpy", "setuptools", "wheel"):
+        if importlib.util.find_spec(mod) is None:
+            return f"{mod} is not importable (needed to build iisignature without build isolation)"
+    return None
+
+
+def ensure_iisignature(bext, cache: Path, offline: bool) -> Path | None:
+    hit = find_cached_wheel(bext, cache, IISIGNATURE, "linux-x64")
+    if hit is not None:
+        return hit
+    reason = host_can_build_iisignature()
+    if reason:
+        log(f"iisignature not bundled: {reason}")
+        return None
+    import numpy
+
+    if not numpy.__version__.startswith("1."):
+        # A wheel built against numpy 2 would not load with Blender's numpy 1.26.
+        log(f"iisignature not bundled: host numpy is {numpy.__version__}, Blender ships numpy 1.26")
+        return None
+    cmd = [sys.executable, "-m", "pip", "wheel", "--quiet", "--disable-pip-version-check",
+           "--no-build-isolation", "--no-deps", "--no-binary", "iisignature", "--wheel-dir", str(cache),
+           IISIGNATURE]
+    if offline:
+        cmd.insert(4, "--no-index")
+    log(f"building {IISIGNATURE} from source (linux-x64, numpy {numpy.__version__})")
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        log("  iisignature build failed: " + (proc.stderr.strip().splitlines() or ["?"])[-1])
+        return None
+    return find_cached_wheel(bext, cache, IISIGNATURE, "linux-x64")
+
+
+def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, with_iisignature: bool):
+    """Return ({platform: [wheel paths]}, {platform: [notes]}) for the platforms that have every required
+    wheel; platforms lacking one are dropped (with a note)."""
+    cache.mkdir(parents=True, exist_ok=True)
+    chosen: dict[str, list[Path]] = {}
+    notes: dict[str, list[str]] = {}
+    for platform in platforms:
+        wheels: list[Path] = []
+        note: list[str] = []
+        missing = None
+        for group, specs in REQUIRED_GROUPS.items():
+            found = [ensure_wheel(bext, cache, s, platform, offline) for s in specs]
+            if None in found:
+                missing = group
+                break
+            wheels += found
+        if missing:
+            log(f"platform {platform} left out: no {missing} wheel for cp311")
+            notes[platform] = [f"left out: no {missing} wheel"]
+            continue
+        for group, specs in OPTIONAL_GROUPS.items():
+            found = [ensure_wheel(bext, cache, s, platform, offline) for s in specs]
+            if None in found:
+                note.append(f"no {group} (numpy fallback)")
+                log(f"platform {platform}: {group} not bundled (no cp311 wheel), the numpy fallback is used")
+            else:
+                wheels += found
+        if platform == "linux-x64" and with_iisignature:
+            iis = ensure_iisignature(bext, cache, offline)
+            if iis is not None:
+                wheels.append(iis)
+            else:
+                note.append("no iisignature (numpy fallback)")
+        elif platform != "linux-x64" or not with_iisignature:
+            note.append("no iisignature (numpy fallback)")
+        chosen[platform] = wheels
+        notes[platform] = note
+    return chosen, notes
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Staging
+
+
+def toml_list(values: list[str]) -> str:
+    if not values:
+        return "[]"
+    return "[\n" + "".join(f"  {json.dumps(v)},\n" for v in values) + "]"
+
+
+def staged_manifest_text(source: str, platforms: list[str], wheels: list[str]) -> str:
+    """The top-level manifest with ``platforms`` and ``wheels`` inserted before the first table."""
+    data = tomllib.loads(source)
+    for key in ("platforms", "wheels"):
+        if key in data:
+            raise BuildError(f"blender_manifest.toml must not set '{key}': the build script adds it")
+    lines = source.splitlines(keepends=True)
+    first_table = next((i for i, ln in enumerate(lines) if re.match(r"\s*\[", ln)), len(lines))
+    extra = ("# Added by tools/build_extension.py.\n"
+             f"platforms = {toml_list(platforms)}\n")
+    if wheels:
+        extra += f"wheels = {toml_list(wheels)}\n"
+    text = "".join(lines[:first_table]) + extra + "\n" + "".join(lines[first_table:])
+    check = tomllib.loads(text)
+    expect = dict(data, platforms=platforms, **({"wheels": wheels} if wheels else {}))
+    if check != expect:
+        raise BuildError("internal error: the staged manifest does not parse back to the source + additions")
+    return text
+
+
+def stage(dest: Path, platforms: list[str], wheels: list[Path]) -> Path:
+    pkg = dest / PACKAGE
+    shutil.copytree(ROOT / PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo",
+                                                                       "blender_manifest.toml", "wheels"))
+    if wheels:
+        (pkg / "wheels").mkdir()
+        for w in wheels:
+            shutil.copy2(w, pkg / "wheels" / w.name)
+    rel = [f"./wheels/{w.name}" for w in sorted(wheels, key=lambda p: p.name)]
+    text = staged_manifest_text(MANIFEST.read_text(encoding="utf-8"), platforms, rel)
+    (pkg / "blender_manifest.toml").write_text(text, encoding="utf-8")
+    return pkg
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Checks on the built zips
+
+
+def check_zip(bext, path: Path, platform: str, expected_wheels: list[Path]) -> dict:
+    with zipfile.ZipFile(path) as zf:
+        names = zf.namelist()
+        manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
+    if "__init__.py" not in names:
+        raise BuildError(f"{path.name}: no __init__.py at the archive root")
+    if any("__pycache__" in n or n.endswith(".pyc") for n in names):
+        raise BuildError(f"{path.name}: contains Python caches")
+    zip_wheels = sorted(n for n in names if n.endswith(".whl"))
+    want = sorted(f"wheels/{w.name}" for w in expected_wheels)
+    if zip_wheels != want:
+        raise BuildError(f"{path.name}: wheels {zip_wheels} != expected {want}")
+    for n in zip_wheels:
+        if wheel_fields(Path(n).name)["name"] in NEVER_BUNDLE:
+            raise BuildError(f"{path.name}: bundles {n} (Blender ships numpy)")
+        if platform not in wheel_blender_platforms(bext, Path(n).name):
+            raise BuildError(f"{path.name}: wheel {n} is not for {platform}")
+    generated = manifest.get("build", {}).get("generated", {})
+    if generated.get("platforms") != [platform]:
+        raise BuildError(f"{path.name}: [build.generated] platforms = {generated.get('platforms')}")
+    gen_wheels = sorted(w.removeprefix("./") for w in generated.get("wheels", []))
+    if gen_wheels != want:
+        raise BuildError(f"{path.name}: [build.generated] wheels {gen_wheels} != {want}")
+    return {"platform": platform, "zip": str(path), "bytes": path.stat().st_size,
+            "wheels": [Path(n).name for n in zip_wheels]}
+
+
+# ----------------------------------------------------------------------------------------------------------
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", required=True, help="output folder for the zips")
+    ap.add_argument("--platforms", default=",".join(PLATFORMS),
+                    help=f"comma-separated Blender platforms (default: {','.join(PLATFORMS)})")
+    ap.add_argument("--wheel-cache", default=None, help="wheel cache folder (default ~/.cache/blender_shapesig/wheels)")
+    ap.add_argument("--offline", action="store_true", help="use cached wheels only, never run pip download")
+    ap.add_argument("--no-wheels", action="store_true",
+                    help="bundle no wheels (the zips then need scipy from elsewhere; for manifest checks)")
+    ap.add_argument("--no-iisignature", action="store_true", help="do not bundle the iisignature wheel")
+    ap.add_argument("--validate-only", action="store_true",
+                    help="stage and run Blender's validator on the staged package, build no zip")
+    ap.add_argument("--blender-ext", default=None, help="path to Blender's bl_pkg/cli/blender_ext.py")
+    ap.add_argument("--keep-stage", action="store_true", help="keep the staging folder (printed)")
+    ap.add_argument("--json", action="store_true", help="print only the JSON summary on stdout")
+    args = ap.parse_args(argv)
+
+    t0 = time.monotonic()
+    platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
+    unknown = [p for p in platforms if p not in PLATFORMS]
+    if unknown or not platforms:
+        print(f"unknown platform(s) {unknown}; choose from {', '.join(PLATFORMS)}", file=sys.stderr)
+        return 2
+    try:
+        blender_ext, tags = find_blender_ext(args.blender_ext)
+        log(f"builder: {blender_ext}")
+        bext = load_blender_ext(blender_ext)
+        out = Path(args.out).resolve()
+        cache = Path(args.wheel_cache) if args.wheel_cache else default_wheel_cache()
+
+        if args.no_wheels:
+            per_platform = {p: [] for p in platforms}
+            notes = {p: ["no wheels (--no-wheels)"] for p in platforms}
+        else:
+            per_platform, notes = collect_wheels(bext, cache, platforms, args.offline, not args.no_iisignature)
+        if not per_platform:
+            raise BuildError("no platform has its required wheels: nothing to build")
+        kept = [p for p in platforms if p in per_platform]
+        all_wheels = sorted({w for ws in per_platform.values() for w in ws}, key=lambda p: p.name)
+
+        tmp = Path(tempfile.mkdtemp(prefix="shapesig-stage-"))
+        try:
+            pkg = stage(tmp, kept, all_wheels)
+            proc = run_blender_ext(blender_ext, "validate", str(pkg), "--valid-tags", str(tags))
+            if proc.returncode != 0:
+                raise BuildError("Blender's validator rejected the staged package")
+            summary = {"platforms": kept, "left_out": {p: notes[p] for p in platforms if p not in per_platform},
+                       "notes": {p: notes[p] for p in kept}, "zips": []}
+            if not args.validate_only:
+                out.mkdir(parents=True, exist_ok=True)
+                version = tomllib.loads(MANIFEST.read_text(encoding="utf-8"))["version"]
+                zips = {p: out / f"{PACKAGE}-{version}-{p.replace('-', '_')}.zip" for p in kept}
+                for z in zips.values():  # No stale zip may pass for this build's output.
+                    z.unlink(missing_ok=True)
+                proc = run_blender_ext(blender_ext, "build", "--split-platforms", "--source-dir", str(pkg),
+                                       "--output-dir", str(out), "--valid-tags", str(tags))
+                if proc.returncode != 0:
+                    raise BuildError("Blender's builder failed")
+                for p, z in zips.items():
+                    if not z.is_file():
+                        raise BuildError(f"expected zip not built: {z}")
+                    proc = run_blender_ext(blender_ext, "validate", str(z), "--valid-tags", str(tags))
+                    if proc.returncode != 0:
+                        raise BuildError(f"Blender's validator rejected {z.name}")
+                    summary["zips"].append(check_zip(bext, z, p, per_platform[p]))
+            if args.keep_stage:
+                summary["stage"] = str(pkg)
+        finally:
+            if not args.keep_stage:
+                shutil.rmtree(tmp, ignore_errors=True)
+    except BuildError as ex:
+        print(f"build_extension: error: {ex}", file=sys.stderr)
+        return 1
+    summary["seconds"] = round(time.monotonic() - t0, 2)
+    if not args.json:
+        for z in summary["zips"]:
+            print(f"{z['zip']}  {z['bytes'] / 1e6:.1f} MB  wheels: {', '.join(z['wheels']) or '-'}")
+        for p, why in summary["left_out"].items():
+            print(f"{p}: {'; '.join(why)}")
+    print(json.dumps(summary))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
