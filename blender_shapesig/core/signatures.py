@@ -265,9 +265,10 @@ def normalized_difference(a, b, zero_norm=ZERO_NORM):
     if a.shape != b.shape:
         raise ShapeSigError(f"log-signatures of different lengths: {a.size} and {b.size}")
     na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
-    ua = a / na if na > zero_norm else np.zeros_like(a)
-    ub = b / nb if nb > zero_norm else np.zeros_like(b)
-    return float(np.linalg.norm(ua - ub))
+    za, zb = not na > zero_norm, not nb > zero_norm
+    if za or zb:
+        return 0.0 if (za and zb) else 1.0  # |u - 0| = 1 for a unit vector u
+    return float(np.linalg.norm(a / na - b / nb))
 
 
 def _check_pair(x, y):

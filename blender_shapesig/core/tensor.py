@@ -327,7 +327,7 @@ def _bracket_matrix(dim, m):
     codes = lyndon_words(dim, m)
     _, shape_id, shapes = _factorization(dim, m)
     powers = dim ** np.arange(m - 1, -1, -1, dtype=np.int64)
-    rows, cols, vals = [], [], []
+    rows, cols, vals = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
     for h, shape in enumerate(shapes):
         idx = np.flatnonzero(shape_id == h)
         letters = _letters(codes[idx], dim, m)
@@ -350,6 +350,8 @@ def _projection_level(dim, m):
     mat = _bracket_matrix(dim, m)[codes].tocsr()  # rows restricted to Lyndon words: unit triangular
     n = codes.size
     eye = sp.identity(n, format="csr")
+    if n == 0:
+        return eye
     nil = (mat - eye).tocsr()
     nil.eliminate_zeros()
     # Unit lower-triangular: the inverse is the finite Neumann series sum_k (-N)^k (N nilpotent).
