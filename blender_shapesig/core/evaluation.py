@@ -94,8 +94,6 @@ def parse_metric_spec(name, level=None) -> MetricSpec:
             raise ShapeSigError(f"metric {base!r} takes no level")
         if opts - ({"numpy"} if base == "elastic" else set()):
             raise ShapeSigError(f"metric {name!r}: option not available for {base}")
-        if k:
-            raise ShapeSigError(f"metric {name!r}: +elasticK needs a signature or l2 first stage")
         lvl = None
     else:
         lvl = level if level is not None else (int(digits) if digits else 3)
@@ -224,14 +222,6 @@ def _init_worker(curves):
     _WORKER_CURVES = curves
 
 
-def _pair_job(args):
-    fn_name, level, pairs = args
-    from . import signatures
-
-    fn = getattr(signatures, fn_name)
-    return [(i, j, float(fn(_WORKER_CURVES[i], _WORKER_CURVES[j], level))) for i, j in pairs]
-
-
 def _feature_job(args):
     kind, level, idx = args
     return idx, _feature(_WORKER_CURVES[idx], kind, level)
@@ -292,6 +282,94 @@ def _feature(R, kind, level):
     return ls
 
 
+def _sig_feature(R, level):
+    """(S, S^-1) of the development of R as truncated tensors (levels 0..level)."""
+    from . import tensor
+    from .signatures import development_increments
+
+    dx = development_increments(R)
+    s = tensor.signature_from_increments(dx, level)
+    return s, tensor.antipode(s, dx.shape[1])
+
+
+def _half_group_norm(t):
+    """max_i (i! |t_i|)^(1/i) over levels 1..n (one term of the Lyons-Victoir norm, eq. 8.2)."""
+    return max((math.factorial(i) * float(np.linalg.norm(t[i]))) ** (1.0 / i) for i in range(1, len(t)))
+
+
+def _tensor_pair(fx, fy, kind, level, dim):
+    """rho^n ('group') or sigma_*^n ('concat') from precomputed (S, S^-1) of both paths."""
+    from . import tensor
+
+    (sx, ix), (sy, iy) = fx, fy
+    if kind == "group":
+        # S(y)^-1 (x) S(x) and its inverse S(x)^-1 (x) S(y) (eqs. 8.1-8.3, both terms of eq. 8.2).
+        return _half_group_norm(tensor.mul(iy, sx, level)) + _half_group_norm(tensor.mul(ix, sy, level))
+    # sigma_*: |log S(x * reversed y)| + |log S(y * reversed x)| in Lyndon coordinates (eq. 8.5).
+    a = tensor.lyndon_coordinates(tensor.log(tensor.mul(sx, iy, level)), dim)
+    b = tensor.lyndon_coordinates(tensor.log(tensor.mul(sy, ix, level)), dim)
+    return float(np.linalg.norm(a) + np.linalg.norm(b))
+
+
+_WORKER_FEATS = None
+
+
+def _tensor_pair_job(args):
+    kind, level, dim, pairs = args
+    F = _WORKER_FEATS
+    return [(i, j, _tensor_pair(F[i], F[j], kind, level, dim)) for i, j in pairs]
+
+
+def _sig_feature_job(args):
+    level, idx = args
+    return idx, _sig_feature(_WORKER_CURVES[idx], level)
+
+
+def _tensor_pair_matrix(curves, kind, level, workers, progress):
+    """group / concat matrix: every clip's signature once, then tensor products per pair."""
+    import multiprocessing
+
+    global _WORKER_FEATS
+    n = len(curves)
+    dim = 3 * curves[0].shape[1]
+    if kind == "concat":
+        from . import tensor
+
+        tensor.lyndon_projection(dim, level)  # build the projection once, before forking
+    feats = [None] * n
+    parallel = workers and workers > 1 and n > 2
+    if parallel:
+        with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=(curves,)) as ex:
+            for idx, f in ex.map(_sig_feature_job, [(level, i) for i in range(n)]):
+                feats[idx] = f
+    else:
+        feats = [_sig_feature(R, level) for R in curves]
+    D = np.zeros((n, n))
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+    chunk = max(1, len(pairs) // (8 * max(1, workers or 1)))
+    jobs = [(kind, level, dim, pairs[k:k + chunk]) for k in range(0, len(pairs), chunk)]
+    _WORKER_FEATS = feats
+    try:
+        if parallel and len(pairs) > 1:
+            ctx = multiprocessing.get_context("fork")  # children inherit the features, no pickling
+            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
+                for res in ex.map(_tensor_pair_job, jobs):
+                    for i, j, d in res:
+                        D[i, j] = D[j, i] = d
+                    if progress:
+                        progress(len(res))
+        else:
+            for job in jobs:
+                res = _tensor_pair_job(job)
+                for i, j, d in res:
+                    D[i, j] = D[j, i] = d
+                if progress:
+                    progress(len(res))
+    finally:
+        _WORKER_FEATS = None
+    return D
+
+
 def _pairwise_euclidean(F):
     F = np.asarray(F, dtype=np.float64)
     sq = np.sum(F * F, axis=1)
@@ -324,31 +402,6 @@ def _features(curves, kind, level, workers, progress):
     return feats
 
 
-def _pairwise_pool(curves, fn_name, level, workers, progress):
-    n = len(curves)
-    D = np.zeros((n, n))
-    pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
-    chunk = max(1, len(pairs) // (8 * max(1, workers or 1)))
-    jobs = [(fn_name, level, pairs[k:k + chunk]) for k in range(0, len(pairs), chunk)]
-    if workers and workers > 1 and len(pairs) > 1:
-        with ProcessPoolExecutor(max_workers=workers, initializer=_init_worker, initargs=(curves,)) as ex:
-            results = ex.map(_pair_job, jobs)
-            for res in results:
-                for i, j, d in res:
-                    D[i, j] = D[j, i] = d
-                if progress:
-                    progress(len(res))
-    else:
-        _init_worker(curves)
-        for job in jobs:
-            res = _pair_job(job)
-            for i, j, d in res:
-                D[i, j] = D[j, i] = d
-            if progress:
-                progress(len(res))
-    return D
-
-
 def _elastic_matrix(curves, depth, workers, numpy_dp, progress):
     from . import elastic
 
@@ -357,11 +410,14 @@ def _elastic_matrix(curves, depth, workers, numpy_dp, progress):
     if numpy_dp:
         kwargs["method"] = "numpy"
     if fn is not None:
-        try:
-            D = fn(curves, progress=progress, **kwargs)
-        except TypeError:
-            D = fn(curves, **kwargs)
-        return np.asarray(D, dtype=np.float64)
+        import inspect
+
+        if progress and "progress" in inspect.signature(fn).parameters:
+            kwargs["progress"] = progress
+        D = np.asarray(fn(curves, **kwargs), dtype=np.float64)
+        if progress and "progress" not in kwargs:
+            progress(len(curves) * (len(curves) - 1) // 2)
+        return D
     n = len(curves)
     D = np.zeros((n, n))
     extra = {"method": "numpy"} if numpy_dp else {}
@@ -413,8 +469,7 @@ def distance_matrix(curves, metric, depth=9, workers=2, progress=None):
             norms = np.linalg.norm(F, axis=1, keepdims=True)
             F = np.where(norms > 0, F / np.where(norms > 0, norms, 1.0), F)
         return _pairwise_euclidean(F)
-    fn_name = {"group": "group_distance", "concat": "concat_distance"}[spec.base]
-    return _pairwise_pool(curves, fn_name, spec.level, workers, progress)
+    return _tensor_pair_matrix(curves, spec.base, spec.level, workers, progress)
 
 
 def clip_distance_matrix(clips, metric, depth=9, workers=2, progress=None):

@@ -25,8 +25,12 @@ DEFAULT_DEPTH = 9
 
 def parse_metric(name, level=None):
     """Split a metric name like 'sim3' into ('sim', 3); the level argument wins when given."""
-    m = re.fullmatch(r"([a-z0-9_]+?)(\d*)", str(name).strip().lower())
-    base, digits = (m.group(1), m.group(2)) if m else (str(name), "")
+    text = str(name).strip().lower()
+    if text in METRICS:  # 'l2' is a name, not 'l' at level 2
+        base, digits = text, ""
+    else:
+        m = re.fullmatch(r"([a-z_]+)(\d*)", text)
+        base, digits = (m.group(1), m.group(2)) if m else (str(name), "")
     if base not in METRICS:
         raise ShapeSigError(f"unknown metric {name!r}: choose one of {', '.join(METRICS)}")
     if base in SIGNATURE_METRICS:
