@@ -1,15 +1,409 @@
-"""Elastic shape distance d_S* by dynamic programming (reference secs. 4.3, 6.2). Issue 4."""
+"""Elastic shape distance d_S* by dynamic programming (reference secs. 4.3, 6.2).
 
-__all__ = ["elastic_align", "elastic_distance", "reparametrize"]
+Both curves are moved to P* (the SRVT is right-invariant, so this changes nothing in q) and
+transformed to their piecewise-constant SRVTs q0 (on the grid t0, N0 frames) and q1 (t1, N1
+frames). The DP runs directly on the N0 x N1 grid of frame pairs: node (i, j) means
+"time t0[i] of curve 0 is matched with time t1[j] of curve 1". A step from (k, l) to (i, j),
+with 1 <= i - k <= D and 1 <= j - l <= D, is the linear map phi of [t0[k], t0[i]] onto
+[t1[l], t1[j]]; its energy is the *exact* integral (eq. 4.8)
+
+    int_{t0[k]}^{t0[i]} |q0(t) - q1(phi(t)) sqrt(phi')|^2 dt
+        + penalty * sum_{k < m <= i} (phi(t0[m]) - t0[m])^2
+
+for the piecewise-constant q0, q1 (all breakpoints of both grids merged exactly). The path is
+pinned at both ends: A[0, 0] = 0, every other start is +inf, and the result is read at
+(N0-1, N1-1). ``elastic_distance`` is the square root of that minimum.
+
+Expanding the square, a step's energy is
+
+    int_k^i |q0|^2 + int_l^j |q1|^2 - 2 sqrt(phi') int <q0(t), q1(phi(t))> dt (+ penalty)
+
+(the first two from small tables of sums over the last d intervals). The cross integral is a weighted sum of the inner
+products G[a, b] = <q0_a, q1_b> (summed over joints; G = Q0 Q1^T computed once by BLAS). On
+uniform grids the weights depend only on the step (di, dj): interval a' of curve 0 (in units
+of its spacing h0) meets interval b' of curve 1 on a length min((a'+1) dj, (b'+1) di) -
+max(a' dj, b' di) (in units of h0 / dj), which is an integer table computed once per depth.
+With the factor 2 sqrt(phi') it becomes 2 W sqrt(h0 h1 / (di dj)). A step has di + dj - 1
+non-zero weights.
+
+Pruning: a step (g a, g b) with g = gcd > 1 passes exactly through the grid node (k + a, l + b)
+on the same line, and both the integral and the penalty sum split there, so its energy equals
+that of g steps (a, b). Such steps are therefore redundant (for any penalty, on uniform grids)
+and are pruned by default: at D = 9 this leaves 55 of the 81 steps.
+
+Slope limit: a path of n steps covers between n and n D intervals on each axis, so it exists
+iff max(N0-1, N1-1) <= D min(N0-1, N1-1). When the frame ratio is beyond the requested depth,
+the depth is raised automatically to the smallest one that reaches (ceil of the interval
+ratio); ``elastic_align(..., return_info=True)`` reports the depth used.
+
+Kernels: a numba kernel (``method="numba"``, JIT-compiled with cache=True and nogil=True) and a
+pure-numpy DP vectorized over all steps of one DP row (``method="numpy"``, the baseline); the
+default ``method="auto"`` takes numba when it can be imported, else numpy. Both compute the
+same floating-point operations per candidate and give identical results.
+"""
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+from . import _dp_kernels
+from .curves import as_curve, as_times, move_to_identity, geodesic_interpolate, srvt
+from .errors import CurveError, ShapeSigError
+
+__all__ = [
+    "elastic_align",
+    "elastic_distance",
+    "elastic_distance_matrix",
+    "reparametrize",
+    "warp_grid",
+    "step_table",
+    "required_depth",
+]
+
+METHODS = ("auto", "numba", "numpy")
 
 
-def elastic_align(R0, R1, depth=9, penalty=0.0):
-    raise NotImplementedError("elastic_align is not implemented yet")
+# ---------------------------------------------------------------------------------------------
+# input preparation
 
 
-def elastic_distance(R0, R1, depth=9, penalty=0.0):
-    raise NotImplementedError("elastic_distance is not implemented yet")
+def _check_depth(depth):
+    try:
+        d = int(depth)
+    except (TypeError, ValueError):
+        raise ShapeSigError(f"depth must be an integer >= 1, got {depth!r}") from None
+    if d != depth or d < 1:
+        raise ShapeSigError(f"depth must be an integer >= 1, got {depth!r}")
+    if d > 64:
+        raise ShapeSigError(f"depth must be at most 64, got {d}")
+    return d
 
 
-def reparametrize(R, t, warp):
-    raise NotImplementedError("reparametrize is not implemented yet")
+def _check_penalty(penalty):
+    try:
+        lam = float(penalty)
+    except (TypeError, ValueError):
+        raise ShapeSigError(f"penalty must be a finite number >= 0, got {penalty!r}") from None
+    if not math.isfinite(lam) or lam < 0.0:
+        raise ShapeSigError(f"penalty must be a finite number >= 0, got {penalty!r}")
+    return lam
+
+
+def _check_method(method):
+    if method not in METHODS:
+        raise ShapeSigError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "auto":
+        return "numba" if _dp_kernels.HAVE_NUMBA else "numpy"
+    if method == "numba" and not _dp_kernels.HAVE_NUMBA:
+        raise ShapeSigError("method='numba' needs the numba package, which cannot be imported")
+    return method
+
+
+def _srvt_matrix(R, name):
+    """Flattened SRVT (frames-1, 3 joints) of a curve moved to P*, on the uniform grid."""
+    R = as_curve(R, name)
+    if R.shape[0] < 2:
+        raise CurveError(f"{name}: needs at least two frames for an elastic distance, got {R.shape[0]}")
+    q = srvt(move_to_identity(R))
+    return np.ascontiguousarray(q.reshape(q.shape[0], -1)), R.shape[1]
+
+
+def required_depth(frames0, frames1):
+    """The smallest depth D for which a DP path joins (0, 0) to (frames0-1, frames1-1)."""
+    n0, n1 = int(frames0) - 1, int(frames1) - 1
+    if n0 < 1 or n1 < 1:
+        raise CurveError("each curve needs at least two frames")
+    return -(-max(n0, n1) // min(n0, n1))
+
+
+# ---------------------------------------------------------------------------------------------
+# the step table
+
+
+_TABLES = {}
+
+
+def step_table(depth, prune=True):
+    """The DP steps for a depth and their breakpoint-overlap weights (uniform grids).
+
+    Returns a dict of int64/float64 arrays: ``di``, ``dj`` (per step); ``start`` (per step, the
+    first entry index, plus one final end index); ``ea``, ``eb``, ``ew`` (per entry): interval
+    ``k + ea`` of curve 0 meets interval ``l + eb`` of curve 1 on a length ``ew`` in units of
+    h0 / dj (an integer). With ``prune`` only coprime steps (di, dj) are kept.
+    """
+    key = (int(depth), bool(prune))
+    if key in _TABLES:
+        return _TABLES[key]
+    di_l, dj_l, start, ea, eb, ew = [], [], [0], [], [], []
+    for di in range(1, depth + 1):
+        for dj in range(1, depth + 1):
+            if prune and math.gcd(di, dj) != 1:
+                continue
+            di_l.append(di)
+            dj_l.append(dj)
+            for a in range(di):
+                for b in range(dj):
+                    w = min((a + 1) * dj, (b + 1) * di) - max(a * dj, b * di)
+                    if w > 0:
+                        ea.append(a)
+                        eb.append(b)
+                        ew.append(w)
+            start.append(len(ea))
+    table = {
+        "di": np.array(di_l, dtype=np.int64),
+        "dj": np.array(dj_l, dtype=np.int64),
+        "start": np.array(start, dtype=np.int64),
+        "ea": np.array(ea, dtype=np.int64),
+        "eb": np.array(eb, dtype=np.int64),
+        "ew": np.array(ew, dtype=np.float64),
+    }
+    for v in table.values():
+        v.setflags(write=False)
+    _TABLES[key] = table
+    return table
+
+
+def _entry_coefficients(table, h0, h1):
+    """Per entry: the factor of G in the step energy, 2 W sqrt(h0 h1 / (di dj))."""
+    step = np.repeat(np.arange(len(table["di"])), np.diff(table["start"]))
+    di = table["di"][step].astype(np.float64)
+    dj = table["dj"][step].astype(np.float64)
+    return np.ascontiguousarray(2.0 * table["ew"] * np.sqrt(h0 * h1 / (di * dj)))
+
+
+def _band(n0, n1, depth):
+    """Per DP row i, the range [lo, hi] of columns j on some path from (0, 0) to (n0, n1)."""
+    i = np.arange(n0 + 1)
+    lo = np.maximum(-(-i // depth), n1 - (n0 - i) * depth)
+    hi = np.minimum(i * depth, n1 - (-(-(n0 - i) // depth)))
+    lo[0] = hi[0] = 0
+    return lo.astype(np.int64), hi.astype(np.int64)
+
+
+# ---------------------------------------------------------------------------------------------
+# the DP
+
+
+def _window_sums(x, depth):
+    """B[d, i] = x[i-d] + ... + x[i-1] for 1 <= d <= min(i, depth) (0 elsewhere), shape (depth+1, n+1).
+
+    Summed directly (in the order x[i-1] + x[i-2] + ...) rather than as differences of a
+    cumulative sum, whose rounding error would grow with the length of the curve.
+    """
+    n = x.shape[0]
+    B = np.zeros((depth + 1, n + 1))
+    for d in range(1, min(depth, n) + 1):
+        B[d, d:] = B[d - 1, d:] + x[:n + 1 - d]
+    return B
+
+
+class _Problem:
+    """Everything the kernels need for one pair of curves (uniform grids)."""
+
+    def __init__(self, Q0, Q1, depth, penalty, prune=True):
+        n0, n1 = Q0.shape[0], Q1.shape[0]
+        self.n0, self.n1 = n0, n1
+        self.depth = max(depth, required_depth(n0 + 1, n1 + 1))
+        self.penalty = penalty
+        self.h0, self.h1 = 1.0 / n0, 1.0 / n1
+        self.table = step_table(self.depth, prune)
+        self.coef = _entry_coefficients(self.table, self.h0, self.h1)
+        self.G = Q0 @ Q1.T
+        self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, self.depth)
+        self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, self.depth)
+        self.lo, self.hi = _band(n0, n1, self.depth)
+
+    def solve(self, method):
+        t = self.table
+        args = (self.G, self.B0, self.B1, self.h0, self.h1, self.penalty,
+                t["di"], t["dj"], t["start"], t["ea"], t["eb"], self.coef, self.lo, self.hi)
+        if method == "numba":
+            return _dp_kernels.dp_numba(*args)
+        return _dp_kernels.dp_numpy(*args)
+
+    def path(self, back):
+        """Node indices (i, j) of the optimal path, from (0, 0) to (n0, n1)."""
+        di, dj = self.table["di"], self.table["dj"]
+        i, j = self.n0, self.n1
+        nodes = [(i, j)]
+        while i > 0 or j > 0:
+            s = back[i, j]
+            if s < 0:
+                raise ShapeSigError("internal error: the DP path is broken")  # pragma: no cover
+            i, j = i - di[s], j - dj[s]
+            nodes.append((i, j))
+        return np.array(nodes[::-1], dtype=np.int64)
+
+
+def _align(R0, R1, depth, penalty, method, prune):
+    depth = _check_depth(depth)
+    penalty = _check_penalty(penalty)
+    method = _check_method(method)
+    Q0, j0 = _srvt_matrix(R0, "R0")
+    Q1, j1 = _srvt_matrix(R1, "R1")
+    if j0 != j1:
+        raise CurveError(f"the curves have {j0} and {j1} joints")
+    prob = _Problem(Q0, Q1, depth, penalty, prune)
+    value, back = prob.solve(method)
+    return prob, value, back
+
+
+def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, return_info=False):
+    """The DP reparametrization of R1 onto R0 (sec. 4.3) and the elastic distance d_S*.
+
+    ``R0``, ``R1``: curves (frames, joints, 3, 3) or quaternions (frames, joints, 4) on uniform
+    grids of [0, 1], the same joints, at least two frames each (frame counts may differ).
+    ``depth``: the largest step D on either axis (raised automatically when the frame ratio needs
+    it); ``penalty``: lambda of eq. 4.8 (>= 0). Keyword-only: ``method`` ('auto', 'numba',
+    'numpy'), ``prune`` (drop the redundant non-coprime steps; the result is the same),
+    ``return_info`` (also return a dict with 'depth', 'energy', 'method', 'nodes').
+
+    Returns ``(warp, distance)``: ``warp`` is an array (nodes, 2) of matching times (t0, t1)
+    from (0, 0) to (1, 1), strictly increasing in both columns (the vertices of the
+    piecewise-linear phi with R1(phi(t0)) matched to R0(t0)); ``distance`` is the square root
+    of the DP minimum.
+    """
+    prob, value, back = _align(R0, R1, depth, penalty, method, prune)
+    nodes = prob.path(back)
+    warp = np.column_stack([nodes[:, 0] / prob.n0, nodes[:, 1] / prob.n1])
+    warp[-1] = (1.0, 1.0)
+    dist = float(np.sqrt(max(value, 0.0)))
+    if return_info:
+        info = {"depth": prob.depth, "energy": float(value), "method": _check_method(method),
+                "nodes": nodes}
+        return warp, dist, info
+    return warp, dist
+
+
+def elastic_distance(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True):
+    """d_S*(R0, R1): the square root of the DP minimum of ``elastic_align`` (no backtracking)."""
+    _, value, _ = _align(R0, R1, depth, penalty, method, prune)
+    return float(np.sqrt(max(value, 0.0)))
+
+
+def elastic_distance_matrix(curves, depth=9, penalty=0.0, workers=2, *, method="auto"):
+    """All-pairs d_S* of a list of curves: a symmetric (n, n) array with a zero diagonal.
+
+    Entry [a, b] for a < b is ``elastic_distance(curves[a], curves[b])`` and is mirrored to
+    [b, a] (d_S* is symmetric for penalty 0; with a penalty the a < b order is the one used).
+    The SRVTs are computed once per curve. ``workers`` threads share the pairs; the numba kernel
+    releases the GIL, so they run in parallel (the numpy kernel mostly does too).
+    """
+    depth = _check_depth(depth)
+    penalty = _check_penalty(penalty)
+    method = _check_method(method)
+    try:
+        workers = int(workers)
+    except (TypeError, ValueError):
+        raise ShapeSigError(f"workers must be an integer >= 1, got {workers!r}") from None
+    if workers < 1:
+        raise ShapeSigError(f"workers must be an integer >= 1, got {workers!r}")
+    curves = list(curves)
+    qs = []
+    joints = None
+    for n, R in enumerate(curves):
+        Q, j = _srvt_matrix(R, f"curve {n}")
+        if joints is not None and j != joints:
+            raise CurveError(f"curve {n} has {j} joints, curve 0 has {joints}")
+        joints = j
+        qs.append(Q)
+    n = len(qs)
+    out = np.zeros((n, n))
+    pairs = [(a, b) for a in range(n) for b in range(a + 1, n)]
+    # Longest first, so that the threads finish together.
+    pairs.sort(key=lambda p: -qs[p[0]].shape[0] * qs[p[1]].shape[0])
+
+    def run(pair):
+        a, b = pair
+        value, _ = _Problem(qs[a], qs[b], depth, penalty).solve(method)
+        return a, b, float(np.sqrt(max(value, 0.0)))
+
+    if workers == 1 or len(pairs) < 2:
+        results = map(run, pairs)
+    else:
+        pool = ThreadPoolExecutor(max_workers=workers)
+        results = pool.map(run, pairs)
+    try:
+        for a, b, d in results:
+            out[a, b] = out[b, a] = d
+    finally:
+        if workers > 1 and len(pairs) >= 2:
+            pool.shutdown()
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# warps
+
+
+def _check_warp(warp):
+    w = np.asarray(warp, dtype=np.float64)
+    if w.ndim != 2 or w.shape[1] != 2 or w.shape[0] < 2:
+        raise CurveError(f"warp: expected an array (nodes >= 2, 2) of times (t0, t1), got shape {w.shape}")
+    if not np.all(np.isfinite(w)):
+        raise CurveError("warp: contains NaN or infinite values")
+    tol = 1e-12
+    if np.any(np.abs(w[0]) > tol) or np.any(np.abs(w[-1] - 1.0) > tol):
+        raise CurveError(f"warp: must run from (0, 0) to (1, 1), got {tuple(w[0])} to {tuple(w[-1])}")
+    if np.any(np.diff(w[:, 0]) <= 0.0):
+        raise CurveError("warp: the t0 column must be strictly increasing")
+    if np.any(np.diff(w[:, 1]) < 0.0):
+        raise CurveError("warp: the t1 column must be non-decreasing")
+    return w
+
+
+def reparametrize(R, t, warp, t_new=None):
+    """Samples of R(phi(s)): the curve R composed with the warp, by geodesic interpolation (eq. 5.9).
+
+    ``R``: a curve (frames, joints, 3, 3) or quaternions, sampled at times ``t`` (None: uniform).
+    ``warp``: an array (nodes, 2) of times (t0, t1) from (0, 0) to (1, 1) as returned by
+    ``elastic_align(R0, R, ...)``; phi is the piecewise-linear map through its nodes
+    (phi(warp[:, 0]) = warp[:, 1]). ``t_new``: the times s at which R(phi(s)) is sampled; by
+    default the curve's own grid ``t`` (so the result has as many frames as R; to put it on R0's
+    grid pass ``t_new=`` R0's times). R(phi(s)) is evaluated with ``geodesic_interpolate``, so
+    samples that land on R's knots are R's frames unchanged. R is not moved to P*.
+
+    On the grid ``warp_grid(warp, t)`` the geodesic interpolation of the result equals R o phi
+    exactly (every kink of R o phi is a sample), so ``l2_distance(R0, result, t1=that grid)`` is
+    then the warp's elastic energy.
+
+    Returns an array (len(t_new), joints, 3, 3).
+    """
+    R = as_curve(R, "R")
+    t = as_times(t, R.shape[0], "t")
+    w = _check_warp(warp)
+    if t_new is None:
+        s = t
+    else:
+        s = np.asarray(t_new, dtype=np.float64).reshape(-1)
+        if not np.all(np.isfinite(s)):
+            raise CurveError("t_new: contains NaN or infinite values")
+        if s.size and (s.min() < -1e-12 or s.max() > 1.0 + 1e-12):
+            raise CurveError("t_new: times must lie in [0, 1]")
+        s = np.clip(s, 0.0, 1.0)
+    u = np.clip(np.interp(s, w[:, 0], w[:, 1]), 0.0, 1.0)
+    return geodesic_interpolate(R, t, u)
+
+
+def warp_grid(warp, t):
+    """The times s at which R o phi has a kink: the warp's t0 nodes and phi^-1 of R's grid ``t``.
+
+    ``t`` is R's time grid (an array) or its frame count (an int: uniform). Needs a warp that is
+    strictly increasing in both columns (as returned by ``elastic_align``). Returns a sorted
+    array of unique times from 0 to 1.
+    """
+    w = _check_warp(warp)
+    if np.any(np.diff(w[:, 1]) <= 0.0):
+        raise CurveError("warp: the t1 column must be strictly increasing to invert it")
+    if np.isscalar(t) or np.ndim(t) == 0:
+        t = as_times(None, int(t), "t")
+    else:
+        t = as_times(t, len(t), "t")
+    s = np.interp(t, w[:, 1], w[:, 0])
+    grid = np.union1d(w[:, 0], s)
+    # Drop near-duplicates from rounding (they would give zero-length intervals).
+    keep = np.concatenate([[True], np.diff(grid) > 1e-13])
+    grid = grid[keep]
+    grid[0], grid[-1] = 0.0, 1.0
+    return grid
