@@ -1,0 +1,268 @@
+"""The command line on the bundled CMU clips: arguments, JSON shapes, one-line errors (exit 2), clean
+stdout with --json, --help. In-process (cli.main with capsys) except the subprocess tests at the end."""
+
+import csv
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from blender_shapesig import cli
+from blender_shapesig.core import curves, signatures
+from blender_shapesig.core.acclaim import load_acclaim
+from blender_shapesig.core.clip import restrict_to_shared
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+ACC = ROOT / "tests" / "data" / "acclaim"
+
+
+@pytest.fixture(scope="module")
+def amc(tmp_path_factory):
+    """Walks and runs in two folders, each with its one .asf (so the skeleton is found automatically)."""
+    base = tmp_path_factory.mktemp("amc")
+    (base / "walk").mkdir()
+    (base / "run").mkdir()
+    for f in ("07-walk.asf", "07_01.amc", "07_02.amc"):
+        shutil.copy(ACC / f, base / "walk" / f)
+    for f in ("09-run.asf", "09_02.amc", "09_03.amc"):
+        shutil.copy(ACC / f, base / "run" / f)
+    return {
+        "base": base,
+        "w1": str(base / "walk" / "07_01.amc"),
+        "w2": str(base / "walk" / "07_02.amc"),
+        "r1": str(base / "run" / "09_02.amc"),
+        "r2": str(base / "run" / "09_03.amc"),
+    }
+
+
+def _clip(path):
+    folder = os.path.dirname(path)
+    asf = [f for f in os.listdir(folder) if f.endswith(".asf")][0]
+    return load_acclaim(path, os.path.join(folder, asf))
+
+
+def run_json(capsys, args):
+    code = cli.main(args + ["--json"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    return json.loads(out), err
+
+
+def run_error(capsys, args):
+    code = cli.main(args)
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("blender_shapesig: error:")
+    return lines[0]
+
+
+# --- distance -----------------------------------------------------------------------------------
+
+
+def test_distance_l2_matches_core(capsys, amc):
+    out, _ = run_json(capsys, ["distance", amc["w1"], amc["r1"], "--metric", "l2"])
+    assert set(out) >= {"distance", "metric"} and out["metric"] == "l2"
+    a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["r1"]))
+    assert out["distance"] == pytest.approx(curves.l2_distance(a.rotations, b.rotations), rel=1e-12)
+
+
+@pytest.mark.parametrize("args, label, fn", [
+    ([], "sim3", lambda a, b: signatures.normalized_distance(a, b, 3)),
+    (["--metric", "sim", "--level", "2"], "sim2", lambda a, b: signatures.normalized_distance(a, b, 2)),
+    (["--metric", "group2"], "group2", lambda a, b: signatures.group_distance(a, b, 2)),
+    (["--metric", "linear", "--level", "2"], "linear2", lambda a, b: signatures.linear_distance(a, b, 2)),
+])
+def test_distance_signature_metrics(capsys, amc, args, label, fn):
+    out, _ = run_json(capsys, ["distance", amc["w1"], amc["w2"]] + args)
+    assert out["metric"] == label
+    a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["w2"]))
+    assert out["distance"] == pytest.approx(fn(a.rotations, b.rotations), rel=1e-10)
+
+
+def test_distance_elastic_depth(capsys, amc):
+    from blender_shapesig.core.elastic import elastic_distance
+
+    out, _ = run_json(capsys, ["distance", amc["r1"], amc["r2"], "--metric", "elastic", "--depth", "3"])
+    a, b = restrict_to_shared(_clip(amc["r1"]), _clip(amc["r2"]))
+    assert out["metric"] == "elastic"
+    assert out["distance"] == pytest.approx(elastic_distance(a.rotations, b.rotations, depth=3), rel=1e-12)
+    # The elastic distance never exceeds d_P* (the identity warp is one candidate).
+    assert out["distance"] <= curves.l2_distance(a.rotations, b.rotations) + 1e-9
+
+
+def test_distance_plain_text(capsys, amc):
+    assert cli.main(["distance", amc["w1"], amc["w1"], "--metric", "l2"]) == 0
+    out, _ = capsys.readouterr()
+    assert out.strip().startswith("l2(07_01, 07_01) = 0")
+
+
+def test_explicit_asf(capsys, amc):
+    # In tests/data/acclaim there are three .asf files: --asf chooses.
+    out, _ = run_json(capsys, ["distance", str(ACC / "07_01.amc"), str(ACC / "07_02.amc"), "--metric", "l2",
+                               "--asf", str(ACC / "07-walk.asf")])
+    ref, _ = run_json(capsys, ["distance", amc["w1"], amc["w2"], "--metric", "l2"])
+    assert out["distance"] == pytest.approx(ref["distance"], rel=1e-12)
+
+
+# --- errors -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["distance", "nowhere.amc", "nowhere2.amc"], "file not found"),
+    (["distance", str(ACC / "07_01.amc"), str(ACC / "07_02.amc")], "--asf"),
+    (["distance", "W1", "W2", "--metric", "banana"], "unknown metric"),
+    (["distance", "W1", "W2", "--metric", "elastic2"], "takes no level"),
+    (["distance", "W1"], "required"),
+    (["distance", "W1", str(ROOT / "tests" / "data" / "labels.csv")], "unsupported file type"),
+    (["frobnicate"], "invalid choice"),
+    ([], "no command"),
+    (["rank", "W1", "W2", "--top", "0"], "--top"),
+    (["blend", "W1", "W2", "--weight", "1.5", "--out", "x.blend"], "--weight"),
+    (["blend", "W1", "W2", "--weight", "0.5", "--out", "x.txt"], ".blend"),
+    (["matrix", "W1", "--out", "OUT"], "at least two"),
+    (["evaluate", "--index", "missing.csv", "--data", ".", "--out", "OUT"], "index file not found"),
+    (["distance", "W1", "W2", "--depth", "many"], "invalid int"),
+])
+def test_errors_one_line_exit_2(capsys, amc, tmp_path, args, needle):
+    args = [a.replace("W1", amc["w1"]).replace("W2", amc["w2"]).replace("OUT", str(tmp_path / "o")) for a in args]
+    line = run_error(capsys, args)
+    assert needle in line
+
+
+def test_error_with_json_keeps_stdout_empty(capsys, amc):
+    run_error(capsys, ["distance", amc["w1"], "missing.amc", "--json"])
+
+
+def test_debug_shows_traceback(capsys, amc):
+    assert cli.main(["distance", amc["w1"], "missing.amc", "--debug"]) == 2
+    out, err = capsys.readouterr()
+    assert out == ""
+    assert "Traceback" in err and err.strip().splitlines()[-1].startswith("blender_shapesig: error:")
+
+
+@pytest.mark.parametrize("command", [[], ["distance"], ["rank"], ["blend"], ["matrix"], ["evaluate"]])
+def test_help(capsys, command):
+    assert cli.main(command + ["--help"]) == 0
+    out, _ = capsys.readouterr()
+    assert out.startswith("usage: blender_shapesig")
+    for word in {"distance": ["--metric", "--level", "--depth"], "rank": ["--rerank", "--top", "--cache"],
+                 "blend": ["--weight", "--align", "--frames", "--inbetweens", "--out"],
+                 "matrix": ["--metric", "--out"], "evaluate": ["--index", "--data", "--out"]}.get(
+                     command[0] if command else "", ["distance", "rank", "blend", "matrix", "evaluate"]):
+        assert word in out
+
+
+# --- matrix and evaluate ------------------------------------------------------------------------
+
+
+def test_matrix_sim2(capsys, amc, tmp_path):
+    paths = [amc["w1"], amc["w2"], amc["r1"], amc["r2"]]
+    out, _ = run_json(capsys, ["matrix", *paths, "--metric", "sim2", "--out", str(tmp_path), "--workers", "1"])
+    assert out["matrix"] == os.path.join(str(tmp_path), "matrix.csv")
+    assert len(out["figures"]) == 2 and all(open(f, "rb").read(4) == b"\x89PNG" for f in out["figures"])
+    with open(out["matrix"], newline="") as fh:
+        rows = list(csv.reader(fh))
+    assert rows[0] == ["clip", "07_01", "07_02", "09_02", "09_03"]
+    D = np.array([[float(v) for v in r[1:]] for r in rows[1:]])
+    np.testing.assert_allclose(D, np.load(tmp_path / "matrix.npy"))
+    assert np.allclose(D, D.T) and np.all(np.diag(D) == 0)
+    # Entry (walk 07_01, run 09_02) against the pairwise function on the same clips.
+    a, b = restrict_to_shared(_clip(paths[0]), _clip(paths[2]))
+    assert D[0, 2] == pytest.approx(signatures.normalized_distance(a.rotations, b.rotations, 2), rel=1e-9)
+
+
+def test_evaluate_amc(capsys, amc, tmp_path):
+    index = tmp_path / "index.csv"
+    index.write_text(
+        "file,label,skeleton,start,end\n"
+        "walk/07_01.amc,walk,walk/07-walk.asf,1,200\n"
+        "walk/07_02.amc,walk,walk/07-walk.asf,,\n"
+        "run/09_02.amc,run,run/09-run.asf,,\n"
+        "run/09_03.amc,run,,10,\n"
+    )
+    out_dir = tmp_path / "eval"
+    out, _ = run_json(capsys, ["evaluate", "--index", str(index), "--data", str(amc["base"]), "--out", str(out_dir),
+                               "--metrics", "l2,sim2", "--workers", "1", "--no-figures"])
+    summary = json.loads((out_dir / "summary.json").read_text())
+    assert summary["clips"] == 4 and out["clips"] == 4
+    assert set(summary["metrics"]) == {"l2", "sim2"}
+    for row in summary["metrics"].values():
+        assert 0.0 <= row["accuracy"] <= 1.0 and row["seconds"] >= 0.0
+    # The crop (frames 1..200 of 07_01, 10.. of 09_03) is applied before the distances.
+    M = np.load(out_dir / "matrices" / "l2.npy")
+    a = _clip(amc["w1"]).crop(1, 200)
+    d = _clip(amc["r2"]).crop(10, None)
+    a, d = restrict_to_shared(a, d)
+    assert a.frames == 200
+    assert M[0, 3] == pytest.approx(curves.l2_distance(a.rotations, d.rotations), rel=1e-9)
+
+
+# --- rank (needs core.search) -------------------------------------------------------------------
+
+
+def _need_search():
+    from blender_shapesig.core import search
+
+    if not hasattr(search, "rank_clips"):
+        pytest.skip("core.search.rank_clips has not landed")
+
+
+def test_rank_json_and_cache(capsys, amc, tmp_path):
+    _need_search()
+    cache = tmp_path / "cache"
+    args = ["rank", amc["w1"], amc["w2"], amc["r1"], amc["r2"], "--metric", "sim2", "--cache", str(cache)]
+    out, _ = run_json(capsys, args)
+    assert out["query"] == "07_01"
+    names = [r["clip"] for r in out["results"]]
+    assert sorted(names) == ["07_02", "09_02", "09_03"]
+    dists = [r["distance"] for r in out["results"]]
+    assert dists == sorted(dists)
+    # The walk is nearer to the other walk than to the runs.
+    assert names[0] == "07_02"
+    a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["w2"]))
+    assert dists[0] == pytest.approx(signatures.normalized_distance(a.rotations, b.rotations, 2), rel=1e-9)
+    assert any(cache.iterdir()), "the cache folder stays empty"
+    again, _ = run_json(capsys, args)
+    assert again["results"] == out["results"]
+
+
+def test_rank_rerank_and_top(capsys, amc):
+    _need_search()
+    out, _ = run_json(capsys, ["rank", amc["r1"], amc["w1"], amc["w2"], amc["r2"], "--rerank", "2", "--top", "2"])
+    assert len(out["results"]) == 2
+    el = [r["elastic"] for r in out["results"]]
+    assert all(e is not None for e in el) and el == sorted(el)
+
+
+# --- subprocess: the real entry point, stdout hygiene --------------------------------------------
+
+
+def _env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def test_subprocess_json_stdout_is_one_object(amc):
+    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "distance", amc["w1"], amc["r1"], "--metric", "l2",
+                        "--json"], capture_output=True, text=True, env=_env(), cwd=str(ROOT), timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout)["metric"] == "l2"
+    assert p.stdout.count("\n") == 1
+
+
+def test_subprocess_error_exit_2(tmp_path):
+    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "distance", str(tmp_path / "a.bvh"),
+                        str(tmp_path / "b.bvh"), "--json"], capture_output=True, text=True, env=_env(),
+                       cwd=str(ROOT), timeout=300)
+    assert p.returncode == 2
+    assert p.stdout == ""
+    assert len(p.stderr.strip().splitlines()) == 1 and "file not found" in p.stderr
