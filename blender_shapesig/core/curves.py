@@ -119,10 +119,17 @@ def right_log_derivative(R, t=None):
     return relative_rotvecs(R) / np.diff(t)[:, None, None]
 
 
-def _srvt_from_eta(eta):
+# A step whose rotation angle is below this (radians) is rounding noise of a still joint: its velocity
+# is taken as exactly zero. Without this, the square root of the SRVT turns 1e-16 of noise into 1e-8.
+ZERO_STEP = 1e-12
+
+
+def _srvt_from_eta(eta, steps=None):
+    """q = eta / sqrt(|eta|); zero where the step angle |eta| dt is at most ZERO_STEP."""
     norm = np.linalg.norm(eta, axis=-1, keepdims=True)
+    step_norm = norm if steps is None else np.linalg.norm(steps, axis=-1, keepdims=True)
     out = np.zeros_like(eta)
-    nz = norm[..., 0] > 0.0
+    nz = step_norm[..., 0] > ZERO_STEP
     out[nz] = eta[nz] / np.sqrt(norm[nz])
     return out
 
@@ -130,10 +137,13 @@ def _srvt_from_eta(eta):
 def srvt(R, t=None):
     """Square-root-velocity transform q_k = eta_k / sqrt(|eta_k|) per joint (eq. 5.11).
 
-    A joint that does not move on an interval (eta = 0) gets q = 0 there, not NaN.
-    Shape (frames-1, joints, 3).
+    A joint that does not move on an interval (eta = 0, or a step angle below ``ZERO_STEP`` = 1e-12 rad,
+    i.e. rounding noise) gets q = 0 there, not NaN. Shape (frames-1, joints, 3).
     """
-    return _srvt_from_eta(right_log_derivative(R, t))
+    R = as_curve(R)
+    t = as_times(t, R.shape[0])
+    steps = relative_rotvecs(R)
+    return _srvt_from_eta(steps / np.diff(t)[:, None, None], steps)
 
 
 def inverse_srvt(q, t=None, start=None):

@@ -100,6 +100,16 @@ class TestRoundTripsAndInvariances:
         assert np.all(np.isfinite(q)) and np.all(q == 0.0)
         np.testing.assert_allclose(inverse_srvt(q, start=R[0]), R, atol=1e-15)
 
+    def test_rounding_noise_is_zero_velocity_but_small_motion_is_not(self):
+        from blender_shapesig.core.curves import ZERO_STEP
+
+        angles = [0.0, 0.1 * ZERO_STEP, 1e3 * ZERO_STEP]
+        R = np.stack([np.eye(3)] + [Rotation.from_rotvec([0, 0, a]).as_matrix() for a in np.cumsum(angles)])
+        q = srvt(R[:, None])
+        assert np.all(q[:2] == 0.0)
+        # |q| = sqrt(|eta|) with eta = step / dt and dt = 1/3
+        assert np.linalg.norm(q[2]) == pytest.approx(np.sqrt(3e3 * ZERO_STEP), rel=1e-6)
+
     def test_right_translation_invariance(self):
         R = random_walk_curve(40, 3)
         g = Rotation.random(3, random_state=7).as_matrix()
