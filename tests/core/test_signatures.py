@@ -485,11 +485,11 @@ A_SLOPE = np.array([0.1, 0.5, 0.0, -0.2])
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
 def test_proposition_1_group_metric_rate(n):
-    """rho^n(x, x_eps) = O(eps^(1/n)) for unequal slopes: fitted exponent within 0.02 of 1/n."""
+    """rho^n(x, x_eps) = O(eps^(1/n)) for unequal slopes: fitted exponent within 0.005 of 1/n."""
     eps = np.logspace(-9, -6, 7)
     x = np.vstack([np.zeros(4), A_SLOPE])
     rho = [sg.path_group_distance(x, np.vstack([np.zeros(4), A_SLOPE + e]), n) for e in eps]
-    assert abs(_slope(eps, rho) - 1.0 / n) < 0.02
+    assert abs(_slope(eps, rho) - 1.0 / n) < 0.005
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4])

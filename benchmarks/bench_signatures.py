@@ -1,0 +1,151 @@
+"""Speed and memory of signatures, log-signatures and the four signature measures.
+
+    .venv/bin/python benchmarks/bench_signatures.py [--frames 400] [--levels 2 3] [--repeat 3]
+                                                    [--ii-methods S X] [--json OUT.json]
+
+The clip: CMU 16_15 (walk, 31 bones, so a path in R^93), its first ``--frames`` frames, read with
+``core.acclaim``. Every timing is the median of ``--repeat`` runs after one warm-up run; one-off
+preparation (iisignature's ``prepare``, the numpy Lyndon projection) is timed separately, cold. Ratios
+are against a baseline measured in the same run, ``iisignature.sig`` of the same path at the same level
+(the numpy signature when iisignature is missing), so they do not depend on the machine's speed.
+Bytes per clip: the float64 vector stored per clip for each representation.
+
+iisignature's ``logsig`` methods: 'S' (signature, then log, then projection onto the Lyndon basis) and
+'X' (tensor form) prepare in seconds at 93 dimensions, level 3; 'C' compiles BCH code on the fly and 'O'
+evaluates BCH formulas stored in an object; pass ``--ii-methods S C O X`` to time them too (at level 3
+and 93 dimensions their prepare takes minutes).
+"""
+
+import argparse
+import json
+import pathlib
+import statistics
+import sys
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from blender_shapesig.core import signatures as sg, tensor  # noqa: E402
+from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+
+try:
+    import iisignature
+except ImportError:  # pragma: no cover
+    iisignature = None
+
+
+def timed(fn, repeat):
+    fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def once(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return time.perf_counter() - t0, out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--frames", type=int, default=400)
+    ap.add_argument("--levels", type=int, nargs="+", default=[2, 3])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--ii-methods", nargs="+", default=["S", "X"])
+    ap.add_argument("--json", type=pathlib.Path)
+    args = ap.parse_args(argv)
+
+    data = ROOT / "tests" / "data" / "acclaim"
+    clip = load_acclaim(data / "16_15.amc", data / "16.asf")
+    other = load_acclaim(data / "07_01.amc", data / "07-walk.asf")
+    R0 = clip.rotations[: args.frames]
+    R1 = other.rotations[: args.frames]
+    if R1.shape[1] != R0.shape[1]:
+        raise SystemExit("the two benchmark clips must have the same number of bones")
+    dx = sg.development_increments(R0)
+    dy = sg.development_increments(R1)
+    path = sg.development(R0)
+    d = dx.shape[1]
+    rows = []
+    print(f"clip 16_15: {R0.shape[0]} frames, {R0.shape[1]} bones -> path in R^{d}; "
+          f"pair partner 07_01 ({R1.shape[0]} frames)")
+    print(f"iisignature {'%s' % iisignature.version() if iisignature else 'not installed'}, numpy {np.__version__}")
+
+    for n in args.levels:
+        print(f"\n## level {n}")
+        res = {"level": n, "dim": d, "frames": int(R0.shape[0])}
+        # --- baseline
+        if iisignature is not None:
+            base = timed(lambda: iisignature.sig(path, n), args.repeat)
+            base_name = "iisignature.sig"
+        else:
+            base = timed(lambda: sg.path_signature(path, n, method="numpy"), args.repeat)
+            base_name = "numpy signature"
+        res["baseline"] = {"name": base_name, "seconds": base}
+        table = []
+
+        def row(name, seconds, note=""):
+            table.append((name, seconds, note))
+
+        row(f"baseline: {base_name}", base)
+        # --- numpy: one-off Lyndon projection (cold: clear the caches first)
+        for fn in (tensor._is_lyndon, tensor.lyndon_words, tensor._factorization, tensor._bracket_matrix,
+                   tensor._projection_level):
+            fn.cache_clear()
+        t_proj, _ = once(lambda: tensor.lyndon_projection(d, n))
+        row("numpy prepare (Lyndon projection, once per dim/level)", t_proj)
+        row("numpy signature", timed(lambda: sg.signature(R0, n, method="numpy"), args.repeat))
+        row("numpy log_signature (Lyndon)", timed(lambda: sg.log_signature(R0, n, method="numpy"), args.repeat))
+        row("numpy log_signature (tensor)",
+            timed(lambda: sg.log_signature(R0, n, basis="tensor", method="numpy"), args.repeat))
+        # --- iisignature
+        if iisignature is not None:
+            row("iisignature signature", timed(lambda: sg.signature(R0, n, method="iisignature"), args.repeat))
+            for meth in args.ii_methods:
+                t_prep, s = once(lambda: iisignature.prepare(d, n, meth))
+                row(f"iisignature prepare('{meth}')", t_prep)
+                row(f"iisignature logsig '{meth}'", timed(lambda: iisignature.logsig(path, s, meth), args.repeat),
+                    "tensor form" if meth == "X" else "Lyndon basis")
+            # the module's own path (prepares 'S' / 'X' once, cached)
+            sg.prepare(d, n, "lyndon")
+            sg.prepare(d, n, "tensor")
+            row("iisignature log_signature (Lyndon, via module)",
+                timed(lambda: sg.log_signature(R0, n, method="iisignature"), args.repeat))
+        # --- measures for one pair (both signatures computed inside)
+        methods = ["numpy"] + (["iisignature"] if iisignature is not None else [])
+        for fn in (sg.group_distance, sg.concat_distance, sg.linear_distance, sg.normalized_distance):
+            for m in methods:
+                row(f"{fn.__name__} ({m}), one pair from curves", timed(lambda: fn(R0, R1, n, method=m), args.repeat))
+        a = sg.log_signature(R0, n)
+        b = sg.log_signature(R1, n)
+        row("normalized_difference from two stored log-signatures",
+            timed(lambda: sg.normalized_difference(a, b), max(args.repeat, 20)))
+        # --- bytes per clip
+        res["bytes"] = {
+            "log_signature lyndon": sg.log_signature_dim(d, n) * 8,
+            "log_signature tensor": sg.log_signature_dim(d, n, basis="tensor") * 8,
+            "signature": sg.signature_dim(d, n) * 8,
+        }
+        res["rows"] = [{"name": nm, "seconds": s, "ratio": s / base, "note": note} for nm, s, note in table]
+        print("| operation | ms | ratio to baseline | note |")
+        print("|---|---:|---:|---|")
+        for nm, s, note in table:
+            print(f"| {nm} | {1000 * s:.1f} | {s / base:.3g} | {note} |")
+        print("\n| stored per clip | float64 values | bytes |")
+        print("|---|---:|---:|")
+        for k, v in res["bytes"].items():
+            print(f"| {k} | {v // 8:,} | {v:,} |")
+        rows.append(res)
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
