@@ -61,6 +61,7 @@ __all__ = [
     "path_signature", "path_log_signature", "path_group_distance", "path_concat_distance",
     "path_linear_distance", "path_normalized_distance",
     "signature_dim", "log_signature_dim", "normalized_difference", "group_norm",
+    "group_distance_from_signatures", "concat_distance_from_signatures",
     "prepare", "resolve_method",
 ]
 
@@ -233,11 +234,38 @@ def _group_distance_dx(dx, dy, level, method):
         g = _sig_flat(np.vstack([_reverse_increments(dy), dx]), level, method)
         h = _sig_flat(np.vstack([_reverse_increments(dx), dy]), level, method)
         return _half_group_norm(tensor.unflatten(g, d, level)) + _half_group_norm(tensor.unflatten(h, d, level))
-    sx = _sig_tensor_numpy(dx, level)
-    sy = _sig_tensor_numpy(dy, level)
-    g = tensor.mul(tensor.antipode(sy, d), sx, level)
-    h = tensor.mul(tensor.antipode(sx, d), sy, level)
+    return _group_from_tensors(_sig_tensor_numpy(dx, level), _sig_tensor_numpy(dy, level), d, level)
+
+
+def _group_from_tensors(sx, sy, d, level):
+    g = tensor.mul(tensor.antipode(sy, d), sx, level)  # S(y)^-1 ⊗ S(x)
+    h = tensor.mul(tensor.antipode(sx, d), sy, level)  # its inverse S(x)^-1 ⊗ S(y)
     return _half_group_norm(g) + _half_group_norm(h)
+
+
+def _concat_from_tensors(sx, sy, d, level, basis):
+    a = _logsig_numpy_from_sig(tensor.mul(sx, tensor.antipode(sy, d), level), d, basis)  # log S(x * rev y)
+    b = _logsig_numpy_from_sig(tensor.mul(sy, tensor.antipode(sx, d), level), d, basis)  # log S(y * rev x)
+    return float(np.linalg.norm(a) + np.linalg.norm(b))
+
+
+def _sig_pair(sx, sy, dim, level):
+    level = _check_level(level)
+    tx = tensor.unflatten(sx, int(dim), level)
+    ty = tensor.unflatten(sy, int(dim), level)
+    return tx, ty, level
+
+
+def group_distance_from_signatures(sx, sy, dim, level):
+    """rho^n from two stored signatures (``signature``'s output for paths in R^dim, same level)."""
+    tx, ty, level = _sig_pair(sx, sy, dim, level)
+    return _group_from_tensors(tx, ty, int(dim), level)
+
+
+def concat_distance_from_signatures(sx, sy, dim, level, *, basis="lyndon"):
+    """sigma_*^n from two stored signatures: S(x * reversed y) = S(x) ⊗ S(y)^-1 (Chen)."""
+    tx, ty, level = _sig_pair(sx, sy, dim, level)
+    return _concat_from_tensors(tx, ty, int(dim), level, _check_basis(basis))
 
 
 def _concat_distance_dx(dx, dy, level, method, basis):
@@ -247,11 +275,7 @@ def _concat_distance_dx(dx, dy, level, method, basis):
         a = _logsig_flat(np.vstack([dx, _reverse_increments(dy)]), level, method, basis)
         b = _logsig_flat(np.vstack([dy, _reverse_increments(dx)]), level, method, basis)
         return float(np.linalg.norm(a) + np.linalg.norm(b))
-    sx = _sig_tensor_numpy(dx, level)
-    sy = _sig_tensor_numpy(dy, level)
-    a = _logsig_numpy_from_sig(tensor.mul(sx, tensor.antipode(sy, d), level), d, basis)
-    b = _logsig_numpy_from_sig(tensor.mul(sy, tensor.antipode(sx, d), level), d, basis)
-    return float(np.linalg.norm(a) + np.linalg.norm(b))
+    return _concat_from_tensors(_sig_tensor_numpy(dx, level), _sig_tensor_numpy(dy, level), d, level, basis)
 
 
 def normalized_difference(a, b, zero_norm=ZERO_NORM):

@@ -183,7 +183,33 @@ def level_norms(t):
     return np.array([float(np.linalg.norm(ak)) for ak in t[1:]])
 
 
+# Steps processed at once by signature_from_increments: the intermediate arrays hold about
+# chunk * d^(level-1) values; longer paths are cut into chunks joined by Chen's identity.
+CHUNK_ENTRIES = 4_000_000
+
+
 def signature_from_increments(dx, level):
+    """Signature (levels 0..level) of the piecewise-linear path with increments ``dx`` (m, d).
+
+    Long paths are cut into chunks of at most max(64, CHUNK_ENTRIES / d^(level-1)) steps, whose
+    signatures are multiplied (Chen's identity, eq. 7.4), so memory stays bounded.
+    """
+    dx = np.asarray(dx, dtype=np.float64)
+    if dx.ndim != 2:
+        raise ShapeSigError(f"increments must have shape (steps, dim), got {dx.shape}")
+    m, d = dx.shape
+    check_size(d, level)
+    chunk = max(64, CHUNK_ENTRIES // max(1, d ** (level - 1)))
+    if m <= chunk:
+        return _signature_chunk(dx, level)
+    out = None
+    for start in range(0, m, chunk):
+        part = _signature_chunk(dx[start:start + chunk], level)
+        out = part if out is None else mul(out, part, level)
+    return out
+
+
+def _signature_chunk(dx, level):
     """Signature (levels 0..level) of the piecewise-linear path with increments ``dx`` (m, d).
 
     Chen's identity S = exp(dx_1) ⊗ ... ⊗ exp(dx_m) (sec. 7.1). Writing P_j[k] for level j of the
@@ -196,11 +222,7 @@ def signature_from_increments(dx, level):
     products, and the top level is the single matrix product T^T dx with T the (m, d^(n-1)) stack of
     the bracketed terms: the top level, the costly one, is one BLAS call.
     """
-    dx = np.asarray(dx, dtype=np.float64)
-    if dx.ndim != 2:
-        raise ShapeSigError(f"increments must have shape (steps, dim), got {dx.shape}")
     m, d = dx.shape
-    check_size(d, level)
     out = [np.ones(1)]
     if m == 0:
         return out + [np.zeros(d ** k) for k in range(1, level + 1)]

@@ -565,3 +565,26 @@ def test_walks_closer_than_walk_and_run(walk, walk2, run):
     a, b = restrict_to_shared(walk, walk2)
     a2, c = restrict_to_shared(walk, run)
     assert sg.normalized_distance(a.rotations, b.rotations, 2) < sg.normalized_distance(a2.rotations, c.rotations, 2)
+
+
+def test_long_paths_are_chunked_with_the_same_answer(monkeypatch):
+    rng = np.random.default_rng(19)
+    x = random_path(rng, 300, 3, scale=0.1)
+    expected = flat(plain_signature(x, 3))
+    monkeypatch.setattr(tensor, "CHUNK_ENTRIES", 1)  # chunks of 64 steps joined by Chen's identity
+    np.testing.assert_allclose(sg.path_signature(x, 3, method="numpy"), expected, rtol=0, atol=1e-12)
+
+
+def test_distances_from_stored_signatures():
+    rng = np.random.default_rng(21)
+    R0, R1 = random_curve(rng, 12, 2), random_curve(rng, 15, 2)
+    for n in (1, 2, 3):
+        s0, s1 = sg.signature(R0, n), sg.signature(R1, n)
+        assert abs(sg.group_distance_from_signatures(s0, s1, 6, n) - sg.group_distance(R0, R1, n)) < 1e-12
+        for basis in sg.BASES:
+            assert abs(sg.concat_distance_from_signatures(s0, s1, 6, n, basis=basis)
+                       - sg.concat_distance(R0, R1, n, basis=basis)) < 1e-12
+        a, b = sg.log_signature(R0, n), sg.log_signature(R1, n)
+        assert sg.normalized_difference(a, b) == sg.normalized_distance(R0, R1, n)
+    with pytest.raises(ShapeSigError):
+        sg.group_distance_from_signatures(s0[:-1], s1, 6, 3)
