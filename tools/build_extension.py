@@ -195,10 +195,16 @@ def pip_download(cache: Path, spec: str, platform: str) -> bool:
     return True
 
 
-def ensure_wheel(bext, cache: Path, spec: str, platform: str, offline: bool) -> Path | None:
+def ensure_wheel(bext, cache: Path, spec: str, platform: str, offline: bool, refresh: bool = False) -> Path | None:
+    """The cached wheel for ``spec`` on ``platform``, downloaded first if needed. A failed download leaves a
+    marker in the cache so later builds do not ask PyPI again (``--refresh`` asks again)."""
     hit = find_cached_wheel(bext, cache, spec, platform)
-    if hit is None and not offline:
-        pip_download(cache, spec, platform)
+    marker = cache / f".unavailable-{spec.replace('==', '-')}-{platform}"
+    if hit is None and not offline and (refresh or not marker.exists()):
+        if pip_download(cache, spec, platform):
+            marker.unlink(missing_ok=True)
+        else:
+            marker.write_text("pip download found no wheel; delete this file or pass --refresh to retry\n")
         hit = find_cached_wheel(bext, cache, spec, platform)
     return hit
 
@@ -244,7 +250,7 @@ def ensure_iisignature(bext, cache: Path, offline: bool) -> Path | None:
     return find_cached_wheel(bext, cache, IISIGNATURE, "linux-x64")
 
 
-def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, with_iisignature: bool):
+def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, without: set[str], refresh: bool = False):
     """Return ({platform: [wheel paths]}, {platform: [notes]}) for the platforms that have every required
     wheel; platforms lacking one are dropped (with a note)."""
     cache.mkdir(parents=True, exist_ok=True)
@@ -255,7 +261,7 @@ def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, with_
         note: list[str] = []
         missing = None
         for group, specs in REQUIRED_GROUPS.items():
-            found = [ensure_wheel(bext, cache, s, platform, offline) for s in specs]
+            found = [ensure_wheel(bext, cache, s, platform, offline, refresh) for s in specs]
             if None in found:
                 missing = group
                 break
@@ -265,19 +271,22 @@ def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, with_
             notes[platform] = [f"left out: no {missing} wheel"]
             continue
         for group, specs in OPTIONAL_GROUPS.items():
-            found = [ensure_wheel(bext, cache, s, platform, offline) for s in specs]
+            if group in without:
+                note.append(f"no {group} (--without)")
+                continue
+            found = [ensure_wheel(bext, cache, s, platform, offline, refresh) for s in specs]
             if None in found:
                 note.append(f"no {group} (numpy fallback)")
                 log(f"platform {platform}: {group} not bundled (no cp311 wheel), the numpy fallback is used")
             else:
                 wheels += found
-        if platform == "linux-x64" and with_iisignature:
-            iis = ensure_iisignature(bext, cache, offline)
-            if iis is not None:
-                wheels.append(iis)
-            else:
-                note.append("no iisignature (numpy fallback)")
-        elif platform != "linux-x64" or not with_iisignature:
+        if "iisignature" in without:
+            note.append("no iisignature (--without)")
+        elif platform != "linux-x64":
+            note.append("no iisignature (numpy fallback)")
+        elif (iis := ensure_iisignature(bext, cache, offline)) is not None:
+            wheels.append(iis)
+        else:
             note.append("no iisignature (numpy fallback)")
         chosen[platform] = wheels
         notes[platform] = note
@@ -372,7 +381,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--offline", action="store_true", help="use cached wheels only, never run pip download")
     ap.add_argument("--no-wheels", action="store_true",
                     help="bundle no wheels (the zips then need scipy from elsewhere; for manifest checks)")
-    ap.add_argument("--no-iisignature", action="store_true", help="do not bundle the iisignature wheel")
+    ap.add_argument("--without", default="", metavar="NAMES",
+                    help="comma-separated optional wheels to leave out: numba, iisignature (tests the fallbacks)")
+    ap.add_argument("--refresh", action="store_true", help="retry downloads that failed in an earlier build")
     ap.add_argument("--validate-only", action="store_true",
                     help="stage and run Blender's validator on the staged package, build no zip")
     ap.add_argument("--blender-ext", default=None, help="path to Blender's bl_pkg/cli/blender_ext.py")
@@ -397,7 +408,11 @@ def main(argv: list[str] | None = None) -> int:
             per_platform = {p: [] for p in platforms}
             notes = {p: ["no wheels (--no-wheels)"] for p in platforms}
         else:
-            per_platform, notes = collect_wheels(bext, cache, platforms, args.offline, not args.no_iisignature)
+            without = {w.strip() for w in args.without.split(",") if w.strip()}
+            if without - {"numba", "iisignature"}:
+                print(f"--without takes numba and/or iisignature, got {sorted(without)}", file=sys.stderr)
+                return 2
+            per_platform, notes = collect_wheels(bext, cache, platforms, args.offline, without, args.refresh)
         if not per_platform:
             raise BuildError("no platform has its required wheels: nothing to build")
         kept = [p for p in platforms if p in per_platform]
