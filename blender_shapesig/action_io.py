@@ -1,9 +1,558 @@
-"""Blender actions <-> core.Clip (issue 3). Planned API:
+"""Blender armature actions <-> ``core.Clip``.
 
-  read_action(action, armature=None, bones=None, frame_range=None, include_unkeyed=True) -> core.Clip
-      every rotation mode; root translation; clip.meta["still_bones"], clip.meta["fcurve_hash"]
-  write_action(clip, armature, name=None, rotation_modes=None) -> bpy.types.Action
-      new action, one key per frame per channel, keyframe_points.add + foreach_set
-  action_hash(action) -> str   # hash of the action's F-curve data (keys, handles, modes)
-  armature_actions(armature=None) -> list of actions that animate pose bones
+``read_action(action, armature=None, bones=None, frame_range=None, exclude_unkeyed=False)`` samples an
+action's pose-bone rotations on every integer frame as rotation matrices (each bone's rotation relative to
+its rest pose, in the bone's own rest frame: Blender's ``matrix_basis`` rotation).
+
+* Rotation mode per bone: the armature's pose bone ``rotation_mode`` when an armature is given (or the
+  ``rotation_modes`` argument); otherwise inferred from the channels present: ``rotation_quaternion`` ->
+  QUATERNION, else ``rotation_euler`` -> Euler order **XYZ** (an action does not record the Euler order;
+  pass the armature or ``rotation_modes`` when it is not XYZ), else ``rotation_axis_angle`` -> AXIS_ANGLE.
+* Channels an action does not key take their rest value (quaternion (1, 0, 0, 0), Euler 0, axis-angle
+  (0, 0, 1, 0)); bones with no rotation channel at all are the identity (or dropped with
+  ``exclude_unkeyed=True``) and listed in ``meta["missing_rotation_bones"]``.
+* Quaternions are normalized and made sign-continuous; axis-angle axes are normalized.
+* Frames: ``frame_range`` (inclusive) or the action's manual frame range or the keyed range of the bones
+  read. Keys that sit exactly on every integer frame are read with ``foreach_get``; otherwise each frame
+  is ``FCurve.evaluate``-d (honours interpolation and modifiers). Muted F-curves are ignored.
+* Root translation: the ``location`` of the root bone (the armature's first parentless bone, else the first
+  bone that has location F-curves), in that bone's rest frame, or None when it has no location channel.
+* ``meta``: ``still_bones``, ``fcurve_hash`` (``action_hash``), ``missing_rotation_bones``, ``slot``.
+* fps: the ``fps`` argument, else the action's ``shapesig_fps`` property (set by write_action), else the scene's.
+  Rotation modes without an armature: the action's ``shapesig_rotation_modes`` (set by write_action) first.
+
+``write_action(clip, armature=None, name=None, rotation_modes=None, fake_user=True)`` makes a new action
+(never modifies an existing one; the name gets a ``.001`` suffix when taken) with one LINEAR key per frame
+per channel, through ``keyframe_points.add`` + ``foreach_set``: quaternions sign-continuous, Euler angles
+unwrapped (no ±2π jumps between frames), one F-curve group per bone; a slot and channelbag on 4.4+.
 """
+
+import hashlib
+import math
+import re
+
+import bpy
+import numpy as np
+
+from . import compat
+from .core.clip import STILL_TOLERANCE, Clip
+from .core.errors import ShapeSigError
+
+__all__ = ["read_action", "write_action", "action_hash", "armature_actions", "EULER_MODES"]
+
+EULER_MODES = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
+ROTATION_MODES = EULER_MODES + ("QUATERNION", "AXIS_ANGLE")
+_PATH = re.compile(r'^pose\.bones\["((?:[^"\\]|\\.)*)"\]\.([A-Za-z_]+)$')
+_PROPS = {"rotation_quaternion": 4, "rotation_euler": 3, "rotation_axis_angle": 4, "location": 3, "scale": 3}
+_DEFAULTS = {
+    "rotation_quaternion": (1.0, 0.0, 0.0, 0.0),
+    "rotation_euler": (0.0, 0.0, 0.0),
+    "rotation_axis_angle": (0.0, 0.0, 1.0, 0.0),
+    "location": (0.0, 0.0, 0.0),
+}
+_MODE_PROP = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}
+_INTERP_LINEAR = 1  # Keyframe.interpolation enum value of 'LINEAR' (CONSTANT=0, LINEAR=1, BEZIER=2)
+
+
+# ------------------------------------------------------------- fast batched rotation conversions
+# (numpy closed forms: scipy's Rotation.from_matrix/from_euler cost ~20 ms per 12k rotations)
+
+_AX = {"X": 0, "Y": 1, "Z": 2}
+
+
+def quat_to_matrix(q):
+    """(n, 4) unit quaternions (w, x, y, z) -> (n, 3, 3)."""
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    out = np.empty((len(q), 3, 3))
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    out[:, 0, 0] = 1 - 2 * (yy + zz)
+    out[:, 0, 1] = 2 * (xy - wz)
+    out[:, 0, 2] = 2 * (xz + wy)
+    out[:, 1, 0] = 2 * (xy + wz)
+    out[:, 1, 1] = 1 - 2 * (xx + zz)
+    out[:, 1, 2] = 2 * (yz - wx)
+    out[:, 2, 0] = 2 * (xz - wy)
+    out[:, 2, 1] = 2 * (yz + wx)
+    out[:, 2, 2] = 1 - 2 * (xx + yy)
+    return out
+
+
+def matrix_to_quat(R):
+    """(n, 3, 3) rotation matrices -> (n, 4) unit quaternions (w, x, y, z) with w >= 0."""
+    m00, m01, m02 = R[:, 0, 0], R[:, 0, 1], R[:, 0, 2]
+    m10, m11, m12 = R[:, 1, 0], R[:, 1, 1], R[:, 1, 2]
+    m20, m21, m22 = R[:, 2, 0], R[:, 2, 1], R[:, 2, 2]
+    cand = np.empty((4, 4, len(R)))
+    cand[0] = (1 + m00 + m11 + m22, m21 - m12, m02 - m20, m10 - m01)
+    cand[1] = (m21 - m12, 1 + m00 - m11 - m22, m01 + m10, m02 + m20)
+    cand[2] = (m02 - m20, m01 + m10, 1 - m00 + m11 - m22, m12 + m21)
+    cand[3] = (m10 - m01, m02 + m20, m12 + m21, 1 - m00 - m11 + m22)
+    diag = np.stack([cand[0, 0], cand[1, 1], cand[2, 2], cand[3, 3]])
+    best = np.argmax(diag, axis=0)
+    q = cand[best, :, np.arange(len(R))]
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    return q
+
+
+def quat_mul(a, b):
+    """Hamilton product of (n, 4) quaternions (w, x, y, z)."""
+    aw, ax, ay, az = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
+    bw, bx, by, bz = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
+    return np.column_stack([
+        aw * bw - ax * bx - ay * by - az * bz,
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+    ])
+
+
+def euler_to_quat(mode, xyz):
+    """Blender Euler ``mode`` (first letter applied first), angles (n, 3) as (x, y, z) -> quaternions."""
+    q = None
+    for a in mode:
+        ax = _AX[a]
+        h = xyz[:, ax] * 0.5
+        e = np.zeros((len(xyz), 4))
+        e[:, 0] = np.cos(h)
+        e[:, 1 + ax] = np.sin(h)
+        q = e if q is None else quat_mul(e, q)
+    return q
+
+
+def matrix_to_euler(mode, R):
+    """(n, 3, 3) -> angles (n, 3) as (x, y, z) for Blender Euler ``mode``; the middle angle in [-pi/2, pi/2]."""
+    i, j, k = (_AX[a] for a in mode)
+    s = 1.0 if (j - i) % 3 == 1 else -1.0
+    sb = np.clip(-s * R[:, k, i], -1.0, 1.0)
+    b = np.arcsin(sb)
+    cb = np.sqrt(np.maximum(0.0, 1.0 - sb * sb))
+    a = np.arctan2(s * R[:, k, j], R[:, k, k])
+    c = np.arctan2(s * R[:, j, i], R[:, i, i])
+    lock = cb < 1e-6
+    if lock.any():
+        a = np.where(lock, 0.0, a)
+        c = np.where(lock, np.arctan2(-s * R[:, i, j], R[:, j, j]), c)
+    out = np.empty((len(R), 3))
+    out[:, i], out[:, j], out[:, k] = a, b, c
+    return out
+
+
+def _unescape(name):
+    return re.sub(r"\\(.)", r"\1", name)
+
+
+def _bone_path(bone, prop):
+    return f'pose.bones["{bpy.utils.escape_identifier(bone)}"].{prop}'
+
+
+def _prop_for_mode(mode):
+    return _MODE_PROP.get(mode, "rotation_euler")
+
+
+def _bone_channels(fcurves):
+    """{bone: {prop: {index: fcurve}}} for pose-bone F-curves (muted ones skipped), in order of appearance."""
+    out = {}
+    for fc in fcurves:
+        if fc.mute:
+            continue
+        m = _PATH.match(fc.data_path)
+        if not m:
+            continue
+        prop = m.group(2)
+        if prop not in _PROPS:
+            continue
+        index = fc.array_index
+        if index >= _PROPS[prop]:
+            continue
+        out.setdefault(_unescape(m.group(1)), {}).setdefault(prop, {})[index] = fc
+    return out
+
+
+def action_hash(action, _co_cache=None) -> str:
+    """SHA-1 of the action's F-curve data (all slots): data paths, indices, mute, extrapolation, modifiers,
+    and every key's co, handles, handle types, interpolation and easing. Any edit changes it."""
+    h = hashlib.sha1()
+    fcurves = compat.all_action_fcurves(action)
+    for fc in sorted(fcurves, key=lambda f: (f.data_path, f.array_index)):
+        h.update(f"{fc.data_path}[{fc.array_index}]|{fc.mute}|{fc.extrapolation}|".encode())
+        h.update("|".join(m.type for m in fc.modifiers).encode())
+        kp = fc.keyframe_points
+        n = len(kp)
+        h.update(n.to_bytes(8, "little"))
+        if not n:
+            continue
+        for attr in ("co", "handle_left", "handle_right"):
+            buf = _co_cache.get(fc.as_pointer()) if (attr == "co" and _co_cache) else None
+            if buf is None:
+                buf = np.empty(2 * n, dtype=np.float32)  # the RNA float type
+                kp.foreach_get(attr, buf)
+            h.update(buf.tobytes())
+        for attr in ("interpolation", "handle_left_type", "handle_right_type", "easing"):
+            ibuf = np.empty(n, dtype=np.int32)
+            try:
+                kp.foreach_get(attr, ibuf)
+                h.update(ibuf.tobytes())
+            except (TypeError, RuntimeError, AttributeError):
+                h.update(("".join(getattr(k, attr) for k in kp)).encode())
+    return h.hexdigest()
+
+
+def armature_actions(obj=None):
+    """Actions in bpy.data that animate pose bones; with an armature object, only those that animate at
+    least one of its bones. In bpy.data order."""
+    names = None
+    if obj is not None:
+        if getattr(obj, "type", None) != "ARMATURE":
+            raise ShapeSigError(f"{getattr(obj, 'name', obj)!r} is not an armature object")
+        names = {b.name for b in obj.data.bones}
+    out = []
+    for action in bpy.data.actions:
+        bones = _bone_channels(compat.all_action_fcurves(action))
+        if not bones:
+            continue
+        if names is not None and not (names & set(bones)):
+            continue
+        out.append(action)
+    return out
+
+
+def _keys_on_every_frame(fc, start, n, co_cache=None):
+    """The key values when ``fc`` has exactly one key on each frame start..start+n-1 and no modifiers."""
+    kp = fc.keyframe_points
+    if len(kp) != n or len(fc.modifiers):
+        return None
+    co = np.empty(2 * n, dtype=np.float32)
+    kp.foreach_get("co", co)
+    if co_cache is not None:
+        co_cache[fc.as_pointer()] = co
+    if not np.array_equal(co[0::2], np.arange(start, start + n, dtype=np.float32)):
+        return None
+    return co[1::2].astype(np.float64)
+
+
+def _sample(fc, frames, start, co_cache=None):
+    values = _keys_on_every_frame(fc, start, len(frames), co_cache)
+    if values is not None:
+        return values
+    ev = fc.evaluate
+    return np.fromiter((ev(f) for f in frames), dtype=np.float64, count=len(frames))
+
+
+def _sample_prop(chans, prop, frames, start, co_cache=None):
+    size = _PROPS[prop]
+    out = np.empty((len(frames), size))
+    default = _DEFAULTS[prop]
+    got = chans.get(prop, {})
+    for i in range(size):
+        fc = got.get(i)
+        out[:, i] = default[i] if fc is None else _sample(fc, frames, start, co_cache)
+    return out
+
+
+def _quat_continuous(q):
+    """Flip signs so that consecutive quaternions (frames, 4) lie in the same hemisphere."""
+    if len(q) < 2:
+        return q
+    dots = np.einsum("ij,ij->i", q[1:], q[:-1])
+    signs = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
+    return q * signs[:, None]
+
+
+def matrices_from_channels(mode, values):
+    """Rotation matrices (frames, 3, 3) from Blender channel values (frames, 3 or 4) in ``mode``."""
+    n = len(values)
+    if mode == "QUATERNION":
+        q = np.asarray(values, dtype=np.float64)
+        norm = np.linalg.norm(q, axis=1)
+        zero = norm < 1e-12
+        q = np.where(zero[:, None], [1.0, 0.0, 0.0, 0.0], q / np.where(zero, 1.0, norm)[:, None])
+        return quat_to_matrix(q)
+    if mode == "AXIS_ANGLE":
+        angle = values[:, 0]
+        axis = values[:, 1:4]
+        norm = np.linalg.norm(axis, axis=1)
+        ok = norm > 1e-12
+        half = np.where(ok, angle, 0.0) * 0.5
+        q = np.empty((n, 4))
+        q[:, 0] = np.cos(half)
+        q[:, 1:] = axis / np.where(ok, norm, 1.0)[:, None] * np.sin(half)[:, None]
+        return quat_to_matrix(q)
+    if mode in EULER_MODES:
+        return quat_to_matrix(euler_to_quat(mode, values))
+    raise ShapeSigError(f"unknown rotation mode {mode!r}")
+
+
+def _mode_from_channels(chans):
+    if "rotation_quaternion" in chans:
+        return "QUATERNION"
+    if "rotation_euler" in chans:
+        return "XYZ"
+    if "rotation_axis_angle" in chans:
+        return "AXIS_ANGLE"
+    return "QUATERNION"
+
+
+def _modes_lookup(rotation_modes, bones):
+    """rotation_modes: None, one mode for all, a dict bone -> mode, or a sequence parallel to bones."""
+    if rotation_modes is None:
+        return {}
+    if isinstance(rotation_modes, str):
+        out = {b: rotation_modes for b in bones}
+    elif isinstance(rotation_modes, dict):
+        out = dict(rotation_modes)
+    else:
+        modes = list(rotation_modes)
+        if len(modes) != len(bones):
+            raise ShapeSigError(f"{len(modes)} rotation modes for {len(bones)} bones")
+        out = dict(zip(bones, modes))
+    bad = {m for m in out.values() if m not in ROTATION_MODES}
+    if bad:
+        raise ShapeSigError(f"unknown rotation mode(s) {', '.join(sorted(bad))}; use one of {', '.join(ROTATION_MODES)}")
+    return out
+
+
+def _action_frame_range(action, channels, bones):
+    if getattr(action, "use_frame_range", False):
+        return int(round(action.frame_start)), int(round(action.frame_end))
+    lo, hi = math.inf, -math.inf
+    for b in bones:
+        for prop in channels.get(b, {}).values():
+            for fc in prop.values():
+                if len(fc.keyframe_points):
+                    a, z = fc.range()
+                    lo, hi = min(lo, a), max(hi, z)
+    if lo == math.inf:
+        return None
+    return int(math.floor(lo + 1e-6)), int(math.ceil(hi - 1e-6))
+
+
+def still_bones(R, names, tolerance=STILL_TOLERANCE):
+    """Bones whose rotation stays within ``tolerance`` radians of their first frame's (as Clip.still_bones,
+    computed from the chord: ||R_k - R_0||_F = 2 sqrt(2) sin(angle / 2), accurate for small angles)."""
+    chord = np.sqrt(((R - R[:1]) ** 2).sum(axis=(2, 3)))
+    angle = 2.0 * np.arcsin(np.minimum(1.0, chord / (2.0 * math.sqrt(2.0))))
+    still = angle.max(axis=0) <= tolerance
+    return tuple(b for b, m in zip(names, still) if m)
+
+
+def read_action(action, armature=None, bones=None, frame_range=None, exclude_unkeyed=False,
+                rotation_modes=None, slot=None, fps=None, name=None) -> Clip:
+    """The action as a Clip (see the module docstring). ``armature``: an armature object (bone order, rotation
+    modes, root bone); ``bones``: names to read, in that order; ``slot``: the action slot to read (4.4+; default:
+    the armature's slot when it uses this action, else the first slot with F-curves); ``fps``: default the
+    scene's."""
+    if action is None:
+        raise ShapeSigError("no action given")
+    if armature is not None and getattr(armature, "type", None) != "ARMATURE":
+        raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} is not an armature object")
+    if slot is None and armature is not None and getattr(armature.animation_data, "action", None) == action:
+        slot = compat.object_action_slot(armature)
+    fcurves = compat.action_fcurves(action, slot)
+    channels = _bone_channels(fcurves)
+
+    if bones is not None:
+        names = list(bones)
+    elif armature is not None:
+        names = [b.name for b in armature.data.bones]
+    else:
+        names = list(channels)
+    if armature is not None:
+        missing = [b for b in names if b not in armature.pose.bones]
+        if missing:
+            raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
+    if not names:
+        raise ShapeSigError(f"action {action.name!r} animates no pose bones")
+
+    rot_props = ("rotation_quaternion", "rotation_euler", "rotation_axis_angle")
+    unkeyed = [b for b in names if not any(p in channels.get(b, {}) for p in rot_props)]
+    if exclude_unkeyed:
+        names = [b for b in names if b not in unkeyed]
+        if not names:
+            raise ShapeSigError(f"action {action.name!r} has no rotation channels for the bones asked for")
+
+    if frame_range is not None:
+        start, end = int(frame_range[0]), int(frame_range[1])
+        if end < start:
+            raise ShapeSigError(f"empty frame range {start}..{end}")
+    else:
+        rng = _action_frame_range(action, channels, names)
+        if rng is None:
+            rng = _action_frame_range(action, channels, list(channels))
+        if rng is None:
+            raise ShapeSigError(f"action {action.name!r} has no keyframes")
+        start, end = rng
+    frames = np.arange(start, end + 1, dtype=np.float64)
+    nf = len(frames)
+
+    override = _modes_lookup(rotation_modes, names)
+    if not override and armature is None:
+        stored = action.get("shapesig_rotation_modes")
+        if stored is not None:
+            override = {b: m for b, m in stored.items() if b in names and m in ROTATION_MODES}
+    co_cache = {}
+    modes = []
+    R = np.empty((nf, len(names), 3, 3))
+    for j, b in enumerate(names):
+        chans = channels.get(b, {})
+        if b in override:
+            mode = override[b]
+        elif armature is not None:
+            mode = armature.pose.bones[b].rotation_mode
+        else:
+            mode = _mode_from_channels(chans)
+        modes.append(mode)
+        prop = _prop_for_mode(mode)
+        if prop not in chans:
+            R[:, j] = np.eye(3)
+            continue
+        R[:, j] = matrices_from_channels(mode, _sample_prop(chans, prop, frames, start, co_cache))
+
+    root = None
+    if armature is not None:
+        for b in armature.data.bones:
+            if b.parent is None:
+                root = b.name
+                break
+    else:
+        for b in names:
+            if "location" in channels.get(b, {}):
+                root = b
+                break
+    root_translation = None
+    if root is not None and "location" in channels.get(root, {}):
+        root_translation = _sample_prop(channels[root], "location", frames, start, co_cache)
+
+    if fps is None and isinstance(action.get("shapesig_fps"), (int, float)) and action["shapesig_fps"] > 0:
+        fps = action["shapesig_fps"]
+    if fps is None:
+        scene = getattr(bpy.context, "scene", None)
+        fps = scene.render.fps / scene.render.fps_base if scene is not None else 24.0
+    source = action.name_full
+    if getattr(action, "library", None) is not None:
+        source = f"{action.library.filepath}#{action.name}"
+    clip = Clip(
+        name=name or action.name,
+        bones=tuple(names),
+        rotations=R,
+        fps=float(fps),
+        frame_start=start,
+        root_translation=root_translation,
+        root_bone=root,
+        rotation_modes=tuple(modes),
+        source=source,
+        meta={
+            "action": action.name,
+            "slot": getattr(slot, "identifier", None),
+            "missing_rotation_bones": tuple(unkeyed),
+            "fcurve_hash": action_hash(action, co_cache),
+        },
+    )
+    clip.meta["still_bones"] = still_bones(R, names)
+    return clip
+
+
+# ----------------------------------------------------------------------------------------- writing
+
+
+def channels_from_matrices(mode, R):
+    """Blender channel values (frames, 3 or 4) for matrices (frames, 3, 3) in ``mode``: quaternions
+    (w, x, y, z) sign-continuous, Euler (x, y, z) unwrapped, axis-angle (angle, x, y, z) with a continuous axis."""
+    if mode == "QUATERNION":
+        return _quat_continuous(matrix_to_quat(R))
+    if mode == "AXIS_ANGLE":
+        q = matrix_to_quat(R)  # w >= 0: angle in [0, pi]
+        vnorm = np.linalg.norm(q[:, 1:], axis=1)
+        angle = 2.0 * np.arctan2(vnorm, q[:, 0])
+        axis = np.zeros((len(q), 3))
+        ok = vnorm > 1e-12
+        axis[ok] = q[ok, 1:] / vnorm[ok, None]
+        # undefined axes (zero angle) take the previous axis (or +Y)
+        last = np.array([0.0, 1.0, 0.0])
+        for i in np.nonzero(~ok)[0]:
+            axis[i] = axis[i - 1] if i > 0 and ok[:i].any() else last
+        if len(axis) > 1:
+            dots = np.einsum("ij,ij->i", axis[1:], axis[:-1])
+            signs = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
+            axis = axis * signs[:, None]
+            angle = angle * signs
+        return np.column_stack([angle, axis])
+    if mode in EULER_MODES:
+        return np.unwrap(matrix_to_euler(mode, R), axis=0)
+    raise ShapeSigError(f"unknown rotation mode {mode!r}")
+
+
+def _write_fcurve(bag, bone, prop, index, frames_f32, values, co_buf, interp):
+    fc = compat.new_fcurve(bag, _bone_path(bone, prop), index, bone)
+    kp = fc.keyframe_points
+    kp.add(len(frames_f32))
+    co_buf[1::2] = values
+    kp.foreach_set("co", co_buf)
+    kp.foreach_set("interpolation", interp)
+    fc.update()
+    return fc
+
+
+def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake_user=True,
+                 assign=False, root_bone=None) -> "bpy.types.Action":
+    """A new action holding ``clip`` (one key per frame per channel). Rotation mode per bone:
+    ``rotation_modes`` (one mode, a dict or a sequence parallel to clip.bones), else the armature's pose bone,
+    else ``clip.rotation_modes``, else QUATERNION. The root translation is written as the ``location`` of
+    ``root_bone`` (default ``clip.root_bone``, else the first bone). With ``assign`` the armature's active
+    action becomes the new action. On error nothing is left behind."""
+    if not isinstance(clip, Clip):
+        raise ShapeSigError("write_action needs a Clip")
+    if armature is not None and getattr(armature, "type", None) != "ARMATURE":
+        raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} is not an armature object")
+    override = _modes_lookup(rotation_modes, clip.bones)
+    clip_modes = dict(zip(clip.bones, clip.rotation_modes)) if clip.rotation_modes else {}
+    modes = []
+    for b in clip.bones:
+        if b in override:
+            mode = override[b]
+        elif armature is not None and b in armature.pose.bones:
+            mode = armature.pose.bones[b].rotation_mode
+        elif clip_modes.get(b) in ROTATION_MODES:
+            mode = clip_modes[b]
+        else:
+            mode = "QUATERNION"
+        modes.append(mode)
+
+    nf = clip.frames
+    frames = np.arange(clip.frame_start, clip.frame_start + nf, dtype=np.float32)
+    co_buf = np.empty(2 * nf, dtype=np.float32)
+    co_buf[0::2] = frames
+    interp = np.full(nf, _INTERP_LINEAR, dtype=np.int32)
+    # compute every channel before creating anything
+    channel_values = [channels_from_matrices(m, clip.rotations[:, j]) for j, m in enumerate(modes)]
+    root = root_bone or clip.root_bone or clip.bones[0]
+
+    action = bpy.data.actions.new(name or clip.name)
+    try:
+        bag, _slot = compat.ensure_channelbag(action, "OBJECT", name=(armature.name if armature else None))
+        for j, (b, mode) in enumerate(zip(clip.bones, modes)):
+            prop = _prop_for_mode(mode)
+            vals = channel_values[j]
+            if b == root and clip.root_translation is not None:
+                for i in range(3):
+                    _write_fcurve(bag, b, "location", i, frames, clip.root_translation[:, i], co_buf, interp)
+            for i in range(vals.shape[1]):
+                _write_fcurve(bag, b, prop, i, frames, vals[:, i], co_buf, interp)
+        if root not in clip.bones and clip.root_translation is not None:
+            for i in range(3):
+                _write_fcurve(bag, root, "location", i, frames, clip.root_translation[:, i], co_buf, interp)
+        action.use_fake_user = bool(fake_user)
+        # what an action cannot say by itself, for read_action without an armature
+        action["shapesig_fps"] = float(clip.fps)
+        action["shapesig_rotation_modes"] = dict(zip(clip.bones, modes))
+        if assign and armature is not None:
+            for b, mode in zip(clip.bones, modes):
+                pb = armature.pose.bones.get(b)
+                if pb is not None and pb.rotation_mode != mode:
+                    pb.rotation_mode = mode
+            compat.assign_action(armature, action)
+    except Exception:
+        compat.remove_action(action)
+        raise
+    return action

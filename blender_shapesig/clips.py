@@ -1,6 +1,241 @@
-"""Load clips from files for the command line and folder libraries (issue 3). Planned API:
+"""Load clips from files (a CLIP argument of the command line, folder libraries, operators).
 
-  load_clips(spec, asf=None, fps=None) -> list[core.Clip]
-      spec: FILE.bvh (Blender's importer), FILE.amc (core.acclaim; skeleton = asf or the only .asf
-      beside it), FILE.blend (every armature action), FILE.blend#ACTION
+``load_clips(spec, asf=None, fps=None) -> list[Clip]``:
+
+* ``FILE.amc``: ``core.acclaim.load_acclaim`` (skeleton: ``asf``, else the only .asf beside the .amc).
+  Rotations are ASF-world-aligned local rotations (see core/acclaim.py), 120 fps.
+* ``FILE.bvh``: Blender's own BVH importer (``bpy.ops.import_anim.bvh``, rotate_mode 'NATIVE', default axis
+  conversion: BVH Y up / -Z forward -> Blender Z up, scale 1) into a temporary scene that is removed with
+  the imported armature and action afterwards; read with ``action_io.read_action`` (pose-bone rotations in
+  each bone's rest frame; rest frames include the Y-up -> Z-up conversion, so local rotations are those of the
+  file conjugated by each bone's rest orientation). fps = 1 / the file's ``Frame Time``. Every frame is kept
+  (the Daz-friendly CMU files' first rest-pose frame too: crop it with ``Clip.crop``).
+* ``FILE.blend``: every action in the file that animates pose bones; ``FILE.blend#ACTION``: that one. The
+  actions (and the file's armature objects, for bone rotation modes and order) are appended with
+  ``bpy.data.libraries.load``, read, and every data-block the append created is removed again.
+
+``fps`` overrides the clips' frame rate. Errors are ``ParseError`` with a one-line message.
 """
+
+import contextlib
+import io
+import os
+
+import bpy
+
+from . import action_io, compat
+from .core.acclaim import load_acclaim
+from .core.errors import ParseError, ShapeSigError
+
+__all__ = ["load_clips", "split_spec", "import_bvh"]
+
+EXTENSIONS = (".bvh", ".amc", ".blend")
+
+
+def split_spec(spec):
+    """(path, action name or None) for ``FILE.blend#ACTION`` / plain paths."""
+    spec = os.fspath(spec)
+    if "#" in spec:
+        path, _, action = spec.rpartition("#")
+        if path.lower().endswith(".blend"):
+            return path, action
+    return spec, None
+
+
+def load_clips(spec, asf=None, fps=None):
+    path, action_name = split_spec(spec)
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in EXTENSIONS:
+        raise ParseError(f"unknown clip type {ext or '(no extension)'!r}; expected .bvh, .amc, .blend or "
+                         f"FILE.blend#ACTION", path)
+    if not os.path.isfile(path):
+        raise ParseError("no such file", path)
+    if ext == ".amc":
+        clips = [load_acclaim(path, asf)]
+    elif ext == ".bvh":
+        clips = [import_bvh(path)]
+    else:
+        clips = _load_blend(path, action_name)
+    if fps is not None:
+        for c in clips:
+            c.fps = float(fps)
+    return clips
+
+
+# ------------------------------------------------------------------------------------------- BVH
+
+
+def _bvh_frame_time(path):
+    with open(path, "r", encoding="utf-8", errors="replace") as fh:
+        for no, line in enumerate(fh, 1):
+            if line.strip().lower().startswith("frame time"):
+                try:
+                    value = float(line.split(":", 1)[1])
+                except (IndexError, ValueError):
+                    raise ParseError("bad 'Frame Time' line", path, no) from None
+                if not value > 0:
+                    raise ParseError("'Frame Time' must be positive", path, no)
+                return value
+            if no > 100000:
+                break
+    raise ParseError("no 'Frame Time' line (is this a BVH file?)", path)
+
+
+def _ensure_bvh_importer():
+    try:
+        bpy.ops.import_anim.bvh.get_rna_type()
+        return
+    except (AttributeError, KeyError):
+        pass
+    import addon_utils
+
+    addon_utils.enable("io_anim_bvh", default_set=False)
+    try:
+        bpy.ops.import_anim.bvh.get_rna_type()
+    except (AttributeError, KeyError):
+        raise ShapeSigError("Blender's BVH importer (io_anim_bvh) is not available") from None
+
+
+def _id_snapshot():
+    return {(coll, id_.as_pointer()) for coll in _ID_COLLECTIONS for id_ in getattr(bpy.data, coll)}
+
+
+_ID_COLLECTIONS = ("actions", "objects", "armatures", "meshes", "materials", "collections", "scenes",
+                   "node_groups", "images", "textures", "cameras", "lights", "curves", "grease_pencils",
+                   "worlds", "libraries")
+
+
+def _remove_new_ids(before):
+    """Remove every data-block created since the snapshot ``before``."""
+    new = [id_ for coll in _ID_COLLECTIONS for id_ in getattr(bpy.data, coll, ())
+           if (coll, id_.as_pointer()) not in before]
+    scenes = [i for i in new if isinstance(i, bpy.types.Scene)]
+    others = [i for i in new if not isinstance(i, bpy.types.Scene)]
+    if others:
+        bpy.data.batch_remove(others)
+    for sc in scenes:
+        with contextlib.suppress(RuntimeError, ReferenceError):
+            bpy.data.scenes.remove(sc)
+
+
+def import_bvh(path, name=None):
+    """One BVH file as a Clip through Blender's importer, leaving the file as it was."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ParseError("no such file", path)
+    frame_time = _bvh_frame_time(path)
+    _ensure_bvh_importer()
+    before = _id_snapshot()
+    window = getattr(bpy.context, "window", None)
+    old_scene = window.scene if window is not None else None
+    old_selected, old_active = None, None
+    if window is None:
+        # no window: import into the current scene, remembering selection and active object
+        old_selected = [o for o in bpy.context.scene.objects if o.select_get()]
+        old_active = bpy.context.view_layer.objects.active
+    try:
+        if window is not None:
+            window.scene = bpy.data.scenes.new("shapesig_bvh_import")
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):  # the importer prints progress
+                result = bpy.ops.import_anim.bvh(filepath=path, rotate_mode="NATIVE", frame_start=1,
+                                                 use_fps_scale=False, update_scene_fps=False,
+                                                 update_scene_duration=False, global_scale=1.0)
+        except RuntimeError as exc:
+            lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip() and not ln.startswith("Location")]
+            raise ParseError(f"Blender's BVH importer failed: {lines[-1] if lines else exc}", path) from None
+        if "FINISHED" not in result:
+            raise ParseError("Blender's BVH importer did not finish", path)
+        armatures = [o for o in bpy.data.objects
+                     if ("objects", o.as_pointer()) not in before and o.type == "ARMATURE"]
+        if len(armatures) != 1 or armatures[0].animation_data is None or armatures[0].animation_data.action is None:
+            raise ParseError("the BVH importer made no animated armature", path)
+        arm = armatures[0]
+        fps = 1.0 / frame_time
+        if abs(fps - round(fps)) < 1e-3:
+            fps = float(round(fps))  # "Frame Time: 0.00833333" means 120 fps
+        clip = action_io.read_action(arm.animation_data.action, armature=arm, fps=fps,
+                                     name=name or os.path.splitext(os.path.basename(path))[0])
+        clip.source = path
+        clip.meta["format"] = "bvh"
+        return clip
+    finally:
+        if window is not None:
+            window.scene = old_scene
+        _remove_new_ids(before)
+        if old_selected is not None:
+            for o in old_selected:
+                with contextlib.suppress(ReferenceError, RuntimeError):
+                    o.select_set(True)
+            with contextlib.suppress(ReferenceError, RuntimeError):
+                bpy.context.view_layer.objects.active = old_active
+
+
+# ----------------------------------------------------------------------------------------- .blend
+
+
+def _best_armature(action, armatures):
+    """The armature that uses the action, else the one sharing the most bones with it (or None)."""
+    for arm in armatures:
+        if arm.animation_data is not None and arm.animation_data.action == action:
+            return arm
+    bones = set(action_io._bone_channels(compat.all_action_fcurves(action)))
+    best, score = None, 0
+    for arm in armatures:
+        n = len(bones & {b.name for b in arm.data.bones})
+        if n > score:
+            best, score = arm, n
+    if best is not None and score == len(bones):
+        return best
+    return None
+
+
+def _load_blend(path, action_name):
+    try:
+        with bpy.data.libraries.load(path, link=False) as (data_from, _to):
+            available = list(data_from.actions)
+            objects = list(data_from.objects)
+    except (OSError, RuntimeError) as exc:
+        raise ParseError(f"cannot read .blend file: {str(exc).splitlines()[0] if str(exc) else exc}", path) from None
+    if action_name is not None and action_name not in available:
+        shown = ", ".join(available[:8]) + (" ..." if len(available) > 8 else "")
+        raise ParseError(f"no action {action_name!r} in the file (it has: {shown or 'none'})", path)
+    wanted = [action_name] if action_name is not None else available
+    if not wanted:
+        raise ParseError("the file has no actions", path)
+    before = _id_snapshot()
+    try:
+        with bpy.data.libraries.load(path, link=False) as (data_from, data_to):
+            data_to.actions = list(wanted)
+            data_to.objects = objects
+        loaded_objects = [o for o in data_to.objects if o is not None]
+        armatures = [o for o in loaded_objects if o.type == "ARMATURE"]
+        clips = []
+        for want, action in zip(wanted, data_to.actions):
+            if action is None:
+                continue
+            if not action_io._bone_channels(compat.all_action_fcurves(action)):
+                if action_name is not None:
+                    raise ParseError(f"action {action_name!r} animates no pose bones", path)
+                continue
+            arm = _best_armature(action, armatures)
+            clip = action_io.read_action(action, armature=arm, name=want,
+                                         bones=None if arm is None else _animated_bones(action, arm))
+            clip.source = f"{path}#{want}"
+            clip.meta["format"] = "blend"
+            clips.append(clip)
+        if not clips:
+            raise ParseError("no action in the file animates pose bones", path)
+        return clips
+    except ShapeSigError as exc:
+        if isinstance(exc, ParseError):
+            raise
+        raise ParseError(str(exc), path) from None
+    finally:
+        _remove_new_ids(before)
+
+
+def _animated_bones(action, arm):
+    """The armature's bones (armature order) that the action animates."""
+    keyed = set(action_io._bone_channels(compat.all_action_fcurves(action)))
+    return [b.name for b in arm.data.bones if b.name in keyed]
