@@ -340,19 +340,21 @@ def cmd_blend(args):
         raise CommandError("--frames must be 2 or more")
     a = load_one(args.a, args.asf)
     b = load_one(args.b, args.asf)
-    from .core.blend import blend_clips
+    from .core.blend import blend_clip_series, blend_name
 
-    base = args.name or f"{a.name}_{b.name}_blend"
-    blended = []
     bar = _progress(args, len(weights), "blending")
     try:
-        for w in weights:
-            clip = blend_clips(a, b, w, align=args.align, depth=args.depth, frames=args.frames)
-            clip.name = base if len(weights) == 1 else f"{base}_{w:.3f}"
-            blended.append(clip)
-            bar.update()
+        blended = blend_clip_series(
+            a, b, weights, align=args.align, depth=args.depth, frames=args.frames,
+            progress=lambda i, n: bar.update(),
+        )
     finally:
         bar.close()
+    for clip, w in zip(blended, weights):
+        if args.name:
+            clip.name = args.name if len(weights) == 1 else f"{args.name}_{w:.2f}"
+        else:
+            clip.name = blend_name(a.name, b.name, w)
     names = write_blend_file(args.a, blended, out_path, asf=args.asf)
     out = {
         "out": out_path,
@@ -513,7 +515,7 @@ def build_parser():
     p.add_argument(
         "--inbetweens", type=int, metavar="K", help="write K blends at weights 1/(K+1) .. K/(K+1) instead of --weight"
     )
-    p.add_argument("--name", help="name of the new action (default A_B_blend)")
+    p.add_argument("--name", help="name of the new action (default <A>_x_<B>_<weight>)")
     p.add_argument("--out", required=True, metavar="FILE.blend", help="the .blend file to write")
     _add_common(p)
     p.set_defaults(func=cmd_blend)

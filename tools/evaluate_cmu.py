@@ -1,0 +1,237 @@
+#!/usr/bin/env python
+"""Reproduce (and extend) the thesis' experiments on the shared CMU clips (docs/evaluation.md).
+
+  .venv/bin/python tools/evaluate_cmu.py --data /work/shared/data/cmu --out out/eval [--docs docs/img]
+
+1. ``evaluate`` on the 27-clip set (tools/eval_sets/cmu27.csv: 12 walks, 12 runs, 3 forward jumps)
+   and on the larger set (tools/eval_sets/cmu_large.csv: + 17 walks, 5 other jumps): leave-one-out
+   1-NN accuracy, confusion tables and wall time of every metric, with our DP and the plain numpy DP
+   baseline in the same run, the signature variants and the two-stage search;
+2. the interpolation experiment (thesis Figs 9.1, 9.2, 9.6): every measure between the SRVT
+   geodesic blend c(s) of a walk and a run and the run, for s in [0, 1];
+3. with ``--docs DIR``: copies the figures used by docs/evaluation.md to DIR/eval_*.png.
+
+Everything goes through the library (``blender_shapesig.core.evaluation``) and the command line's
+clip loader, so the numbers are those of ``python -m blender_shapesig evaluate``.
+"""
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+from blender_shapesig import cli  # noqa: E402
+from blender_shapesig.core import evaluation as ev  # noqa: E402
+
+SETS = {
+    "cmu27": os.path.join(ROOT, "tools", "eval_sets", "cmu27.csv"),
+    "cmu_large": os.path.join(ROOT, "tools", "eval_sets", "cmu_large.csv"),
+}
+METRICS = {
+    "cmu27": (
+        "l2", "elastic", "elastic_numpy", "group3", "concat3", "linear3", "sim2", "sim3",
+        "linear3_tensor", "sim2_tensor", "sim3_tensor", "sim2_levelnorm", "sim3_levelnorm",
+        "sim3_levelnorm_tensor", "sim4_levelnorm",
+        "sim3+elastic1", "sim3+elastic3", "sim3+elastic5", "sim3_levelnorm+elastic3", "sim3_levelnorm+elastic5",
+    ),
+    "cmu_large": (
+        "l2", "elastic", "group3", "concat3", "linear3", "sim2", "sim3",
+        "linear3_tensor", "sim2_tensor", "sim3_tensor", "sim2_levelnorm", "sim3_levelnorm",
+        "sim3_levelnorm_tensor", "sim4_levelnorm",
+        "sim3+elastic1", "sim3+elastic3", "sim3+elastic5", "sim3_levelnorm+elastic3", "sim3_levelnorm+elastic5",
+    ),
+}
+
+_CACHE = {}
+
+
+def make_loader(data):
+    def loader(entry):
+        path = os.path.join(data, entry.file)
+        key = (path, entry.skeleton)
+        if key not in _CACHE:
+            skeleton = os.path.join(data, entry.skeleton) if entry.skeleton else None
+            with cli._stdout_to_stderr():
+                _CACHE[key] = cli.load_one(path, skeleton)
+        return _CACHE[key]
+
+    return loader
+
+
+def run_set(name, data, out, metrics, depth, workers):
+    entries = ev.read_index(SETS[name])
+    out_dir = os.path.join(out, name)
+    t0 = time.perf_counter()
+    summary = ev.evaluate(entries, make_loader(data), metrics, out_dir, depth=depth, workers=workers,
+                          figures=True, progress="tqdm", log=lambda m: print(f"[{name}] {m}", file=sys.stderr))
+    print(f"[{name}] done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return summary
+
+
+# ---------------------------------------------------------------------------------------------
+# interpolation experiment (Figs 9.1, 9.2, 9.6)
+
+
+def interpolation(data, out, walk, run, align, steps=21, levels=(1, 2, 3)):
+    from blender_shapesig.core import curves, signatures
+    from blender_shapesig.core.blend import geodesic_blend
+    from blender_shapesig.core.clip import restrict_to_shared
+
+    load = make_loader(data)
+    a = load(walk).crop(walk.start, walk.end)
+    b = load(run).crop(run.start, run.end)
+    a, b = restrict_to_shared(a, b)
+    s_values = np.linspace(0.0, 1.0, steps)
+    rows = {"s": s_values.tolist(), "walk": os.path.basename(walk.file), "run": os.path.basename(run.file),
+            "align": align, "measures": {}}
+    measures = rows["measures"]
+
+    def put(key, value):
+        measures.setdefault(key, []).append(float(value))
+
+    target = None
+    for s in s_values:
+        c, info = geodesic_blend(a.rotations, b.rotations, float(s), align=align, return_info=True)
+        grid = info["grid"]
+        C = info["curve"]  # the blend on the merged grid G, in P*
+        B1 = info["curve1"]  # b (o phi) on G, in P*: the end point of the geodesic
+        if target is None:
+            target = B1
+        put("d_P*", curves.l2_distance(C, B1, grid, grid))
+        for n in levels:
+            put(f"rho^{n}", signatures.group_distance(C, B1, n))
+            put(f"sigma_*^{n}", signatures.concat_distance(C, B1, n))
+            put(f"sigma_L^{n}", signatures.linear_distance(C, B1, n))
+            put(f"sim^{n}", signatures.normalized_distance(C, B1, n))
+    tag = "aligned" if align else "unaligned"
+    with open(os.path.join(out, f"interpolation_{tag}.json"), "w") as fh:
+        json.dump(rows, fh, indent=1)
+    plot_interpolation(rows, out, tag)
+    return rows
+
+
+def plot_interpolation(rows, out, tag):
+    plt = ev._pyplot()
+    s = np.array(rows["s"])
+    m = rows["measures"]
+
+    def norm(v):
+        v = np.asarray(v, dtype=float)
+        top = np.max(np.abs(v))
+        return v / top if top > 0 else v
+
+    groups = {
+        "group": ("Group metric rho^n (Fig. 9.1)", [k for k in m if k.startswith("rho")]),
+        "logsig": ("Log-signature metrics sigma_L^n, sigma_*^n (Fig. 9.2)",
+                   [k for k in m if k.startswith("sigma")]),
+        "sim": ("Normalized difference sim^n (Fig. 9.6)", [k for k in m if k.startswith("sim")]),
+    }
+    paths = []
+    for key, (title, names) in groups.items():
+        fig, ax = plt.subplots(figsize=(6.0, 4.2))
+        ax.plot(s, norm(m["d_P*"]), "k--", lw=2, label="d_P* (reference)")
+        for k in names:
+            ax.plot(s, norm(m[k]), marker=".", label=k)
+        ax.set_xlabel("s (blend weight: 0 = walk, 1 = run)")
+        ax.set_ylabel("distance to the run / max over s")
+        ax.set_title(f"{title}\n{rows['walk']} -> {rows['run']}, {tag}", fontsize=10)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+        fig.tight_layout()
+        path = os.path.join(out, f"interpolation_{key}_{tag}.png")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+def linearity(rows):
+    """Max deviation of each normalized measure from the normalized d_P* line (0 = straight)."""
+    ref = np.asarray(rows["measures"]["d_P*"])
+    ref = ref / ref.max()
+    out = {}
+    for k, v in rows["measures"].items():
+        v = np.asarray(v)
+        v = v / v.max() if v.max() > 0 else v
+        out[k] = float(np.max(np.abs(v - ref)))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+DOC_FIGURES = {
+    # docs/img name: (set, file under the set's output)
+    "eval_27_mds_l2.png": ("cmu27", "figures/mds_l2.png"),
+    "eval_27_mds_elastic.png": ("cmu27", "figures/mds_elastic.png"),
+    "eval_27_dendrogram_elastic.png": ("cmu27", "figures/dendrogram_elastic.png"),
+    "eval_27_mds_group3.png": ("cmu27", "figures/mds_group3.png"),
+    "eval_27_mds_linear3.png": ("cmu27", "figures/mds_linear3.png"),
+    "eval_27_mds_concat3.png": ("cmu27", "figures/mds_concat3.png"),
+    "eval_27_mds_sim3.png": ("cmu27", "figures/mds_sim3.png"),
+    "eval_27_mds_sim3_levelnorm.png": ("cmu27", "figures/mds_sim3_levelnorm.png"),
+    "eval_27_dendrogram_sim3.png": ("cmu27", "figures/dendrogram_sim3.png"),
+    "eval_large_mds_elastic.png": ("cmu_large", "figures/mds_elastic.png"),
+    "eval_large_mds_sim3.png": ("cmu_large", "figures/mds_sim3.png"),
+    "eval_large_mds_sim3_levelnorm.png": ("cmu_large", "figures/mds_sim3_levelnorm.png"),
+    "eval_large_dendrogram_elastic.png": ("cmu_large", "figures/dendrogram_elastic.png"),
+    "eval_interp_group.png": (None, "interpolation_group_unaligned.png"),
+    "eval_interp_logsig.png": (None, "interpolation_logsig_unaligned.png"),
+    "eval_interp_sim.png": (None, "interpolation_sim_unaligned.png"),
+    "eval_interp_sim_aligned.png": (None, "interpolation_sim_aligned.png"),
+}
+
+
+def copy_doc_figures(out, docs):
+    os.makedirs(docs, exist_ok=True)
+    for name, (set_name, rel) in DOC_FIGURES.items():
+        src = os.path.join(out, set_name, rel) if set_name else os.path.join(out, rel)
+        if os.path.exists(src):
+            shutil.copy(src, os.path.join(docs, name))
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", required=True, help="the shared CMU folder (e.g. /work/shared/data/cmu)")
+    p.add_argument("--out", default="out/eval", help="output folder (default out/eval)")
+    p.add_argument("--sets", default="cmu27,cmu_large", help="comma-separated: cmu27, cmu_large")
+    p.add_argument("--metrics", help="override the metric list (comma-separated) for every set")
+    p.add_argument("--depth", type=int, default=9)
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--no-interpolation", action="store_true")
+    p.add_argument("--docs", help="copy the documentation figures to this folder as eval_*.png")
+    args = p.parse_args(argv)
+    os.makedirs(args.out, exist_ok=True)
+    results = {}
+    for name in [s.strip() for s in args.sets.split(",") if s.strip()]:
+        metrics = tuple(args.metrics.split(",")) if args.metrics else METRICS[name]
+        results[name] = run_set(name, args.data, args.out, metrics, args.depth, args.workers)
+    if not args.no_interpolation:
+        entries = {os.path.basename(e.file): e for e in ev.read_index(SETS["cmu27"])}
+        walk, run = entries["07_01.bvh"], entries["09_02.bvh"]
+        lin = {}
+        for align in (False, True):
+            rows = interpolation(args.data, args.out, walk, run, align)
+            lin["aligned" if align else "unaligned"] = linearity(rows)
+        with open(os.path.join(args.out, "interpolation_linearity.json"), "w") as fh:
+            json.dump(lin, fh, indent=1)
+        print(json.dumps(lin, indent=1), file=sys.stderr)
+    if args.docs:
+        copy_doc_figures(args.out, args.docs)
+    for name, summary in results.items():
+        print(f"== {name}: {summary['clips']} clips")
+        for metric, row in summary["metrics"].items():
+            print(f"  {metric:26s} {row['accuracy']:.3f} ({row['correct']}/{summary['clips']})  {row['seconds']:8.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
