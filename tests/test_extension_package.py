@@ -1,0 +1,196 @@
+"""The extension package: the top-level manifest, staging, wheel selection and the built zip, checked with
+Blender's own validator (bl_pkg/cli/blender_ext.py from the bpy module; no Blender binary needed).
+
+Fast: no network. The zip build uses only wheels already in the cache (tools/build_extension.py fills it);
+without them it builds the wheel-less zip, so the manifest and package layout are always validated.
+"""
+
+import importlib.util
+import json
+import subprocess
+import sys
+import tomllib
+import zipfile
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SCRIPT = ROOT / "tools" / "build_extension.py"
+
+
+def _load_build_module():
+    spec = importlib.util.spec_from_file_location("_shapesig_build_extension", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+be = _load_build_module()
+
+try:
+    BLENDER_EXT, TAGS = be.find_blender_ext()
+except be.BuildError as ex:  # pragma: no cover - the dev venv always has bpy
+    pytest.skip(f"Blender's extension builder not available: {ex}", allow_module_level=True)
+BEXT = be.load_blender_ext(BLENDER_EXT)
+
+
+def _validate(path):
+    return subprocess.run([sys.executable, str(BLENDER_EXT), "validate", str(path), "--valid-tags", str(TAGS)],
+                          capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def manifest():
+    with open(ROOT / "blender_manifest.toml", "rb") as fh:
+        return tomllib.load(fh)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# The source manifest
+
+
+def test_manifest_fields(manifest):
+    assert manifest["schema_version"] == "1.0.0"
+    assert manifest["id"] == "blender_shapesig"
+    assert manifest["type"] == "add-on"
+    assert manifest["blender_version_min"] == "4.2.0"
+    assert manifest["license"] and all(lic.startswith("SPDX:") for lic in manifest["license"])
+    tagline = manifest["tagline"]
+    assert len(tagline) < 64 and tagline[-1].isalnum(), tagline
+    assert "files" in manifest["permissions"]
+    # The build adds these per platform; the source must not pin them.
+    assert "platforms" not in manifest and "wheels" not in manifest
+
+
+def test_manifest_tags_are_blenders(manifest):
+    valid = BEXT.pkg_manifest_tags_load_valid_map(str(TAGS))
+    assert isinstance(valid, dict), valid
+    assert manifest["tags"] and set(manifest["tags"]) <= valid["add-on"]
+
+
+def test_staged_manifest_adds_lists_before_tables():
+    source = (ROOT / "blender_manifest.toml").read_text(encoding="utf-8")
+    wheels = ["./wheels/scipy-1.15.3-cp311-cp311-win_amd64.whl"]
+    text = be.staged_manifest_text(source, ["linux-x64", "windows-x64"], wheels)
+    data = tomllib.loads(text)
+    assert data["platforms"] == ["linux-x64", "windows-x64"]
+    assert data["wheels"] == wheels
+    assert data["permissions"] == tomllib.loads(source)["permissions"]  # still a table, not swallowed
+    with pytest.raises(be.BuildError, match="platforms"):
+        be.staged_manifest_text('platforms = ["linux-x64"]\n' + source, ["linux-x64"], [])
+
+
+def test_staged_package_passes_blenders_validator(tmp_path):
+    pkg = be.stage(tmp_path, ["linux-x64"], [])
+    assert (pkg / "__init__.py").is_file() and (pkg / "blender_manifest.toml").is_file()
+    assert not list(pkg.rglob("__pycache__"))
+    proc = _validate(pkg)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_validator_rejects_a_bad_manifest(tmp_path):
+    """The validation above can fail: a tag outside Blender's list and a punctuated tagline are rejected."""
+    pkg = be.stage(tmp_path, ["linux-x64"], [])
+    good = (pkg / "blender_manifest.toml").read_text(encoding="utf-8")
+    (pkg / "blender_manifest.toml").write_text(good.replace('"Import-Export"', '"Motion Capture"'))
+    proc = _validate(pkg)
+    assert proc.returncode != 0 and "Motion Capture" in proc.stdout + proc.stderr
+    (pkg / "blender_manifest.toml").write_text(good.replace("by their shape", "by their shape."))
+    assert _validate(pkg).returncode != 0
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Wheel selection (fake wheel files in a temporary cache, offline)
+
+
+def _touch(cache, *names):
+    for n in names:
+        (cache / n).write_bytes(b"")
+
+
+def test_wheel_selection_per_platform(tmp_path):
+    _touch(tmp_path,
+           "scipy-1.15.3-cp311-cp311-manylinux_2_17_x86_64.manylinux2014_x86_64.whl",
+           "scipy-1.15.3-cp311-cp311-win_amd64.whl",
+           "scipy-1.15.3-cp311-cp311-macosx_10_13_x86_64.whl",
+           "scipy-1.14.1-cp311-cp311-macosx_12_0_arm64.whl",  # wrong version: macos-arm64 has no scipy
+           "scipy-1.15.3-cp312-cp312-macosx_12_0_arm64.whl",  # wrong Python
+           "numba-0.68.1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl",
+           "llvmlite-0.50.0-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl",
+           "numba-0.68.1-cp311-cp311-win_amd64.whl",  # numba without llvmlite is useless: not bundled
+           "numpy-1.26.4-cp311-cp311-win_amd64.whl")
+    chosen, notes = be.collect_wheels(BEXT, tmp_path, list(be.PLATFORMS), offline=True, without={"iisignature"})
+    names = {p: sorted(w.name.split("-")[0] for w in ws) for p, ws in chosen.items()}
+    assert names == {"linux-x64": ["llvmlite", "numba", "scipy"], "windows-x64": ["scipy"], "macos-x64": ["scipy"]}
+    assert "macos-arm64" not in chosen and any("scipy" in n for n in notes["macos-arm64"])
+    assert any("numba" in n for n in notes["windows-x64"])
+    for platform, wheels in chosen.items():
+        for w in wheels:
+            assert platform in be.wheel_blender_platforms(BEXT, w.name)
+
+
+def test_wheel_tags_too_new_are_refused():
+    assert be.wheel_tags_acceptable("manylinux_2_17_x86_64.manylinux2014_x86_64", "linux-x64")
+    assert be.wheel_tags_acceptable("linux_x86_64", "linux-x64")
+    assert not be.wheel_tags_acceptable("manylinux_2_34_x86_64", "linux-x64")  # Blender 4.2 needs only glibc 2.28
+    assert be.wheel_tags_acceptable("macosx_11_0_arm64", "macos-arm64")
+    assert not be.wheel_tags_acceptable("macosx_14_0_arm64", "macos-arm64")
+    assert not be.wheel_tags_acceptable("macosx_12_0_x86_64", "macos-arm64")
+    assert not be.wheel_tags_acceptable("win32", "windows-x64")
+
+
+# ---------------------------------------------------------------------------------------------------------
+# The built linux zip
+
+
+def _cached_linux_wheels():
+    cache = be.default_wheel_cache()
+    return cache.is_dir() and be.find_cached_wheel(BEXT, cache, "scipy==1.15.3", "linux-x64") is not None
+
+
+@pytest.fixture(scope="module")
+def linux_zip(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ext")
+    args = [sys.executable, str(SCRIPT), "--out", str(out), "--platforms", "linux-x64", "--json", "--offline"]
+    with_wheels = _cached_linux_wheels()
+    if not with_wheels:
+        args.append("--no-wheels")
+    proc = subprocess.run(args, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert [z["platform"] for z in summary["zips"]] == ["linux-x64"]
+    return Path(summary["zips"][0]["zip"]), with_wheels
+
+
+def test_linux_zip_validates_and_holds_the_package(linux_zip):
+    path, _ = linux_zip
+    assert path.name == "blender_shapesig-0.1.0-linux_x64.zip"
+    proc = _validate(path)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    with zipfile.ZipFile(path) as zf:
+        names = set(zf.namelist())
+        manifest = tomllib.loads(zf.read("blender_manifest.toml").decode())
+    source = {p.relative_to(ROOT / "blender_shapesig").as_posix()
+              for p in (ROOT / "blender_shapesig").rglob("*.py") if "__pycache__" not in p.parts}
+    assert source <= names, sorted(source - names)
+    assert not any("__pycache__" in n or n.endswith(".pyc") for n in names)
+    assert manifest["build"]["generated"]["platforms"] == ["linux-x64"]
+    assert manifest["id"] == "blender_shapesig"
+
+
+def test_linux_zip_wheels(linux_zip):
+    path, with_wheels = linux_zip
+    if not with_wheels:
+        pytest.skip("no cached linux-x64 wheels (run: python tools/build_extension.py --out build/ext once)")
+    with zipfile.ZipFile(path) as zf:
+        wheels = sorted(n for n in zf.namelist() if n.endswith(".whl"))
+        manifest = tomllib.loads(zf.read("blender_manifest.toml").decode())
+    dists = {Path(w).name.split("-")[0] for w in wheels}
+    assert "scipy" in dists and "numpy" not in dists
+    assert ("numba" in dists) == ("llvmlite" in dists)
+    assert sorted(w.removeprefix("./") for w in manifest["build"]["generated"]["wheels"]) == wheels
+    for w in wheels:
+        assert "linux-x64" in be.wheel_blender_platforms(BEXT, Path(w).name), w
+        assert "-cp311-" in w
