@@ -30,7 +30,7 @@ displacements expressed in the root's heading frame (see ``blend_clips``).
 import math
 import numpy as np
 
-from .clip import Clip, shared_bones, still_joints
+from .clip import STILL_TOLERANCE, Clip, shared_bones
 from .curves import (
     as_curve,
     geodesic_interpolate,
@@ -544,6 +544,15 @@ def _blend_root_path(plan, p0, p1, rot0, rot1, rotb, up):
     return path + np.outer((1.0 - w) * h0 + w * h1, up)
 
 
+def _moving(R):
+    """Joints (mask) whose rotation ever differs from the first frame by more than the still
+    tolerance of core.clip (a fast numpy version of ``~still_joints``)."""
+    if R.shape[0] < 2:
+        return np.zeros(R.shape[1], dtype=bool)
+    ang = np.linalg.norm(_log_so3(R @ np.swapaxes(R[0], -1, -2)[None]), axis=-1)
+    return ang.max(axis=0) > STILL_TOLERANCE
+
+
 def _interp_rows(x_new, x, values):
     return np.stack([np.interp(x_new, x, values[:, i]) for i in range(values.shape[1])], axis=1)
 
@@ -620,7 +629,7 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
     ib = {x: i for i, x in enumerate(b.bones)}
     sa = [ia[x] for x in shared]
     sb = [ib[x] for x in shared]
-    moving = ~(still_joints(a.rotations[:, sa]) & still_joints(b.rotations[:, sb]))
+    moving = _moving(a.rotations[:, sa]) | _moving(b.rotations[:, sb])
     warp_bones = [x for x, m in zip(shared, moving) if m] or list(shared)
     given_warp = warp is not None
     if given_warp:
