@@ -1,20 +1,27 @@
 """DP kernels for the elastic distance (see elastic.py for the maths).
 
-Both kernels take the same arguments and return ``(value, back)``: the minimal energy at node
-(n0, n1) and the step index chosen at every node (-1 where none). They evaluate every
-candidate with the same floating-point expression, in the same order:
+Both kernels take the same arguments and return ``(value, nodes)``: the minimal energy at node
+(n0, n1) and, when asked, the optimal path as an int array (count, 2) of grid nodes from (0, 0)
+to (n0, n1). They evaluate every candidate with the same floating-point expression, in the same
+order, so their results are identical:
 
-    cross = sum over the step's entries e (in table order) of coef[e] * G[k + ea[e], l + eb[e]]
-    energy = (B0[di, i] + B1[dj, j]) - cross  [+ penalty term]
-    candidate = A[k, l] + energy
+    x      = P + chunk_1 + chunk_2 + ... + chunk_last        (left to right)
+    energy = (B0[di, i] + B1[dj, j]) - x
+    cand   = A[k, l] + energy,          A[i, j] = min over the steps of cand
 
-and break ties by the first step in table order, so their results are identical.
-``B0[d, i]`` is the integral of |q0|^2 over the d intervals before node i (summed locally, not
-as a difference of cumulative sums, which would cost accuracy on long curves); ``B1`` likewise.
+where the step's entries (in table order) are cut into chunks of four (the last one has 1 to 4),
+a chunk is ((c1 g1 + c2 g2) + (c3 g3 + c4 g4)) with g = G[k + ea, l + eb] (shorter chunks drop
+the missing terms: c1 g1, (c1 g1 + c2 g2), ((c1 g1 + c2 g2) + c3 g3)), and P = -(penalty * pen)
+is there only when the penalty is non-zero, with pen = (di d^2 + r P1 d) + r^2 P2,
+d = l h1 - k h0. Ties go to the first step in table order. ``B0[d, i]`` is the integral of |q0|^2
+over the d intervals before node i (summed locally, not as a difference of cumulative sums, which
+would cost accuracy on long curves); ``B1`` likewise.
 
-``dp_numba`` needs numba (JIT-compiled on first use, cached on disk, releases the GIL);
-``HAVE_NUMBA`` says whether it can be imported. ``dp_numpy`` is pure numpy: energies for a
-block of DP rows at once by shifted slices of G, then one vectorized min over all steps per row.
+``dp_numba`` needs numba (JIT-compiled on first use, cached on disk, releases the GIL); it keeps
+only the values A and recovers the path by re-evaluating the candidates of the nodes on it.
+``HAVE_NUMBA`` says whether numba can be imported. ``dp_numpy`` is pure numpy: the energies of
+a block of DP rows at once by shifted slices of G, then one vectorized min/argmin over all steps
+per DP row.
 """
 
 import numpy as np
@@ -35,8 +42,8 @@ _BLOCK_BYTES = 8_000_000
 def _penalty_terms(di, dj, h0, h1):
     """Per step: r (slope excess), P1 = di (di+1), P2 = di (di+1) (2 di+1) / 6 (floats).
 
-    The penalty of a step from (k, l) is lam * sum_{m=1..di} (delta + m r)^2 with
-    delta = l h1 - k h0, written as lam * ((di delta^2 + r P1 delta) + r^2 P2).
+    The penalty of a step from (k, l) is lam * sum_{m=1..di} (d + m r)^2 with d = l h1 - k h0,
+    written as lam * ((di d^2 + r P1 d) + r^2 P2).
     """
     a = di.astype(np.float64)
     r = dj.astype(np.float64) * h1 / a - h0
@@ -45,7 +52,18 @@ def _penalty_terms(di, dj, h0, h1):
     return r, P1, P2
 
 
-def dp_numpy(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi):
+def _chunk_value(vals):
+    """The canonical sum of one chunk of 1..4 terms (arrays or floats)."""
+    if len(vals) == 1:
+        return vals[0]
+    if len(vals) == 2:
+        return vals[0] + vals[1]
+    if len(vals) == 3:
+        return (vals[0] + vals[1]) + vals[2]
+    return (vals[0] + vals[1]) + (vals[2] + vals[3])
+
+
+def dp_numpy(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True):
     n0, n1 = G.shape
     S = di.shape[0]
     D = int(max(di.max(), dj.max()))
@@ -59,63 +77,84 @@ def dp_numpy(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi):
     Gp[D:, D:] = G
     back = np.full((n0 + 1, n1 + 1), -1, dtype=np.int16)
     cols = np.arange(n1 + 1)
-    # For the gather of A[k, l]: rows i - di, columns j - dj (padded).
-    col_idx = cols[None, :] - dj[:, None] + D
-    b1 = B1[dj]  # (S, n1 + 1)
-    step_ids = np.arange(S)
+    col_idx = cols[None, :] - dj[:, None] + D  # for the gather of A[k, l], l = j - dj (padded)
     block = max(1, _BLOCK_BYTES // (8 * S * (n1 + 1)))
     E = np.empty((S, block, n1 + 1))
     for r0 in range(1, n0 + 1, block):
         r1 = min(r0 + block, n0 + 1)
         nb = r1 - r0
         rows = np.arange(r0, r1)
-        X = E[:, :nb]
         for s in range(S):
             a, b = int(di[s]), int(dj[s])
-            xs = X[s]
-            xs.fill(0.0)
-            for e in range(start[s], start[s + 1]):
+
+            def g(e):
                 ra = r0 - a + int(ea[e]) + D
                 cb = D - b + int(eb[e])
-                xs += coef[e] * Gp[ra:ra + nb, cb:cb + n1 + 1]
-            b0 = B0[a, r0:r1]  # (nb,)
-            # energy = ((b0 + b1) - cross) [+ penalty]
-            np.subtract(b0[:, None] + b1[s][None, :], xs, out=xs)
+                return coef[e] * Gp[ra:ra + nb, cb:cb + n1 + 1]
+
+            x = None
             if lam != 0.0:
                 delta = (cols[None, :] - b) * h1 - (rows[:, None] - a) * h0
                 pen = (fdi[s] * delta * delta + r[s] * P1[s] * delta) + r[s] * r[s] * P2[s]
-                xs += lam * pen
+                x = -(lam * pen)
+            for e in range(int(start[s]), int(start[s + 1]), 4):
+                chunk = _chunk_value([g(f) for f in range(e, min(e + 4, int(start[s + 1])))])
+                x = chunk if x is None else x + chunk
+            E[s, :nb] = (B0[a, r0:r1][:, None] + B1[b][None, :]) - x
         for i in range(r0, r1):
-            cand = A[(i - di + D)[:, None], col_idx] + X[:, i - r0]
-            arg = np.argmin(cand, axis=0)
-            best = cand[arg, cols]
+            cand = A[(i - di + D)[:, None], col_idx] + E[:, i - r0]
             jl, jh = int(lo[i]), int(hi[i])
-            A[i + D, D + jl:D + jh + 1] = best[jl:jh + 1]
-            ok = np.isfinite(best[jl:jh + 1])
-            back[i, jl:jh + 1] = np.where(ok, arg[jl:jh + 1], -1)
-    del step_ids
-    return float(A[n0 + D, n1 + D]), back
+            c = cand[:, jl:jh + 1]
+            arg = np.argmin(c, axis=0)
+            best = c[arg, np.arange(c.shape[1])]
+            A[i + D, D + jl:D + jh + 1] = best
+            back[i, jl:jh + 1] = np.where(np.isfinite(best), arg, -1)
+    value = float(A[n0 + D, n1 + D])
+    if not want_path:
+        return value, None
+    i, j = n0, n1
+    nodes = [(i, j)]
+    while i > 0 or j > 0:
+        s = back[i, j]
+        if s < 0:  # pragma: no cover - every band node is reachable
+            raise RuntimeError("the DP path is broken")
+        i, j = i - int(di[s]), j - int(dj[s])
+        nodes.append((i, j))
+    return value, np.array(nodes[::-1], dtype=np.int64)
 
 
 if HAVE_NUMBA:
 
+    @_numba.njit(cache=True, nogil=True, inline="always")
+    def _accumulate(cr, G, k, o, m, ea, eb, coef, e, assign):
+        c1 = coef[e]
+        c2 = coef[e + 1]
+        c3 = coef[e + 2]
+        c4 = coef[e + 3]
+        g1 = G[k + ea[e], o + eb[e]:o + eb[e] + m]
+        g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
+        g3 = G[k + ea[e + 2], o + eb[e + 2]:o + eb[e + 2] + m]
+        g4 = G[k + ea[e + 3], o + eb[e + 3]:o + eb[e + 3] + m]
+        if assign:
+            for t in range(m):
+                cr[t] = (c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t])
+        else:
+            for t in range(m):
+                cr[t] += (c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t])
+
     @_numba.njit(cache=True, nogil=True)
-    def _dp_numba_kernel(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi,
-                         rr, P1, P2):
+    def _dp_values(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, rr, P1, P2):
         n0, n1 = G.shape
         S = di.shape[0]
         A = np.full((n0 + 1, n1 + 1), np.inf)
         A[0, 0] = 0.0
-        back = np.full((n0 + 1, n1 + 1), -1, dtype=np.int16)
         cross = np.zeros(n1 + 1)
         best = np.empty(n1 + 1)
-        arg = np.empty(n1 + 1, dtype=np.int16)
         for i in range(1, n0 + 1):
             jl = lo[i]
             jh = hi[i]
             for j in range(jl, jh + 1):
                 best[j] = np.inf
-                arg[j] = -1
             for s in range(S):
                 a = di[s]
                 b = dj[s]
@@ -126,55 +165,178 @@ if HAVE_NUMBA:
                 j1 = min(jh, hi[k] + b)
                 if j0 > j1:
                     continue
-                # Slices and 0-based loops let LLVM vectorize (no negative-index wraparound).
+                # 0-based loops over slices: no negative-index wraparound, so LLVM vectorizes.
                 m = j1 + 1 - j0
+                o = j0 - b
+                e = start[s]
+                eend = start[s + 1]
                 cr = cross[j0:j1 + 1]
-                for t in range(m):
-                    cr[t] = 0.0
-                for e in range(start[s], start[s + 1]):
-                    c = coef[e]
-                    off = j0 + eb[e] - b
-                    g = G[k + ea[e], off:off + m]
-                    for t in range(m):
-                        cr[t] += c * g[t]
-                b0 = B0[a, i]
-                Ak = A[k, j0 - b:j1 + 1 - b]
-                B1a = B1[b, j0:j1 + 1]
-                bs = best[j0:j1 + 1]
-                ar = arg[j0:j1 + 1]
-                ss = np.int16(s)
-                if lam == 0.0:
-                    for t in range(m):
-                        cand = Ak[t] + ((b0 + B1a[t]) - cr[t])
-                        if cand < bs[t]:
-                            bs[t] = cand
-                            ar[t] = ss
-                else:
+                has_prev = False
+                if lam != 0.0:
                     fa = np.float64(a)
                     r_s = rr[s]
                     p1 = P1[s]
                     p2 = P2[s]
                     for t in range(m):
-                        en = (b0 + B1a[t]) - cr[t]
-                        delta = (j0 + t - b) * h1 - (i - a) * h0
+                        delta = (o + t) * h1 - k * h0
                         pen = (fa * delta * delta + r_s * p1 * delta) + r_s * r_s * p2
-                        en += lam * pen
-                        cand = Ak[t] + en
-                        if cand < bs[t]:
-                            bs[t] = cand
-                            ar[t] = ss
+                        cr[t] = -(lam * pen)
+                    has_prev = True
+                while eend - e > 4:
+                    _accumulate(cr, G, k, o, m, ea, eb, coef, e, not has_prev)
+                    has_prev = True
+                    e += 4
+                b0 = B0[a, i]
+                Ak = A[k, o:o + m]
+                B1a = B1[b, j0:j1 + 1]
+                bs = best[j0:j1 + 1]
+                r = eend - e
+                c1 = coef[e]
+                g1 = G[k + ea[e], o + eb[e]:o + eb[e] + m]
+                if r == 1:
+                    if has_prev:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - (cr[t] + c1 * g1[t]))
+                            if cand < bs[t]:
+                                bs[t] = cand
+                    else:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - (c1 * g1[t]))
+                            if cand < bs[t]:
+                                bs[t] = cand
+                elif r == 2:
+                    c2 = coef[e + 1]
+                    g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
+                    if has_prev:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - (cr[t] + (c1 * g1[t] + c2 * g2[t])))
+                            if cand < bs[t]:
+                                bs[t] = cand
+                    else:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - ((c1 * g1[t] + c2 * g2[t])))
+                            if cand < bs[t]:
+                                bs[t] = cand
+                elif r == 3:
+                    c2 = coef[e + 1]
+                    g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
+                    c3 = coef[e + 2]
+                    g3 = G[k + ea[e + 2], o + eb[e + 2]:o + eb[e + 2] + m]
+                    if has_prev:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - (cr[t] + ((c1 * g1[t] + c2 * g2[t]) + c3 * g3[t])))
+                            if cand < bs[t]:
+                                bs[t] = cand
+                    else:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - (((c1 * g1[t] + c2 * g2[t]) + c3 * g3[t])))
+                            if cand < bs[t]:
+                                bs[t] = cand
+                elif r == 4:
+                    c2 = coef[e + 1]
+                    g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
+                    c3 = coef[e + 2]
+                    g3 = G[k + ea[e + 2], o + eb[e + 2]:o + eb[e + 2] + m]
+                    c4 = coef[e + 3]
+                    g4 = G[k + ea[e + 3], o + eb[e + 3]:o + eb[e + 3] + m]
+                    if has_prev:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - (cr[t] + ((c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t]))))
+                            if cand < bs[t]:
+                                bs[t] = cand
+                    else:
+                        for t in range(m):
+                            cand = Ak[t] + ((b0 + B1a[t]) - (((c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t]))))
+                            if cand < bs[t]:
+                                bs[t] = cand
+
             for j in range(jl, jh + 1):
                 A[i, j] = best[j]
-                back[i, j] = arg[j]
-        return A[n0, n1], back
+        return A
+
+    @_numba.njit(cache=True, nogil=True)
+    def _candidate(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, rr, P1, P2, i, j, s):
+        """The DP candidate of step s into node (i, j), exactly as _dp_values computes it."""
+        a = di[s]
+        b = dj[s]
+        k = i - a
+        l = j - b
+        e = start[s]
+        eend = start[s + 1]
+        x = 0.0
+        has_prev = False
+        if lam != 0.0:
+            delta = l * h1 - k * h0
+            pen = (np.float64(a) * delta * delta + rr[s] * P1[s] * delta) + rr[s] * rr[s] * P2[s]
+            x = -(lam * pen)
+            has_prev = True
+        while e < eend:
+            n = min(4, eend - e)
+            v1 = coef[e] * G[k + ea[e], l + eb[e]]
+            if n == 1:
+                c = v1
+            else:
+                v2 = coef[e + 1] * G[k + ea[e + 1], l + eb[e + 1]]
+                if n == 2:
+                    c = v1 + v2
+                else:
+                    v3 = coef[e + 2] * G[k + ea[e + 2], l + eb[e + 2]]
+                    if n == 3:
+                        c = (v1 + v2) + v3
+                    else:
+                        v4 = coef[e + 3] * G[k + ea[e + 3], l + eb[e + 3]]
+                        c = (v1 + v2) + (v3 + v4)
+            if has_prev:
+                x = x + c
+            else:
+                x = c
+                has_prev = True
+            e += 4
+        return A[k, l] + ((B0[a, i] + B1[b, j]) - x)
+
+    @_numba.njit(cache=True, nogil=True)
+    def _dp_path(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, rr, P1, P2):
+        n0, n1 = G.shape
+        out = np.empty((n0 + 1, 2), dtype=np.int64)
+        count = 0
+        i = n0
+        j = n1
+        out[0, 0] = i
+        out[0, 1] = j
+        count = 1
+        while i > 0 or j > 0:
+            target = A[i, j]
+            found = -1
+            for s in range(di.shape[0]):
+                if di[s] > i or dj[s] > j:
+                    continue
+                if A[i - di[s], j - dj[s]] == np.inf:
+                    continue
+                if _candidate(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, rr, P1, P2,
+                              i, j, s) == target:
+                    found = s
+                    break
+            if found < 0:
+                return out[:0]
+            i -= di[found]
+            j -= dj[found]
+            out[count, 0] = i
+            out[count, 1] = j
+            count += 1
+        return out[:count][::-1].copy()
 
 
-def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi):
+def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True):
     if not HAVE_NUMBA:
         raise RuntimeError("numba is not available")
     r, P1, P2 = _penalty_terms(di, dj, h0, h1)
-    value, back = _dp_numba_kernel(
-        np.ascontiguousarray(G, dtype=np.float64), B0, B1, float(h0), float(h1), float(lam),
-        di, dj, start, ea, eb, coef, lo, hi, r, P1, P2,
-    )
-    return float(value), back
+    G = np.ascontiguousarray(G, dtype=np.float64)
+    h0, h1, lam = float(h0), float(h1), float(lam)
+    A = _dp_values(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, r, P1, P2)
+    value = float(A[-1, -1])
+    if not want_path:
+        return value, None
+    nodes = _dp_path(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, r, P1, P2)
+    if nodes.shape[0] == 0:  # pragma: no cover - the candidates are re-evaluated bit for bit
+        raise RuntimeError("the DP path could not be recovered")
+    return value, nodes

@@ -214,29 +214,17 @@ class _Problem:
         self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, self.depth)
         self.lo, self.hi = _band(n0, n1, self.depth)
 
-    def solve(self, method):
+    def solve(self, method, want_path=True):
+        """(DP minimum, path nodes (count, 2) from (0, 0) to (n0, n1) or None)."""
         t = self.table
         args = (self.G, self.B0, self.B1, self.h0, self.h1, self.penalty,
                 t["di"], t["dj"], t["start"], t["ea"], t["eb"], self.coef, self.lo, self.hi)
         if method == "numba":
-            return _dp_kernels.dp_numba(*args)
-        return _dp_kernels.dp_numpy(*args)
-
-    def path(self, back):
-        """Node indices (i, j) of the optimal path, from (0, 0) to (n0, n1)."""
-        di, dj = self.table["di"], self.table["dj"]
-        i, j = self.n0, self.n1
-        nodes = [(i, j)]
-        while i > 0 or j > 0:
-            s = back[i, j]
-            if s < 0:
-                raise ShapeSigError("internal error: the DP path is broken")  # pragma: no cover
-            i, j = i - di[s], j - dj[s]
-            nodes.append((i, j))
-        return np.array(nodes[::-1], dtype=np.int64)
+            return _dp_kernels.dp_numba(*args, want_path=want_path)
+        return _dp_kernels.dp_numpy(*args, want_path=want_path)
 
 
-def _align(R0, R1, depth, penalty, method, prune):
+def _align(R0, R1, depth, penalty, method, prune, want_path):
     depth = _check_depth(depth)
     penalty = _check_penalty(penalty)
     method = _check_method(method)
@@ -245,8 +233,8 @@ def _align(R0, R1, depth, penalty, method, prune):
     if j0 != j1:
         raise CurveError(f"the curves have {j0} and {j1} joints")
     prob = _Problem(Q0, Q1, depth, penalty, prune)
-    value, back = prob.solve(method)
-    return prob, value, back
+    value, nodes = prob.solve(method, want_path)
+    return prob, value, nodes
 
 
 def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, return_info=False):
@@ -264,8 +252,7 @@ def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, re
     piecewise-linear phi with R1(phi(t0)) matched to R0(t0)); ``distance`` is the square root
     of the DP minimum.
     """
-    prob, value, back = _align(R0, R1, depth, penalty, method, prune)
-    nodes = prob.path(back)
+    prob, value, nodes = _align(R0, R1, depth, penalty, method, prune, True)
     warp = np.column_stack([nodes[:, 0] / prob.n0, nodes[:, 1] / prob.n1])
     warp[-1] = (1.0, 1.0)
     dist = float(np.sqrt(max(value, 0.0)))
@@ -278,7 +265,7 @@ def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, re
 
 def elastic_distance(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True):
     """d_S*(R0, R1): the square root of the DP minimum of ``elastic_align`` (no backtracking)."""
-    _, value, _ = _align(R0, R1, depth, penalty, method, prune)
+    _, value, _ = _align(R0, R1, depth, penalty, method, prune, False)
     return float(np.sqrt(max(value, 0.0)))
 
 
@@ -316,7 +303,7 @@ def elastic_distance_matrix(curves, depth=9, penalty=0.0, workers=2, *, method="
 
     def run(pair):
         a, b = pair
-        value, _ = _Problem(qs[a], qs[b], depth, penalty).solve(method)
+        value, _ = _Problem(qs[a], qs[b], depth, penalty).solve(method, want_path=False)
         return a, b, float(np.sqrt(max(value, 0.0)))
 
     if workers == 1 or len(pairs) < 2:
