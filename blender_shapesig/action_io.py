@@ -4,8 +4,9 @@
 action's pose-bone rotations on every integer frame as rotation matrices (each bone's rotation relative to
 its rest pose, in the bone's own rest frame: Blender's ``matrix_basis`` rotation).
 
-* Rotation mode per bone: the armature's pose bone ``rotation_mode`` when an armature is given (or the
-  ``rotation_modes`` argument); otherwise inferred from the channels present: ``rotation_quaternion`` ->
+* Rotation mode per bone: the ``rotation_modes`` argument, else the armature's pose bone ``rotation_mode``
+  when an armature is given and the action keys that kind of rotation; otherwise the mode write_action stored
+  on the action, else inferred from the channels present: ``rotation_quaternion`` ->
   QUATERNION, else ``rotation_euler`` -> Euler order **XYZ** (an action does not record the Euler order;
   pass the armature or ``rotation_modes`` when it is not XYZ), else ``rotation_axis_angle`` -> AXIS_ANGLE.
 * Channels an action does not key take their rest value (quaternion (1, 0, 0, 0), Euler 0, axis-angle
@@ -17,7 +18,9 @@ its rest pose, in the bone's own rest frame: Blender's ``matrix_basis`` rotation
   is ``FCurve.evaluate``-d (honours interpolation and modifiers). Muted F-curves are ignored.
 * Root translation: the ``location`` of the root bone (the armature's first parentless bone, else the first
   bone that has location F-curves), in that bone's rest frame, or None when it has no location channel.
-* ``meta``: ``still_bones``, ``fcurve_hash`` (``action_hash``), ``missing_rotation_bones``, ``slot``.
+* ``meta``: ``still_bones``, ``fcurve_hash`` (``action_hash``), ``missing_rotation_bones``, ``slot``, and with
+  an armature ``rest_rotations`` (bones, 3, 3): each bone's armature-space rest orientation B (so ``B R B^T`` is
+  the rotation in armature-aligned axes).
 * fps: the ``fps`` argument, else the action's ``shapesig_fps`` property (set by write_action), else the scene's.
   Rotation modes without an armature: the action's ``shapesig_rotation_modes`` (set by write_action) first.
 
@@ -387,10 +390,8 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     nf = len(frames)
 
     override = _modes_lookup(rotation_modes, names)
-    if not override and armature is None:
-        stored = action.get("shapesig_rotation_modes")
-        if stored is not None:
-            override = {b: m for b, m in stored.items() if b in names and m in ROTATION_MODES}
+    stored = action.get("shapesig_rotation_modes")
+    stored = {b: m for b, m in stored.items() if m in ROTATION_MODES} if stored is not None else {}
     co_cache = {}
     modes = []
     R = np.empty((nf, len(names), 3, 3))
@@ -398,10 +399,15 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         chans = channels.get(b, {})
         if b in override:
             mode = override[b]
-        elif armature is not None:
-            mode = armature.pose.bones[b].rotation_mode
         else:
-            mode = _mode_from_channels(chans)
+            mode = None
+            if armature is not None:
+                mode = armature.pose.bones[b].rotation_mode
+            if mode is None or (_prop_for_mode(mode) not in chans and any(p in chans for p in rot_props)):
+                # no armature, or the action keys another kind of rotation than the pose bone's mode
+                mode = stored.get(b)
+                if mode is None or _prop_for_mode(mode) not in chans:
+                    mode = _mode_from_channels(chans)
         modes.append(mode)
         prop = _prop_for_mode(mode)
         if prop not in chans:
@@ -450,6 +456,10 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         },
     )
     clip.meta["still_bones"] = still_bones(R, names)
+    if armature is not None:
+        # armature-space rest orientation of each bone: world-aligned local rotation = B R B^T
+        clip.meta["rest_rotations"] = np.array(
+            [np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in names], dtype=np.float64)
     return clip
 
 
@@ -468,15 +478,19 @@ def channels_from_matrices(mode, R):
         axis = np.zeros((len(q), 3))
         ok = vnorm > 1e-12
         axis[ok] = q[ok, 1:] / vnorm[ok, None]
-        # undefined axes (zero angle) take the previous axis (or +Y)
-        last = np.array([0.0, 1.0, 0.0])
-        for i in np.nonzero(~ok)[0]:
-            axis[i] = axis[i - 1] if i > 0 and ok[:i].any() else last
+        # undefined axes (zero angle) take the nearest earlier defined axis (leading ones the first; +Y if none)
+        if not ok.any():
+            axis[:] = (0.0, 1.0, 0.0)
+        elif not ok.all():
+            idx = np.where(ok, np.arange(len(ok)), -1)
+            idx = np.maximum.accumulate(idx)
+            idx[idx < 0] = np.argmax(ok)
+            axis = axis[idx]
         if len(axis) > 1:
             dots = np.einsum("ij,ij->i", axis[1:], axis[:-1])
             signs = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
             axis = axis * signs[:, None]
-            angle = angle * signs
+            angle = np.unwrap(angle * signs)  # (angle + 2 pi k, axis) is the same rotation
         return np.column_stack([angle, axis])
     if mode in EULER_MODES:
         return np.unwrap(matrix_to_euler(mode, R), axis=0)
@@ -499,7 +513,7 @@ def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake
     """A new action holding ``clip`` (one key per frame per channel). Rotation mode per bone:
     ``rotation_modes`` (one mode, a dict or a sequence parallel to clip.bones), else the armature's pose bone,
     else ``clip.rotation_modes``, else QUATERNION. The root translation is written as the ``location`` of
-    ``root_bone`` (default ``clip.root_bone``, else the first bone). With ``assign`` the armature's active
+    ``root_bone`` (default ``clip.root_bone`` when it is in clip.bones, else the first bone). With ``assign`` the armature's active
     action becomes the new action. On error nothing is left behind."""
     if not isinstance(clip, Clip):
         raise ShapeSigError("write_action needs a Clip")
@@ -526,7 +540,7 @@ def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake
     interp = np.full(nf, _INTERP_LINEAR, dtype=np.int32)
     # compute every channel before creating anything
     channel_values = [channels_from_matrices(m, clip.rotations[:, j]) for j, m in enumerate(modes)]
-    root = root_bone or clip.root_bone or clip.bones[0]
+    root = root_bone or (clip.root_bone if clip.root_bone in clip.bones else clip.bones[0])
 
     action = bpy.data.actions.new(name or clip.name)
     try:
@@ -539,7 +553,7 @@ def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake
                     _write_fcurve(bag, b, "location", i, frames, clip.root_translation[:, i], co_buf, interp)
             for i in range(vals.shape[1]):
                 _write_fcurve(bag, b, prop, i, frames, vals[:, i], co_buf, interp)
-        if root not in clip.bones and clip.root_translation is not None:
+        if root_bone is not None and root not in clip.bones and clip.root_translation is not None:
             for i in range(3):
                 _write_fcurve(bag, root, "location", i, frames, clip.root_translation[:, i], co_buf, interp)
         action.use_fake_user = bool(fake_user)

@@ -1,0 +1,248 @@
+"""action_io on the real bpy module: read/write in every rotation mode checked against Blender's own pose
+evaluation (``frame_set`` + ``pose_bone.matrix_basis``), library actions, unkeyed and still bones, hashes,
+slots/groups per Blender version."""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.errors import ShapeSigError  # noqa: E402
+
+DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
+MODES = ("QUATERNION", "XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX", "AXIS_ANGLE")
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """60 frames of a real CMU walk (16_15), 31 bones."""
+    return load_acclaim(DATA / "16_15.amc", DATA / "16.asf").crop(100, 159)
+
+
+def make_armature(bone_names, parent_of=None, name="Arm"):
+    """An armature with one bone per name (each 1 unit along a different tilted axis, for non-trivial rest
+    frames), linked to the scene and left in object mode."""
+    ctx = bpy.context
+    data = bpy.data.armatures.new(name)
+    obj = bpy.data.objects.new(name, data)
+    ctx.collection.objects.link(obj)
+    ctx.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    rng = np.random.default_rng(7)
+    for i, b in enumerate(bone_names):
+        eb = data.edit_bones.new(b)
+        eb.head = (float(i), 0.0, 0.0)
+        d = rng.normal(size=3)
+        eb.tail = tuple((np.array(eb.head) + d / np.linalg.norm(d)).tolist())
+        eb.roll = float(rng.uniform(-3, 3))
+        if parent_of and parent_of.get(b):
+            eb.parent = data.edit_bones[parent_of[b]]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    return obj
+
+
+def pose_basis_rotations(obj, action, frames, bones):
+    """Blender's own evaluation: rotation part of matrix_basis per frame and bone."""
+    compat.assign_action(obj, action)
+    out = np.empty((len(frames), len(bones), 3, 3))
+    scene = bpy.context.scene
+    for k, f in enumerate(frames):
+        scene.frame_set(int(f))
+        for j, b in enumerate(bones):
+            out[k, j] = np.array(obj.pose.bones[b].matrix_basis.to_3x3())
+    return out
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_write_then_blender_evaluates_the_clip(empty_file, walk, mode):
+    obj = make_armature(walk.bones)
+    for pb in obj.pose.bones:
+        pb.rotation_mode = mode
+    action = action_io.write_action(walk, armature=obj)
+    assert action.use_fake_user and action.name == walk.name
+    frames = range(walk.frame_start, walk.frame_end + 1)
+    got = pose_basis_rotations(obj, action, frames, walk.bones)
+    np.testing.assert_allclose(got, walk.rotations, atol=2e-6)  # float32 keys
+    # root translation = the root bone's location
+    bpy.context.scene.frame_set(walk.frame_start + 5)
+    np.testing.assert_allclose(np.array(obj.pose.bones["root"].location), walk.root_translation[5], rtol=1e-6)
+    # and read back: with the armature and without (modes stored on the action)
+    for arm in (obj, None):
+        back = action_io.read_action(action, armature=arm)
+        assert back.bones == walk.bones and back.frame_start == walk.frame_start and back.frames == walk.frames
+        assert back.rotation_modes == (mode,) * len(walk.bones)
+        np.testing.assert_allclose(back.rotations, walk.rotations, atol=2e-6)
+        np.testing.assert_allclose(back.root_translation, walk.root_translation, rtol=1e-6, atol=1e-5)
+        assert back.root_bone == "root" and back.fps == walk.fps
+
+
+def _key(obj, bone, prop, values, frame, interpolation=None):
+    pb = obj.pose.bones[bone]
+    setattr(pb, prop, values)
+    pb.keyframe_insert(prop, frame=frame)
+
+
+@pytest.mark.parametrize("mode", ["QUATERNION", "ZXY", "YXZ", "AXIS_ANGLE"])
+def test_read_sparse_keys_matches_blender(empty_file, mode):
+    """Keys every few frames with Bezier interpolation and a non-normalized quaternion: read_action samples
+    through FCurve.evaluate and must match Blender's pose on every frame."""
+    obj = make_armature(["a", "b"], {"b": "a"})
+    rng = np.random.default_rng(3)
+    prop = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}.get(mode, "rotation_euler")
+    for pb in obj.pose.bones:
+        pb.rotation_mode = mode
+    for f in (1, 4, 9, 13, 20):
+        for b in ("a", "b"):
+            if mode == "QUATERNION":
+                v = rng.normal(size=4) * 1.7  # not unit: Blender normalizes
+            elif mode == "AXIS_ANGLE":
+                v = np.concatenate([[rng.uniform(-3, 3)], rng.normal(size=3)])
+            else:
+                v = rng.uniform(-2.5, 2.5, size=3)
+            _key(obj, b, prop, v.tolist(), f)
+    action = obj.animation_data.action
+    clip = action_io.read_action(action, armature=obj)
+    assert (clip.frame_start, clip.frame_end) == (1, 20)
+    got = pose_basis_rotations(obj, action, range(1, 21), ["a", "b"])
+    np.testing.assert_allclose(clip.rotations, got, atol=2e-6)
+
+
+def test_mode_inference_without_armature(empty_file):
+    obj = make_armature(["q", "e", "aa"])
+    obj.pose.bones["e"].rotation_mode = "XYZ"
+    obj.pose.bones["aa"].rotation_mode = "AXIS_ANGLE"
+    for f in (1, 5):
+        _key(obj, "q", "rotation_quaternion", (1.0, 0.1 * f, 0.0, 0.0), f)
+        _key(obj, "e", "rotation_euler", (0.1 * f, 0.2, 0.3), f)
+        _key(obj, "aa", "rotation_axis_angle", (0.2 * f, 0.0, 0.0, 1.0), f)
+    action = obj.animation_data.action
+    clip = action_io.read_action(action)  # no armature, no stored modes (keyframe_insert-made action)
+    assert dict(zip(clip.bones, clip.rotation_modes)) == {"q": "QUATERNION", "e": "XYZ", "aa": "AXIS_ANGLE"}
+    got = pose_basis_rotations(obj, action, range(1, 6), list(clip.bones))
+    np.testing.assert_allclose(clip.rotations, got, atol=2e-6)
+    # an explicit order overrides the XYZ default
+    zxy = action_io.read_action(action, rotation_modes={"e": "ZXY"})
+    assert zxy.rotation_modes[zxy.bones.index("e")] == "ZXY"
+    assert not np.allclose(zxy.rotations[:, zxy.bones.index("e")], clip.rotations[:, clip.bones.index("e")])
+
+
+def test_unkeyed_still_and_library_actions(empty_file, walk):
+    clip = walk.select(["root", "lfemur", "ltibia", "lhipjoint"])  # lhipjoint never moves
+    action = action_io.write_action(clip, name="lib")
+    assert action.users == 1 and action.use_fake_user  # a library action: no object uses it
+    obj = make_armature(["root", "lfemur", "ltibia", "lhipjoint", "extra"])
+    got = action_io.read_action(action, armature=obj)
+    assert got.bones == ("root", "lfemur", "ltibia", "lhipjoint", "extra")
+    assert got.meta["missing_rotation_bones"] == ("extra",)
+    np.testing.assert_allclose(got.rotations[:, 4], np.broadcast_to(np.eye(3), (clip.frames, 3, 3)))
+    # the pose bones are QUATERNION but the action keys Euler: the Euler channels are read
+    assert got.rotation_modes[:4] == clip.rotation_modes
+    np.testing.assert_allclose(got.rotations[:, :4], clip.rotations, atol=2e-6)
+    assert set(got.meta["still_bones"]) == {"lhipjoint", "extra"}
+    assert got.meta["still_bones"] == got.still_bones()
+    dropped = action_io.read_action(action, armature=obj, exclude_unkeyed=True)
+    assert dropped.bones == ("root", "lfemur", "ltibia", "lhipjoint")
+    sub = action_io.read_action(action, bones=["ltibia"], frame_range=(110, 119))
+    assert sub.bones == ("ltibia",) and sub.frames == 10 and sub.frame_start == 110
+    np.testing.assert_allclose(sub.rotations[:, 0], clip.crop(110, 119).rotations[:, 2], atol=2e-6)
+    assert got.meta["rest_rotations"].shape == (5, 3, 3)
+
+
+def test_write_never_touches_existing_actions(empty_file, walk):
+    first = action_io.write_action(walk, name="take")
+    h = action_io.action_hash(first)
+    second = action_io.write_action(walk, name="take")
+    assert second.name == "take.001" and first.name == "take"
+    assert action_io.action_hash(first) == h
+    assert action_io.action_hash(second) == h  # same data, same hash
+
+
+def test_hash_changes_with_any_edit(empty_file, walk):
+    action = action_io.write_action(walk.select(["root", "ltibia"]), name="h")
+    h0 = action_io.action_hash(action)
+    assert action_io.action_hash(action) == h0
+    fc = compat.action_fcurves(action)[5]
+    kp = fc.keyframe_points[10]
+    edits = [
+        lambda: setattr(kp, "co", (kp.co[0], kp.co[1] + 1e-3)),
+        lambda: setattr(kp, "handle_left", (kp.handle_left[0], kp.handle_left[1] + 0.5)),
+        lambda: setattr(kp, "interpolation", "BEZIER"),
+        lambda: setattr(fc, "mute", True),
+    ]
+    seen = {h0}
+    for edit in edits:
+        edit()
+        h = action_io.action_hash(action)
+        assert h not in seen
+        seen.add(h)
+
+
+def test_euler_and_quaternion_continuity(empty_file):
+    """A bone spinning 4 turns about Z: Euler Z is unwrapped (no 2 pi jumps), quaternions keep their sign."""
+    from scipy.spatial.transform import Rotation
+
+    n = 200
+    angles = np.linspace(0, 8 * np.pi, n)
+    R = Rotation.from_rotvec(np.outer(angles, [0.1, 0.2, 1.0]) / np.linalg.norm([0.1, 0.2, 1.0])).as_matrix()
+    from blender_shapesig.core.clip import Clip
+
+    clip = Clip(name="spin", bones=("b",), rotations=R[:, None])
+    for mode in ("XYZ", "ZYX", "QUATERNION", "AXIS_ANGLE"):
+        action = action_io.write_action(clip, rotation_modes=mode)
+        fcurves = compat.action_fcurves(action)
+        vals = np.array([[k.co[1] for k in fc.keyframe_points] for fc in fcurves]).T
+        steps = np.abs(np.diff(vals, axis=0)).max()
+        assert steps < 0.5, (mode, steps)
+        if mode == "QUATERNION":
+            assert np.all(np.einsum("ij,ij->i", vals[1:], vals[:-1]) > 0)
+        back = action_io.read_action(action)
+        np.testing.assert_allclose(back.rotations, clip.rotations, atol=2e-6)
+
+
+def test_groups_slots_and_fcurve_count(empty_file, walk):
+    obj = make_armature(walk.bones)
+    action = action_io.write_action(walk, armature=obj, rotation_modes="QUATERNION", assign=True)
+    fcurves = compat.action_fcurves(action)
+    assert len(fcurves) == 4 * len(walk.bones) + 3
+    for fc in fcurves:
+        assert fc.group is not None and f'pose.bones["{fc.group.name}"]' in fc.data_path
+        assert len(fc.keyframe_points) == walk.frames
+        assert fc.keyframe_points[0].interpolation == "LINEAR"
+    groups = action.groups if not compat.is_layered(action) else compat._channelbag(action, action.slots[0]).groups
+    assert sorted(g.name for g in groups) == sorted(walk.bones)
+    assert obj.animation_data.action == action
+    if compat.is_layered(action):
+        assert len(action.slots) == 1 and obj.animation_data.action_slot == action.slots[0]
+    else:
+        assert not hasattr(action, "slots")
+
+
+def test_armature_actions_filter(empty_file, walk):
+    a = action_io.write_action(walk.select(["root", "lfemur"]), name="legs")
+    b = action_io.write_action(walk.select(["head"]), name="head")
+    bpy.data.actions.new("empty")
+    obj = make_armature(["root", "lfemur"])
+    assert {x.name for x in action_io.armature_actions()} == {"legs", "head"}
+    assert [x.name for x in action_io.armature_actions(obj)] == [a.name]
+    assert b.name == "head"
+
+
+def test_bad_arguments(empty_file, walk):
+    with pytest.raises(ShapeSigError, match="no action"):
+        action_io.read_action(None)
+    empty = bpy.data.actions.new("nothing")
+    with pytest.raises(ShapeSigError, match="animates no pose bones"):
+        action_io.read_action(empty)
+    with pytest.raises(ShapeSigError, match="unknown rotation mode"):
+        action_io.write_action(walk, rotation_modes="XYZW")
+    n = len(bpy.data.actions)
+    with pytest.raises(ShapeSigError):
+        action_io.write_action(walk, rotation_modes=["XYZ"] * 3)
+    assert len(bpy.data.actions) == n
+    obj = make_armature(["root"])
+    with pytest.raises(ShapeSigError, match="has no bone"):
+        action_io.read_action(action_io.write_action(walk), armature=obj, bones=["nope"])
