@@ -1,0 +1,246 @@
+"""shapesig.blend_actions on real CMU clips imported with Blender's BVH importer (walk 07_01, run 09_02):
+names, frames and keys of the written actions, their content against core.blend, sources untouched
+(F-curve buffers hashed with foreach_get), one undo step, clean errors."""
+
+import contextlib
+import hashlib
+import io
+import pathlib
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.core.blend import blend_clips, default_frames  # noqa: E402
+
+BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
+
+
+def _import_bvh(name, action_name):
+    try:
+        bpy.ops.import_anim.bvh.get_rna_type()
+    except (AttributeError, KeyError):
+        import addon_utils
+
+        addon_utils.enable("io_anim_bvh", default_set=False)
+    with contextlib.redirect_stdout(io.StringIO()):
+        bpy.ops.import_anim.bvh(filepath=str(BVH / name), rotate_mode="NATIVE", frame_start=1,
+                                use_fps_scale=False, update_scene_fps=False, update_scene_duration=False)
+    obj = bpy.context.view_layer.objects.active
+    obj.animation_data.action.name = action_name
+    return obj
+
+
+@pytest.fixture
+def rig(empty_file):
+    """The walk's armature (active, action 'walk') and a second action 'run' (from the run's import,
+    whose armature is deleted; the action keeps a fake user)."""
+    arm = _import_bvh("07_01.bvh", "walk")
+    other = _import_bvh("09_02.bvh", "run")
+    bpy.data.actions["run"].use_fake_user = True
+    bpy.data.objects.remove(other)
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    return arm
+
+
+def _fcurves(action):
+    from blender_shapesig import compat
+
+    return list(compat.all_action_fcurves(action))
+
+
+def _buffer_hash(action):
+    """SHA-1 over every F-curve's path, index and keyframe buffers read with foreach_get."""
+    h = hashlib.sha1()
+    for fc in sorted(_fcurves(action), key=lambda f: (f.data_path, f.array_index)):
+        h.update(f"{fc.data_path}[{fc.array_index}]".encode())
+        kp = fc.keyframe_points
+        n = len(kp)
+        for attr in ("co", "handle_left", "handle_right"):
+            buf = np.empty(2 * n, dtype=np.float32)
+            kp.foreach_get(attr, buf)
+            h.update(buf.tobytes())
+        ibuf = np.empty(n, dtype=np.int32)
+        kp.foreach_get("interpolation", ibuf)
+        h.update(ibuf.tobytes())
+    return h.hexdigest()
+
+
+def _angle(Ra, Rb):
+    fro = np.sqrt(np.sum((Ra - Rb) ** 2, axis=(-2, -1)))
+    return float((2.0 * np.arcsin(np.clip(fro / (2.0 * np.sqrt(2.0)), 0.0, 1.0))).max())
+
+
+def _read(name, arm, **kw):
+    return action_io.read_action(bpy.data.actions[name], armature=arm, exclude_unkeyed=True, **kw)
+
+
+def test_operator_is_registered_as_one_undo_step(addon):
+    op = bpy.ops.shapesig.blend_actions.get_rna_type()
+    cls = bpy.types.SHAPESIG_OT_blend_actions
+    assert op.identifier == "SHAPESIG_OT_blend_actions"
+    assert cls.bl_options == {"REGISTER", "UNDO"}
+
+
+def test_blend_writes_a_new_action(rig):
+    arm = rig
+    before = {a.name: _buffer_hash(a) for a in bpy.data.actions}
+    result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5)
+    assert result == {"FINISHED"}
+    assert {a.name for a in bpy.data.actions} == {"walk", "run", "walk_x_run_0.50"}
+    out = bpy.data.actions["walk_x_run_0.50"]
+    assert out.use_fake_user
+    assert arm.animation_data.action == out
+    # Sources are bit-identical.
+    assert {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == before
+
+    walk, run = _read("walk", arm), _read("run", arm)
+    n = default_frames(walk.frames, run.frames, 0.5)
+    assert n == 224  # (317 + 131) / 2
+    fcs = _fcurves(out)
+    # One F-curve per rotation channel of every bone of the walk, plus the root's location.
+    n_rot = sum(4 if m in ("QUATERNION", "AXIS_ANGLE") else 3 for m in walk.rotation_modes)
+    assert len(fcs) == n_rot + 3
+    for fc in fcs:
+        assert len(fc.keyframe_points) == n
+        co = np.empty(2 * n, dtype=np.float32)
+        fc.keyframe_points.foreach_get("co", co)
+        assert np.array_equal(co[0::2], np.arange(1, n + 1, dtype=np.float32))
+
+    # Content: the core blend of the two actions as read (float32 keys: ~1e-6).
+    expected = blend_clips(walk, run, 0.5, up_axis=_up(arm, walk.root_bone))
+    got = _read("walk_x_run_0.50", arm)
+    assert got.bones == expected.bones
+    assert _angle(got.rotations, expected.rotations) < 1e-5
+    assert np.abs(got.root_translation - expected.root_translation).max() < 1e-3
+
+
+def _up(arm, bone):
+    from blender_shapesig.operators.blend import armature_up_axis
+
+    return armature_up_axis(arm, bone)
+
+
+def test_weight_zero_and_one_reproduce_the_sources(rig):
+    arm = rig
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.0) == {"FINISHED"}
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=1.0) == {"FINISHED"}
+    walk, run = _read("walk", arm), _read("run", arm)
+    w0, w1 = _read("walk_x_run_0.00", arm), _read("walk_x_run_1.00", arm)
+    assert w0.frames == walk.frames and w1.frames == run.frames
+    assert _angle(w0.rotations, walk.rotations) < 1e-5
+    assert _angle(w1.rotations, run.rotations) < 1e-5
+    assert np.abs(w0.root_translation - walk.root_translation).max() < 1e-3
+    assert np.abs(w1.root_translation - run.root_translation).max() < 1e-3
+
+
+def test_inbetweens_length_and_names(rig):
+    arm = rig
+    result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", inbetweens=3, frames=120,
+                                            assign=False)
+    assert result == {"FINISHED"}
+    names = ["walk_x_run_0.25", "walk_x_run_0.50", "walk_x_run_0.75"]
+    for name in names:
+        act = bpy.data.actions[name]
+        assert act.use_fake_user
+        assert {len(fc.keyframe_points) for fc in _fcurves(act)} == {120}
+        assert tuple(act.frame_range) == (1.0, 120.0)
+    assert arm.animation_data.action.name == "walk"
+    # Again: names are kept unique without Blender's ".001" mangling of "0.50".
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5) == {"FINISHED"}
+    assert "walk_x_run_0.50_2" in bpy.data.actions
+    assert arm.animation_data.action.name == "walk_x_run_0.50_2"
+
+
+def test_bone_list_blends_only_the_subset(rig):
+    arm = rig
+    upper = ["abdomen", "chest", "lShldr", "rShldr", "lForeArm", "rForeArm"]
+    result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5,
+                                            bone_subset="LIST", bone_list=", ".join(upper))
+    assert result == {"FINISHED"}
+    walk, run = _read("walk", arm), _read("run", arm)
+    expected = blend_clips(walk, run, 0.5, bones=upper, up_axis=_up(arm, walk.root_bone))
+    got = _read("walk_x_run_0.50", arm)
+    assert _angle(got.rotations, expected.rotations) < 1e-5
+    # A lower-body bone is the walk's own motion in the blended timing, not the full blend.
+    full = blend_clips(walk, run, 0.5, up_axis=_up(arm, walk.root_bone))
+    j = walk.bones.index("lThigh")
+    assert _angle(got.rotations[:, j], full.rotations[:, j]) > 0.05
+
+
+def test_undo_restores_the_file(rig):
+    arm_name = rig.name
+    bpy.ops.ed.undo_push(message="before blend")
+    before = sorted(a.name for a in bpy.data.actions)
+    hashes = {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")}
+    # Python calls push an undo step only when asked (the UI does it for UNDO operators).
+    result = bpy.ops.shapesig.blend_actions("EXEC_DEFAULT", True, action_a="walk", action_b="run",
+                                            inbetweens=2)
+    assert result == {"FINISHED"}
+    assert len(bpy.data.actions) == 4
+    bpy.ops.ed.undo()  # one step
+    assert sorted(a.name for a in bpy.data.actions) == before
+    assert bpy.data.objects[arm_name].animation_data.action.name == "walk"
+    assert {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == hashes
+    bpy.ops.ed.redo()
+    assert "walk_x_run_0.67" in bpy.data.actions
+
+
+def _assert_fails(match, **kw):
+    names = sorted(a.name for a in bpy.data.actions)
+    with pytest.raises(RuntimeError, match=match):
+        bpy.ops.shapesig.blend_actions(**kw)
+    assert sorted(a.name for a in bpy.data.actions) == names
+
+
+def test_errors_report_cleanly_and_create_nothing(rig):
+    arm = rig
+    hashes = {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")}
+    _assert_fails("same action", action_a="walk", action_b="walk")
+    _assert_fails("no action named 'nope'", action_a="walk", action_b="nope")
+    _assert_fails("choose two actions", action_a="walk", action_b="")
+    _assert_fails("not animated in both", action_a="walk", action_b="run", bone_subset="LIST",
+                  bone_list="chest, tail")
+    for pb in arm.pose.bones:  # 5.0: PoseBone.select; 4.2: Bone.select
+        if "select" in pb.bl_rna.properties:
+            pb.select = False
+        else:
+            pb.bone.select = False
+    _assert_fails("no pose bones are selected", action_a="walk", action_b="run", bone_subset="SELECTED")
+    # Two actions that animate disjoint bones.
+    arm.animation_data.action = None
+    arm.pose.bones["head"].keyframe_insert("rotation_euler", frame=1)
+    arm.pose.bones["head"].keyframe_insert("rotation_euler", frame=5)
+    only_head = arm.animation_data.action
+    only_head.name = "only_head"
+    arm.animation_data.action = None
+    arm.pose.bones["lHand"].keyframe_insert("rotation_euler", frame=1)
+    arm.pose.bones["lHand"].keyframe_insert("rotation_euler", frame=5)
+    arm.animation_data.action.name = "only_hand"
+    _assert_fails("share no bones", action_a="only_head", action_b="only_hand")
+    # No armature.
+    bpy.context.view_layer.objects.active = None
+    _assert_fails("must be an armature", action_a="walk", action_b="run")
+    assert {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == hashes
+
+
+def test_selected_pose_bones_subset(rig):
+    arm = rig
+    chosen = {"chest", "lShldr", "rShldr"}
+    for pb in arm.pose.bones:
+        sel = pb.name in chosen
+        if "select" in pb.bl_rna.properties:
+            pb.select = sel
+        else:
+            pb.bone.select = sel
+    result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.4,
+                                            bone_subset="SELECTED", align=False)
+    assert result == {"FINISHED"}
+    walk, run = _read("walk", arm), _read("run", arm)
+    expected = blend_clips(walk, run, 0.4, align=False, bones=sorted(chosen),
+                           up_axis=_up(arm, walk.root_bone))
+    got = _read("walk_x_run_0.40", arm)
+    assert _angle(got.rotations, expected.rotations) < 1e-5
