@@ -80,9 +80,13 @@ def ensure_venv(venv: Path, bpy_version: str) -> Path:
         t0 = time.monotonic()
         if venv.exists():
             shutil.rmtree(venv)
-        subprocess.run([base, "-m", "venv", str(venv)], check=True, env=clean_env())
-        subprocess.run([str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
-                        f"bpy=={bpy_version}", f"numpy=={NUMPY}"], check=True, env=clean_env())
+        for cmd in ([base, "-m", "venv", str(venv)],
+                    [str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
+                     f"bpy=={bpy_version}", f"numpy=={NUMPY}"]):
+            proc = subprocess.run(cmd, capture_output=True, text=True, env=clean_env())
+            if proc.returncode != 0:
+                sys.stderr.write(proc.stdout + proc.stderr)
+                raise SystemExit(f"install_test: could not create {venv} ({' '.join(cmd)})")
         stamp.write_text(want + "\n")
         log(f"  venv ready in {time.monotonic() - t0:.0f}s")
     probe = ("import importlib.util, json, sys; "
@@ -320,11 +324,18 @@ def run_install(bpy, ck: Checks, zip_path: Path, user: Path) -> None:
     import numpy
 
     ck.add("numpy is Blender's", not _under(numpy.__file__, user), f"numpy {numpy.__version__} at {numpy.__file__}")
-    # The add-on's backend flags (informational, if the modules expose them).
-    sig = sys.modules.get(f"{ADDON_MODULE}.core.signatures")
-    if sig is not None and hasattr(sig, "_iisig"):
-        ck.add("signature backend", (sig._iisig is not None) == ("iisignature" in bundled),
-               "iisignature" if sig._iisig is not None else "numpy fallback")
+    # The add-on sees exactly the optional modules that were bundled (else it uses its numpy fallbacks).
+    import importlib
+
+    for module, flag, dist in (("core.signatures", "HAVE_IISIGNATURE", "iisignature"),
+                               ("core._dp_kernels", "HAVE_NUMBA", "numba")):
+        try:
+            have = getattr(importlib.import_module(f"{ADDON_MODULE}.{module}"), flag)
+        except Exception as ex:
+            ck.add(f"{flag}", False, f"{ADDON_MODULE}.{module}.{flag}: {type(ex).__name__}: {ex}")
+            continue
+        ck.add(f"{flag}", have == (dist in bundled),
+               f"{have} ({dist} {'bundled' if dist in bundled else 'not bundled: numpy fallback'})")
 
 
 def importlib_find(name: str):
@@ -332,6 +343,19 @@ def importlib_find(name: str):
 
     spec = importlib.util.find_spec(name)
     return None if spec is None else (spec.origin or str(spec.submodule_search_locations))
+
+
+def _new_armatures(bpy, before):
+    return [o for o in bpy.data.objects if o not in before and o.type == "ARMATURE"]
+
+
+def _frames(action) -> int:
+    start, end = action.frame_range
+    return int(round(end - start)) + 1
+
+
+def _amc_frames(path: Path) -> int:
+    return sum(1 for ln in path.read_text().splitlines() if ln.strip().isdigit())
 
 
 def run_operators(bpy, ck: Checks, work: Path, allow_missing: bool) -> None:
@@ -343,33 +367,63 @@ def run_operators(bpy, ck: Checks, work: Path, allow_missing: bool) -> None:
         else:
             ck.add(f"shapesig.{op}", False, reason)
     if "import_acclaim" in missing:
+        for op in OPERATORS[1:]:
+            if op not in missing:
+                ck.add(f"shapesig.{op}", False, "not run: it needs shapesig.import_acclaim")
         return
-    data = work / "data"
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    t0 = time.monotonic()
-    amc = data / "acclaim" / "09_02.amc"
-    asf = data / "acclaim" / "09-run.asf"
+    acclaim = work / "data" / "acclaim"
+    amc, amc2, asf = acclaim / "09_02.amc", acclaim / "09_03.amc", acclaim / "09-run.asf"
+
+    # 1. The documented call: one .amc with its skeleton.
+    bpy.ops.wm.read_homefile(use_empty=True)  # keeps the preferences (enabled add-ons)
     before = set(bpy.data.objects)
+    t0 = time.monotonic()
     result = bpy.ops.shapesig.import_acclaim(filepath=str(amc), asf_path=str(asf))
     ck.timings["import_acclaim"] = time.monotonic() - t0
-    new = [o for o in bpy.data.objects if o not in before]
-    arm = [o for o in new if o.type == "ARMATURE"]
+    arm = _new_armatures(bpy, before)
     action = arm[0].animation_data.action if arm and arm[0].animation_data else None
-    amc_frames = sum(1 for ln in amc.read_text().splitlines() if ln.strip().isdigit())
-    frames = None
-    if action is not None:
-        start, end = action.frame_range
-        frames = int(round(end - start)) + 1
+    frames = _frames(action) if action is not None else None
     ck.add("shapesig.import_acclaim", result == {"FINISHED"} and len(arm) == 1 and action is not None
-           and len(arm[0].data.bones) > 20 and frames is not None and abs(frames - amc_frames) <= 1,
+           and len(arm[0].data.bones) > 20 and frames == _amc_frames(amc),
            f"{result}, armature {[o.name for o in arm]}, {len(arm[0].data.bones) if arm else 0} bones, "
-           f"action {action.name if action else None} with {frames} frames (AMC: {amc_frames})")
-    run_search_and_blend(bpy, ck, work, missing)
+           f"action {action.name if action else None} with {frames} frames (AMC: {_amc_frames(amc)}) "
+           f"in {ck.timings['import_acclaim']:.1f}s")
+
+    # 2. Two motions on one armature (the Import dialog's multi-selection), then blend them.
+    bpy.ops.wm.read_homefile(use_empty=True)  # keeps the preferences (enabled add-ons)
+    before, acts_before = set(bpy.data.objects), set(bpy.data.actions)
+    result = bpy.ops.shapesig.import_acclaim(filepath=str(amc), directory=str(acclaim), asf_path=str(asf),
+                                             files=[{"name": amc.name}, {"name": amc2.name}])
+    arm = _new_armatures(bpy, before)
+    acts = sorted((a for a in bpy.data.actions if a not in acts_before), key=lambda a: a.name)
+    ck.add("import two motions", result == {"FINISHED"} and len(arm) == 1 and len(acts) == 2,
+           f"{result}, {len(arm)} armature(s), actions {[a.name for a in acts]}")
+    search_ops(bpy, ck, work, missing)
+    if "blend_actions" in missing or len(arm) != 1 or len(acts) != 2:
+        if "blend_actions" not in missing:
+            ck.add("shapesig.blend_actions", False, "not run: the two-motion import failed")
+        return
+    obj = arm[0]
+    bpy.context.view_layer.objects.active = obj
+    a, b = acts
+    fa, fb = _frames(a), _frames(b)
+    acts_before = set(bpy.data.actions)
+    t0 = time.monotonic()
+    result = bpy.ops.shapesig.blend_actions(action_a=a.name, action_b=b.name, weight=0.5, align=True)
+    ck.timings["blend_actions"] = time.monotonic() - t0
+    new = [x for x in bpy.data.actions if x not in acts_before]
+    fn = _frames(new[0]) if len(new) == 1 else None
+    current = obj.animation_data.action if obj.animation_data else None
+    ck.add("shapesig.blend_actions", result == {"FINISHED"} and len(new) == 1 and fn is not None
+           and min(fa, fb) - 1 <= fn <= max(fa, fb) + 1 and current == new[0]
+           and _frames(a) == fa and _frames(b) == fb,
+           f"{result}, new {[x.name for x in new]} with {fn} frames (A {fa}, B {fb}), assigned "
+           f"{current.name if current else None}, in {ck.timings['blend_actions']:.1f}s")
 
 
-def run_search_and_blend(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
-    """build_index, rank, blend_actions: filled in once their operators land."""
-    for op in ("build_index", "rank", "blend_actions"):
+def search_ops(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
+    """build_index and rank: filled in once their operators land."""
+    for op in ("build_index", "rank"):
         if op not in missing:
             ck.skip(f"shapesig.{op}", "registered, but this install test does not drive it yet")
 
