@@ -11,7 +11,8 @@ are against a baseline measured in the same run, ``iisignature.sig`` of the same
 Bytes per clip: the float64 vector stored per clip for each representation.
 
 iisignature's ``logsig`` methods: 'S' (signature, then log, then projection onto the Lyndon basis) and
-'X' (tensor form) prepare in seconds at 93 dimensions, level 3; 'C' compiles BCH code on the fly and 'O'
+'X' (tensor form) prepare in seconds at 93 dimensions, level 3; 'A' (areas, levels <= 2) is timed at
+level 2; 'C' compiles BCH code on the fly and 'O'
 evaluates BCH formulas stored in an object; pass ``--ii-methods S C O X`` to time them too (at level 3
 and 93 dimensions their prepare takes minutes).
 """
@@ -108,7 +109,9 @@ def main(argv=None):
         # --- iisignature
         if iisignature is not None:
             row("iisignature signature", timed(lambda: sg.signature(R0, n, method="iisignature"), args.repeat))
-            for meth in args.ii_methods:
+            for meth in args.ii_methods + (["A"] if n <= 2 and "A" not in args.ii_methods else []):
+                if meth == "A" and n > 2:
+                    continue  # the area method exists for levels <= 2 only
                 t_prep, s = once(lambda: iisignature.prepare(d, n, meth))
                 row(f"iisignature prepare('{meth}')", t_prep)
                 row(f"iisignature logsig '{meth}'", timed(lambda: iisignature.logsig(path, s, meth), args.repeat),

@@ -71,11 +71,17 @@ BASES = ("lyndon", "tensor")
 # A log-signature whose Euclidean norm is at most this has no direction (eq. 9.1's zero case).
 ZERO_NORM = 1e-12
 
-# iisignature logsig method used for Lyndon coordinates: 'S' (signature, then log, then projection)
-# needs no on-the-fly compilation and was the fastest Lyndon method at 93 dimensions; see the
-# benchmark. 'X' gives the expanded (tensor) log-signature.
-IISIG_LYNDON_METHOD = "S"
+# iisignature logsig method used for Lyndon coordinates, by level: 'A' (areas, levels <= 2) and
+# above that 'S' (signature, then log, then projection), the fastest Lyndon methods measured at 93
+# dimensions ('C' compiles BCH code on the fly: minutes to prepare at level 3; 'O' is slower still
+# per call); see benchmarks/bench_signatures.py. 'X' gives the expanded (tensor) log-signature.
 _PREPARED = {}
+
+
+def _ii_method(level, basis):
+    if basis == "tensor":
+        return "X"
+    return "A" if level <= 2 else "S"
 
 
 # --- helpers -----------------------------------------------------------------------------------------
@@ -114,12 +120,13 @@ def resolve_method(method="auto", dim=None, log=False):
 def prepare(dim, level, basis="lyndon"):
     """iisignature's prepared object for (dim, level) and the basis, made once and kept.
 
-    Only the one method needed is prepared ('S' for Lyndon coordinates, 'X' for the tensor form);
-    preparing all methods (iisignature's default) compiles BCH code and is much slower.
+    Only the one method needed is prepared ('A' for Lyndon coordinates at levels <= 2, 'S' above,
+    'X' for the tensor form); preparing all methods (iisignature's default) compiles BCH code and is
+    much slower.
     """
     if _iisig is None:
         raise ShapeSigError("iisignature is not installed")
-    methods = IISIG_LYNDON_METHOD if basis == "lyndon" else "X"
+    methods = _ii_method(int(level), _check_basis(basis))
     key = (int(dim), int(level), methods)
     s = _PREPARED.get(key)
     if s is None:
@@ -189,8 +196,7 @@ def _logsig_flat(dx, level, method, basis):
     d = dx.shape[1]
     if method == "iisignature":
         s = prepare(d, level, basis)
-        return np.asarray(_iisig.logsig(_points(dx), s, "X" if basis == "tensor" else IISIG_LYNDON_METHOD),
-                          dtype=np.float64)
+        return np.asarray(_iisig.logsig(_points(dx), s, _ii_method(level, basis)), dtype=np.float64)
     return _logsig_numpy_from_sig(_sig_tensor_numpy(dx, level), d, basis)
 
 

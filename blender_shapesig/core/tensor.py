@@ -235,18 +235,18 @@ def _signature_chunk(dx, level):
             # T_k = P_{j-1}[k-1] + B_{j-1}[k]; Horner with divisors j, j-1, ..., 2.
             b = dx / j
             for i in range(1, j - 1):
-                b = ((prev[i] + b)[:, :, None] * dx[:, None, :]).reshape(m, -1) / (j - i)
-            t_mat = prev[j - 1] + b
+                b = np.multiply((prev[i] + b)[:, :, None], dx[:, None, :] / (j - i)).reshape(m, -1)
+            b += prev[j - 1]
+            t_mat = b
         if j == level:
             # Top level: sum_k T_k ⊗ dx_k = T^T dx, one matrix product over time.
             out.append((t_mat.T @ dx).reshape(-1))
             break
-        steps = (t_mat[:, :, None] * dx[:, None, :]).reshape(m, -1)
-        run = np.cumsum(steps, axis=0)
-        out.append(run[-1].copy())
-        excl = np.empty_like(run)
+        steps = np.multiply(t_mat[:, :, None], dx[:, None, :]).reshape(m, -1)
+        excl = np.empty_like(steps)  # exclusive prefix sums: level j before each step
         excl[0] = 0.0
-        excl[1:] = run[:-1]
+        np.cumsum(steps[:-1], axis=0, out=excl[1:])
+        out.append(excl[-1] + steps[-1])
         prev.append(excl)
     return out
 

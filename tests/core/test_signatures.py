@@ -230,7 +230,7 @@ def test_tensor_log_is_inverse_of_exp_series():
 
 
 @needs_ii
-@pytest.mark.parametrize("d,n", [(2, 6), (3, 4), (4, 3), (6, 3)])
+@pytest.mark.parametrize("d,n", [(2, 6), (3, 4), (4, 3), (6, 3), (5, 2), (4, 1)])
 def test_lyndon_coordinates_equal_iisignature_default_logsig(d, n):
     rng = np.random.default_rng(20 + d)
     x = random_path(rng, 10, d, scale=0.5)
