@@ -90,6 +90,28 @@ def test_staged_package_passes_blenders_validator(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
+def _other_builders():
+    """Blender's builders from the other development venvs (e.g. 4.2 LTS), run with their own Python."""
+    found = []
+    for ext in sorted(ROOT.glob(".venv-bpy-*/lib/python3*/site-packages/bpy/*/scripts/addons_core/bl_pkg/cli/"
+                                "blender_ext.py")):
+        venv = ext.parents[9]
+        if (venv / "bin" / "python").exists() and ext.resolve() != BLENDER_EXT.resolve():
+            found.append(pytest.param(venv / "bin" / "python", ext, id=f"bpy-{ext.parents[4].name}"))
+    return found or [pytest.param(None, None, id="none",
+                                  marks=pytest.mark.skip(reason="no .venv-bpy-* with another Blender version"))]
+
+
+@pytest.mark.parametrize("python,builder", _other_builders())
+def test_staged_package_passes_older_blenders_validator(tmp_path, python, builder):
+    """blender_version_min is 4.2: the 4.2 LTS builder must accept the staged manifest too."""
+    pkg = be.stage(tmp_path, ["linux-x64"], [])
+    tags = builder.parents[3] / "modules" / "_bpy_internal" / "extensions" / "tags.py"
+    proc = subprocess.run([str(python), str(builder), "validate", str(pkg), "--valid-tags", str(tags)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
 def test_validator_rejects_a_bad_manifest(tmp_path):
     """The validation above can fail: a tag outside Blender's list and a punctuated tagline are rejected."""
     pkg = be.stage(tmp_path, ["linux-x64"], [])
