@@ -1,0 +1,158 @@
+"""clips.load_clips: .amc, .bvh (Blender's importer, nothing left behind, rotations checked against an
+independent reading of the BVH channels), .blend and FILE.blend#ACTION, and clear errors."""
+
+import pathlib
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import action_io, clips  # noqa: E402
+from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.errors import ParseError  # noqa: E402
+
+DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
+ACC = DATA / "acclaim"
+A = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # BVH Y up -> Blender Z up
+
+
+def _all_ids():
+    return {(c, i.as_pointer()) for c in ("objects", "armatures", "actions", "scenes", "collections", "libraries")
+            for i in getattr(bpy.data, c)}
+
+
+def _bvh_local_rotations(path):
+    """{joint: (frames, 3, 3)} local rotations straight from the BVH's Euler channels (file order = applied
+    last to first: R = R_c1 R_c2 R_c3)."""
+    from scipy.spatial.transform import Rotation
+
+    tokens = pathlib.Path(path).read_text().split()
+    joints, i = [], 0
+    while tokens[i] != "MOTION":
+        if tokens[i] in ("ROOT", "JOINT"):
+            joints.append([tokens[i + 1], []])
+            i += 2
+        elif tokens[i] == "CHANNELS":
+            n = int(tokens[i + 1])
+            joints[-1][1] = tokens[i + 2:i + 2 + n]
+            i += 2 + n
+        else:
+            i += 1
+    frames = int(tokens[i + 2])
+    data = np.array([float(x) for x in tokens[i + 6:]]).reshape(frames, -1)
+    out, col = {}, 0
+    for name, chans in joints:
+        rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
+        seq = "".join(chans[k][0] for k in rot)
+        out[name] = Rotation.from_euler(seq.upper(), data[:, [col + k for k in rot]], degrees=True).as_matrix()
+        col += len(chans)
+    return out
+
+
+def test_amc_equals_core(empty_file):
+    (clip,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    core = load_acclaim(ACC / "09_02.amc", ACC / "09-run.asf")
+    np.testing.assert_array_equal(clip.rotations, core.rotations)
+    (c60,) = clips.load_clips(str(ACC / "09_02.amc"), asf=str(ACC / "09-run.asf"), fps=60)
+    assert c60.fps == 60.0
+
+
+def test_bvh_through_blender_importer(empty_file, capsys):
+    scene = bpy.context.scene
+    before = _all_ids()
+    (clip,) = clips.load_clips(DATA / "bvh" / "09_02.bvh")
+    assert _all_ids() == before and bpy.context.scene == scene  # nothing left behind
+    assert capsys.readouterr().out == ""  # the importer's progress prints are swallowed (CLI --json)
+    assert clip.name == "09_02" and clip.frames == 131 and clip.fps == 120.0 and clip.frame_start == 1
+    assert len(clip.bones) == 43 and clip.bones[0] == "hip" and clip.root_bone == "hip"
+    assert clip.rotation_modes[0] == "ZYX" and clip.rotation_modes[1] == "ZXY"  # NATIVE: channel order
+    # independent check: B R B^T (armature-aligned) = A R_bvh A^T for every joint and frame
+    truth = _bvh_local_rotations(DATA / "bvh" / "09_02.bvh")
+    B = clip.meta["rest_rotations"]
+    aligned = B[None] @ clip.rotations @ np.swapaxes(B, -1, -2)[None]
+    for j, name in enumerate(clip.bones):
+        np.testing.assert_allclose(aligned[:, j], A @ truth[name] @ A.T, atol=1e-5, err_msg=name)
+    # the first (rest) frame can be cropped off
+    assert clip.crop(2).frames == 130
+
+
+def _save_blend(path, walk):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    data = bpy.data.armatures.new("Skel")
+    obj = bpy.data.objects.new("Skel", data)
+    bpy.context.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    for i, b in enumerate(walk.bones):
+        eb = data.edit_bones.new(b)
+        eb.head, eb.tail = (i, 0, 0), (i, 0, 1)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    for pb in obj.pose.bones:
+        pb.rotation_mode = "ZXY"
+    a = action_io.write_action(walk, armature=obj, name="walk_a", assign=True)
+    b = action_io.write_action(walk.crop(1, 50), armature=obj, name="walk_b")
+    # an action made by Blender itself (keyframe_insert): its modes come from the armature in the file
+    obj.pose.bones["lfemur"].rotation_euler = (0.1, 0.2, 0.3)
+    obj.animation_data.action = None
+    obj.pose.bones["lfemur"].keyframe_insert("rotation_euler", frame=1)
+    obj.pose.bones["lfemur"].rotation_euler = (0.4, 0.2, 0.3)
+    obj.pose.bones["lfemur"].keyframe_insert("rotation_euler", frame=5)
+    blender_made = obj.animation_data.action
+    blender_made.name = "keyed"
+    blender_made.use_fake_user = True
+    obj.animation_data.action = a
+    bpy.data.actions.new("not_armature").use_fake_user = True
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return a.name, b.name
+
+
+def test_blend_file_and_single_action(empty_file, tmp_path, capsys):
+    walk = load_acclaim(ACC / "16_15.amc", ACC / "16.asf").crop(1, 120)
+    path = tmp_path / "lib.blend"
+    _save_blend(path, walk)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    before = _all_ids()
+    got = clips.load_clips(path)
+    assert _all_ids() == before
+    assert sorted(c.name for c in got) == ["keyed", "walk_a", "walk_b"]
+    by_name = {c.name: c for c in got}
+    np.testing.assert_allclose(by_name["walk_a"].rotations, walk.rotations, atol=2e-6)
+    assert by_name["walk_b"].frames == 50 and by_name["walk_a"].source == f"{path}#walk_a"
+    keyed = by_name["keyed"]
+    assert keyed.bones == ("lfemur",) and keyed.rotation_modes == ("ZXY",)
+    from scipy.spatial.transform import Rotation
+
+    np.testing.assert_allclose(keyed.rotations[0, 0], Rotation.from_euler("zxy", [0.3, 0.1, 0.2]).as_matrix(),
+                               atol=1e-6)
+    (one,) = clips.load_clips(f"{path}#walk_b")
+    assert one.name == "walk_b" and one.frames == 50
+    assert _all_ids() == before
+    with pytest.raises(ParseError, match="no action 'nope' in the file"):
+        clips.load_clips(f"{path}#nope")
+    with pytest.raises(ParseError, match="animates no pose bones"):
+        clips.load_clips(f"{path}#not_armature")
+    assert _all_ids() == before
+
+
+def test_errors(empty_file, tmp_path):
+    def err(spec, match, **kw):
+        with pytest.raises(ParseError) as info:
+            clips.load_clips(spec, **kw)
+        assert match in str(info.value) and "\n" not in str(info.value), str(info.value)
+
+    err(tmp_path / "x.bvh", "no such file")
+    err(tmp_path / "x.fbx", "unknown clip type '.fbx'")
+    err(tmp_path / "x", "unknown clip type")
+    err(ACC / "07_01.amc", "3 .asf files beside the .amc")
+    (tmp_path / "junk.blend").write_bytes(b"not a blend file at all")
+    err(tmp_path / "junk.blend", "cannot read .blend file")
+    (tmp_path / "bad.bvh").write_text("HIERARCHY\nROOT hip\n{\n OFFSET 0 0\n")
+    err(tmp_path / "bad.bvh", "Frame Time")
+    (tmp_path / "bad2.bvh").write_text("HIERARCHY\nROOT hip\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition "
+                                       "Zposition\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n1 2 3\n1 x 3\n")
+    before = _all_ids()
+    with pytest.raises(ParseError) as info:
+        clips.load_clips(tmp_path / "bad2.bvh")
+    assert "BVH importer failed" in str(info.value) and "\n" not in str(info.value), str(info.value)
+    assert _all_ids() == before
