@@ -339,3 +339,15 @@ def test_clip_errors(walk, run):
         blend_clips(walk, run, 0.5, up_axis="W")
     with pytest.raises(ShapeSigError, match="two frames"):
         blend_clips(walk.crop(1, 1), run, 0.5)
+
+
+def test_different_frame_rates_blend_durations_in_seconds(walk, run):
+    """B at 60 fps lasts 129/60 s: the default length is the blended duration at A's 120 fps, and
+    w = 1 gives B's motion resampled to A's frame rate."""
+    slow = Clip(name="run60", bones=run.bones, rotations=run.rotations, fps=60.0,
+                root_translation=run.root_translation, root_bone=run.root_bone, meta=run.meta)
+    half = blend_clips(walk, slow, 0.5)
+    assert half.frames == int(np.floor((0.5 * 315 / 120 + 0.5 * 129 / 60) * 120 + 0.5)) + 1 == 288
+    one = blend_clips(walk, slow, 1.0)
+    assert one.frames == 259 and one.fps == 120.0
+    assert _angle(one.rotations, geodesic_interpolate(run.rotations, None, uniform_times(259))) < 1e-9
