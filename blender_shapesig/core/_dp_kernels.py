@@ -33,7 +33,7 @@ except Exception:  # pragma: no cover - exercised by monkeypatching in the tests
 
 HAVE_NUMBA = _numba is not None
 
-__all__ = ["HAVE_NUMBA", "dp_numpy", "dp_numba"]
+__all__ = ["HAVE_NUMBA", "dp_numpy", "dp_numba", "gram"]
 
 # Bytes of energies held at once by the numpy kernel.
 _BLOCK_BYTES = 8_000_000
@@ -255,6 +255,32 @@ if HAVE_NUMBA:
         return A
 
     @_numba.njit(cache=True, nogil=True)
+    def _gram_numba(Q0, Q1T):
+        n0, c = Q0.shape
+        n1 = Q1T.shape[1]
+        G = np.zeros((n0, n1))
+        c4 = c - c % 4
+        for a in range(n0):
+            g = G[a]
+            for r in range(0, c4, 4):
+                x0 = Q0[a, r]
+                x1 = Q0[a, r + 1]
+                x2 = Q0[a, r + 2]
+                x3 = Q0[a, r + 3]
+                q0 = Q1T[r]
+                q1 = Q1T[r + 1]
+                q2 = Q1T[r + 2]
+                q3 = Q1T[r + 3]
+                for b in range(n1):
+                    g[b] += (x0 * q0[b] + x1 * q1[b]) + (x2 * q2[b] + x3 * q3[b])
+            for r in range(c4, c):
+                x = Q0[a, r]
+                q = Q1T[r]
+                for b in range(n1):
+                    g[b] += x * q[b]
+        return G
+
+    @_numba.njit(cache=True, nogil=True)
     def _candidate(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, rr, P1, P2, i, j, s):
         """The DP candidate of step s into node (i, j), exactly as _dp_values computes it."""
         a = di[s]
@@ -324,6 +350,18 @@ if HAVE_NUMBA:
             out[count, 1] = j
             count += 1
         return out[:count][::-1].copy()
+
+
+def gram(Q0, Q1):
+    """G = Q0 Q1^T (inner products of all pairs of rows).
+
+    With numba: a single-threaded loop that releases the GIL (BLAS would start its own threads
+    inside every worker thread of elastic_distance_matrix); without it: numpy's matmul.
+    """
+    if HAVE_NUMBA:
+        return _gram_numba(np.ascontiguousarray(Q0, dtype=np.float64),
+                           np.ascontiguousarray(Q1.T, dtype=np.float64))
+    return Q0 @ Q1.T
 
 
 def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True):

@@ -209,7 +209,7 @@ class _Problem:
         self.h0, self.h1 = 1.0 / n0, 1.0 / n1
         self.table = step_table(self.depth, prune)
         self.coef = _entry_coefficients(self.table, self.h0, self.h1)
-        self.G = Q0 @ Q1.T
+        self.G = _dp_kernels.gram(Q0, Q1)
         self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, self.depth)
         self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, self.depth)
         self.lo, self.hi = _band(n0, n1, self.depth)

@@ -1,0 +1,174 @@
+"""Benchmark of the elastic distance d_S* (blender_shapesig.core.elastic).
+
+Usage (from the repository root):
+
+    .venv/bin/python benchmarks/bench_elastic.py [--data /work/shared/data/cmu] [--repeat 15]
+
+1. One pair: two 300-frame, 31-joint real CMU curves (07_01 and 07_02 from tests/data, first
+   300 frames, every bone), depth 9, penalty 0. Times the DP kernel alone (numba and the
+   row-vectorized numpy baseline, measured in the same run; their ratio is the speed-up) and the
+   whole ``elastic_distance`` / ``elastic_align`` calls. Times are the minimum over repeats of
+   the thread's CPU time (``time.thread_time``, robust when other processes share the cores)
+   and, for reference, of the wall time.
+2. The all-pairs matrix of 27 clips (9 walks of subject 07, 8 walks of subject 08, 10 runs of
+   subject 09; ASF/AMC from ``--data``/uscresl_humanoid-gail, 128-417 frames, 31 bones) with
+   ``elastic_distance_matrix`` at workers=1 and workers=2 (wall time). Without ``--data`` (or
+   when the files are missing) synthetic curves of the same sizes are used.
+
+Nothing is asserted: the numbers are printed (and written as JSON with ``--json FILE``).
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import platform
+import sys
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from blender_shapesig.core import _dp_kernels, elastic  # noqa: E402
+from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+
+TESTS = ROOT / "tests" / "data" / "acclaim"
+MATRIX_CLIPS = (
+    [("uscresl_humanoid-gail/mocap/animations", f"07_{n:02d}", "07") for n in (1, 2, 3, 6, 7, 8, 9, 10, 11)]
+    + [("uscresl_humanoid-gail/mocap/animations", f"08_{n:02d}", "07") for n in (1, 2, 3, 5, 6, 7, 8, 9)]
+    + [("uscresl_humanoid-gail/mocap/animations/running", f"09_{n:02d}", "09") for n in (1, 2, 3, 4, 5, 6, 7, 8, 10, 11)]
+)
+# Subject 08 has no ASF here; every CMU ASF has the same 31 bones and DOF layout, so the AMC is
+# read with subject 07's skeleton (see shared/data/cmu/INDEX.md).
+ASF = {
+    "07": "Jiaqi-Zuo_CSCI520-Motion-Capture-Interpolation/mocapPlayer-starter/07-walk.asf",
+    "09": "Jiaqi-Zuo_CSCI520-Motion-Capture-Interpolation/mocapPlayer-starter/09-run.asf",
+}
+
+
+def best_of(fn, repeat):
+    cpu, wall = [], []
+    for _ in range(repeat):
+        c0, w0 = time.thread_time(), time.perf_counter()
+        fn()
+        cpu.append(time.thread_time() - c0)
+        wall.append(time.perf_counter() - w0)
+    return min(cpu), min(wall)
+
+
+def pair_benchmark(repeat):
+    R0 = load_acclaim(TESTS / "07_01.amc", TESTS / "07-walk.asf").rotations[:300]
+    R1 = load_acclaim(TESTS / "07_02.amc", TESTS / "07-walk.asf").rotations[:300]
+    Q0, _ = elastic._srvt_matrix(R0, "R0")
+    Q1, _ = elastic._srvt_matrix(R1, "R1")
+    prob = elastic._Problem(Q0, Q1, 9, 0.0)
+    band = int(np.sum(prob.hi - prob.lo + 1))
+    entries = int(len(prob.table["ea"]))
+    out = {
+        "frames": [int(R0.shape[0]), int(R1.shape[0])], "joints": int(R0.shape[1]), "depth": 9,
+        "steps": int(len(prob.table["di"])), "entries_per_node": entries, "band_nodes": band,
+        # Every (node, step) candidate reads one G value per entry: the multiply-adds of the DP.
+        "multiply_adds": int(round(band * entries)),
+    }
+    results = {}
+    if _dp_kernels.HAVE_NUMBA:
+        t0 = time.perf_counter()
+        prob.solve("numba", want_path=False)
+        out["numba_first_call_s"] = time.perf_counter() - t0  # JIT or on-disk cache load
+        results["numba_dp"] = best_of(lambda: prob.solve("numba", want_path=False), repeat)
+        results["numba_dp_path"] = best_of(lambda: prob.solve("numba", want_path=True), repeat)
+        results["elastic_distance"] = best_of(lambda: elastic.elastic_distance(R0, R1), repeat)
+        results["elastic_align"] = best_of(lambda: elastic.elastic_align(R0, R1), repeat)
+    results["numpy_dp"] = best_of(lambda: prob.solve("numpy", want_path=False), max(2, repeat // 5))
+    results["srvt_and_G"] = best_of(
+        lambda: elastic._Problem(elastic._srvt_matrix(R0, "R0")[0], elastic._srvt_matrix(R1, "R1")[0], 9, 0.0),
+        repeat,
+    )
+    out["load_average_1min"] = os.getloadavg()[0]
+    out["times_ms"] = {k: {"cpu": round(v[0] * 1e3, 3), "wall": round(v[1] * 1e3, 3)} for k, v in results.items()}
+    if "numba_dp" in results:
+        out["speedup_numba_vs_numpy_dp"] = round(results["numpy_dp"][0] / results["numba_dp"][0], 1)
+        out["numba_dp_ns_per_multiply_add"] = round(results["numba_dp"][0] / out["multiply_adds"] * 1e9, 4)
+        vn = prob.solve("numba")[0]
+        vp = prob.solve("numpy")[0]
+        out["kernels_identical"] = bool(vn == vp)
+    return out
+
+
+def matrix_curves(data):
+    curves, names, source = [], [], "synthetic"
+    if data is not None and all((data / d / f"{n}.amc").exists() for d, n, _ in MATRIX_CLIPS):
+        for d, n, s in MATRIX_CLIPS:
+            clip = load_acclaim(data / d / f"{n}.amc", data / ASF[s])
+            curves.append(clip.rotations)
+            names.append(n)
+        source = str(data)
+    else:
+        rng = np.random.default_rng(0)
+        from scipy.spatial.transform import Rotation
+
+        frames = [316, 329, 415, 417, 379, 362, 306, 301, 315, 277, 309, 353, 298, 296, 302, 283, 293,
+                  148, 130, 128, 137, 143, 141, 138, 128, 132, 165]
+        for n, f in enumerate(frames):
+            v = np.cumsum(rng.normal(size=(f, 31, 3)) * 0.03, axis=0)
+            curves.append(Rotation.from_rotvec(v.reshape(-1, 3)).as_matrix().reshape(f, 31, 3, 3))
+            names.append(f"synthetic_{n}")
+    return curves, names, source
+
+
+def matrix_benchmark(data, repeat):
+    curves, names, source = matrix_curves(data)
+    frames = [int(c.shape[0]) for c in curves]
+    out = {"clips": len(curves), "source": source, "frames_min": min(frames), "frames_max": max(frames),
+           "pairs": len(curves) * (len(curves) - 1) // 2}
+    elastic.elastic_distance_matrix(curves[:2])  # warm-up (JIT cache load)
+    walls, cpus, mats = {}, {}, {}
+    for workers in (1, 2):
+        ts, cs = [], []
+        for _ in range(max(1, repeat // 5)):
+            c0, t0 = time.process_time(), time.perf_counter()
+            mats[workers] = elastic.elastic_distance_matrix(curves, workers=workers)
+            ts.append(time.perf_counter() - t0)
+            cs.append(time.process_time() - c0)
+        walls[workers] = min(ts)
+        cpus[workers] = min(cs)
+    out["wall_s"] = {f"workers={w}": round(t, 3) for w, t in walls.items()}
+    # CPU time of the whole process (all threads): the wall time on two otherwise idle cores is
+    # about cpu / workers; on a shared machine the wall time is longer.
+    out["process_cpu_s"] = {f"workers={w}": round(t, 3) for w, t in cpus.items()}
+    out["load_average_1min"] = os.getloadavg()[0]
+    out["same_matrix"] = bool(np.array_equal(mats[1], mats[2]))
+    # Leave-one-out nearest neighbour on the three groups (walk 07, walk 08, run 09) as a sanity check.
+    if source != "synthetic":
+        labels = np.array(["walk" if n[:2] in ("07", "08") else "run" for n in names])
+        M = mats[1] + np.diag(np.full(len(names), np.inf))
+        nn = np.argmin(M, axis=1)
+        out["walk_run_1nn_accuracy"] = float(np.mean(labels[nn] == labels))
+    return out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    default = pathlib.Path("/work/shared/data/cmu")
+    ap.add_argument("--data", type=pathlib.Path, default=default if default.exists() else None,
+                    help="the shared CMU data folder (with uscresl_humanoid-gail/...)")
+    ap.add_argument("--repeat", type=int, default=15)
+    ap.add_argument("--skip-matrix", action="store_true")
+    ap.add_argument("--json", type=pathlib.Path, help="also write the results to this file")
+    args = ap.parse_args(argv)
+    res = {
+        "machine": {"python": platform.python_version(), "numpy": np.__version__, "cpu_count": os.cpu_count(),
+                    "numba": _dp_kernels.HAVE_NUMBA and __import__("numba").__version__},
+        "pair": pair_benchmark(args.repeat),
+    }
+    if not args.skip_matrix:
+        res["matrix"] = matrix_benchmark(args.data, args.repeat)
+    print(json.dumps(res, indent=2))
+    if args.json:
+        args.json.write_text(json.dumps(res, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
