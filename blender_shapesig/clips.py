@@ -27,7 +27,7 @@ from . import action_io, compat
 from .core.acclaim import load_acclaim
 from .core.errors import ParseError, ShapeSigError
 
-__all__ = ["load_clips", "split_spec", "import_bvh"]
+__all__ = ["load_clips", "split_spec", "import_bvh", "check_bvh"]
 
 EXTENSIONS = (".bvh", ".amc", ".blend")
 
@@ -65,20 +65,117 @@ def load_clips(spec, asf=None, fps=None):
 # ------------------------------------------------------------------------------------------- BVH
 
 
-def _bvh_frame_time(path):
-    with open(path, "r", encoding="utf-8", errors="replace") as fh:
-        for no, line in enumerate(fh, 1):
-            if line.strip().lower().startswith("frame time"):
-                try:
-                    value = float(line.split(":", 1)[1])
-                except (IndexError, ValueError):
-                    raise ParseError("bad 'Frame Time' line", path, no) from None
-                if not value > 0:
-                    raise ParseError("'Frame Time' must be positive", path, no)
-                return value
-            if no > 100000:
-                break
-    raise ParseError("no 'Frame Time' line (is this a BVH file?)", path)
+def check_bvh(path):
+    """Validate a BVH file's structure and numbers before Blender's importer sees it (its failures are
+    tracebacks); returns the frame time. Raises ParseError naming the line."""
+    try:
+        with open(path, "r", encoding="utf-8", errors="replace") as fh:
+            lines = fh.read().splitlines()
+    except OSError as exc:
+        raise ParseError(f"cannot read BVH file: {exc.strerror or exc}", path) from None
+    if not any(ln.strip() for ln in lines):
+        raise ParseError("empty BVH file", path)
+    channels, depth, joints = 0, 0, 0
+    motion_line = None
+    seen_header = False
+    for no, raw in enumerate(lines, 1):
+        tokens = raw.split()
+        if not tokens:
+            continue
+        key = tokens[0].upper()
+        if not seen_header:
+            if key != "HIERARCHY":
+                raise ParseError("expected HIERARCHY (is this a BVH file?)", path, no)
+            seen_header = True
+            continue
+        if key in ("ROOT", "JOINT"):
+            joints += 1
+        elif key == "{":
+            depth += 1
+        elif key == "}":
+            depth -= 1
+            if depth < 0:
+                raise ParseError("unbalanced '}'", path, no)
+        elif key == "CHANNELS":
+            try:
+                n = int(tokens[1])
+            except (IndexError, ValueError):
+                raise ParseError("bad CHANNELS line", path, no) from None
+            if len(tokens) != n + 2:
+                raise ParseError(f"CHANNELS says {n} but lists {len(tokens) - 2}", path, no)
+            channels += n
+        elif key == "OFFSET":
+            if len(tokens) != 4:
+                raise ParseError("OFFSET needs 3 numbers", path, no)
+        elif key == "MOTION":
+            motion_line = no
+            break
+    if motion_line is None or joints == 0:
+        raise ParseError("no MOTION section (truncated BVH?)" if joints else "no joints (is this a BVH file?)", path)
+    if depth != 0:
+        raise ParseError("unbalanced braces in HIERARCHY", path, motion_line)
+    head = [(i, ln) for i, ln in enumerate(lines[motion_line:], motion_line + 1) if ln.strip()][:2]
+    if len(head) < 2:
+        raise ParseError("MOTION section without Frames / Frame Time", path, motion_line)
+    (n1, frames_line), (n2, time_line) = head
+    try:
+        if not frames_line.strip().lower().startswith("frames"):
+            raise ValueError
+        frames = int(frames_line.split(":", 1)[1])
+    except (IndexError, ValueError):
+        raise ParseError("expected 'Frames: N'", path, n1) from None
+    try:
+        if not time_line.strip().lower().startswith("frame time"):
+            raise ValueError
+        frame_time = float(time_line.split(":", 1)[1])
+    except (IndexError, ValueError):
+        raise ParseError("expected 'Frame Time: seconds'", path, n2) from None
+    if not frame_time > 0 or frame_time != frame_time or frame_time == float("inf"):
+        raise ParseError("'Frame Time' must be a positive number", path, n2)
+    if frames < 1:
+        raise ParseError("no frames", path, n1)
+    data = [(i, ln) for i, ln in enumerate(lines[n2:], n2 + 1) if ln.strip()]
+    if len(data) < frames:
+        raise ParseError(f"{len(data)} frames of motion data for 'Frames: {frames}' (truncated file?)", path)
+    for i, ln in data[:frames]:
+        values = ln.split()
+        if len(values) != channels:
+            raise ParseError(f"{len(values)} values for {channels} channels", path, i)
+        for v in values:
+            try:
+                x = float(v)
+            except ValueError:
+                raise ParseError(f"{v!r} is not a number", path, i) from None
+            if x != x or x in (float("inf"), float("-inf")):
+                raise ParseError(f"{v!r} is not a finite number", path, i)
+    return frame_time
+
+
+@contextlib.contextmanager
+def _quiet_fds():
+    """Send the process's stdout and stderr (file descriptors 1 and 2: Blender's C-level messages and the
+    importer's prints) to a temporary file for the duration."""
+    import sys
+    import tempfile
+
+    saved = []
+    with tempfile.TemporaryFile() as sink:
+        try:
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()
+            for fd in (1, 2):
+                saved.append((fd, os.dup(fd)))
+                os.dup2(sink.fileno(), fd)
+        except OSError:
+            pass
+        try:
+            with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+                yield
+        finally:
+            for fd, copy in saved:
+                os.dup2(copy, fd)
+                os.close(copy)
 
 
 def _ensure_bvh_importer():
@@ -123,7 +220,7 @@ def import_bvh(path, name=None):
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise ParseError("no such file", path)
-    frame_time = _bvh_frame_time(path)
+    frame_time = check_bvh(path)
     _ensure_bvh_importer()
     before = _id_snapshot()
     window = getattr(bpy.context, "window", None)
@@ -137,7 +234,7 @@ def import_bvh(path, name=None):
         if window is not None:
             window.scene = bpy.data.scenes.new("shapesig_bvh_import")
         try:
-            with contextlib.redirect_stdout(io.StringIO()):  # the importer prints progress
+            with _quiet_fds():  # the importer prints progress; Blender prints failures to stderr
                 result = bpy.ops.import_anim.bvh(filepath=path, rotate_mode="NATIVE", frame_start=1,
                                                  use_fps_scale=False, update_scene_fps=False,
                                                  update_scene_duration=False, global_scale=1.0)

@@ -148,11 +148,39 @@ def test_errors(empty_file, tmp_path):
     (tmp_path / "junk.blend").write_bytes(b"not a blend file at all")
     err(tmp_path / "junk.blend", "cannot read .blend file")
     (tmp_path / "bad.bvh").write_text("HIERARCHY\nROOT hip\n{\n OFFSET 0 0\n")
-    err(tmp_path / "bad.bvh", "Frame Time")
-    (tmp_path / "bad2.bvh").write_text("HIERARCHY\nROOT hip\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition "
-                                       "Zposition\n}\nMOTION\nFrames: 2\nFrame Time: 0.1\n1 2 3\n1 x 3\n")
+    err(tmp_path / "bad.bvh", "bad.bvh:4: OFFSET needs 3 numbers")
+    good = (DATA / "bvh" / "09_02.bvh").read_text()
+    lines = good.splitlines()
+    motion = lines.index("MOTION")
+    bvh_cases = {
+        "empty": ("", "empty BVH file"),
+        "text": ("hello\n", "expected HIERARCHY"),
+        "nomotion": ("\n".join(lines[:motion]), "no MOTION section"),
+        "truncated": (good[: len(good) // 2], "frames of motion data for 'Frames: 131' (truncated file?)"),
+        "cutline": ("\n".join(lines[:-1] + [lines[-1][:40]]), "values for 132 channels"),
+        "nan": ("\n".join(lines[:-1] + [" ".join(["nan"] * 132)]), "'nan' is not a finite number"),
+        "word": ("\n".join(lines[:-1] + [" ".join(["1x"] * 132)]), "'1x' is not a number"),
+        "frametime": (good.replace("Frame Time:", "Frame Tim:"), "expected 'Frame Time: seconds'"),
+    }
     before = _all_ids()
+    for name, (text, match) in bvh_cases.items():
+        (tmp_path / f"{name}.bvh").write_text(text)
+        err(tmp_path / f"{name}.bvh", match)
+    assert _all_ids() == before
+
+
+def test_importer_failure_is_one_line_and_silent(empty_file, tmp_path, capfd):
+    """Input that passes our BVH check but makes Blender's importer fail: one line, nothing on the process's
+    stdout/stderr (Blender prints operator tracebacks there), nothing left in the file."""
+    (tmp_path / "rot.bvh").write_text(
+        "HIERARCHY\nROOT hip\nOFFSET 0 0 0\nCHANNELS 3 Zrotation Xrotation Yrotation\n"  # no braces
+        "MOTION\nFrames: 2\nFrame Time: 0.1\n1 2 3\n1 2 3\n")
+    before = _all_ids()
+    capfd.readouterr()
     with pytest.raises(ParseError) as info:
-        clips.load_clips(tmp_path / "bad2.bvh")
-    assert "BVH importer failed" in str(info.value) and "\n" not in str(info.value), str(info.value)
+        clips.load_clips(tmp_path / "rot.bvh")
+    out, errout = capfd.readouterr()
+    msg = str(info.value)
+    assert "\n" not in msg and "rot.bvh" in msg and "BVH importer failed" in msg, msg
+    assert out == "" and "Traceback" not in errout, (out, errout)
     assert _all_ids() == before
