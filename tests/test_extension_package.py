@@ -216,3 +216,35 @@ def test_linux_zip_wheels(linux_zip):
     for w in wheels:
         assert "linux-x64" in be.wheel_blender_platforms(BEXT, Path(w).name), w
         assert "-cp311-" in w
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Blender's install-time wheel filter, per target platform
+
+
+# What sysconfig.get_platform() says inside Blender on each platform (Blender 4.2 to 5.0 official builds).
+SYSCONFIG_PLATFORM = {"linux-x64": "linux-x86_64", "windows-x64": "win-amd64",
+                      "macos-arm64": "macosx-11.2-arm64", "macos-x64": "macosx-11.2-x86_64"}
+
+
+def test_blender_installs_every_bundled_wheel_on_its_platform(monkeypatch):
+    """Blender installs a wheel only if its own filter (bl_pkg, run on the user's machine) accepts it: every
+    wheel we pick for a platform must pass that filter there, and none must pass it on another platform."""
+    pytest.importorskip("bpy")
+    import sysconfig
+
+    ops = pytest.importorskip("bl_pkg.bl_extension_ops")
+    cache = be.default_wheel_cache()
+    chosen, _ = be.collect_wheels(BEXT, cache, list(be.PLATFORMS), offline=True, without=set()) \
+        if cache.is_dir() else ({}, {})
+    if not chosen:
+        pytest.skip("no cached wheels (run: python tools/build_extension.py --out build/ext once)")
+    for platform, wheels in chosen.items():
+        names = [f"./wheels/{w.name}" for w in wheels]
+        for target, sysconfig_platform in SYSCONFIG_PLATFORM.items():
+            monkeypatch.setattr(sysconfig, "get_platform", lambda p=sysconfig_platform: p)
+            accepted = ops._extensions_wheel_filter_for_this_system(names)
+            if target == platform:
+                assert accepted == names, (platform, sorted(set(names) - set(accepted)))
+            else:
+                assert accepted == [], (platform, target, accepted)
