@@ -75,8 +75,6 @@ def _check_depth(depth):
         raise ShapeSigError(f"depth must be an integer >= 1, got {depth!r}") from None
     if d != depth or d < 1:
         raise ShapeSigError(f"depth must be an integer >= 1, got {depth!r}")
-    if d > 64:
-        raise ShapeSigError(f"depth must be at most 64, got {d}")
     return d
 
 
@@ -124,20 +122,25 @@ def required_depth(frames0, frames1):
 _TABLES = {}
 
 
-def step_table(depth, prune=True):
+def step_table(depth, prune=True, *, max_di=None, max_dj=None):
     """The DP steps for a depth and their breakpoint-overlap weights (uniform grids).
+
+    Steps (di, dj) have 1 <= di <= min(depth, max_di) and 1 <= dj <= min(depth, max_dj) (steps
+    longer than a curve are useless, so the table is cut to the frame counts).
 
     Returns a dict of int64/float64 arrays: ``di``, ``dj`` (per step); ``start`` (per step, the
     first entry index, plus one final end index); ``ea``, ``eb``, ``ew`` (per entry): interval
     ``k + ea`` of curve 0 meets interval ``l + eb`` of curve 1 on a length ``ew`` in units of
     h0 / dj (an integer). With ``prune`` only coprime steps (di, dj) are kept.
     """
-    key = (int(depth), bool(prune))
+    mi = int(depth) if max_di is None else min(int(depth), int(max_di))
+    mj = int(depth) if max_dj is None else min(int(depth), int(max_dj))
+    key = (mi, mj, bool(prune))
     if key in _TABLES:
         return _TABLES[key]
     di_l, dj_l, start, ea, eb, ew = [], [], [0], [], [], []
-    for di in range(1, depth + 1):
-        for dj in range(1, depth + 1):
+    for di in range(1, mi + 1):
+        for dj in range(1, mj + 1):
             if prune and math.gcd(di, dj) != 1:
                 continue
             di_l.append(di)
@@ -207,11 +210,11 @@ class _Problem:
         self.depth = max(depth, required_depth(n0 + 1, n1 + 1))
         self.penalty = penalty
         self.h0, self.h1 = 1.0 / n0, 1.0 / n1
-        self.table = step_table(self.depth, prune)
+        self.table = step_table(self.depth, prune, max_di=n0, max_dj=n1)
         self.coef = _entry_coefficients(self.table, self.h0, self.h1)
         self.G = _dp_kernels.gram(Q0, Q1)
-        self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, self.depth)
-        self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, self.depth)
+        self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, min(self.depth, n0))
+        self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, min(self.depth, n1))
         self.lo, self.hi = _band(n0, n1, self.depth)
 
     def solve(self, method, want_path=True):
@@ -269,13 +272,14 @@ def elastic_distance(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True)
     return float(np.sqrt(max(value, 0.0)))
 
 
-def elastic_distance_matrix(curves, depth=9, penalty=0.0, workers=2, *, method="auto"):
+def elastic_distance_matrix(curves, depth=9, penalty=0.0, workers=2, *, method="auto", progress=None):
     """All-pairs d_S* of a list of curves: a symmetric (n, n) array with a zero diagonal.
 
     Entry [a, b] for a < b is ``elastic_distance(curves[a], curves[b])`` and is mirrored to
     [b, a] (d_S* is symmetric for penalty 0; with a penalty the a < b order is the one used).
     The SRVTs are computed once per curve. ``workers`` threads share the pairs; the numba kernel
-    releases the GIL, so they run in parallel (the numpy kernel mostly does too).
+    releases the GIL, so they run in parallel (the numpy kernel mostly does too). ``progress``, if
+    given, is called as ``progress(1)`` (in the calling thread) each time a pair is done.
     """
     depth = _check_depth(depth)
     penalty = _check_penalty(penalty)
@@ -314,6 +318,8 @@ def elastic_distance_matrix(curves, depth=9, penalty=0.0, workers=2, *, method="
     try:
         for a, b, d in results:
             out[a, b] = out[b, a] = d
+            if progress is not None:
+                progress(1)
     finally:
         if workers > 1 and len(pairs) >= 2:
             pool.shutdown()

@@ -12,6 +12,7 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 from scipy.spatial.transform import Rotation
 
 from blender_shapesig.core import _dp_kernels, elastic
@@ -134,6 +135,21 @@ def test_dp_equals_brute_force(f0, f1, depth, penalty, seed, method):
         assert d * d == pytest.approx(truth, rel=1e-10, abs=1e-12)
         # The returned warp attains the minimum.
         assert path_energy(R0, R1, warp, penalty) == pytest.approx(truth, rel=1e-10, abs=1e-12)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    f0=st.integers(2, 6), f1=st.integers(2, 6), depth=st.integers(1, 6),
+    penalty=st.sampled_from([0.0, 0.5, 20.0]), seed=st.integers(0, 10_000),
+)
+def test_dp_equals_brute_force_random(f0, f1, depth, penalty, seed):
+    R0 = random_curve(f0, seed=seed)
+    R1 = random_curve(f1, seed=seed + 1)
+    depth_used = max(depth, required_depth(f0, f1))
+    truth = brute_force(R0, R1, depth_used, penalty)
+    warp, d, info = elastic_align(R0, R1, depth=depth, penalty=penalty, return_info=True)
+    assert info["depth"] == depth_used
+    assert d * d == pytest.approx(truth, rel=1e-10, abs=1e-12)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -271,6 +287,14 @@ def test_slope_limit_raises_depth():
     assert d * d == pytest.approx(path_energy(R0, R1, warp), rel=1e-10)
     _, _, info = elastic_align(R0, R1, depth=12, return_info=True)
     assert info["depth"] == 12
+    # Extreme ratios: one interval against many (a single step), and a huge requested depth,
+    # which is cut to the frame counts (same result as depth = frames).
+    R2 = random_curve(2, joints=2, seed=83)
+    R3 = random_curve(301, joints=2, seed=84)
+    warp, d = elastic_align(R2, R3)
+    assert warp.tolist() == [[0.0, 0.0], [1.0, 1.0]]
+    assert d * d == pytest.approx(path_energy(R2, R3, warp), rel=1e-10)
+    assert elastic_distance(R0, R1, depth=10**6) == elastic_distance(R0, R1, depth=40)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -326,6 +350,9 @@ def test_distance_matrix():
         assert M1[a, b] == elastic_distance(curves[a], curves[b])
     with pytest.raises(CurveError):
         elastic_distance_matrix([curves[0], random_curve(20, joints=2)])
+    calls = []
+    elastic_distance_matrix(curves, progress=calls.append)
+    assert calls == [1] * 6
 
 
 # ---------------------------------------------------------------------------------------------
