@@ -116,6 +116,12 @@ def build_zip(out: Path, without: str) -> Path:
     if len(zips) != 1:
         raise SystemExit(f"install_test: expected one linux-x64 zip, got {zips}")
     log(f"built {zips[0]['zip']} ({zips[0]['bytes'] / 1e6:.1f} MB) in {time.monotonic() - t0:.1f}s")
+    dists = {w.split("-")[0] for w in zips[0]["wheels"]}
+    want = {"scipy"} | (set() if without else {"numba", "llvmlite", "iisignature"})
+    if dists != want:
+        raise SystemExit(f"install_test: the linux-x64 zip bundles {sorted(dists)}, expected {sorted(want)} "
+                         f"({summary['notes']}); run this script with the development venv's Python "
+                         "(.venv/bin/python: pip, numpy 1.26, setuptools, wheel) so it can build iisignature")
     return Path(zips[0]["zip"])
 
 
