@@ -351,3 +351,45 @@ def test_different_frame_rates_blend_durations_in_seconds(walk, run):
     one = blend_clips(walk, slow, 1.0)
     assert one.frames == 259 and one.fps == 120.0
     assert _angle(one.rotations, geodesic_interpolate(run.rotations, None, uniform_times(259))) < 1e-9
+
+
+def _turned(clip, degrees):
+    """The clip turned about the vertical (ASF +Y) by ``degrees``: root rotation and path."""
+    from scipy.spatial.transform import Rotation
+
+    Q = Rotation.from_euler("y", degrees, degrees=True).as_matrix()
+    rot = clip.rotations.copy()
+    j = clip.bones.index(clip.root_bone)
+    rot[:, j] = Q @ rot[:, j]
+    return Clip(name=clip.name + "_turned", bones=clip.bones, rotations=rot, fps=clip.fps,
+                root_translation=clip.root_translation @ Q.T, root_bone=clip.root_bone,
+                meta=clip.meta), Q
+
+
+def test_root_displacements_follow_the_blended_heading(walk, run):
+    """B turned by 90 degrees walks along +X instead of +Z. Displacements blended in the heading
+    frame keep the full forward travel (between A's and B's, not the ~0.7x of averaging two
+    perpendicular world displacements) and head off at about 45 degrees, the blended heading."""
+    b, _ = _turned(run, 90.0)
+    c = blend_clips(walk, b, 0.5)
+    d = c.root_translation[-1] - c.root_translation[0]
+    horiz = np.hypot(d[0], d[2])
+    da = walk.root_translation[-1] - walk.root_translation[0]
+    db = b.root_translation[-1] - b.root_translation[0]
+    lo, hi = sorted([np.hypot(da[0], da[2]), np.hypot(db[0], db[2])])
+    assert lo * 0.97 <= horiz <= hi * 1.03
+    direction = np.degrees(np.arctan2(d[0], d[2]))
+    assert 35.0 < direction < 55.0
+
+
+def test_turning_both_clips_turns_the_blend(walk, run):
+    """Equivariance: blending two clips turned by the same yaw gives the turned blend."""
+    a2, Q = _turned(walk, 30.0)
+    b2, _ = _turned(run, 30.0)
+    c = blend_clips(walk, run, 0.4)
+    c2 = blend_clips(a2, b2, 0.4)
+    j = walk.bones.index("root")
+    assert np.abs(c2.root_translation - c.root_translation @ Q.T).max() < 1e-8
+    assert _angle(c2.rotations[:, j], Q @ c.rotations[:, j]) < 1e-9
+    others = [i for i in range(len(walk.bones)) if i != j]
+    assert _angle(c2.rotations[:, others], c.rotations[:, others]) < 1e-9
