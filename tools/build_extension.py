@@ -179,7 +179,8 @@ def wheel_tags_acceptable(wheel_platform: str, platform: str) -> bool:
     return False
 
 
-def pip_download(cache: Path, spec: str, platform: str) -> bool:
+def pip_download(cache: Path, spec: str, platform: str) -> str:
+    """"ok", "unavailable" (PyPI has no such wheel) or "error" (pip or the network failed)."""
     cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--disable-pip-version-check",
            "--only-binary=:all:", "--python-version", PYTHON_VERSION, "--implementation", "cp",
            "--abi", PYTHON_TAG, "--no-deps", "--dest", str(cache)]
@@ -190,9 +191,12 @@ def pip_download(cache: Path, spec: str, platform: str) -> bool:
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         last = (proc.stderr.strip().splitlines() or ["?"])[-1]
-        log(f"  not available: {last}")
-        return False
-    return True
+        if "No matching distribution" in proc.stderr or "Could not find a version" in proc.stderr:
+            log(f"  not available: {last}")
+            return "unavailable"
+        log(f"  pip download failed: {last}")
+        return "error"
+    return "ok"
 
 
 def ensure_wheel(bext, cache: Path, spec: str, platform: str, offline: bool, refresh: bool = False) -> Path | None:
@@ -201,10 +205,11 @@ def ensure_wheel(bext, cache: Path, spec: str, platform: str, offline: bool, ref
     hit = find_cached_wheel(bext, cache, spec, platform)
     marker = cache / f".unavailable-{spec.replace('==', '-')}-{platform}"
     if hit is None and not offline and (refresh or not marker.exists()):
-        if pip_download(cache, spec, platform):
+        status = pip_download(cache, spec, platform)
+        if status == "ok":
             marker.unlink(missing_ok=True)
-        else:
-            marker.write_text("pip download found no wheel; delete this file or pass --refresh to retry\n")
+        elif status == "unavailable":
+            marker.write_text("PyPI has no such wheel; delete this file or pass --refresh to retry\n")
         hit = find_cached_wheel(bext, cache, spec, platform)
     return hit
 
@@ -274,7 +279,11 @@ def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, witho
             if group in without:
                 note.append(f"no {group} (--without)")
                 continue
-            found = [ensure_wheel(bext, cache, s, platform, offline, refresh) for s in specs]
+            found = []
+            for spec in specs:  # stop at the first missing one: the group is all or nothing
+                found.append(ensure_wheel(bext, cache, spec, platform, offline, refresh))
+                if found[-1] is None:
+                    break
             if None in found:
                 note.append(f"no {group} (numpy fallback)")
                 log(f"platform {platform}: {group} not bundled (no cp311 wheel), the numpy fallback is used")
