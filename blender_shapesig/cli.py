@@ -159,8 +159,18 @@ def load_clip_spec(spec, asf=None):
     return clips
 
 
-def load_one(spec, asf=None):
-    clips = load_clip_spec(spec, asf)
+def _crop(clips, crop):
+    if not crop or (crop[0] is None and crop[1] is None):
+        return clips
+    return [c.crop(crop[0], crop[1]) for c in clips]
+
+
+def _crop_of(args):
+    return (getattr(args, "start", None), getattr(args, "end", None)) if args is not None else None
+
+
+def load_one(spec, asf=None, crop=None):
+    clips = _crop(load_clip_spec(spec, asf), crop)
     if len(clips) != 1:
         names = ", ".join(c.name for c in clips[:5])
         raise CommandError(
@@ -175,7 +185,7 @@ def load_many(specs, asf=None, args=None):
     bar = _progress(args, len(specs), "loading") if args is not None else _NoBar()
     try:
         for spec in specs:
-            out.extend(load_clip_spec(spec, asf))
+            out.extend(_crop(load_clip_spec(spec, asf), _crop_of(args)))
             bar.update()
     finally:
         bar.close()
@@ -194,8 +204,8 @@ def cmd_distance(args):
     from .core.metrics import clip_distance, metric_label, parse_metric
 
     base, level = parse_metric(args.metric, args.level)
-    a = load_one(args.a, args.asf)
-    b = load_one(args.b, args.asf)
+    a = load_one(args.a, args.asf, _crop_of(args))
+    b = load_one(args.b, args.asf, _crop_of(args))
     d = clip_distance(a, b, base, level=level, depth=args.depth)
     label = metric_label(base, level)
     out = {"distance": _finite(d), "metric": label, "a": _display_name(a), "b": _display_name(b)}
@@ -217,7 +227,7 @@ def cmd_rank(args):
         raise CommandError("--rerank must be 0 or more")
     if args.top is not None and args.top < 1:
         raise CommandError("--top must be 1 or more")
-    query = load_one(args.query, args.asf)
+    query = load_one(args.query, args.asf, _crop_of(args))
     library = load_many(args.clips, args.asf, args)
     if not library:
         raise CommandError("no clips to rank")
@@ -251,8 +261,19 @@ def _rank(query, library, base, level, args, cache_dir):
     return search.rank_clips(query, library, cache=cache, **kwargs)
 
 
+def _new_objects(before):
+    import bpy
+
+    return [o for o in bpy.data.objects if o.as_pointer() not in before and o.type == "ARMATURE"]
+
+
 def _source_armature(spec, asf=None):
-    """Load the armature of clip A into the current (fresh) Blender file; returns the armature object."""
+    """Make the current Blender file hold clip A's armature; returns the armature object.
+
+    .blend: the file itself is opened (the armature that plays the action, else the first one);
+    .bvh: Blender's importer (settings of ``clips.import_bvh``), its imported action removed;
+    .amc: the add-on's Acclaim importer (``bpy.ops.shapesig.import_acclaim``), its action removed.
+    """
     import bpy
 
     path, action_name = split_spec(spec)
@@ -260,58 +281,62 @@ def _source_armature(spec, asf=None):
     if ext == ".blend":
         bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
         arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
-        if action_name:
-            for o in arms:
-                ad = o.animation_data
-                if ad is not None and ad.action is not None and ad.action.name == action_name:
-                    return o
+        for o in arms:
+            ad = o.animation_data
+            if action_name and ad is not None and ad.action is not None and ad.action.name == action_name:
+                return o
         if not arms:
-            raise CommandError(f"{path}: no armature in the file")
+            raise CommandError(f"{path}: the file holds no armature to carry the blend")
         return arms[0]
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    before = set(bpy.data.objects)
+    before = {o.as_pointer() for o in bpy.data.objects}
     if ext == ".bvh":
         from . import clips as clips_module
 
-        importer = getattr(clips_module, "import_bvh", None)
-        if importer is not None:
-            importer(path)
-        else:
-            bpy.ops.import_anim.bvh(filepath=os.path.abspath(path), rotate_mode="NATIVE")
-    elif ext == ".amc":
+        clips_module._ensure_bvh_importer()
+        bpy.ops.import_anim.bvh(filepath=os.path.abspath(path), rotate_mode="NATIVE", frame_start=1,
+                                use_fps_scale=False, update_scene_fps=False, update_scene_duration=False,
+                                global_scale=1.0)
+    else:
         skeleton = find_asf(path, asf)
-        if not hasattr(bpy.ops.shapesig, "import_acclaim"):
+        try:
+            bpy.ops.shapesig.import_acclaim.get_rna_type()
+        except (AttributeError, KeyError):
             import blender_shapesig
 
             blender_shapesig.register()
-        bpy.ops.shapesig.import_acclaim(filepath=os.path.abspath(path), asf_path=os.path.abspath(skeleton))
-    new = [o for o in bpy.data.objects if o not in before and o.type == "ARMATURE"]
-    if not new:
+        try:
+            bpy.ops.shapesig.import_acclaim(filepath=os.path.abspath(path), asf_path=os.path.abspath(skeleton))
+        except (AttributeError, KeyError):
+            raise CommandError("writing a blend of .amc clips needs the add-on's Acclaim importer") from None
+    arms = _new_objects(before)
+    if not arms:
         raise CommandError(f"{path}: importing it created no armature")
-    return new[0]
+    arm = arms[0]
+    ad = arm.animation_data
+    if ad is not None and ad.action is not None:
+        from .compat import remove_action
+
+        old = ad.action
+        ad.action = None
+        remove_action(old)
+    return arm
 
 
 def write_blend_file(spec_a, blended, out_path, asf=None):
-    """Save a .blend with A's armature and one new action per blended clip; returns the action names."""
+    """Save a .blend with A's armature and one new action per blended clip (the first one assigned);
+    returns the action names."""
     import bpy
 
     from . import action_io
 
     armature = _source_armature(spec_a, asf)
     names = []
-    first = None
-    for clip in blended:
-        action = action_io.write_action(clip, armature, name=clip.name)
-        action.use_fake_user = True
+    for i, clip in enumerate(blended):
+        action = action_io.write_action(clip, armature, name=clip.name, fake_user=True, assign=(i == 0))
         names.append(action.name)
-        first = first or action
-    try:
-        from .compat import assign_action
-
-        assign_action(armature, first)
-    except ImportError:
-        armature.animation_data_create()
-        armature.animation_data.action = first
+    bpy.context.scene.frame_start = blended[0].frame_start
+    bpy.context.scene.frame_end = blended[0].frame_end
     bpy.ops.wm.save_as_mainfile(filepath=out_path, check_existing=False)
     return names
 
@@ -338,8 +363,8 @@ def cmd_blend(args):
         raise CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
     if args.frames is not None and args.frames < 2:
         raise CommandError("--frames must be 2 or more")
-    a = load_one(args.a, args.asf)
-    b = load_one(args.b, args.asf)
+    a = load_one(args.a, args.asf, _crop_of(args))
+    b = load_one(args.b, args.asf, _crop_of(args))
     from .core.blend import blend_clip_series, blend_name
 
     bar = _progress(args, len(weights), "blending")
@@ -452,12 +477,17 @@ def cmd_evaluate(args):
 # Parser
 
 
-def _add_common(p, asf=True):
+def _add_common(p, asf=True, crop=True):
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout and nothing else there")
     p.add_argument("--debug", action="store_true", help="show the full traceback on errors")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     if asf:
         p.add_argument("--asf", help="skeleton (.asf) for .amc clips (default: the only .asf beside each .amc)")
+    if crop:
+        p.add_argument("--start", type=int, metavar="FRAME",
+                       help="crop every clip to start at this frame (inclusive; e.g. 2 drops the rest pose "
+                            "of the CMU Daz-friendly BVH files)")
+        p.add_argument("--end", type=int, metavar="FRAME", help="crop every clip to end at this frame (inclusive)")
 
 
 def _metric_help(default):
@@ -555,7 +585,7 @@ def build_parser():
     p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--no-figures", action="store_true", help="write only the numbers")
-    _add_common(p)
+    _add_common(p, crop=False)
     p.set_defaults(func=cmd_evaluate)
     return parser
 

@@ -266,3 +266,33 @@ def test_subprocess_error_exit_2(tmp_path):
     assert p.returncode == 2
     assert p.stdout == ""
     assert len(p.stderr.strip().splitlines()) == 1 and "file not found" in p.stderr
+
+
+def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
+    """blend of two BVH clips: the .blend holds an armature and the new action, whose keys are the blend
+    computed here independently with core.blend (read back with the clip loader)."""
+    bpy = pytest.importorskip("bpy")
+    from blender_shapesig.clips import load_clips
+    from blender_shapesig.core.blend import blend_clips
+
+    bvh = ROOT / "tests" / "data" / "bvh"
+    out = tmp_path / "walk_run.blend"
+    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "blend", str(bvh / "07_01.bvh"), str(bvh / "09_02.bvh"),
+                        "--weight", "0.25", "--start", "2", "--frames", "120", "--out", str(out), "--json",
+                        "--no-progress"], capture_output=True, text=True, env=_env(), cwd=str(ROOT), timeout=600)
+    assert p.returncode == 0, p.stderr
+    report = json.loads(p.stdout)  # Blender's importer output went to stderr, not here
+    assert report["out"] == str(out) and report["frames"] == [120]
+    assert report["actions"] == ["07_01_x_09_02_0.25"]
+    assert out.exists()
+    got = load_clips(f"{out}#{report['actions'][0]}")[0]
+    a = load_clips(str(bvh / "07_01.bvh"))[0].crop(2, None)
+    b = load_clips(str(bvh / "09_02.bvh"))[0].crop(2, None)
+    want = blend_clips(a, b, 0.25, align=False, frames=120)
+    assert got.frames == 120
+    idx = [want.bones.index(n) for n in got.bones]
+    # Keys are stored as float32 channels: agreement to ~1e-5 per matrix entry.
+    np.testing.assert_allclose(got.rotations, want.rotations[:, idx], atol=2e-5)
+    # The file carries an armature with the clip's bones.
+    with bpy.data.libraries.load(str(out)) as (src, dst):
+        assert "07_01_x_09_02_0.25" in src.actions and src.armatures

@@ -40,13 +40,13 @@ METRICS = {
         "l2", "elastic", "elastic_numpy", "group3", "concat3", "linear3", "sim2", "sim3",
         "linear3_tensor", "sim2_tensor", "sim3_tensor", "sim2_levelnorm", "sim3_levelnorm",
         "sim3_levelnorm_tensor", "sim4_levelnorm",
-        "sim3+elastic1", "sim3+elastic3", "sim3+elastic5", "sim3_levelnorm+elastic3", "sim3_levelnorm+elastic5",
+        "sim3+elastic3", "sim3+elastic5", "sim3_levelnorm+elastic3", "sim3_levelnorm+elastic5",
     ),
     "cmu_large": (
         "l2", "elastic", "group3", "concat3", "linear3", "sim2", "sim3",
         "linear3_tensor", "sim2_tensor", "sim3_tensor", "sim2_levelnorm", "sim3_levelnorm",
-        "sim3_levelnorm_tensor", "sim4_levelnorm",
-        "sim3+elastic1", "sim3+elastic3", "sim3+elastic5", "sim3_levelnorm+elastic3", "sim3_levelnorm+elastic5",
+        "sim3_levelnorm_tensor",
+        "sim3+elastic3", "sim3+elastic5", "sim3_levelnorm+elastic3", "sim3_levelnorm+elastic5",
     ),
 }
 
@@ -229,7 +229,9 @@ def main(argv=None):
     for name, summary in results.items():
         print(f"== {name}: {summary['clips']} clips")
         for metric, row in summary["metrics"].items():
-            print(f"  {metric:26s} {row['accuracy']:.3f} ({row['correct']}/{summary['clips']})  {row['seconds']:8.2f} s")
+            extra = "".join(f"  {k} {row[k]:.3f}" for k in ("map", "silhouette") if k in row)
+            print(f"  {metric:26s} {row['accuracy']:.3f} ({row['correct']}/{summary['clips']})  "
+                  f"{row['seconds']:8.2f} s{extra}")
     return 0
 
 

@@ -38,7 +38,7 @@ from .errors import ShapeSigError
 __all__ = [
     "DEFAULT_METRICS", "EXTRA_METRICS", "IndexEntry", "MetricSpec", "check_metric", "parse_metric_spec",
     "read_index", "unique_names", "labels_from_csv", "prepare_curves", "distance_matrix",
-    "clip_distance_matrix", "loo_1nn", "two_stage_1nn", "confusion_table", "format_confusion",
+    "clip_distance_matrix", "loo_1nn", "two_stage_1nn", "mean_average_precision", "silhouette", "confusion_table", "format_confusion",
     "classical_mds", "smacof", "mds", "procrustes_error", "linkage_matrix", "write_matrix",
     "plot_mds", "plot_dendrogram", "evaluate", "lyndon_level_sizes",
 ]
@@ -546,6 +546,53 @@ def two_stage_1nn(D_first, labels, k, second):
     return correct / n, predicted, neighbours, set(cache)
 
 
+def mean_average_precision(D, labels):
+    """Leave-one-out retrieval quality: every clip queries all others ranked by D (ties: lower index
+    first); AP = mean of the precision at the rank of each same-label clip; the mean over the clips
+    that have at least one same-label clip. 1.0 when every clip's own class comes first."""
+    D = _check_square(D)
+    labels = list(labels)
+    n = len(labels)
+    aps = []
+    for i in range(n):
+        others = [j for j in range(n) if j != i]
+        row = np.array([D[i, j] for j in others])
+        row = np.where(np.isnan(row), np.inf, row)
+        order = [others[k] for k in np.argsort(row, kind="stable")]
+        rel = [labels[j] == labels[i] for j in order]
+        if not any(rel):
+            continue
+        hits, precisions = 0, []
+        for rank, r in enumerate(rel, start=1):
+            if r:
+                hits += 1
+                precisions.append(hits / rank)
+        aps.append(sum(precisions) / len(precisions))
+    return float(np.mean(aps)) if aps else float("nan")
+
+
+def silhouette(D, labels):
+    """Mean silhouette width of the labelling under D: s_i = (b - a) / max(a, b), a the mean distance
+    to the own class, b the smallest mean distance to another class; 0 for a clip alone in its class."""
+    D = _check_square(D)
+    labels = list(labels)
+    classes = sorted(set(labels), key=labels.index)
+    if len(classes) < 2:
+        return float("nan")
+    idx = {c: [i for i, l in enumerate(labels) if l == c] for c in classes}
+    scores = []
+    for i, l in enumerate(labels):
+        own = [j for j in idx[l] if j != i]
+        if not own:
+            scores.append(0.0)
+            continue
+        a = float(np.mean(D[i, own]))
+        b = min(float(np.mean(D[i, idx[c]])) for c in classes if c != l)
+        top = max(a, b)
+        scores.append(0.0 if top == 0 else (b - a) / top)
+    return float(np.mean(scores))
+
+
 def confusion_table(true, predicted, classes=None):
     """``(classes, table)`` with ``table[i][j]`` = number of clips of class i predicted as class j."""
     true = list(true)
@@ -822,7 +869,8 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=9, 
             D = compute(spec)
             acc, pred, nb = loo_1nn(D, labels)
             secs = seconds[spec.name]
-            row = {"accuracy": acc, "seconds": secs}
+            row = {"accuracy": acc, "seconds": secs, "map": mean_average_precision(D, labels),
+                   "silhouette": silhouette(D, labels)}
             paths = write_matrix(D, names, os.path.join(out_dir, "matrices"), stem=_safe(spec.name))
             row["matrix"] = os.path.relpath(paths["csv"], out_dir)
             if figures and len(curves) >= 3:
@@ -848,9 +896,11 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=9, 
     with open(os.path.join(out_dir, "summary.json"), "w", encoding="utf-8") as fh:
         json.dump(summary, fh, indent=1)
     lines = ["# Evaluation summary", "", f"{len(curves)} clips, classes: {', '.join(classes)}", "",
-             "| metric | 1-NN accuracy | seconds |", "|---|---|---|"]
+             "| metric | 1-NN accuracy | mAP | silhouette | seconds |", "|---|---|---|---|---|"]
     for name, row in summary["metrics"].items():
-        lines.append(f"| {name} | {row['accuracy']:.3f} ({row['correct']}/{len(labels)}) | {row['seconds']:.2f} |")
+        extra = " | ".join(f"{row[k]:.3f}" if k in row else "" for k in ("map", "silhouette"))
+        lines.append(f"| {name} | {row['accuracy']:.3f} ({row['correct']}/{len(labels)}) | {extra} | "
+                     f"{row['seconds']:.2f} |")
     with open(os.path.join(out_dir, "report.md"), "w", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n\n" + "\n".join(reports))
     return summary

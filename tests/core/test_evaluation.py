@@ -63,6 +63,28 @@ def test_loo_1nn_hand_computed():
     assert acc == pytest.approx(3 / 5)
 
 
+def test_mean_average_precision_hand_computed():
+    # Same line as above. Query 0 (a): ranking 1(a) 2(b) 3(b) 4(a) -> AP (1/1 + 2/4)/2 = 0.75;
+    # query 1: 0(a) 2 3 4(a) -> 0.75; query 2 (b): 3(b) first -> 1; query 3 (b): 4(a) 2(b) -> 1/2;
+    # query 4 (a): 3(b) 2(b) 1(a) 0(a) -> (1/3 + 2/4)/2 = 5/12.
+    D = _points_matrix([[0.0], [1.0], [5.0], [6.0], [6.5]])
+    expect = (0.75 + 0.75 + 1.0 + 0.5 + 5 / 12) / 5
+    assert ev.mean_average_precision(D, ["a", "a", "b", "b", "a"]) == pytest.approx(expect)
+    assert ev.mean_average_precision(_points_matrix([[0.0], [0.1], [5.0], [5.1]]), list("aabb")) == 1.0
+
+
+def test_silhouette_hand_computed():
+    # Points 0, 1 (a) and 10, 11 (b): a_i = 1 for all; b = 10.5, 9.5, 9.5, 10.5.
+    D = _points_matrix([[0.0], [1.0], [10.0], [11.0]])
+    expect = (9.5 / 10.5 + 8.5 / 9.5) / 2
+    assert ev.silhouette(D, list("aabb")) == pytest.approx(expect)
+    # A singleton class scores 0 for its clip; swapping the labels gives negative widths.
+    assert ev.silhouette(D, list("abab")) < 0
+    # aaab: clip 0: a = (1 + 10)/2, b = 11 -> 0.5; clip 1: a = (1 + 9)/2, b = 10 -> 0.5;
+    # clip 2: a = (10 + 9)/2, b = 1 -> -8.5/9.5; clip 3 alone -> 0.
+    assert ev.silhouette(D, list("aaab")) == pytest.approx((0.5 + 0.5 - 8.5 / 9.5 + 0.0) / 4)
+
+
 def test_loo_1nn_ties_take_lowest_index_and_ignore_nan():
     D = np.array([[0, 2, 2, np.nan], [2, 0, 1, 1], [2, 1, 0, 3], [np.nan, 1, 3, 0]], dtype=float)
     acc, pred, nb = ev.loo_1nn(D, ["x", "y", "y", "x"])
