@@ -4,25 +4,27 @@
                                                     [--ii-methods S X] [--json OUT.json]
 
 The clip: CMU 16_15 (walk, 31 bones, so a path in R^93), its first ``--frames`` frames, read with
-``core.acclaim``. Every timing is the median of ``--repeat`` runs after one warm-up run; one-off
-preparation (iisignature's ``prepare``, the numpy Lyndon projection) is timed separately, cold. Ratios
+``core.acclaim``. Every timing is the best of ``--repeat`` runs after one warm-up run (the minimum is
+the least disturbed by other processes on a shared machine); one-off preparation (iisignature's
+``prepare``, the numpy Lyndon projection) is timed separately, cold, once. Ratios
 are against a baseline measured in the same run, ``iisignature.sig`` of the same path at the same level
 (the numpy signature when iisignature is missing), so they do not depend on the machine's speed.
-Bytes per clip: the float64 vector stored per clip for each representation.
+Bytes per clip: the float64 vector stored per clip for each representation; and the peak memory of
+one numpy log-signature computation (tracemalloc).
 
 iisignature's ``logsig`` methods: 'S' (signature, then log, then projection onto the Lyndon basis) and
 'X' (tensor form) prepare in seconds at 93 dimensions, level 3; 'A' (areas, levels <= 2) is timed at
-level 2; 'C' compiles BCH code on the fly and 'O'
-evaluates BCH formulas stored in an object; pass ``--ii-methods S C O X`` to time them too (at level 3
-and 93 dimensions their prepare takes minutes).
+level 2; 'C' compiles BCH code on the fly and 'O' evaluates BCH formulas stored in an object; pass
+``--ii-methods S C O X`` to time them too (at level 3 and 93 dimensions the 'C' prepare did not finish
+in 5 minutes).
 """
 
 import argparse
 import json
 import pathlib
-import statistics
 import sys
 import time
+import tracemalloc
 
 import numpy as np
 
@@ -45,7 +47,7 @@ def timed(fn, repeat):
         t0 = time.perf_counter()
         fn()
         times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    return min(times)
 
 
 def once(fn):
@@ -96,6 +98,8 @@ def main(argv=None):
             table.append((name, seconds, note))
 
         row(f"baseline: {base_name}", base)
+        row("development: rotation vectors log(R[k+1] R[k]^T) (in every curve-level call)",
+            timed(lambda: sg.development_increments(R0), args.repeat))
         # --- numpy: one-off Lyndon projection (cold: clear the caches first)
         for fn in (tensor._is_lyndon, tensor.lyndon_words, tensor._factorization, tensor._bracket_matrix,
                    tensor._projection_level):
@@ -121,6 +125,16 @@ def main(argv=None):
             sg.prepare(d, n, "tensor")
             row("iisignature log_signature (Lyndon, via module)",
                 timed(lambda: sg.log_signature(R0, n, method="iisignature"), args.repeat))
+            agree = {}
+            for basis in sg.BASES:
+                a_np = sg.log_signature(R0, n, basis=basis, method="numpy")
+                a_ii = sg.log_signature(R0, n, basis=basis, method="iisignature")
+                agree[basis] = float(np.abs(a_np - a_ii).max() / np.abs(a_ii).max())
+            s_np, s_ii = sg.signature(R0, n, method="numpy"), sg.signature(R0, n, method="iisignature")
+            agree["signature"] = float(np.abs(s_np - s_ii).max() / np.abs(s_ii).max())
+            res["agreement"] = agree
+            print("numpy vs iisignature, max |difference| / max |value|: "
+                  + ", ".join(f"{k} {v:.1e}" for k, v in agree.items()))
         # --- measures for one pair (both signatures computed inside)
         methods = ["numpy"] + (["iisignature"] if iisignature is not None else [])
         for fn in (sg.group_distance, sg.concat_distance, sg.linear_distance, sg.normalized_distance):
@@ -130,6 +144,12 @@ def main(argv=None):
         b = sg.log_signature(R1, n)
         row("normalized_difference from two stored log-signatures",
             timed(lambda: sg.normalized_difference(a, b), max(args.repeat, 20)))
+        # --- peak memory of one numpy log-signature (numpy allocations are traced by tracemalloc)
+        tracemalloc.start()
+        sg.log_signature(R0, n, method="numpy")
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        res["peak_bytes_numpy_log_signature"] = peak
         # --- bytes per clip
         res["bytes"] = {
             "log_signature lyndon": sg.log_signature_dim(d, n) * 8,
@@ -145,6 +165,7 @@ def main(argv=None):
         print("|---|---:|---:|")
         for k, v in res["bytes"].items():
             print(f"| {k} | {v // 8:,} | {v:,} |")
+        print(f"\npeak memory of one numpy log_signature: {peak / 2 ** 20:.1f} MiB")
         rows.append(res)
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))

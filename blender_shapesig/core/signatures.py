@@ -365,7 +365,7 @@ def development_increments(R, joints=None):
     vectors, joint j in columns 3j..3j+2. ``joints``: indices or a boolean mask to keep."""
     R = _select(R, joints, "curve")
     eta = relative_rotvecs(R)
-    return eta.reshape(eta.shape[0], -1)
+    return eta.reshape(eta.shape[0], 3 * R.shape[1])
 
 
 def development(R, joints=None):
@@ -401,7 +401,7 @@ def _pair_increments(R0, R1, joints, drop_still):
         if keep.any() and not keep.all():
             A, B = A[:, keep], B[:, keep]
     ea, eb = relative_rotvecs(A), relative_rotvecs(B)
-    return ea.reshape(ea.shape[0], -1), eb.reshape(eb.shape[0], -1)
+    return ea.reshape(ea.shape[0], 3 * A.shape[1]), eb.reshape(eb.shape[0], 3 * B.shape[1])
 
 
 def group_distance(R0, R1, level, *, joints=None, drop_still=True, method="auto"):

@@ -588,3 +588,17 @@ def test_distances_from_stored_signatures():
         assert sg.normalized_difference(a, b) == sg.normalized_distance(R0, R1, n)
     with pytest.raises(ShapeSigError):
         sg.group_distance_from_signatures(s0[:-1], s1, 6, 3)
+
+
+def test_single_frame_curve_has_trivial_signature():
+    one = np.broadcast_to(np.eye(3), (1, 2, 3, 3))
+    rng = np.random.default_rng(22)
+    moving = random_curve(rng, 6, 2)
+    methods = ("numpy",) + (("iisignature",) if iisignature else ())
+    for m in methods:
+        assert sg.signature(one, 2, method=m).shape == (6 + 36,)
+        assert not sg.log_signature(one, 3, method=m).any()
+        assert sg.normalized_distance(one, moving, 3, method=m) == 1.0
+        # rho^1 against a path that does not move is 2 |x(1) - x(0)|
+        inc = sg.development(moving)[-1]
+        assert abs(sg.group_distance(one, moving, 1, method=m) - 2 * np.linalg.norm(inc)) < 1e-14
