@@ -286,6 +286,13 @@ def test_development_is_cumulative_rotation_vectors_by_joint():
     np.testing.assert_allclose(sg.signature(R @ G[None], 3), sg.signature(R, 3), atol=1e-12)
 
 
+@needs_ii
+def test_iisignature_prepared_once_per_dimension_level_and_basis():
+    a = sg.prepare(4, 3, "lyndon")
+    assert sg.prepare(4, 3, "lyndon") is a
+    assert sg.prepare(4, 3, "tensor") is not a
+
+
 def test_joint_selection():
     rng = np.random.default_rng(4)
     R = random_curve(rng, 7, 4)
@@ -298,21 +305,29 @@ def test_joint_selection():
         sg.signature(R, 2, joints=[])
 
 
-def test_reparametrization_invariance_on_real_clip(walk):
-    """Inserting geodesic midpoints (the same piecewise-geodesic curve) leaves the signature unchanged."""
-    R = walk.rotations[:120]
+@pytest.mark.parametrize("which", ["walk", "run"])
+def test_reparametrization_invariance_on_real_clips(which, request):
+    """Inserting geodesic midpoints (the same piecewise-geodesic curve) leaves the signature unchanged,
+    and so does a non-uniform resampling that keeps every original frame."""
+    R = request.getfixturevalue(which).rotations[:120]
     f = R.shape[0]
     t = curves.uniform_times(f)
     t_new = np.union1d(t, 0.5 * (t[:-1] + t[1:]))
     R2 = curves.geodesic_interpolate(R, t, t_new)
     assert R2.shape[0] == 2 * f - 1
+    extra = np.random.default_rng(0).uniform(0, 1, 300)
+    R3 = curves.geodesic_interpolate(R, t, np.union1d(t, extra))
     for n in (2, 3):
         a = sg.signature(R, n, joints=range(0, 31, 3))
-        b = sg.signature(R2, n, joints=range(0, 31, 3))
-        assert np.abs(a - b).max() < 1e-10 * max(1.0, np.abs(a).max())
+        for other in (R2, R3):
+            b = sg.signature(other, n, joints=range(0, 31, 3))
+            assert np.abs(a - b).max() < 1e-10 * max(1.0, np.abs(a).max())
     la = sg.log_signature(R, 2)
     lb = sg.log_signature(R2, 2)
     assert np.abs(la - lb).max() < 1e-10 * max(1.0, np.abs(la).max())
+    # A different speed profile is not a reparametrization of the sampled curve unless the original
+    # frames are kept: dropping every other frame changes the curve and the signature.
+    assert np.abs(sg.signature(R[::2], 2) - sg.signature(R, 2)).max() > 1e-6
 
 
 @needs_ii
