@@ -18,8 +18,9 @@ Expanding the square, a step's energy is
 
     int_k^i |q0|^2 + int_l^j |q1|^2 - 2 sqrt(phi') int <q0(t), q1(phi(t))> dt (+ penalty)
 
-(the first two from small tables of sums over the last d intervals). The cross integral is a weighted sum of the inner
-products G[a, b] = <q0_a, q1_b> (summed over joints; G = Q0 Q1^T computed once by BLAS). On
+(the first two from small tables of sums over the last d intervals). The cross integral is a
+weighted sum of the inner products G[a, b] = <q0_a, q1_b> (summed over joints; G = Q0 Q1^T is
+computed once per pair). On
 uniform grids the weights depend only on the step (di, dj): interval a' of curve 0 (in units
 of its spacing h0) meets interval b' of curve 1 on a length min((a'+1) dj, (b'+1) di) -
 max(a' dj, b' di) (in units of h0 / dj), which is an integer table computed once per depth.
@@ -34,12 +35,17 @@ and are pruned by default: at D = 9 this leaves 55 of the 81 steps.
 Slope limit: a path of n steps covers between n and n D intervals on each axis, so it exists
 iff max(N0-1, N1-1) <= D min(N0-1, N1-1). When the frame ratio is beyond the requested depth,
 the depth is raised automatically to the smallest one that reaches (ceil of the interval
-ratio); ``elastic_align(..., return_info=True)`` reports the depth used.
+ratio); ``elastic_align(..., return_info=True)`` reports the depth used. Only the band of nodes
+on some path from (0, 0) to (N0-1, N1-1) is computed, and steps longer than a curve are dropped.
+
+Curves must be sampled uniformly (the times t0, t1 are i / (N0-1), j / (N1-1)); the overlap
+tables rely on it.
 
 Kernels: a numba kernel (``method="numba"``, JIT-compiled with cache=True and nogil=True) and a
 pure-numpy DP vectorized over all steps of one DP row (``method="numpy"``, the baseline); the
-default ``method="auto"`` takes numba when it can be imported, else numpy. Both compute the
-same floating-point operations per candidate and give identical results.
+default ``method="auto"`` takes numba when it can be imported, else numpy. Both evaluate every
+candidate with the same floating-point expression (see _dp_kernels) and give identical results.
+See docs/elastic.md for the measured cost.
 """
 
 import math
