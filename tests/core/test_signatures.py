@@ -11,6 +11,8 @@ import pathlib
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
+from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
 from blender_shapesig.core import curves, signatures as sg, tensor
@@ -617,3 +619,24 @@ def test_single_frame_curve_has_trivial_signature():
         # rho^1 against a path that does not move is 2 |x(1) - x(0)|
         inc = sg.development(moving)[-1]
         assert abs(sg.group_distance(one, moving, 1, method=m) - 2 * np.linalg.norm(inc)) < 1e-14
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    d=st.integers(1, 3),
+    n=st.integers(1, 4),
+    pts=st.integers(1, 6).flatmap(
+        lambda k: arrays(np.float64, (k, 3), elements=st.floats(-2, 2, allow_nan=False, width=64))
+    ),
+)
+def test_property_signature_log_and_inverse(d, n, pts):
+    x = pts[:, :d]
+    sig = tensor.signature_from_increments(np.diff(x, axis=0), n)
+    np.testing.assert_allclose(tensor.flatten(sig), flat(plain_signature(x, n)), rtol=0, atol=1e-10)
+    # the antipode (word reversal with sign) is the inverse of a signature: equals the series inverse
+    np.testing.assert_allclose(tensor.flatten(tensor.antipode(sig, d)), tensor.flatten(tensor.inverse(sig)),
+                               rtol=0, atol=1e-10)
+    # Lyndon coordinates are coordinates: mapping back gives the tensor log-signature again
+    log_t = tensor.log(sig)
+    back = tensor.lyndon_to_tensor(tensor.lyndon_coordinates(log_t, d), d, n)
+    np.testing.assert_allclose(tensor.flatten(back), tensor.flatten(log_t), rtol=0, atol=1e-10)
