@@ -30,7 +30,7 @@ from ..core.acclaim import find_asf, parse_amc, parse_asf
 from ..core.clip import Clip
 from ..core.errors import ShapeSigError
 
-__all__ = ["SHAPESIG_OT_import_acclaim", "import_acclaim", "AXIS_CONVERSION", "classes"]
+__all__ = ["SHAPESIG_OT_import_acclaim", "import_acclaim", "clip_to_pose", "AXIS_CONVERSION", "classes"]
 
 AXIS_CONVERSION = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # ASF Y up -> Blender Z up
 
@@ -99,6 +99,35 @@ def pose_clip(motion, rest_rotations, name, scale=1.0, frame_step=1, fps=120.0, 
     )
 
 
+def clip_to_pose(clip, armature):
+    """A core Acclaim clip (``core.acclaim.load_acclaim``: world-aligned ``L = C M C^-1`` in ASF Y-up axes,
+    root translation in ASF units), or anything computed from such clips (e.g. a blend), converted to the
+    pose-bone rotations and root location of an armature made by this importer: ``P = B^T A L A^T B`` and
+    ``loc = B_root^T (s A T - rest head)``. Bones the armature lacks raise ShapeSigError."""
+    props = armature.data.get("shapesig_acclaim") if armature is not None else None
+    if props is None:
+        raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} was not made by the Acclaim importer")
+    missing = [b for b in clip.bones if b not in armature.data.bones]
+    if missing:
+        raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
+    A = AXIS_CONVERSION
+    B = np.array([np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in clip.bones])
+    K = np.swapaxes(B, -1, -2) @ A[None]  # B^T A
+    P = K[None] @ clip.rotations @ np.swapaxes(K, -1, -2)[None]
+    loc = None
+    root = clip.root_bone if clip.root_bone in armature.data.bones else None
+    if clip.root_translation is not None and root is not None:
+        s = float(props["units_to_blender"])
+        bone = armature.data.bones[root]
+        Br = np.array(bone.matrix_local.to_3x3())
+        loc = (s * clip.root_translation @ A.T - np.array(bone.head_local)) @ Br
+    from dataclasses import replace
+
+    meta = dict(clip.meta)
+    meta["rotation_space"] = "pose"
+    return replace(clip, rotations=P, root_translation=loc, root_bone=root, meta=meta)
+
+
 def _build_armature(context, skeleton, name, scale):
     """A new armature object linked to the active collection; returns (object, bone name map)."""
     heads, tails, zs = rest_geometry(skeleton, scale)
@@ -125,6 +154,8 @@ def _build_armature(context, skeleton, name, scale):
                 eb.use_connect = False
     finally:
         bpy.ops.object.mode_set(mode="OBJECT", toggle=False)
+    # what clip_to_pose needs to map core Acclaim clips onto this armature
+    arm_data["shapesig_acclaim"] = {"asf": skeleton.path or "", "units_to_blender": skeleton.meters_per_unit * scale}
     return obj, names
 
 

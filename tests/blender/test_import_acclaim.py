@@ -144,6 +144,24 @@ def test_against_daz_friendly_bvh_of_the_same_take(empty_file):
     assert mean_cos(a, b[::-1], i, j) < 0.97
 
 
+def test_core_clip_mapped_onto_the_armature_equals_the_imported_action(empty_file):
+    """clip_to_pose(core clip) = what the importer wrote (so core-computed clips, e.g. blends, can be written
+    onto an imported armature), and reading the imported action gives the same pose rotations."""
+    from blender_shapesig import action_io
+    from blender_shapesig.core.acclaim import load_acclaim
+    from blender_shapesig.operators.import_acclaim import clip_to_pose
+
+    obj = _import(ACC / "09_02.amc", ACC / "09-run.asf", scale=2.0)
+    core = load_acclaim(ACC / "09_02.amc", ACC / "09-run.asf")
+    mapped = clip_to_pose(core, obj)
+    read = action_io.read_action(obj.animation_data.action, armature=obj)
+    assert read.bones == mapped.bones
+    np.testing.assert_allclose(read.rotations, mapped.rotations, atol=2e-6)
+    np.testing.assert_allclose(read.root_translation, mapped.root_translation, atol=1e-5)
+    # and the two clips differ (the conversion is not the identity): per bone a constant conjugation
+    assert np.abs(core.rotations - mapped.rotations).max() > 0.1
+
+
 def test_native_euler_root_takes_amc_angles_directly(empty_file):
     obj = _import(ACC / "16_15.amc", ACC / "16.asf", rotation_mode="NATIVE")
     assert obj.pose.bones["root"].rotation_mode == "XYZ"
