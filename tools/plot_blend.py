@@ -2,12 +2,15 @@
 
     .venv/bin/python tools/plot_blend.py [--out docs/img] [--weight 0.5]
 
-A = walk 07_01 (316 frames), B = run 09_02 (130 frames), both ASF/AMC from tests/data (120 fps). Writes
+A = walk 07_01 (316 frames), B = run 09_02 (130 frames), both ASF/AMC from tests/data (120 fps). The
+angle and pose figures use one gait cycle of each, from one peak of the right knee's angle to the next
+(walk frames 91-220, run frames 4-93), so that the pinned ends of the warp match the same phase.
+Writes
 
 * ``blend_angles.png``: rotation angles of a few joints over time (seconds) for A, B and the aligned
-  blend at ``--weight``;
+  blend at ``--weight``, one cycle each;
 * ``blend_poses.png``: pose strips (stick figures by forward kinematics on A's skeleton, side view)
-  of A, the blend at ``--weight`` and B, at the same fractions of each clip;
+  of A, the blend at ``--weight`` and B, at the same fractions of each cycle;
 * ``blend_geodesic.png``: d_P*(blend(w), B o phi) and d_P*(blend(w), A) against w (before resampling),
   the straight reference lines of the paper's Fig. 9.6, with and without alignment;
 * ``blend_root.png``: the root path (top view) of the blends at w = 0, 0.25, 0.5, 0.75, 1.
@@ -71,40 +74,46 @@ def plot_angles(a, b, blends, out):
                                        (b, "B: run 09_02", COLORS["B"], 2.0)]:
             j = clip.bones.index(joint)
             t = np.arange(clip.frames) / clip.fps
-            ax.plot(t, rotation_angle_deg(clip.rotations[:, j]), color=color, lw=lw, label=label)
+            ax.plot(t, rotation_angle_deg(clip.rotations[:, j]), color=color, lw=lw,
+                    label=f"{label} ({clip.frames} frames)")
         for w, c in blends:
             j = c.bones.index(joint)
             t = np.arange(c.frames) / c.fps
             ax.plot(t, rotation_angle_deg(c.rotations[:, j]), color=COLORS["blend"], lw=2.0,
-                    label=f"blend w={w:.2f}")
+                    label=f"blend w={w:.2f} ({c.frames} frames)")
         ax.set_ylabel(f"{joint}\nangle (deg)")
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8, ncol=3, loc="upper right")
+    axes[0].legend(fontsize=8, ncol=1, loc="upper right")
     axes[-1].set_xlabel("time (s)")
-    fig.suptitle("Joint rotation angles: walk, run and their aligned SRVT blend")
+    fig.suptitle("Joint rotation angles over one gait cycle: walk, run and their aligned SRVT blend")
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)
 
 
-def plot_poses(rows, skeleton, out, count=8):
-    fig, axes = plt.subplots(len(rows), 1, figsize=(11, 2.4 * len(rows)))
+def plot_poses(rows, skeleton, out, count=8, spacing=22.0):
+    """Each row: ``count`` poses at equal fractions of the clip, drawn side by side (every pose
+    centred on its own slot: its root's forward position is removed), side view."""
+    fig, axes = plt.subplots(len(rows), 1, figsize=(11, 2.3 * len(rows)), sharex=True)
     for ax, (label, clip, color) in zip(axes, rows):
         segs, f = forward_kinematics(clip, skeleton)
         frames = np.linspace(0, f - 1, count).round().astype(int)
         root = clip.root_translation
-        for k in frames:
-            shift = np.array([0.0, 0.0, 0.0])
+        for slot, k in enumerate(frames):
+            dz = slot * spacing - root[k, 2]
             for head, tail in segs:
-                p, q = head[k] + shift, tail[k] + shift
+                p, q = head[k], tail[k]
                 # side view: forward (+Z) to the right, up (+Y) up
-                ax.plot([p[2], q[2]], [p[1], q[1]], color=color, lw=1.4)
-            ax.plot(root[k, 2], root[k, 1], "o", color=color, ms=2)
+                ax.plot([p[2] + dz, q[2] + dz], [p[1], q[1]], color=color, lw=1.4)
+            ax.text(slot * spacing, root[k, 1] + 12, f"{k / (f - 1):.2f}", fontsize=7, ha="center",
+                    color="0.4")
         ax.set_aspect("equal")
-        ax.set_title(f"{label} ({clip.frames} frames)", fontsize=9, loc="left")
+        ax.margins(y=0.12)
+        ax.set_title(f"{label} ({clip.frames} frames); numbers: fraction of the clip", fontsize=9,
+                     loc="left")
         ax.set_yticks([])
-        ax.set_xlabel("forward (ASF units)", fontsize=8)
-    fig.suptitle("Pose strips at the same fractions of each clip (side view)")
+        ax.set_xticks([])
+    fig.suptitle("One gait cycle: poses at the same fractions of each clip (side view)")
     fig.tight_layout()
     fig.savefig(out, dpi=110)
     plt.close(fig)
@@ -163,13 +172,15 @@ def main(argv=None):
     a = load_acclaim(str(ACC / "07_01.amc"), str(ACC / "07-walk.asf"))
     b = load_acclaim(str(ACC / "09_02.amc"), str(ACC / "09-run.asf"))
     skeleton = parse_asf(ACC / "07-walk.asf")
-    mid = blend_clips(a, b, args.weight)
+    a_cycle = a.crop(91, 220)
+    b_cycle = b.crop(4, 93)
+    mid = blend_clips(a_cycle, b_cycle, args.weight)
     blends = [(args.weight, mid)]
 
-    plot_angles(a, b, blends, out / "blend_angles.png")
-    plot_poses([("A: walk 07_01", a, COLORS["A"]),
+    plot_angles(a_cycle, b_cycle, blends, out / "blend_angles.png")
+    plot_poses([("A: walk 07_01, frames 91-220", a_cycle, COLORS["A"]),
                 (f"blend w={args.weight:.2f} (aligned)", mid, COLORS["blend"]),
-                ("B: run 09_02", b, COLORS["B"])], skeleton, out / "blend_poses.png")
+                ("B: run 09_02, frames 4-93", b_cycle, COLORS["B"])], skeleton, out / "blend_poses.png")
     plot_geodesic(a, b, out / "blend_geodesic.png")
     plot_root(a, b, out / "blend_root.png")
     for name in ("blend_angles", "blend_poses", "blend_geodesic", "blend_root"):
