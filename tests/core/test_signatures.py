@@ -454,6 +454,18 @@ def test_still_joints_change_nothing():
         assert abs(fn(A3, B3, 3, joints=[0, 1]) - ref) < 1e-15
 
 
+def test_still_mask_equals_clip_still_joints(walk, run):
+    from blender_shapesig.core.clip import still_joints
+
+    for clip in (walk, run):
+        R = clip.rotations
+        mask = sg._still_mask(R, curves.relative_rotvecs(R))
+        np.testing.assert_array_equal(mask, still_joints(R))
+        assert mask.any() and not mask.all()  # CMU skeletons have still bones (hip joints, clavicles)
+    one = np.broadcast_to(np.eye(3), (1, 3, 3, 3))
+    np.testing.assert_array_equal(sg._still_mask(one, np.zeros((0, 3, 3))), still_joints(one))
+
+
 def test_still_in_one_curve_only_is_kept():
     rng = np.random.default_rng(16)
     A = random_curve(rng, 10, 2)
