@@ -226,7 +226,11 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                     pb.rotation_mode = mode
             compat.assign_action(obj, created[0])
         names = ", ".join(act.name for act in created)
-        self.report({"INFO"}, f"Blend Actions: created {len(created)} action(s): {names}")
+        note = ""
+        unmatched = clips[0].meta.get("unmatched_a", ())
+        if unmatched:
+            note = f"; {len(unmatched)} bone(s) animated only in A keep A's motion"
+        self.report({"INFO"}, f"Blend Actions: created {len(created)} action(s): {names}{note}")
         return {"FINISHED"}
 
 

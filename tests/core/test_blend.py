@@ -393,3 +393,15 @@ def test_turning_both_clips_turns_the_blend(walk, run):
     assert _angle(c2.rotations[:, j], Q @ c.rotations[:, j]) < 1e-9
     others = [i for i in range(len(walk.bones)) if i != j]
     assert _angle(c2.rotations[:, others], c.rotations[:, others]) < 1e-9
+
+
+def test_quaternion_input_gives_the_same_blend(walk, run):
+    from scipy.spatial.transform import Rotation
+
+    def quats(R):
+        f, j = R.shape[:2]
+        return Rotation.from_matrix(R.reshape(-1, 3, 3)).as_quat().reshape(f, j, 4)
+
+    R = geodesic_blend(walk.rotations[:150], run.rotations, 0.3)
+    Q = geodesic_blend(quats(walk.rotations[:150]), quats(run.rotations), 0.3)
+    assert _angle(R, Q) < 1e-9
