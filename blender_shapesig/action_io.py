@@ -128,12 +128,11 @@ def matrix_to_euler(mode, R):
     """(n, 3, 3) -> angles (n, 3) as (x, y, z) for Blender Euler ``mode``; the middle angle in [-pi/2, pi/2]."""
     i, j, k = (_AX[a] for a in mode)
     s = 1.0 if (j - i) % 3 == 1 else -1.0
-    sb = np.clip(-s * R[:, k, i], -1.0, 1.0)
-    b = np.arcsin(sb)
-    cb = np.sqrt(np.maximum(0.0, 1.0 - sb * sb))
+    cb = np.hypot(R[:, k, j], R[:, k, k])
+    b = np.arctan2(-s * R[:, k, i], cb)  # accurate near +-pi/2, unlike arcsin
     a = np.arctan2(s * R[:, k, j], R[:, k, k])
     c = np.arctan2(s * R[:, j, i], R[:, i, i])
-    lock = cb < 1e-6
+    lock = cb < 1e-8  # balances the fallback error (~cb) against atan2 of tiny values (~eps / cb)
     if lock.any():
         a = np.where(lock, 0.0, a)
         c = np.where(lock, np.arctan2(-s * R[:, i, j], R[:, j, j]), c)
