@@ -2,7 +2,7 @@
 
 Usage (from the repository root):
 
-    .venv/bin/python benchmarks/bench_elastic.py [--data /work/shared/data/cmu] [--repeat 15]
+    .venv/bin/python benchmarks/bench_elastic.py [--data /work/shared/data/cmu] [--repeat 15] [--json FILE]
 
 1. One pair: two 300-frame, 31-joint real CMU curves (07_01 and 07_02 from tests/data, first
    300 frames, every bone), depth 9, penalty 0. Times the DP kernel alone (numba and the
@@ -88,6 +88,15 @@ def pair_benchmark(repeat):
     )
     out["load_average_1min"] = os.getloadavg()[0]
     out["times_ms"] = {k: {"cpu": round(v[0] * 1e3, 3), "wall": round(v[1] * 1e3, 3)} for k, v in results.items()}
+    if _dp_kernels.HAVE_NUMBA:
+        by_depth = {}
+        for depth in (3, 6, 9, 12):
+            p = elastic._Problem(Q0, Q1, depth, 0.0)
+            p.solve("numba", want_path=False)
+            cpu, _ = best_of(lambda: p.solve("numba", want_path=False), repeat)
+            by_depth[str(depth)] = {"steps": int(len(p.table["di"])), "entries_per_node": int(len(p.table["ea"])),
+                                    "numba_dp_cpu_ms": round(cpu * 1e3, 3)}
+        out["numba_dp_by_depth"] = by_depth
     if "numba_dp" in results:
         out["speedup_numba_vs_numpy_dp"] = round(results["numpy_dp"][0] / results["numba_dp"][0], 1)
         out["numba_dp_ns_per_multiply_add"] = round(results["numba_dp"][0] / out["multiply_adds"] * 1e9, 4)
