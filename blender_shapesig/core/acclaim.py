@@ -515,6 +515,7 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
     animated = [n for n, c in counts.items() if c > 0]
     frame_numbers: List[int] = []
     rows: Dict[str, List[list]] = {n: [] for n in animated}
+    lines_of: Dict[str, List[int]] = {n: [] for n in animated}
     current: Optional[dict] = None
     frame_line = 0
 
@@ -564,17 +565,9 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
         n = counts[name]
         if len(tokens) - 1 != n:
             raise ParseError(f"bone {name!r} needs {n} values (its dof), got {len(tokens) - 1}", where, no)
-        values = []
-        for t in tokens[1:]:
-            try:
-                v = float(t)
-            except ValueError:
-                raise ParseError(f"bone {name!r}: {t!r} is not a number", where, no) from None
-            if v != v or v in (float("inf"), float("-inf")):
-                raise ParseError(f"bone {name!r}: {t!r} is not a finite number", where, no)
-            values.append(v)
         if n:
-            current[name] = values
+            current[name] = tokens  # converted in bulk below (line number kept for errors)
+            lines_of[name].append(no)
     if current is None:
         raise ParseError("no frames (is this an AMC file?)", where)
     close_frame()
@@ -583,13 +576,32 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
     to_rad = np.pi / 180.0 if unit == "deg" else 1.0
     values: Dict[str, np.ndarray] = {}
     for name in animated:
-        arr = np.array(rows[name], dtype=np.float64).reshape(len(frame_numbers), counts[name])
+        arr = _to_floats(rows[name], lines_of[name], name, where).reshape(len(frame_numbers), counts[name])
         chans = skeleton.root_order if name == "root" else skeleton.bones[name].dof
         for k, c in enumerate(chans):
             if c.lower().startswith("r"):
                 arr[:, k] *= to_rad
         values[name] = arr
     return Motion(skeleton=skeleton, frame_numbers=np.array(frame_numbers), values=values, path=path)
+
+
+def _to_floats(rows, line_numbers, name, where):
+    """(rows, values) floats from rows of tokens ``[bone, v1, v2, ...]``; ParseError naming the first bad line."""
+    try:
+        arr = np.array([r[1:] for r in rows], dtype=np.float64)
+    except ValueError:
+        arr = None
+    if arr is not None and np.all(np.isfinite(arr)):
+        return arr
+    for r, no in zip(rows, line_numbers):
+        for t in r[1:]:
+            try:
+                v = float(t)
+            except ValueError:
+                raise ParseError(f"bone {name!r}: {t!r} is not a number", where, no) from None
+            if v != v or v in (float("inf"), float("-inf")):
+                raise ParseError(f"bone {name!r}: {t!r} is not a finite number", where, no)
+    raise ParseError(f"bone {name!r}: bad values", where)  # not reached
 
 
 def find_asf(amc_path) -> str:
