@@ -32,6 +32,7 @@ without ``top``, or when the library is no larger than the pool, every clip is c
 See docs/search.md for the measurements (recall of the sketch against the exact ranking, memory).
 """
 
+import dataclasses
 import hashlib
 import json
 import os
@@ -681,8 +682,8 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
             raise ShapeSigError(f"top must be at least 1, got {top}")
     cache = cache if cache is not None else SignatureCache()
     before = dict(cache.stats)
-    q = _query_entry(query, sig_level, cache)
-    cache.heavy(q)
+    # a private copy: the cache may drop the arrays of its own object to keep within memory_limit
+    q = dataclasses.replace(cache.heavy(_query_entry(query, sig_level, cache)))
     items = [it for it in _as_items(library) if it.key not in exclude and it.name not in exclude]
     errors = []
     pairs = compute_entries(items, sig_level, cache, progress, errors)
@@ -740,7 +741,7 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
         head = results[:rerank]
         by_key = {(e.key, e.name): e for _, e in pairs}
         for r in head:
-            e = by_key[(r.key, r.name)]
+            e = cache.heavy(by_key[(r.key, r.name)])
             shared = [b for b in q.bones if b in set(e.bones)]
             a, b = _pair_increments(q, e, shared)
             if base == "elastic":
