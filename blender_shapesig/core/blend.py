@@ -28,13 +28,17 @@ displacements expressed in the root's heading frame (see ``blend_clips``).
 """
 
 import math
+
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from .clip import STILL_TOLERANCE, Clip, shared_bones
 from .curves import (
     as_curve,
+    exp_rotvec,
     geodesic_interpolate,
     move_to_identity,
+    relative_rotvecs,
     uniform_times,
 )
 from .errors import CurveError, ShapeSigError
@@ -140,58 +144,20 @@ def _geodesic_start(S0, S1, w):
     return _exp_so3(w * xi) @ S0
 
 
-# ---------------------------------------------------------------------------------------------
-# fast exact log/exp of rotations (numpy; scipy for angles near pi)
+# log and exp of rotations: the scipy-backed functions of curves (one implementation for the package)
 
 
 def _log_so3(M):
-    """Rotation vectors of rotation matrices M (..., 3, 3): log, the angle in [0, pi]."""
+    """Rotation vectors of rotation matrices M (..., 3, 3)."""
+    M = np.asarray(M, dtype=np.float64)
     lead = M.shape[:-2]
-    M = M.reshape(-1, 3, 3)
-    v = 0.5 * np.stack([M[:, 2, 1] - M[:, 1, 2], M[:, 0, 2] - M[:, 2, 0], M[:, 1, 0] - M[:, 0, 1]], axis=1)
-    c = 0.5 * (M[:, 0, 0] + M[:, 1, 1] + M[:, 2, 2] - 1.0)
-    s = np.linalg.norm(v, axis=1)
-    theta = np.arctan2(s, c)
-    factor = np.empty_like(theta)
-    small = s < 1e-8
-    factor[~small] = theta[~small] / s[~small]
-    factor[small] = 1.0 + theta[small] ** 2 / 6.0
-    out = v * factor[:, None]
-    near_pi = c < -0.99
-    if np.any(near_pi):
-        from scipy.spatial.transform import Rotation
-
-        out[near_pi] = Rotation.from_matrix(M[near_pi]).as_rotvec()
-    return out.reshape(lead + (3,))
+    return Rotation.from_matrix(M.reshape(-1, 3, 3)).as_rotvec().reshape(lead + (3,))
 
 
-def _exp_so3(v):
-    """Rodrigues' formula for rotation vectors v (..., 3) -> matrices (..., 3, 3)."""
-    v = np.asarray(v, dtype=np.float64)
-    lead = v.shape[:-1]
-    v = v.reshape(-1, 3)
-    theta2 = np.einsum("ij,ij->i", v, v)
-    theta = np.sqrt(theta2)
-    small = theta < 1e-6
-    a = np.empty_like(theta)
-    b = np.empty_like(theta)
-    ts = theta[~small]
-    a[~small] = np.sin(ts) / ts
-    b[~small] = (1.0 - np.cos(ts)) / (ts * ts)
-    t2 = theta2[small]
-    a[small] = 1.0 - t2 / 6.0 + t2 * t2 / 120.0
-    b[small] = 0.5 - t2 / 24.0 + t2 * t2 / 720.0
-    K = np.zeros((v.shape[0], 3, 3))
-    K[:, 0, 1], K[:, 0, 2] = -v[:, 2], v[:, 1]
-    K[:, 1, 0], K[:, 1, 2] = v[:, 2], -v[:, 0]
-    K[:, 2, 0], K[:, 2, 1] = -v[:, 1], v[:, 0]
-    out = np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
-    return out.reshape(lead + (3, 3))
+_exp_so3 = exp_rotvec
 
 
-def _increments(R):
-    """log(R[k+1] R[k]^T) per joint, shape (frames-1, joints, 3)."""
-    return _log_so3(R[1:] @ np.swapaxes(R[:-1], -1, -2))
+_increments = relative_rotvecs
 
 
 # ---------------------------------------------------------------------------------------------
