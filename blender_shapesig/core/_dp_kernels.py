@@ -75,7 +75,7 @@ def dp_numpy(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_p
     A[D, D] = 0.0
     Gp = np.zeros((n0 + D, n1 + D))
     Gp[D:, D:] = G
-    back = np.full((n0 + 1, n1 + 1), -1, dtype=np.int16)
+    back = np.full((n0 + 1, n1 + 1), -1, dtype=np.int16 if S < 32000 else np.int32)
     cols = np.arange(n1 + 1)
     col_idx = cols[None, :] - dj[:, None] + D  # for the gather of A[k, l], l = j - dj (padded)
     block = max(1, _BLOCK_BYTES // (8 * S * (n1 + 1)))

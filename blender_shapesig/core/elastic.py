@@ -34,9 +34,11 @@ and are pruned by default: at D = 9 this leaves 55 of the 81 steps.
 
 Slope limit: a path of n steps covers between n and n D intervals on each axis, so it exists
 iff max(N0-1, N1-1) <= D min(N0-1, N1-1). When the frame ratio is beyond the requested depth,
-the depth is raised automatically to the smallest one that reaches (ceil of the interval
-ratio); ``elastic_align(..., return_info=True)`` reports the depth used. Only the band of nodes
-on some path from (0, 0) to (N0-1, N1-1) is computed, and steps longer than a curve are dropped.
+the largest step on the long curve's axis is raised automatically to the smallest one that
+reaches (ceil of the interval ratio), the short axis keeps D; ``elastic_align(...,
+return_info=True)`` reports it. Only the band of nodes on some path from (0, 0) to
+(N0-1, N1-1) is computed, and steps longer than a curve are dropped. A step table of more than
+MAX_TABLE_ENTRIES weights (frame ratios in the hundreds) raises CurveError.
 
 Curves must be sampled uniformly (the times t0, t1 are i / (N0-1), j / (N1-1)); the overlap
 tables rely on it.
@@ -127,50 +129,87 @@ def required_depth(frames0, frames1):
 
 _TABLES = {}
 
+# Largest step table built (weights); beyond it the frame counts are too different for the DP.
+MAX_TABLE_ENTRIES = 2_000_000
+
+
+def _table_size(mi, mj, prune):
+    di = np.arange(1, mi + 1)[:, None]
+    dj = np.arange(1, mj + 1)[None, :]
+    keep = np.gcd(di, dj) == 1 if prune else np.ones((mi, mj), dtype=bool)
+    return int(np.sum((di + dj - 1) * keep))
+
 
 def step_table(depth, prune=True, *, max_di=None, max_dj=None):
-    """The DP steps for a depth and their breakpoint-overlap weights (uniform grids).
+    """The DP steps and their breakpoint-overlap weights (uniform grids).
 
     Steps (di, dj) have 1 <= di <= min(depth, max_di) and 1 <= dj <= min(depth, max_dj) (steps
-    longer than a curve are useless, so the table is cut to the frame counts).
+    longer than a curve are useless, so the DP cuts the table to the frame counts).
 
     Returns a dict of int64/float64 arrays: ``di``, ``dj`` (per step); ``start`` (per step, the
-    first entry index, plus one final end index); ``ea``, ``eb``, ``ew`` (per entry): interval
-    ``k + ea`` of curve 0 meets interval ``l + eb`` of curve 1 on a length ``ew`` in units of
-    h0 / dj (an integer). With ``prune`` only coprime steps (di, dj) are kept.
+    first entry index, plus one final end index); ``ea``, ``eb``, ``ew`` (per entry, in order
+    along the step): interval ``k + ea`` of curve 0 meets interval ``l + eb`` of curve 1 on a
+    length ``ew`` in units of h0 / dj (an integer). With ``prune`` only coprime steps are kept.
     """
     mi = int(depth) if max_di is None else min(int(depth), int(max_di))
     mj = int(depth) if max_dj is None else min(int(depth), int(max_dj))
-    key = (mi, mj, bool(prune))
+    return _step_table(mi, mj, prune)
+
+
+def _step_table(mi, mj, prune=True):
+    key = (int(mi), int(mj), bool(prune))
     if key in _TABLES:
         return _TABLES[key]
-    di_l, dj_l, start, ea, eb, ew = [], [], [0], [], [], []
+    size = _table_size(mi, mj, prune)
+    if size > MAX_TABLE_ENTRIES:
+        raise CurveError(
+            f"the DP would need steps of up to {mi} x {mj} frames ({size} weights): the frame counts "
+            f"are too different; resample the longer curve or lower the depth"
+        )
+    di_l, dj_l, start, parts = [], [], [0], []
     for di in range(1, mi + 1):
         for dj in range(1, mj + 1):
             if prune and math.gcd(di, dj) != 1:
                 continue
+            # The step's breakpoints in units of h0 / dj: curve 0's at multiples of dj, curve 1's
+            # at multiples of di; each merged piece [u, v] lies in interval u // dj of curve 0
+            # and u // di of curve 1.
+            pts = np.union1d(np.arange(di + 1) * dj, np.arange(dj + 1) * di)
+            u = pts[:-1]
+            parts.append(np.stack([u // dj, u // di, np.diff(pts)]))
             di_l.append(di)
             dj_l.append(dj)
-            for a in range(di):
-                for b in range(dj):
-                    w = min((a + 1) * dj, (b + 1) * di) - max(a * dj, b * di)
-                    if w > 0:
-                        ea.append(a)
-                        eb.append(b)
-                        ew.append(w)
-            start.append(len(ea))
+            start.append(start[-1] + len(u))
+    ent = np.concatenate(parts, axis=1)
     table = {
         "di": np.array(di_l, dtype=np.int64),
         "dj": np.array(dj_l, dtype=np.int64),
         "start": np.array(start, dtype=np.int64),
-        "ea": np.array(ea, dtype=np.int64),
-        "eb": np.array(eb, dtype=np.int64),
-        "ew": np.array(ew, dtype=np.float64),
+        "ea": np.ascontiguousarray(ent[0], dtype=np.int64),
+        "eb": np.ascontiguousarray(ent[1], dtype=np.int64),
+        "ew": np.ascontiguousarray(ent[2], dtype=np.float64),
     }
     for v in table.values():
         v.setflags(write=False)
     _TABLES[key] = table
     return table
+
+
+def _max_steps(n0, n1, depth):
+    """Largest steps (on curve 0's axis, on curve 1's axis) for n0 x n1 intervals at a depth.
+
+    Both are ``depth`` (cut to the interval counts) unless the interval ratio exceeds it: then
+    the long axis gets the smallest maximal step that still reaches (0, 0) -> (n0, n1), and the
+    short axis keeps ``depth``.
+    """
+    need = required_depth(n0 + 1, n1 + 1)
+    mi = mj = depth
+    if need > depth:
+        if n1 > n0:
+            mj = need
+        else:
+            mi = need
+    return min(mi, n0), min(mj, n1)
 
 
 def _entry_coefficients(table, h0, h1):
@@ -181,11 +220,12 @@ def _entry_coefficients(table, h0, h1):
     return np.ascontiguousarray(2.0 * table["ew"] * np.sqrt(h0 * h1 / (di * dj)))
 
 
-def _band(n0, n1, depth):
-    """Per DP row i, the range [lo, hi] of columns j on some path from (0, 0) to (n0, n1)."""
+def _band(n0, n1, mi, mj):
+    """Per DP row i, the range [lo, hi] of columns j on some path from (0, 0) to (n0, n1)
+    with steps of 1..mi rows and 1..mj columns."""
     i = np.arange(n0 + 1)
-    lo = np.maximum(-(-i // depth), n1 - (n0 - i) * depth)
-    hi = np.minimum(i * depth, n1 - (-(-(n0 - i) // depth)))
+    lo = np.maximum(-(-i // mi), n1 - (n0 - i) * mj)
+    hi = np.minimum(i * mj, n1 - (-(-(n0 - i) // mi)))
     lo[0] = hi[0] = 0
     return lo.astype(np.int64), hi.astype(np.int64)
 
@@ -213,15 +253,17 @@ class _Problem:
     def __init__(self, Q0, Q1, depth, penalty, prune=True):
         n0, n1 = Q0.shape[0], Q1.shape[0]
         self.n0, self.n1 = n0, n1
+        self.max_step = _max_steps(n0, n1, depth)
+        mi, mj = self.max_step
         self.depth = max(depth, required_depth(n0 + 1, n1 + 1))
         self.penalty = penalty
         self.h0, self.h1 = 1.0 / n0, 1.0 / n1
-        self.table = step_table(self.depth, prune, max_di=n0, max_dj=n1)
+        self.table = _step_table(mi, mj, prune)
         self.coef = _entry_coefficients(self.table, self.h0, self.h1)
         self.G = _dp_kernels.gram(Q0, Q1)
-        self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, min(self.depth, n0))
-        self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, min(self.depth, n1))
-        self.lo, self.hi = _band(n0, n1, self.depth)
+        self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, mi)
+        self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, mj)
+        self.lo, self.hi = _band(n0, n1, mi, mj)
 
     def solve(self, method, want_path=True):
         """(DP minimum, path nodes (count, 2) from (0, 0) to (n0, n1) or None)."""
@@ -254,7 +296,9 @@ def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, re
     ``depth``: the largest step D on either axis (raised automatically when the frame ratio needs
     it); ``penalty``: lambda of eq. 4.8 (>= 0). Keyword-only: ``method`` ('auto', 'numba',
     'numpy'), ``prune`` (drop the redundant non-coprime steps; the result is the same),
-    ``return_info`` (also return a dict with 'depth', 'energy', 'method', 'nodes').
+    ``return_info`` (also return a dict with 'depth' (the depth used), 'max_step' (the largest
+    step on curve 0's and on curve 1's axis), 'energy' (the DP minimum), 'method', 'nodes' (the
+    path's grid nodes)).
 
     Returns ``(warp, distance)``: ``warp`` is an array (nodes, 2) of matching times (t0, t1)
     from (0, 0) to (1, 1), strictly increasing in both columns (the vertices of the
@@ -266,8 +310,8 @@ def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, re
     warp[-1] = (1.0, 1.0)
     dist = float(np.sqrt(max(value, 0.0)))
     if return_info:
-        info = {"depth": prob.depth, "energy": float(value), "method": _check_method(method),
-                "nodes": nodes}
+        info = {"depth": prob.depth, "max_step": prob.max_step, "energy": float(value),
+                "method": _check_method(method), "nodes": nodes}
         return warp, dist, info
     return warp, dist
 

@@ -88,16 +88,18 @@ def path_energy(R0, R1, warp, penalty=0.0):
     return total
 
 
-def all_paths(n0, n1, depth):
-    """Every chain of grid nodes (0, 0) < ... < (n0, n1) with steps of 1..depth on both axes."""
+def all_paths(n0, n1, depth, depth1=None):
+    """Every chain of grid nodes (0, 0) < ... < (n0, n1) with steps of 1..depth rows and
+    1..depth1 (default depth) columns."""
     out = []
+    depth1 = depth if depth1 is None else depth1
 
     def walk(i, j, acc):
         if (i, j) == (n0, n1):
             out.append(list(acc))
             return
         for di in range(1, min(depth, n0 - i) + 1):
-            for dj in range(1, min(depth, n1 - j) + 1):
+            for dj in range(1, min(depth1, n1 - j) + 1):
                 acc.append((i + di, j + dj))
                 walk(i + di, j + dj, acc)
                 acc.pop()
@@ -106,10 +108,10 @@ def all_paths(n0, n1, depth):
     return out
 
 
-def brute_force(R0, R1, depth, penalty=0.0):
+def brute_force(R0, R1, depth, penalty=0.0, depth1=None):
     n0, n1 = len(R0) - 1, len(R1) - 1
     best = math.inf
-    for nodes in all_paths(n0, n1, depth):
+    for nodes in all_paths(n0, n1, depth, depth1):
         nodes = np.array(nodes, dtype=float)
         warp = np.column_stack([nodes[:, 0] / n0, nodes[:, 1] / n1])
         best = min(best, path_energy(R0, R1, warp, penalty))
@@ -145,10 +147,13 @@ def test_dp_equals_brute_force(f0, f1, depth, penalty, seed, method):
 def test_dp_equals_brute_force_random(f0, f1, depth, penalty, seed):
     R0 = random_curve(f0, seed=seed)
     R1 = random_curve(f1, seed=seed + 1)
-    depth_used = max(depth, required_depth(f0, f1))
-    truth = brute_force(R0, R1, depth_used, penalty)
+    # Beyond the slope limit the long axis gets longer steps, the short one keeps the depth.
+    need = required_depth(f0, f1)
+    mi = need if need > depth and f0 > f1 else depth
+    mj = need if need > depth and f1 > f0 else depth
+    truth = brute_force(R0, R1, mi, penalty, depth1=mj)
     warp, d, info = elastic_align(R0, R1, depth=depth, penalty=penalty, return_info=True)
-    assert info["depth"] == depth_used
+    assert info["max_step"] == (min(mi, f0 - 1), min(mj, f1 - 1))
     assert d * d == pytest.approx(truth, rel=1e-10, abs=1e-12)
 
 
@@ -281,7 +286,7 @@ def test_slope_limit_raises_depth():
     R1 = random_curve(41, joints=2, seed=82)
     assert required_depth(5, 41) == 10
     warp, d, info = elastic_align(R0, R1, depth=3, return_info=True)
-    assert info["depth"] == 10
+    assert info["depth"] == 10 and info["max_step"] == (3, 10)
     # Only one path is possible: four steps of (1, 10).
     np.testing.assert_allclose(warp, np.column_stack([np.linspace(0, 1, 5)] * 2))
     assert d * d == pytest.approx(path_energy(R0, R1, warp), rel=1e-10)
@@ -295,6 +300,9 @@ def test_slope_limit_raises_depth():
     assert warp.tolist() == [[0.0, 0.0], [1.0, 1.0]]
     assert d * d == pytest.approx(path_energy(R2, R3, warp), rel=1e-10)
     assert elastic_distance(R0, R1, depth=10**6) == elastic_distance(R0, R1, depth=40)
+    # Absurd ratios: a clear error instead of a gigantic step table.
+    with pytest.raises(CurveError, match="too different"):
+        elastic_distance(random_curve(3, joints=1), random_curve(20001, joints=1, scale=0.01))
 
 
 # ---------------------------------------------------------------------------------------------
