@@ -6,6 +6,7 @@ exact reparametrizations, the definition of d_P*, and real CMU clips.
 """
 
 import importlib
+import importlib.util
 import itertools
 import math
 import sys
@@ -15,7 +16,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import _dp_kernels, elastic
+from blender_shapesig.core import _dp_kernels
 from blender_shapesig.core.curves import l2_distance, move_to_identity, srvt
 from blender_shapesig.core.elastic import (
     elastic_align,
