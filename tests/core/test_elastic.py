@@ -323,6 +323,21 @@ def test_kernels_identical(f0, f1, penalty):
     assert np.array_equal(wa, wb)
 
 
+@pytest.mark.skipif(not _dp_kernels.HAVE_NUMBA, reason="numba not installed")
+@settings(max_examples=15, deadline=None)
+@given(
+    f0=st.integers(2, 40), f1=st.integers(2, 40), depth=st.integers(1, 10),
+    penalty=st.sampled_from([0.0, 0.01, 3.0]), seed=st.integers(0, 10_000),
+)
+def test_kernels_identical_random(f0, f1, depth, penalty, seed):
+    R0 = random_curve(f0, joints=3, seed=seed, scale=0.2)
+    R1 = random_curve(f1, joints=3, seed=seed + 1, scale=0.2)
+    wa, da, ia = elastic_align(R0, R1, depth=depth, penalty=penalty, method="numba", return_info=True)
+    wb, db, ib = elastic_align(R0, R1, depth=depth, penalty=penalty, method="numpy", return_info=True)
+    assert ia["energy"] == ib["energy"]
+    assert np.array_equal(wa, wb)
+
+
 @pytest.fixture
 def without_numba(monkeypatch):
     monkeypatch.setitem(sys.modules, "numba", None)  # "import numba" now raises ImportError
