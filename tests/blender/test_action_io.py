@@ -276,3 +276,16 @@ def test_channel_conversions_round_trip_including_gimbal_lock():
             np.testing.assert_allclose(ref, R, atol=1e-9)
 
     check()
+
+
+def test_bone_names_needing_escapes(empty_file, walk):
+    from dataclasses import replace
+
+    names = ('upper arm.L', 'we"ird\\name', "ünï cødé") + walk.bones[3:]
+    clip = replace(walk, bones=names, root_bone=names[0], rotation_modes=())
+    action = action_io.write_action(clip)
+    back = action_io.read_action(action)
+    assert back.bones == names and back.root_bone == names[0]
+    np.testing.assert_allclose(back.rotations, clip.rotations, atol=2e-6)
+    obj = make_armature(list(names[:3]))
+    assert [a.name for a in action_io.armature_actions(obj)] == [action.name]
