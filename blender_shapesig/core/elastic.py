@@ -409,7 +409,7 @@ def reparametrize(R, t, warp, t_new=None):
 
     On the grid ``warp_grid(warp, t)`` the geodesic interpolation of the result equals R o phi
     exactly (every kink of R o phi is a sample), so ``l2_distance(R0, result, t1=that grid)`` is
-    then the warp's elastic energy.
+    then the square root of the warp's energy (without penalty): for the DP's warp, d_S*.
 
     Returns an array (len(t_new), joints, 3, 3).
     """
