@@ -193,18 +193,26 @@ def _ensure_bvh_importer():
         raise ShapeSigError("Blender's BVH importer (io_anim_bvh) is not available") from None
 
 
+def _id_collections():
+    """Names of the bpy.data collections of removable data-blocks (not the UI: screens, window managers,
+    workspaces)."""
+    out = []
+    for prop in bpy.data.bl_rna.properties:
+        name = prop.identifier
+        if prop.type != "COLLECTION" or name in ("window_managers", "screens", "workspaces"):
+            continue
+        if hasattr(getattr(bpy.data, name, None), "remove"):
+            out.append(name)
+    return out
+
+
 def _id_snapshot():
-    return {(coll, id_.as_pointer()) for coll in _ID_COLLECTIONS for id_ in getattr(bpy.data, coll)}
-
-
-_ID_COLLECTIONS = ("actions", "objects", "armatures", "meshes", "materials", "collections", "scenes",
-                   "node_groups", "images", "textures", "cameras", "lights", "curves", "grease_pencils",
-                   "worlds", "libraries")
+    return {(coll, id_.as_pointer()) for coll in _id_collections() for id_ in getattr(bpy.data, coll)}
 
 
 def _remove_new_ids(before):
     """Remove every data-block created since the snapshot ``before``."""
-    new = [id_ for coll in _ID_COLLECTIONS for id_ in getattr(bpy.data, coll, ())
+    new = [id_ for coll in _id_collections() for id_ in getattr(bpy.data, coll, ())
            if (coll, id_.as_pointer()) not in before]
     scenes = [i for i in new if isinstance(i, bpy.types.Scene)]
     others = [i for i in new if not isinstance(i, bpy.types.Scene)]

@@ -18,8 +18,9 @@ A = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # BVH Y up -
 
 
 def _all_ids():
-    return {(c, i.as_pointer()) for c in ("objects", "armatures", "actions", "scenes", "collections", "libraries")
-            for i in getattr(bpy.data, c)}
+    colls = [p.identifier for p in bpy.data.bl_rna.properties
+             if p.type == "COLLECTION" and p.identifier not in ("window_managers", "screens", "workspaces")]
+    return {(c, i.as_pointer()) for c in colls for i in getattr(bpy.data, c)}
 
 
 def _bvh_local_rotations(path):
@@ -103,6 +104,13 @@ def _save_blend(path, walk):
     blender_made.use_fake_user = True
     obj.animation_data.action = a
     bpy.data.actions.new("not_armature").use_fake_user = True
+    # a mesh object with a material: appended along with the objects, must be removed again
+    mesh = bpy.data.meshes.new("Body")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (0, 1, 0)], [], [(0, 1, 2)])
+    mesh.materials.append(bpy.data.materials.new("Skin"))
+    body = bpy.data.objects.new("Body", mesh)
+    bpy.context.collection.objects.link(body)
+    body.parent = obj
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return a.name, b.name
 
