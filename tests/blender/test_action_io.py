@@ -289,3 +289,28 @@ def test_bone_names_needing_escapes(empty_file, walk):
     np.testing.assert_allclose(back.rotations, clip.rotations, atol=2e-6)
     obj = make_armature(list(names[:3]))
     assert [a.name for a in action_io.armature_actions(obj)] == [action.name]
+
+
+def test_multiple_slots(empty_file, walk):
+    """4.4+: an action with two object slots; read_action reads the armature's slot, or the one asked for."""
+    action = action_io.write_action(walk.select(["root", "lfemur"]), name="two")
+    if not compat.is_layered(action):
+        pytest.skip("slots exist from Blender 4.4")
+    second = action.slots.new(id_type="OBJECT", name="Other")
+    bag = compat._channelbag(action, action.slots[0])
+    layer_strip = action.layers[0].strips[0]
+    other = layer_strip.channelbag(second, ensure=True)
+    fc = other.fcurves.new('pose.bones["ltibia"].rotation_euler', index=0)
+    fc.keyframe_points.insert(1, 0.5)
+    fc.keyframe_points.insert(3, 1.0)
+    assert len(bag.fcurves) == 3 + 3 + 3  # root: Euler XYZ + location, lfemur: Euler XYZ
+    first = action_io.read_action(action)
+    assert first.bones == ("root", "lfemur")
+    got = action_io.read_action(action, slot=second)
+    assert got.bones == ("ltibia",) and (got.frame_start, got.frames) == (1, 3)
+    np.testing.assert_allclose(got.rotations[0, 0], [[1, 0, 0], [0, np.cos(0.5), -np.sin(0.5)],
+                                                     [0, np.sin(0.5), np.cos(0.5)]], atol=1e-6)
+    obj = make_armature(["root", "lfemur", "ltibia"])
+    obj.animation_data_create().action = action
+    obj.animation_data.action_slot = second
+    assert action_io.read_action(action, armature=obj, exclude_unkeyed=True).bones == ("ltibia",)
