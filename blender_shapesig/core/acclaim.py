@@ -229,17 +229,27 @@ def forward_kinematics(motion: Motion):
 def _read_source(path_or_text, kind):
     """(text, path or None). A pathlib.Path, or a str without a newline, is a path."""
     if isinstance(path_or_text, (bytes, bytearray)):
-        path_or_text = path_or_text.decode("utf-8", errors="replace")
+        path_or_text = decode_text(bytes(path_or_text))
     if isinstance(path_or_text, str) and ("\n" in path_or_text or path_or_text.strip() == ""):
         return path_or_text, None
     path = os.fspath(path_or_text)
     if not os.path.isfile(path):
         raise ParseError(f"no such {kind} file", path)
     try:
-        with open(path, "r", encoding="utf-8", errors="replace") as fh:
-            return fh.read(), path
+        with open(path, "rb") as fh:
+            return decode_text(fh.read()), path
     except OSError as exc:
         raise ParseError(f"cannot read {kind} file: {exc.strerror or exc}", path) from None
+
+
+def decode_text(data: bytes) -> str:
+    """Text of a motion file: UTF-8, or UTF-16 / UTF-32 with a byte-order mark (a UTF-8 BOM is dropped);
+    bytes that are not UTF-8 (e.g. latin-1 names in comments) become U+FFFD."""
+    for bom, codec in ((b"\xff\xfe\x00\x00", "utf-32-le"), (b"\x00\x00\xfe\xff", "utf-32-be"),
+                       (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be"), (b"\xef\xbb\xbf", "utf-8")):
+        if data.startswith(bom):
+            return data[len(bom):].decode(codec, errors="replace")
+    return data.decode("utf-8", errors="replace")
 
 
 def _float(token, where, what, line):
