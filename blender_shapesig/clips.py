@@ -24,7 +24,7 @@ import os
 import bpy
 
 from . import action_io, compat
-from .core.acclaim import load_acclaim
+from .core.acclaim import decode_text, load_acclaim
 from .core.errors import ParseError, ShapeSigError
 
 __all__ = ["load_clips", "split_spec", "import_bvh", "check_bvh"]
@@ -65,14 +65,26 @@ def load_clips(spec, asf=None, fps=None):
 # ------------------------------------------------------------------------------------------- BVH
 
 
+def _bvh_text(path):
+    """(text, plain): the file's text (UTF-8; UTF-16/32 or UTF-8 with a byte-order mark; else latin-1) and
+    whether it is plain UTF-8 without a BOM, the only encoding Blender's importer reads."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read()
+    except OSError as exc:
+        raise ParseError(f"cannot read BVH file: {exc.strerror or exc}", path) from None
+    if data.startswith((b"\xff\xfe", b"\xfe\xff", b"\xef\xbb\xbf", b"\x00\x00\xfe\xff")):
+        return decode_text(data), False
+    try:
+        return data.decode("utf-8"), True
+    except UnicodeDecodeError:
+        return data.decode("latin-1"), False
+
+
 def check_bvh(path):
     """Validate a BVH file's structure and numbers before Blender's importer sees it (its failures are
     tracebacks); returns the frame time. Raises ParseError naming the line."""
-    try:
-        with open(path, "r", encoding="utf-8", errors="replace") as fh:
-            lines = fh.read().splitlines()
-    except OSError as exc:
-        raise ParseError(f"cannot read BVH file: {exc.strerror or exc}", path) from None
+    lines = _bvh_text(path)[0].splitlines()
     if not any(ln.strip() for ln in lines):
         raise ParseError("empty BVH file", path)
     channels, depth, joints = 0, 0, 0
@@ -118,14 +130,15 @@ def check_bvh(path):
     if len(head) < 2:
         raise ParseError("MOTION section without Frames / Frame Time", path, motion_line)
     (n1, frames_line), (n2, time_line) = head
+    frames_line, time_line = " ".join(frames_line.split()), " ".join(time_line.split())
     try:
-        if not frames_line.strip().lower().startswith("frames"):
+        if not frames_line.lower().startswith("frames"):
             raise ValueError
         frames = int(frames_line.split(":", 1)[1])
     except (IndexError, ValueError):
         raise ParseError("expected 'Frames: N'", path, n1) from None
     try:
-        if not time_line.strip().lower().startswith("frame time"):
+        if not time_line.lower().startswith("frame time"):
             raise ValueError
         frame_time = float(time_line.split(":", 1)[1])
     except (IndexError, ValueError):
@@ -230,6 +243,23 @@ def import_bvh(path, name=None):
         raise ParseError("no such file", path)
     frame_time = check_bvh(path)
     _ensure_bvh_importer()
+    text, plain = _bvh_text(path)
+    if not plain:
+        # Blender's importer reads UTF-8 only: give it a UTF-8 copy of a BOM / UTF-16 / latin-1 file
+        import tempfile
+
+        with tempfile.TemporaryDirectory(prefix="shapesig_bvh_") as tmp:
+            copy = os.path.join(tmp, os.path.basename(path))
+            with open(copy, "w", encoding="utf-8", newline="") as fh:
+                fh.write(text)
+            clip = _import_checked_bvh(copy, frame_time, name, shown=path)
+        clip.source = path
+        return clip
+    return _import_checked_bvh(path, frame_time, name)
+
+
+def _import_checked_bvh(path, frame_time, name=None, shown=None):
+    shown = shown or path
     before = _id_snapshot()
     window = getattr(bpy.context, "window", None)
     old_scene = window.scene if window is not None else None
@@ -248,13 +278,13 @@ def import_bvh(path, name=None):
                                                  update_scene_duration=False, global_scale=1.0)
         except RuntimeError as exc:
             lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip() and not ln.startswith("Location")]
-            raise ParseError(f"Blender's BVH importer failed: {lines[-1] if lines else exc}", path) from None
+            raise ParseError(f"Blender's BVH importer failed: {lines[-1] if lines else exc}", shown) from None
         if "FINISHED" not in result:
-            raise ParseError("Blender's BVH importer did not finish", path)
+            raise ParseError("Blender's BVH importer did not finish", shown)
         armatures = [o for o in bpy.data.objects
                      if ("objects", o.as_pointer()) not in before and o.type == "ARMATURE"]
         if len(armatures) != 1 or armatures[0].animation_data is None or armatures[0].animation_data.action is None:
-            raise ParseError("the BVH importer made no animated armature", path)
+            raise ParseError("the BVH importer made no animated armature", shown)
         arm = armatures[0]
         fps = 1.0 / frame_time
         if abs(fps - round(fps)) < 1e-3:
