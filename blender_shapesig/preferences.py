@@ -1,17 +1,58 @@
-"""Blender layer: preferences (filled in by the issues that need it)."""
+"""Add-on preferences: where the signature index is kept and the default library folders.
 
-classes = ()
+The preferences' ``bl_idname`` is the add-on's module name (``__package__`` of this top-level module:
+``blender_shapesig`` when installed as a legacy add-on or imported from source,
+``bl_ext.<repository>.blender_shapesig`` as an extension), never a hard-coded string.
+"""
+
+import bpy
+from bpy.props import StringProperty
+
+ADDON_ID = __package__
+
+__all__ = ["ShapeSigPreferences", "get_preferences", "ADDON_ID", "classes"]
+
+
+class ShapeSigPreferences(bpy.types.AddonPreferences):
+    bl_idname = ADDON_ID
+
+    cache_dir: StringProperty(
+        name="Index Folder",
+        description="Where the signature index (one small file per clip) is kept. Empty: the extension's "
+                    "user folder (or $SHAPESIG_CACHE_DIR, or a per-user cache folder)",
+        subtype="DIR_PATH",
+        default="",
+    )
+    library_folders: StringProperty(
+        name="Library Folders",
+        description="Default folders of clip files (.bvh, .amc, .blend) searched besides the file's actions; "
+                    "separate several with ';'",
+        default="",
+    )
+
+    def draw(self, context):
+        layout = self.layout
+        layout.prop(self, "cache_dir")
+        layout.prop(self, "library_folders")
+        row = layout.row()
+        row.operator("shapesig.clear_index", icon="TRASH")
+
+
+def get_preferences(context=None):
+    """This add-on's preferences, or None when they are not registered (e.g. some test set-ups)."""
+    context = context or bpy.context
+    addon = context.preferences.addons.get(ADDON_ID) if context.preferences else None
+    return getattr(addon, "preferences", None)
+
+
+classes = (ShapeSigPreferences,)
 
 
 def register():
-    import bpy
-
     for cls in classes:
         bpy.utils.register_class(cls)
 
 
 def unregister():
-    import bpy
-
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -1,3 +1,185 @@
-"""Stub: filled in by its issue."""
+"""Sidebar tab "ShapeSig": signature search (3D Viewport, Dope Sheet and NLA sidebars).
 
-classes = ()
+Query (the active armature's action or a chosen one, optional frame range), library (file actions with a
+name filter / assets only, folders of clips), Build Index (progress bar while it runs), Find Similar, the
+results list (name, sim^n, elastic when re-ranked, frames) and, for the selected result, Assign, Preview
+and Blend (``shapesig.blend_actions`` with the query as A and the result as B). Every problem (no
+armature, no action, empty library, no results) is a label, never an exception.
+"""
+
+import bpy
+
+__all__ = ["classes", "SHAPESIG_UL_results", "draw_search"]
+
+
+class SHAPESIG_UL_results(bpy.types.UIList):
+    """Ranked results: name, sim^n distance, elastic distance (when re-ranked) and frame count."""
+
+    bl_idname = "SHAPESIG_UL_results"
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0, flt_flag=0):
+        icon = "ACTION" if item.is_action else "FILE"
+        if self.layout_type in {"DEFAULT", "COMPACT"}:
+            row = layout.row(align=True)
+            split = row.split(factor=0.5)
+            split.label(text=item.name, icon=icon)
+            nums = split.row(align=True)
+            nums.label(text=f"{item.distance:.4f}")
+            if item.has_elastic:
+                nums.label(text=f"e {item.elastic:.3f}")
+            nums.label(text=f"{item.frames} f")
+        else:
+            layout.alignment = "CENTER"
+            layout.label(text="", icon=icon)
+
+
+def _message(layout, text, icon="INFO"):
+    box = layout.box()
+    for i, line in enumerate(_wrap(text, 48)):
+        box.label(text=line, icon=icon if i == 0 else "BLANK1")
+
+
+def _wrap(text, width):
+    words, lines, cur = str(text).split(), [], ""
+    for w in words:
+        if cur and len(cur) + 1 + len(w) > width:
+            lines.append(cur)
+            cur = w
+        else:
+            cur = f"{cur} {w}".strip()
+    if cur:
+        lines.append(cur)
+    return lines or [""]
+
+
+def draw_search(layout, context):
+    """Draw the search UI into ``layout`` (shared by the three sidebar panels)."""
+    scene = getattr(context, "scene", None)
+    s = getattr(scene, "shapesig", None) if scene is not None else None
+    if s is None:
+        layout.label(text="ShapeSig settings are not registered", icon="ERROR")
+        return
+    obj = getattr(context, "active_object", None)
+
+    # query
+    col = layout.column(align=True)
+    col.label(text="Query", icon="ARMATURE_DATA")
+    if obj is None or obj.type != "ARMATURE":
+        _message(layout, "Select an armature: the query is its action.", "ERROR")
+        return
+    current = obj.animation_data.action if obj.animation_data else None
+    col.prop_search(s, "query_action", bpy.data, "actions", text="")
+    if not s.query_action:
+        if current is None:
+            _message(layout, f"{obj.name} has no action: assign one or choose a query action.", "ERROR")
+            return
+        col.label(text=f"Active action: {current.name}")
+    elif bpy.data.actions.get(s.query_action) is None:
+        _message(layout, f"There is no action named {s.query_action!r}.", "ERROR")
+        return
+    row = col.row(align=True)
+    row.prop(s, "use_frame_range")
+    sub = row.row(align=True)
+    sub.active = s.use_frame_range
+    sub.prop(s, "frame_start", text="")
+    sub.prop(s, "frame_end", text="")
+
+    # library
+    col = layout.column(align=True)
+    col.label(text="Library", icon="ASSET_MANAGER")
+    row = col.row(align=True)
+    row.prop(s, "use_file_actions", toggle=True)
+    row.prop(s, "use_folders", toggle=True)
+    if s.use_file_actions:
+        row = col.row(align=True)
+        row.prop(s, "name_filter", text="", icon="FILTER")
+        row.prop(s, "assets_only", text="", icon="ASSET_MANAGER")
+    if s.use_folders:
+        col.prop(s, "folders", text="")
+    col.prop(s, "crop_start")
+    if not s.use_file_actions and not s.use_folders:
+        _message(layout, "The library is empty: search file actions or folders.", "ERROR")
+        return
+
+    # search
+    col = layout.column(align=True)
+    row = col.row(align=True)
+    row.prop(s, "level")
+    row.prop(s, "rerank")
+    row = col.row(align=True)
+    row.prop(s, "top")
+    sub = row.row(align=True)
+    sub.active = s.rerank > 0
+    sub.prop(s, "depth")
+    row = layout.row(align=True)
+    if s.index_running:
+        if hasattr(row, "progress"):
+            row.progress(factor=s.index_progress, type="BAR", text=f"Indexing {s.index_progress:.0%} (Esc cancels)")
+        else:
+            row.label(text=f"Indexing {s.index_progress:.0%} (Esc cancels)")
+    else:
+        row.operator("shapesig.build_index", icon="FILE_REFRESH")
+    row = layout.row()
+    row.scale_y = 1.3
+    row.operator("shapesig.rank", icon="VIEWZOOM")
+
+    # results
+    if s.message:
+        _message(layout, s.message)
+    if not s.results:
+        layout.label(text="No results yet.", icon="INFO")
+        return
+    layout.label(text=f"Similar to {s.query_name}:")
+    layout.template_list("SHAPESIG_UL_results", "", s, "results", s, "results_index", rows=6)
+    if not 0 <= s.results_index < len(s.results):
+        layout.label(text="Select a result.", icon="INFO")
+        return
+    item = s.results[s.results_index]
+    info = layout.column(align=True)
+    info.label(text=f"sim^{s.level} = {item.distance:.4f}" + (f", elastic = {item.elastic:.4f}" if item.has_elastic
+                                                              else ""))
+    info.label(text=f"{item.frames} frames, {item.shared} shared bones")
+    if not item.is_action:
+        info.label(text=item.source, icon="FILE")
+    row = layout.row(align=True)
+    row.operator("shapesig.assign_result", icon="CHECKMARK", text="Assign")
+    if s.preview_object:
+        op = row.operator("shapesig.preview_result", icon="PAUSE", text="Stop")
+        op.stop = True
+    else:
+        row.operator("shapesig.preview_result", icon="PLAY", text="Preview")
+    query = s.query_name
+    sub = row.row(align=True)
+    sub.enabled = item.is_action and bool(query)
+    op = sub.operator("shapesig.blend_actions", icon="MOD_DATA_TRANSFER", text="Blend")
+    op.action_a = query
+    op.action_b = item.source if item.is_action else ""
+    if not item.is_action:
+        layout.label(text="Assign a file result to blend it.", icon="INFO")
+
+
+class _SearchPanel:
+    bl_label = "Signature Search"
+    bl_region_type = "UI"
+    bl_category = "ShapeSig"
+
+    def draw(self, context):
+        draw_search(self.layout, context)
+
+
+class SHAPESIG_PT_search_view3d(_SearchPanel, bpy.types.Panel):
+    bl_idname = "SHAPESIG_PT_search_view3d"
+    bl_space_type = "VIEW_3D"
+
+
+class SHAPESIG_PT_search_dopesheet(_SearchPanel, bpy.types.Panel):
+    bl_idname = "SHAPESIG_PT_search_dopesheet"
+    bl_space_type = "DOPESHEET_EDITOR"
+
+
+class SHAPESIG_PT_search_nla(_SearchPanel, bpy.types.Panel):
+    bl_idname = "SHAPESIG_PT_search_nla"
+    bl_space_type = "NLA_EDITOR"
+
+
+classes = (SHAPESIG_UL_results, SHAPESIG_PT_search_view3d, SHAPESIG_PT_search_dopesheet, SHAPESIG_PT_search_nla)

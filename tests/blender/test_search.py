@@ -1,0 +1,291 @@
+"""Signature search in Blender on real CMU clips (BVH walks 07_01, 07_02, 08_01; runs 09_02, 09_03; forward
+jump 13_32, all imported with Blender's BVH importer): the file library and a folder library rank walks
+first, distances equal metrics.clip_distance on the actions read independently, the index cache hits,
+misses after a keyframe edit and rebuilds a corrupt file; assign / preview / blend; clean errors; the panel
+and list draw (fake layout) in every state."""
+
+import contextlib
+import io
+import os
+import pathlib
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig.core import search  # noqa: E402
+from blender_shapesig.core.metrics import clip_distance  # noqa: E402
+
+BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
+CLIPS = {"walk1": "07_01", "walk2": "07_02", "walk3": "08_01", "run1": "09_02", "run2": "09_03", "jump": "13_32"}
+LABEL = {"07_01": "walk", "07_02": "walk", "08_01": "walk", "09_02": "run", "09_03": "run", "13_32": "jump"}
+
+
+def _import_bvh(name, action_name):
+    try:
+        bpy.ops.import_anim.bvh.get_rna_type()
+    except (AttributeError, KeyError):
+        import addon_utils
+
+        addon_utils.enable("io_anim_bvh", default_set=False)
+    with contextlib.redirect_stdout(io.StringIO()):
+        bpy.ops.import_anim.bvh(filepath=str(BVH / f"{name}.bvh"), rotate_mode="NATIVE", frame_start=1,
+                                use_fps_scale=False, update_scene_fps=False, update_scene_duration=False)
+    obj = bpy.context.view_layer.objects.active
+    obj.animation_data.action.name = action_name
+    obj.animation_data.action.use_fake_user = True
+    return obj
+
+
+@pytest.fixture
+def cache_env(monkeypatch, tmp_path):
+    path = tmp_path / "index"
+    monkeypatch.setenv(search.CACHE_ENV, str(path))
+    return path
+
+
+@pytest.fixture
+def rig(empty_file, cache_env):
+    """The first walk's armature (active, action 'walk1') and the other five actions (fake users)."""
+    arm = _import_bvh(CLIPS["walk1"], "walk1")
+    for action_name, clip in CLIPS.items():
+        if action_name != "walk1":
+            other = _import_bvh(clip, action_name)
+            bpy.data.objects.remove(other)
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    s = bpy.context.scene.shapesig
+    s.crop_start = 2  # frame 1 of these files is a rest pose
+    return arm
+
+
+def _cache():
+    from blender_shapesig.operators import search as ops_search
+
+    return ops_search.get_cache(bpy.context)
+
+
+def _read(name, arm):
+    act = bpy.data.actions[name]
+    first, last = (int(round(v)) for v in act.frame_range)
+    return action_io.read_action(act, armature=arm, frame_range=(2, last))
+
+
+def _results():
+    s = bpy.context.scene.shapesig
+    return [(r.name, r.distance) for r in s.results]
+
+
+def test_registered(addon):
+    for op in ("build_index", "rank", "assign_result", "preview_result", "clear_index"):
+        assert hasattr(bpy.ops.shapesig, op)
+        getattr(bpy.ops.shapesig, op).get_rna_type()
+    for cls in ("SHAPESIG_PT_search_view3d", "SHAPESIG_PT_search_dopesheet", "SHAPESIG_PT_search_nla",
+                "SHAPESIG_UL_results"):
+        assert hasattr(bpy.types, cls)
+    assert {bpy.types.SHAPESIG_PT_search_view3d.bl_category, bpy.types.SHAPESIG_PT_search_nla.bl_category} == {"ShapeSig"}
+    assert hasattr(bpy.types.Scene, "shapesig")
+    from blender_shapesig import preferences
+
+    assert preferences.ShapeSigPreferences.bl_idname == "blender_shapesig"  # the package name, as imported here
+
+
+def test_file_library_ranks_walks_first_and_caches(rig):
+    hashes = {a.name: action_io.action_hash(a) for a in bpy.data.actions}
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    s = bpy.context.scene.shapesig
+    got = _results()
+    assert [n for n, _ in got][:2] in (["walk2", "walk3"], ["walk3", "walk2"])
+    assert {n for n, _ in got[2:]} == {"run1", "run2", "jump"}
+    assert s.query_name == "walk1" and "walk1" not in dict(got)
+    q = _read("walk1", rig)
+    for name, d in got:
+        assert d == pytest.approx(clip_distance(q, _read(name, rig), "sim", 3), rel=1e-5)
+    assert [r.frames for r in s.results] == [_read(n, rig).frames for n, _ in got]
+    assert {a.name: action_io.action_hash(a) for a in bpy.data.actions} == hashes  # sources untouched
+    assert os.listdir(os.environ[search.CACHE_ENV])  # the index is on disk, not in the .blend
+
+    cache = _cache()
+    before = dict(cache.stats)
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert cache.stats["misses"] == before["misses"] and cache.stats["hits"] == before["hits"] + 6
+    assert _results() == got
+
+    # edit one keyframe of 'run1': its hash changes, it alone is recomputed, its distance follows the edit
+    run = bpy.data.actions["run1"]
+    fc = next(f for f in compat.all_action_fcurves(run) if "rotation" in f.data_path and f.keyframe_points[5].co[1] != 0)
+    fc.keyframe_points[40].co[1] += 0.5
+    fc.update()
+    before = dict(cache.stats)
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert cache.stats["misses"] == before["misses"] + 1
+    new = dict(_results())
+    assert new["run1"] != pytest.approx(dict(got)["run1"], rel=1e-6)
+    assert new["run1"] == pytest.approx(clip_distance(q, _read("run1", rig), "sim", 3), rel=1e-5)
+
+    # re-rank the best three by elastic distance: the head is ordered by it
+    s.rerank, s.top = 3, 3
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert len(s.results) == 3 and all(r.has_elastic for r in s.results)
+    el = [r.elastic for r in s.results]
+    assert el == sorted(el)
+    by = {r.name: r for r in s.results}
+    for name in ("walk2",):
+        if name in by:
+            assert by[name].elastic == pytest.approx(clip_distance(q, _read(name, rig), "elastic"), rel=1e-4)
+
+
+def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_env):
+    s = bpy.context.scene.shapesig
+    assert bpy.ops.shapesig.build_index("INVOKE_DEFAULT") == {"FINISHED"}
+    assert "6 computed" in s.message and not s.index_running
+    files = sorted(p for p in cache_env.iterdir() if p.suffix == ".npz")
+    assert len(files) == 6
+    assert bpy.ops.shapesig.build_index() == {"FINISHED"}
+    assert "0 computed" in s.message
+    # corrupt one entry file on disk, and forget the session's memory layer: it is detected and rebuilt
+    files[0].write_bytes(b"garbage")
+    from blender_shapesig.operators import search as ops_search
+
+    ops_search._CACHES.clear()
+    assert bpy.ops.shapesig.build_index() == {"FINISHED"}
+    assert "1 computed" in s.message
+    assert _cache().stats["invalid"] == 1
+    assert np.load(files[0])["meta"].size
+
+
+def test_folder_library(empty_file, cache_env):
+    arm = _import_bvh("07_01", "walk1")
+    s = bpy.context.scene.shapesig
+    s.use_file_actions, s.use_folders, s.folders, s.crop_start = False, True, str(BVH), 2
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    names = [r.name for r in s.results]
+    assert len(names) == 6 and all(not r.is_action for r in s.results)
+    assert names[0] == "07_01" and s.results[0].distance < 1e-5  # the query's own file
+    assert {LABEL[n] for n in names[:3]} == {"walk"}
+    assert all(r.source.endswith(".bvh") for r in s.results)
+    cache = _cache()
+    before = dict(cache.stats)
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert cache.stats["misses"] == before["misses"]
+    # assign a folder result: written as a new action on the armature, then usable by Blend
+    s.results_index = 1
+    n_actions = len(bpy.data.actions)
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    assert len(bpy.data.actions) == n_actions + 1
+    assert arm.animation_data.action.name.startswith(names[1])
+    assert s.results[1].is_action
+
+
+def test_assign_preview_and_blend(rig):
+    s = bpy.context.scene.shapesig
+    bpy.ops.shapesig.rank()
+    s.results_index = 2
+    target = s.results[2].name
+    assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
+    assert rig.animation_data.action.name == target and s.preview_object == rig.name
+    assert bpy.ops.shapesig.preview_result() == {"FINISHED"}  # again: stop and restore
+    assert rig.animation_data.action.name == "walk1" and not s.preview_object
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    assert rig.animation_data.action.name == target
+    compat.assign_action(rig, bpy.data.actions["walk1"])
+    n = len(bpy.data.actions)
+    assert bpy.ops.shapesig.blend_actions(action_a=s.query_name, action_b=s.results[0].source, weight=0.5,
+                                          assign=False) == {"FINISHED"}
+    assert len(bpy.data.actions) == n + 1
+
+
+def test_errors_are_clear(empty_file, cache_env):
+    with pytest.raises(RuntimeError, match="select an armature"):
+        bpy.ops.shapesig.rank()
+    with pytest.raises(RuntimeError, match="select an armature"):
+        bpy.ops.shapesig.build_index()
+    with pytest.raises(RuntimeError, match="select an armature"):
+        bpy.ops.shapesig.assign_result()
+    arm = _import_bvh("09_02", "only")
+    with pytest.raises(RuntimeError, match="no results"):
+        bpy.ops.shapesig.assign_result()
+    with pytest.raises(RuntimeError, match="no results"):
+        bpy.ops.shapesig.preview_result()
+    with pytest.raises(RuntimeError, match="library is empty"):
+        bpy.ops.shapesig.rank()
+    s = bpy.context.scene.shapesig
+    s.query_action = "missing"
+    with pytest.raises(RuntimeError, match="no action 'missing'"):
+        bpy.ops.shapesig.rank()
+    s.query_action = ""
+    s.use_file_actions, s.use_folders, s.folders = False, True, str(cache_env / "nowhere")
+    with pytest.raises(RuntimeError, match="does not exist"):
+        bpy.ops.shapesig.rank()
+    arm.animation_data.action = None
+    with pytest.raises(RuntimeError, match="has no action"):
+        bpy.ops.shapesig.rank()
+
+
+# ------------------------------------------------------------------------------------ panel drawing
+
+class FakeLayout:
+    """Records every UI call; sub-layouts share the log."""
+
+    def __init__(self, log=None):
+        self.log = [] if log is None else log
+
+    def __getattr__(self, name):
+        def call(*args, **kwargs):
+            self.log.append((name, args, kwargs))
+            if name == "operator":
+                props = SimpleNamespace()
+                self.log.append(("props", props))
+                return props
+            return FakeLayout(self.log)
+
+        return call
+
+    def labels(self):
+        return " | ".join(e[2].get("text", "") for e in self.log if e[0] == "label")
+
+    def operators(self):
+        return [e[1][0] for e in self.log if e[0] == "operator"]
+
+
+def _draw():
+    from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
+
+    layout = FakeLayout()
+    SHAPESIG_PT_search_view3d.draw(SimpleNamespace(layout=layout), bpy.context)
+    return layout
+
+
+def test_panel_draws_every_state(rig):
+    from blender_shapesig.panels.search import SHAPESIG_UL_results
+
+    bpy.context.view_layer.objects.active = None
+    assert "Select an armature" in _draw().labels()
+    bpy.context.view_layer.objects.active = rig
+    lay = _draw()
+    assert "No results yet" in lay.labels() and {"shapesig.build_index", "shapesig.rank"} <= set(lay.operators())
+    s = bpy.context.scene.shapesig
+    s.use_file_actions = False
+    assert "library is empty" in _draw().labels()
+    s.use_file_actions = True
+    s.index_running, s.index_progress = True, 0.5
+    assert "Indexing 50%" in str(_draw().log)
+    s.index_running = False
+    bpy.ops.shapesig.rank()
+    lay = _draw()
+    assert any(e[0] == "template_list" for e in lay.log)
+    assert {"shapesig.assign_result", "shapesig.preview_result", "shapesig.blend_actions"} <= set(lay.operators())
+    i = lay.operators().index("shapesig.blend_actions")
+    props = [e[1] for e in lay.log if e[0] == "props"][i]
+    assert (props.action_a, props.action_b) == ("walk1", s.results[0].source)
+    row = FakeLayout()
+    SHAPESIG_UL_results.draw_item(SimpleNamespace(layout_type="DEFAULT"), bpy.context, row, s, s.results[0], 0, s,
+                                  "results_index")
+    assert s.results[0].name in row.labels() and f"{s.results[0].distance:.4f}" in row.labels()
+    s.results_index = 99
+    assert "Select a result" in _draw().labels()
+    s.query_action = "nope"
+    assert "no action named 'nope'" in _draw().labels()
