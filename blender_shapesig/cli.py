@@ -215,11 +215,36 @@ def cmd_distance(args):
     return out, text
 
 
-def _cache_dir(args):
-    return args.cache or os.environ.get("SHAPESIG_CACHE_DIR") or None
+def _library_items(specs, args):
+    """Library items for the CLIP arguments: files are keyed by their bytes (and skeleton and crop), so a
+    cached file is not even read again; ``FILE.blend#ACTION`` is loaded now and keyed by its data."""
+    from .core import search
+
+    crop = _crop_of(args)
+    items = []
+    for spec in specs:
+        path, action = split_spec(spec)
+        if action is not None or not os.path.isfile(path):
+            for clip in _crop(load_clip_spec(spec, args.asf), crop):
+                items.extend(search.clip_items([clip]))
+            continue
+        ext = os.path.splitext(path)[1].lower()
+        if ext not in (".bvh", ".amc", ".blend"):
+            load_clip_spec(spec, args.asf)  # raises the one-line error
+        skeleton = find_asf(path, args.asf) if ext == ".amc" else None
+        extra = f"asf={search.file_key(skeleton) if skeleton else ''}|crop={crop}"
+
+        def load(spec=spec):
+            with _stdout_to_stderr():
+                return _crop(load_clip_spec(spec, args.asf), crop)
+
+        items.append(search.LibraryItem(os.path.splitext(os.path.basename(path))[0],
+                                        search.file_key(path, extra), load, path))
+    return items
 
 
 def cmd_rank(args):
+    from .core import search
     from .core.metrics import metric_label, parse_metric
 
     base, level = parse_metric(args.metric, args.level)
@@ -228,37 +253,42 @@ def cmd_rank(args):
     if args.top is not None and args.top < 1:
         raise CommandError("--top must be 1 or more")
     query = load_one(args.query, args.asf, _crop_of(args))
-    library = load_many(args.clips, args.asf, args)
-    if not library:
+    items = _library_items(args.clips, args)
+    if not items:
         raise CommandError("no clips to rank")
-    cache_dir = _cache_dir(args)
-    results = _rank(query, library, base, level, args, cache_dir)
+    cache_dir = args.cache or os.environ.get(search.CACHE_ENV) or None
+    if cache_dir:
+        os.makedirs(cache_dir, exist_ok=True)
+    cache = search.SignatureCache(cache_dir)
+    bar = _progress(args, len(items), "signatures")
+    done = [0]
+
+    def progress(i, total, name):
+        if i > done[0]:
+            bar.update(i - done[0])
+            done[0] = i
+
+    try:
+        results = search.rank_clips(query, items, metric=base, level=level, rerank=args.rerank or 0,
+                                    top=args.top, cache=cache, depth=args.depth, progress=progress)
+    finally:
+        bar.close()
+    for w in getattr(results, "warnings", []):
+        sys.stderr.write(f"{PROG}: warning: {w}\n")
     rows = [
-        {
-            "clip": r.name,
-            "distance": _finite(r.distance),
-            "elastic": _finite(getattr(r, "elastic", None)),
-        }
+        {"clip": r.name, "distance": _finite(r.distance), "elastic": _finite(r.elastic)}
         for r in results
     ]
-    out = {"query": query.name, "metric": metric_label(base, level), "results": rows}
-    lines = [f"query: {query.name}  metric: {metric_label(base, level)}"]
+    label = metric_label(base, level)
+    stats = dict(getattr(results, "stats", {}) or {})
+    out = {"query": query.name, "metric": label, "results": rows,
+           "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}}
+    lines = [f"query: {query.name}  metric: {label}"]
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
         dist = "nan" if r["distance"] is None else f"{r['distance']:.6g}"
         lines.append(f"{i:3d}. {r['clip']}  {dist}{el}")
     return out, "\n".join(lines)
-
-
-def _rank(query, library, base, level, args, cache_dir):
-    from .core import search
-
-    kwargs = dict(metric=base, level=level, rerank=args.rerank or 0, top=args.top)
-    cache = None
-    if cache_dir:
-        os.makedirs(cache_dir, exist_ok=True)
-        cache = search.SignatureCache(cache_dir)
-    return search.rank_clips(query, library, cache=cache, **kwargs)
 
 
 def _new_objects(before):
@@ -526,6 +556,7 @@ def build_parser():
     p.add_argument("--level", type=int, help="signature truncation level (default 3)")
     p.add_argument("--rerank", type=int, default=0, metavar="K", help="re-order the first K by elastic distance")
     p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
+    p.add_argument("--depth", type=int, default=9, help="DP search depth D for the elastic re-rank (default 9)")
     p.add_argument("--cache", metavar="DIR", help="signature cache folder (default $SHAPESIG_CACHE_DIR)")
     _add_common(p)
     p.set_defaults(func=cmd_rank)

@@ -228,10 +228,14 @@ def test_rank_json_and_cache(capsys, amc, tmp_path):
     # The walk is nearer to the other walk than to the runs.
     assert names[0] == "07_02"
     a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["w2"]))
-    assert dists[0] == pytest.approx(signatures.normalized_distance(a.rotations, b.rotations, 2), rel=1e-9)
+    # The index stores float32 directions: agreement to ~1e-7 relative.
+    assert dists[0] == pytest.approx(signatures.normalized_distance(a.rotations, b.rotations, 2), rel=1e-6)
     assert any(cache.iterdir()), "the cache folder stays empty"
+    assert out["cache"]["misses"] >= 3
     again, _ = run_json(capsys, args)
     assert again["results"] == out["results"]
+    # The second query finds every signature in the cache: nothing is recomputed.
+    assert again["cache"]["misses"] == 0 and again["cache"]["hits"] >= 3
 
 
 def test_rank_rerank_and_top(capsys, amc):
@@ -240,6 +244,13 @@ def test_rank_rerank_and_top(capsys, amc):
     assert len(out["results"]) == 2
     el = [r["elastic"] for r in out["results"]]
     assert all(e is not None for e in el) and el == sorted(el)
+    from blender_shapesig.core.elastic import elastic_distance
+
+    names = {"07_01": amc["w1"], "07_02": amc["w2"], "09_03": amc["r2"]}
+    first = out["results"][0]
+    a, b = restrict_to_shared(_clip(amc["r1"]), _clip(names[first["clip"]]))
+    # The index keeps float32 increments: agreement to ~1e-5 relative.
+    assert first["elastic"] == pytest.approx(elastic_distance(a.rotations, b.rotations), rel=1e-4)
 
 
 # --- subprocess: the real entry point, stdout hygiene --------------------------------------------
