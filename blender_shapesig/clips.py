@@ -325,7 +325,116 @@ def _best_armature(action, armatures):
     return None
 
 
+class _Skipper:
+    """Sequential reads and forward skips over a (possibly zstd- or gzip-compressed) file."""
+
+    def __init__(self, path):
+        self.fh = open(path, "rb")
+        magic = self.fh.read(4)
+        self.fh.seek(0)
+        self.stream, self.size = self.fh, os.path.getsize(path)
+        if magic == b"\x28\xb5\x2f\xfd":
+            try:
+                import zstandard
+            except ImportError:
+                self.stream = None  # cannot look inside: let Blender read it
+                return
+            self.stream = zstandard.ZstdDecompressor().stream_reader(self.fh)
+            self.size = None
+        elif magic[:2] == b"\x1f\x8b":
+            import gzip
+
+            self.stream = gzip.GzipFile(fileobj=self.fh)
+            self.size = None
+
+    def read(self, n):
+        return self.stream.read(n)
+
+    def skip(self, n):
+        """Skip n bytes; False when the file ends first."""
+        if self.size is not None:
+            pos = self.fh.tell() + n
+            if pos > self.size:
+                return False
+            self.fh.seek(pos)
+            return True
+        while n > 0:
+            chunk = self.stream.read(min(n, 1 << 20))
+            if not chunk:
+                return False
+            n -= len(chunk)
+        return True
+
+    def close(self):
+        self.fh.close()
+
+
+def check_blend(path):
+    """Walk the block headers of a .blend file (through zstd/gzip compression when the modules exist) and
+    raise ParseError when it is not a .blend file, a block header is damaged, a block runs past the end of
+    the file or the end marker is missing. Blender's reader trusts the block sizes: a corrupt one makes it
+    abort the whole process (failed allocation), which this check prevents."""
+    import struct
+
+    try:
+        reader = _Skipper(path)
+    except OSError as exc:
+        raise ParseError(f"cannot read .blend file: {exc.strerror or exc}", path) from None
+    try:
+        if reader.stream is None:
+            return
+        try:
+            head = reader.read(17)
+        except Exception:  # noqa: BLE001 - zlib/zstd errors
+            raise ParseError("not a .blend file (damaged compressed data)", path) from None
+        if not head.startswith(b"BLENDER"):
+            raise ParseError("not a .blend file (no BLENDER header)", path)
+        if head[7:9].isdigit() and head[9:10] == b"-":  # 4.3+: BLENDER17-01v0500, 64-bit block sizes
+            if head[7:9] != b"17" or head[10:12] != b"01" or head[12:13] not in (b"v", b"V"):
+                return  # a newer layout: Blender decides
+            endian = "<" if head[12:13] == b"v" else ">"
+            fmt, code_at, len_at = endian + "4siQqq", 0, 3
+            pending = head[17:]
+        elif head[7:8] in (b"_", b"-") and head[8:9] in (b"v", b"V"):
+            pending = head[12:]
+            endian = "<" if head[8:9] == b"v" else ">"
+            fmt = endian + ("4siIii" if head[7:8] == b"_" else "4siQii")
+            code_at, len_at = 0, 1
+        else:
+            raise ParseError("not a .blend file (unknown header)", path)
+        hsize = struct.calcsize(fmt)
+        blocks = 0
+        while True:
+            try:
+                raw = pending + reader.read(hsize - len(pending))
+            except Exception:  # noqa: BLE001
+                raise ParseError("damaged compressed data", path) from None
+            pending = b""
+            if len(raw) < hsize:
+                raise ParseError(f"truncated .blend file (ends inside block {blocks + 1}, no end marker)", path)
+            fields = struct.unpack(fmt, raw)
+            code, length = fields[code_at], fields[len_at]
+            if code == b"ENDB":
+                return
+            if not code[:1].isalpha() or any(c != 0 and not 32 <= c < 127 for c in code):
+                raise ParseError(f"corrupt .blend file (damaged header of block {blocks + 1})", path)
+            if length < 0:
+                raise ParseError(f"corrupt .blend file (block {blocks + 1} has a negative size)", path)
+            try:
+                ok = reader.skip(length)
+            except Exception:  # noqa: BLE001
+                raise ParseError("damaged compressed data", path) from None
+            if not ok:
+                raise ParseError(f"corrupt or truncated .blend file (block {blocks + 1} "
+                                 f"{code.rstrip(bytes(1)).decode('ascii', 'replace')} of {length} bytes runs "
+                                 f"past the end of the file)", path)
+            blocks += 1
+    finally:
+        reader.close()
+
+
 def _load_blend(path, action_name):
+    check_blend(path)
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
             available = list(data_from.actions)
