@@ -106,6 +106,10 @@ def main(argv=None):
             fn.cache_clear()
         t_proj, _ = once(lambda: tensor.lyndon_projection(d, n))
         row("numpy prepare (Lyndon projection, once per dim/level)", t_proj)
+        row("numpy path_signature (points given: no rotation vectors)",
+            timed(lambda: sg.path_signature(path, n, method="numpy"), args.repeat))
+        row("numpy path_log_signature (Lyndon, points given)",
+            timed(lambda: sg.path_log_signature(path, n, method="numpy"), args.repeat))
         row("numpy signature", timed(lambda: sg.signature(R0, n, method="numpy"), args.repeat))
         row("numpy log_signature (Lyndon)", timed(lambda: sg.log_signature(R0, n, method="numpy"), args.repeat))
         row("numpy log_signature (tensor)",
