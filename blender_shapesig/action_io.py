@@ -389,8 +389,11 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     nf = len(frames)
 
     override = _modes_lookup(rotation_modes, names)
-    stored = action.get("shapesig_rotation_modes")
-    stored = {b: m for b, m in stored.items() if m in ROTATION_MODES} if stored is not None else {}
+    try:
+        stored = action.get("shapesig_rotation_modes")
+        stored = {b: m for b, m in stored.items() if m in ROTATION_MODES} if stored is not None else {}
+    except (ValueError, TypeError, AttributeError):
+        stored = {}  # a damaged custom property (e.g. a corrupt .blend): infer the modes from the channels
     co_cache = {}
     modes = []
     R = np.empty((nf, len(names), 3, 3))
