@@ -329,16 +329,16 @@ def entry_distance(a: IndexEntry, b: IndexEntry) -> float:
     za, zb = a.norm == 0.0, b.norm == 0.0
     if za or zb:
         return 0.0 if (za and zb) else 1.0
-    u = a.direction.astype(np.float64)
-    v = b.direction.astype(np.float64)
+    u, v = a.direction, b.direction
     if a.moving == b.moving:
-        dot = float(u @ v)
-    else:
-        ca = word_codes(len(a.bones), a.moving, a.level)
-        cb = word_codes(len(b.bones), b.moving, b.level)
-        _, ia, ib = np.intersect1d(ca, cb, assume_unique=True, return_indices=True)
-        dot = float(u[ia] @ v[ib])
-    return float(np.sqrt(max(float(u @ u) + float(v @ v) - 2.0 * dot, 0.0)))
+        return float(np.linalg.norm(u - v))  # no cancellation for near-duplicates
+    ca = word_codes(len(a.bones), a.moving, a.level)
+    cb = word_codes(len(b.bones), b.moving, b.level)
+    _, ia, ib = np.intersect1d(ca, cb, assume_unique=True, return_indices=True)
+    u64, v64 = u.astype(np.float64), v.astype(np.float64)
+    common = u64[ia] - v64[ib]
+    only = (u64 @ u64 - u64[ia] @ u64[ia]) + (v64 @ v64 - v64[ib] @ v64[ib])
+    return float(np.sqrt(max(common @ common + only, 0.0)))
 
 
 def _curve_from_increments(inc):
@@ -415,6 +415,7 @@ class SignatureCache:
         self._mem = {}      # (key, level) -> list[IndexEntry]
         self._heavy = {}    # id(entry) -> bytes, insertion = recency order
         self._lock = threading.RLock()
+        self._sketch_memo = None
         self.stats = {"hits": 0, "disk_hits": 0, "misses": 0, "invalid": 0, "writes": 0}
         if self.path is not None:
             os.makedirs(self.path, exist_ok=True)
@@ -576,11 +577,24 @@ class SignatureCache:
         self.put(item.key, level, out)
         return out
 
+    def sketch_matrix(self, entries):
+        """(S, squared norms) of the entries' sketches stacked, memoized for the last list of entries (a
+        repeated query over the same library does not restack them)."""
+        key = tuple(id(e) for e in entries)
+        memo = self._sketch_memo
+        if memo is not None and memo[0] == key:
+            return memo[2], memo[3]
+        S = np.stack([e.sketch for e in entries]) if entries else np.zeros((0, SKETCH_DIM), np.float32)
+        sq = np.einsum("ij,ij->i", S, S, dtype=np.float64)
+        self._sketch_memo = (key, list(entries), S, sq)
+        return S, sq
+
     def clear(self):
         """Forget every entry (and delete the entry files)."""
         with self._lock:
             self._mem.clear()
             self._heavy.clear()
+            self._sketch_memo = None
             if self.path is not None:
                 for n in os.listdir(self.path):
                     if n.endswith(".npz"):
@@ -706,8 +720,9 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
         candidates = same
         npool = pool if pool is not None else max(EXACT_POOL, 4 * (top or 0), rerank)
         if top is not None and len(same) > npool:
-            S = np.stack([e.sketch for _, e in same])
-            approx = np.linalg.norm(S - q.sketch[None, :], axis=1)
+            S, sq = cache.sketch_matrix([e for _, e in same])
+            qs = q.sketch.astype(np.float64)
+            approx = sq + qs @ qs - 2.0 * (S @ q.sketch).astype(np.float64)
             best = np.argpartition(approx, npool - 1)[:npool]
             candidates = [same[i] for i in best]
         for _, e in candidates:
