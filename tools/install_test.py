@@ -63,7 +63,8 @@ def log(msg: str) -> None:
 
 def clean_env(extra: dict[str, str] | None = None) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items()
-           if k not in {"PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP", "VIRTUAL_ENV"} and not k.startswith("BLENDER_")}
+           if k not in {"PYTHONPATH", "PYTHONHOME", "PYTHONSTARTUP", "VIRTUAL_ENV"}
+           and not k.startswith(("BLENDER_", "SHAPESIG_"))}
     env["PYTHONNOUSERSITE"] = "1"
     env.update(extra or {})
     return env
@@ -428,10 +429,53 @@ def run_operators(bpy, ck: Checks, work: Path, allow_missing: bool) -> None:
 
 
 def search_ops(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
-    """build_index and rank: filled in once their operators land."""
-    for op in ("build_index", "rank"):
-        if op not in missing:
-            ck.skip(f"shapesig.{op}", "registered, but this install test does not drive it yet")
+    """build_index then rank, on the active armature (query: its action 09_02), with a library of the file's
+    other action (09_03) and two folders of .amc clips (07: two walks; 09: the run 09_03 again)."""
+    if "build_index" in missing and "rank" in missing:
+        return
+    acclaim = work / "data" / "acclaim"
+    lib = work / "library"
+    for sub, files in (("07", ("07-walk.asf", "07_01.amc", "07_02.amc")), ("09", ("09-run.asf", "09_03.amc"))):
+        (lib / sub).mkdir(parents=True, exist_ok=True)
+        for f in files:
+            shutil.copy2(acclaim / f, lib / sub / f)
+    obj = bpy.context.view_layer.objects.active
+    s = bpy.context.scene.shapesig
+    s.query_action = "09_02"
+    s.use_file_actions = True
+    s.use_folders = True
+    s.folders = f"{lib / '07'};{lib / '09'}"
+    user = Path(os.environ["BLENDER_USER_RESOURCES"])
+    expected = 5  # the query + 09_03 (action) + 07_01, 07_02, 09_03 (files)
+    if "build_index" not in missing:
+        t0 = time.monotonic()
+        result = bpy.ops.shapesig.build_index()
+        ck.timings["build_index"] = time.monotonic() - t0
+        # As an extension the index lives in the extension's user folder (bpy.utils.extension_path_user).
+        cache = Path(bpy.utils.extension_path_user(ADDON_MODULE, path="cache"))
+        files = sorted(cache.glob("*.npz")) if cache.is_dir() else []
+        ck.add("shapesig.build_index", result == {"FINISHED"} and f"{expected} computed" in s.message
+               and len(files) == expected and _under(str(cache), user),
+               f"{result}, {s.message!r}, {len(files)} index files in {cache}, "
+               f"in {ck.timings['build_index']:.1f}s")
+    if "rank" in missing:
+        return
+    t0 = time.monotonic()
+    result = bpy.ops.shapesig.rank()
+    ck.timings["rank"] = time.monotonic() - t0
+    rows = [(r.name, r.distance, r.is_action) for r in s.results]
+    dist = [d for _, d, _ in rows]
+    names = [n for n, _, _ in rows]
+    runs = [d for n, d, _ in rows if n.startswith("09_03")]
+    walks = [d for n, d, _ in rows if n.startswith("07_")]
+    ok = (result == {"FINISHED"} and len(rows) == expected - 1 and dist == sorted(dist)
+          and all(d == d and d >= 0 for d in dist) and set(names[:2]) == {"09_03"} and len(runs) == 2
+          and max(runs) < min(walks) and s.query_name == "09_02")
+    if "build_index" not in missing:
+        ok = ok and "0 newly indexed" in s.message
+    ck.add("shapesig.rank", ok, f"{result}, {[(n, round(d, 4), 'action' if a else 'file') for n, d, a in rows]}, "
+           f"{s.message!r}, in {ck.timings['rank']:.1f}s")
+    bpy.context.view_layer.objects.active = obj
 
 
 def run_uninstall(bpy, ck: Checks, ext_dir: Path) -> None:
