@@ -1,0 +1,731 @@
+#!/usr/bin/env python
+"""Fuzz the motion readers with mutated real files (issue 10).
+
+    .venv/bin/python tools/fuzz_readers.py --cases 2000 --seed 1
+    .venv/bin/python tools/fuzz_readers.py --cases 300 --seed 7 --targets bvh,blend --batch 50
+
+Each case takes a real CMU file from ``tests/data`` (ASF, AMC, BVH, or a .blend written from an AMC take),
+applies one mutation (``KINDS``: truncation, garbage bytes, dropped / repeated / swapped lines, wrong
+value counts, NaN / inf / huge / malformed numbers, missing sections, latin-1 / UTF-16 / BOM encodings,
+CR or CRLF line ends, empty / whitespace / binary files, the wrong format) and reads it:
+
+* ``acclaim``: ``core.acclaim.load_acclaim`` (mutated ASF with its real AMC, or mutated AMC with its real
+  ASF), in this process, with a per-case alarm;
+* ``bvh``: ``clips.import_bvh`` (Blender's importer) and ``blend``: ``clips.load_clips`` on a mutated
+  .blend, and ``import_op``: the ``shapesig.import_acclaim`` operator on a mutated ASF/AMC - each in worker
+  processes (``--batch`` cases each) so that a crash or a hang of Blender is detected and reported with the
+  case that caused it (the worker is restarted after it).
+
+A case passes when it ends in a valid Clip (finite rotations that are rotation matrices, finite root
+translation) or in one of our errors (``ShapeSigError``: ``ParseError`` / ``CurveError``) whose message is
+one line; for the operator, when it finishes with finite F-curves or cancels with one ``ERROR`` report and
+leaves ``bpy.data`` as it was. Mutations that keep the file valid (``PRESERVING``: CRLF, BOM, tabs, a latin-1
+comment, ...) must give the same rotations as the original. Anything else (another exception, a multi-line
+message, NaN, a different result, a hang, a crash) is a failure: listed at the end, exit code 1.
+
+The mutators (``mutate``) and the checks (``check_clip``, ``read_acclaim_case``) are also used by the
+bounded fuzz tests in ``tests/core/test_fuzz_readers.py`` and ``tests/blender/test_robustness.py``.
+"""
+
+import argparse
+import collections
+import json
+import os
+import pathlib
+import random
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+DATA = ROOT / "tests" / "data"
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+import numpy as np  # noqa: E402
+
+# (asf, amc) pairs and BVH files used as seeds
+ACCLAIM_PAIRS = (
+    ("acclaim/09-run.asf", "acclaim/09_02.amc"),
+    ("acclaim/07-walk.asf", "acclaim/07_01.amc"),
+    ("acclaim/16.asf", "acclaim/16_15.amc"),
+)
+BVH_FILES = ("bvh/09_03.bvh", "bvh/09_02.bvh", "acclaim/16_15.bvh")
+
+# mutation kinds; PRESERVING ones keep the file valid (same rotations expected)
+KINDS = (
+    "truncate", "truncate_line", "garbage_bytes", "insert_garbage", "nul_bytes", "drop_lines",
+    "repeat_lines", "swap_lines", "value_count", "nonfinite", "huge", "bad_number", "drop_section",
+    "latin1_name", "utf16", "utf16_be", "bom", "crlf", "cr", "tabs", "latin1_comment", "empty",
+    "whitespace", "binary", "wrong_format",
+)
+PRESERVING = {"crlf", "cr", "tabs", "bom", "latin1_comment", "utf16", "utf16_be"}
+# .blend files are binary: their own kinds
+BLEND_KINDS = ("truncate", "garbage_bytes", "insert_garbage", "zero_block", "bit_flips", "drop_block",
+               "repeat_block", "bad_magic", "empty", "binary", "wrong_format")
+
+_NUM = re.compile(rb"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\w.])")
+NONFINITE = (b"nan", b"NaN", b"inf", b"-inf", b"Infinity", b"1e999", b"-1e999", b"nan(0x1)")
+HUGE = (b"1e308", b"-1e308", b"1.7976931348623157e308", b"1e300", b"-1e300", b"1e38", b"3.5e38",
+        b"123456789012345678901234567890", b"1e-320", b"5e-324", b"0", b"-0", b"99999999999")
+BAD_NUMBERS = (b"1.2.3", b"abc", b"--1", b"0x10", b"1e", b"+", b"1,5", b"\xff\xfe", b"(1)", b"1_000", b"e5")
+
+
+# ------------------------------------------------------------------------------------------ mutation
+
+
+def _lines(data):
+    return data.split(b"\n")
+
+
+def _join(lines):
+    return b"\n".join(lines)
+
+
+def _numbers(data):
+    return [m.span() for m in _NUM.finditer(data)]
+
+
+def _pick_number(data, rng):
+    """A numeric token's span: half the time one in the first tenth of the file (headers, hierarchy)."""
+    spans = _numbers(data)
+    if not spans:
+        return None
+    if rng.random() < 0.5:
+        head = [s for s in spans if s[0] < len(data) // 10] or spans
+        return rng.choice(head)
+    return rng.choice(spans)
+
+
+def _replace_number(data, rng, choices):
+    span = _pick_number(data, rng)
+    if span is None:
+        return data + b"\n" + rng.choice(choices)
+    return data[:span[0]] + rng.choice(choices) + data[span[1]:]
+
+
+def _text_of(data):
+    return data.decode("utf-8", errors="replace")
+
+
+def _blocks(lines, fmt):
+    """[(first, last)] line ranges of 'sections' to drop: ASF ':' sections and bones, AMC frames and the
+    header, BVH joints (to their closing brace) and the MOTION header."""
+    out = []
+    stripped = [ln.strip() for ln in lines]
+    if fmt == "asf":
+        starts = [i for i, s in enumerate(stripped) if s.startswith(b":")] + [len(lines)]
+        out += [(a, b - 1) for a, b in zip(starts, starts[1:])]
+        begins = [i for i, s in enumerate(stripped) if s == b"begin"]
+        for i in begins:
+            for j in range(i + 1, len(lines)):
+                if stripped[j] == b"end":
+                    out.append((i, j))
+                    break
+    elif fmt == "amc":
+        frames = [i for i, s in enumerate(stripped) if s.isdigit()]
+        out += [(a, b - 1) for a, b in zip(frames, frames[1:] + [len(lines)])]
+        if frames:
+            out.append((0, frames[0] - 1))
+            # one bone's lines in every frame: a "missing channel"
+            names = {s.split()[0] for s in stripped[frames[0] + 1:(frames[1] if len(frames) > 1 else len(lines))]
+                     if s.split()}
+            if names:
+                out.append(("bone", sorted(names)[0]))
+    elif fmt == "bvh":
+        depth_of = []
+        depth = 0
+        for s in stripped:
+            if s == b"{":
+                depth += 1
+            depth_of.append(depth)
+            if s == b"}":
+                depth -= 1
+        for i, s in enumerate(stripped):
+            if s.upper().startswith(b"JOINT") or s.upper().startswith(b"END SITE"):
+                d = depth_of[i + 1] if i + 1 < len(lines) else 0
+                for j in range(i + 1, len(lines)):
+                    if stripped[j] == b"}" and depth_of[j] == d:
+                        out.append((i, j))
+                        break
+            if s.upper() in (b"MOTION", b"HIERARCHY") or s.lower().startswith(b"frame"):
+                out.append((i, i))
+    return [b for b in out if b[0] != "bone" or fmt == "amc"]
+
+
+def mutate(data: bytes, kind: str, rng: random.Random, fmt: str) -> bytes:
+    """One mutation of ``data`` (a file of format ``fmt``: 'asf', 'amc', 'bvh' or 'blend')."""
+    if fmt == "blend":
+        return _mutate_blend(data, kind, rng)
+    n = len(data)
+    if kind == "truncate":
+        return data[:rng.randrange(0, max(n, 1))]
+    if kind == "truncate_line":
+        lines = _lines(data)
+        return _join(lines[:rng.randrange(0, len(lines))])
+    if kind == "garbage_bytes":
+        buf = bytearray(data)
+        for _ in range(rng.randint(1, 16)):
+            if buf:
+                buf[rng.randrange(len(buf))] = rng.randrange(256)
+        return bytes(buf)
+    if kind == "insert_garbage":
+        pos = rng.randrange(0, n + 1)
+        return data[:pos] + bytes(rng.randrange(256) for _ in range(rng.randint(1, 64))) + data[pos:]
+    if kind == "nul_bytes":
+        buf = bytearray(data)
+        for _ in range(rng.randint(1, 8)):
+            buf.insert(rng.randrange(len(buf) + 1), 0)
+        return bytes(buf)
+    if kind in ("drop_lines", "repeat_lines", "swap_lines"):
+        lines = _lines(data)
+        if len(lines) < 2:
+            return data
+        if kind == "swap_lines":
+            a, b = rng.randrange(len(lines)), rng.randrange(len(lines))
+            lines[a], lines[b] = lines[b], lines[a]
+            return _join(lines)
+        count = rng.choice((1, 1, 2, 3, 5, 20))
+        if rng.random() < 0.5:  # a contiguous run
+            a = rng.randrange(len(lines))
+            idx = list(range(a, min(a + count, len(lines))))
+        else:
+            idx = sorted(rng.sample(range(len(lines)), min(count, len(lines))))
+        if kind == "drop_lines":
+            drop = set(idx)
+            return _join([ln for i, ln in enumerate(lines) if i not in drop])
+        out = []
+        rep = set(idx)
+        for i, ln in enumerate(lines):
+            out.append(ln)
+            if i in rep:
+                out.append(ln)
+        return _join(out)
+    if kind == "value_count":
+        lines = _lines(data)
+        cand = [i for i, ln in enumerate(lines) if len(_NUM.findall(ln)) >= 1 and len(ln.split()) >= 2]
+        if not cand:
+            return data + b" 0"
+        i = rng.choice(cand)
+        tokens = lines[i].split()
+        if rng.random() < 0.5 and len(tokens) > 1:
+            del tokens[rng.randrange(1, len(tokens))]
+        else:
+            tokens.insert(rng.randrange(1, len(tokens) + 1), rng.choice((b"0", b"1.5", b"-2")))
+        lines[i] = b" ".join(tokens)
+        return _join(lines)
+    if kind == "nonfinite":
+        return _replace_number(data, rng, NONFINITE)
+    if kind == "huge":
+        return _replace_number(data, rng, HUGE)
+    if kind == "bad_number":
+        return _replace_number(data, rng, BAD_NUMBERS)
+    if kind == "drop_section":
+        lines = _lines(data)
+        blocks = _blocks(lines, fmt)
+        if not blocks:
+            return _join(lines[1:])
+        block = rng.choice(blocks)
+        if block[0] == "bone":
+            name = block[1]
+            return _join([ln for ln in lines if not (ln.split() and ln.split()[0] == name)])
+        a, b = block
+        return _join(lines[:a] + lines[b + 1:])
+    if kind == "latin1_name":
+        # a non-ASCII name, written in latin-1 (not UTF-8): a bone / joint name
+        lines = _lines(data)
+        key = {"asf": b"name", "bvh": b"JOINT", "amc": None}[fmt]
+        cand = [i for i, ln in enumerate(lines) if key is not None and ln.split()[:1] == [key]]
+        if not cand:
+            cand = [i for i, ln in enumerate(lines) if ln.split() and not _NUM.fullmatch(ln.split()[0])]
+        if not cand:
+            return data
+        i = rng.choice(cand)
+        lines[i] = lines[i].rstrip() + "éß".encode("latin-1")
+        return _join(lines)
+    if kind == "utf16":
+        return _text_of(data).encode("utf-16")  # little-endian with BOM
+    if kind == "utf16_be":
+        return b"\xfe\xff" + _text_of(data).encode("utf-16-be")
+    if kind == "bom":
+        return b"\xef\xbb\xbf" + data
+    if kind == "crlf":
+        return data.replace(b"\r\n", b"\n").replace(b"\n", b"\r\n")
+    if kind == "cr":
+        return data.replace(b"\r\n", b"\n").replace(b"\n", b"\r")
+    if kind == "tabs":
+        lines = _lines(data)
+        return _join([b"\t".join(ln.split(b" ")) + (b" \t" if ln.strip() else b"") for ln in lines])
+    if kind == "latin1_comment":
+        if fmt == "bvh":  # BVH has no comments: trailing spaces instead
+            return data.replace(b"\n", b"  \n", 1)
+        lines = _lines(data)
+        i = rng.randrange(1, len(lines)) if fmt == "amc" else 0
+        # ASF: before the first section; AMC: a comment line anywhere
+        if fmt == "amc":
+            lines.insert(i, "# commentaire: données à 120 Hz".encode("latin-1"))
+        else:
+            lines.insert(0, "# squelette (données CMU)".encode("latin-1"))
+        return _join(lines)
+    if kind == "empty":
+        return b""
+    if kind == "whitespace":
+        return rng.choice((b"\n", b"   \n\t\n", b"\r\n\r\n", b" "))
+    if kind == "binary":
+        size = rng.choice((1, 16, 512, 4096))
+        return bytes(rng.randrange(256) for _ in range(size))
+    if kind == "wrong_format":
+        other = {"asf": "acclaim/09_02.amc", "amc": "acclaim/09-run.asf", "bvh": "acclaim/09-run.asf"}[fmt]
+        return (DATA / other).read_bytes()[:rng.choice((200, 5000, 10 ** 9))]
+    raise ValueError(f"unknown mutation {kind!r}")
+
+
+def _mutate_blend(data, kind, rng):
+    n = len(data)
+    buf = bytearray(data)
+    if kind == "truncate":
+        return data[:rng.randrange(0, n)]
+    if kind == "garbage_bytes":
+        for _ in range(rng.randint(1, 64)):
+            buf[rng.randrange(12, n)] = rng.randrange(256)  # keep the header: reach the block parser
+        return bytes(buf)
+    if kind == "insert_garbage":
+        pos = rng.randrange(12, n)
+        return data[:pos] + bytes(rng.randrange(256) for _ in range(rng.randint(1, 256))) + data[pos:]
+    if kind == "zero_block":
+        a = rng.randrange(12, n)
+        size = rng.choice((8, 64, 1024, 16384))
+        buf[a:a + size] = bytes(len(buf[a:a + size]))
+        return bytes(buf)
+    if kind == "bit_flips":
+        for _ in range(rng.randint(1, 32)):
+            i = rng.randrange(12, n)
+            buf[i] ^= 1 << rng.randrange(8)
+        return bytes(buf)
+    if kind == "drop_block":
+        a = rng.randrange(12, n)
+        return data[:a] + data[a + rng.choice((4, 100, 4096, 65536)):]
+    if kind == "repeat_block":
+        a = rng.randrange(12, n)
+        b = min(n, a + rng.choice((4, 100, 4096)))
+        return data[:b] + data[a:b] + data[b:]
+    if kind == "bad_magic":
+        return b"BLENDER?" + data[8:] if rng.random() < 0.5 else b"NOTBLEND" + data[8:]
+    if kind == "empty":
+        return b""
+    if kind == "binary":
+        return bytes(rng.randrange(256) for _ in range(rng.choice((12, 512, 65536))))
+    if kind == "wrong_format":
+        return (DATA / "acclaim/09_02.amc").read_bytes()
+    raise ValueError(f"unknown .blend mutation {kind!r}")
+
+
+# --------------------------------------------------------------------------------------------- checks
+
+
+def check_clip(clip):
+    """None when ``clip`` is a valid Clip (finite rotation matrices, finite root translation), else why not."""
+    from blender_shapesig.core.clip import Clip
+
+    if not isinstance(clip, Clip):
+        return f"returned {type(clip).__name__}, not a Clip"
+    R = clip.rotations
+    if R.ndim != 4 or R.shape[0] < 1 or R.shape[2:] != (3, 3):
+        return f"rotations of shape {R.shape}"
+    if not np.all(np.isfinite(R)):
+        return "non-finite rotations"
+    err = np.abs(R @ np.swapaxes(R, -1, -2) - np.eye(3)).max()
+    if err > 1e-5:
+        return f"rotations not orthogonal (error {err:.3g})"
+    if np.linalg.det(R).min() < 0.99:
+        return "rotation with determinant < 1"
+    if clip.root_translation is not None and not np.all(np.isfinite(clip.root_translation)):
+        return "non-finite root translation"
+    return None
+
+
+def check_error(exc):
+    """None when ``exc`` is one of our errors with a one-line message, else why not."""
+    from blender_shapesig.core.errors import ShapeSigError
+
+    if not isinstance(exc, ShapeSigError):
+        return f"{type(exc).__name__}: {str(exc)[:200]}"
+    msg = str(exc)
+    if not msg.strip():
+        return f"{type(exc).__name__} with an empty message"
+    if "\n" in msg or "\r" in msg:
+        return f"{type(exc).__name__} with a multi-line message: {msg[:200]!r}"
+    if len(msg) > 400:
+        return f"{type(exc).__name__} with a {len(msg)}-character message"
+    return None
+
+
+class CaseTimeout(Exception):
+    pass
+
+
+def _alarm(seconds):
+    def handler(signum, frame):
+        raise CaseTimeout(f"no result after {seconds} s")
+
+    if hasattr(signal, "SIGALRM"):
+        signal.signal(signal.SIGALRM, handler)
+        signal.alarm(int(seconds))
+
+
+def _alarm_off():
+    if hasattr(signal, "SIGALRM"):
+        signal.alarm(0)
+
+
+def run_case(fn, expected=None, timeout=30):
+    """Run ``fn()`` (a reader returning a Clip); returns (outcome, detail): outcome 'ok', 'error' (ours, one
+    line) or 'FAIL'. ``expected``: rotations the result must match (preserving mutations)."""
+    _alarm(timeout)
+    try:
+        clip = fn()
+    except CaseTimeout as exc:
+        return "FAIL", f"hang: {exc}"
+    except BaseException as exc:  # noqa: BLE001 - everything is classified
+        _alarm_off()
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        why = check_error(exc)
+        if why is None:
+            if expected is not None:
+                return "FAIL", f"a file-preserving mutation was rejected: {exc}"
+            return "error", str(exc)
+        return "FAIL", why + " | " + traceback.format_exc(limit=-3).strip().splitlines()[-3].strip()
+    finally:
+        _alarm_off()
+    why = check_clip(clip)
+    if why is not None:
+        return "FAIL", why
+    if expected is not None:
+        if clip.rotations.shape != expected.shape or not np.allclose(clip.rotations, expected, atol=1e-9):
+            return "FAIL", "a file-preserving mutation changed the result"
+    return "ok", f"{clip.frames} frames, {len(clip.bones)} bones"
+
+
+# ------------------------------------------------------------------------------------ Acclaim (in process)
+
+
+_ORIGINALS = {}
+
+
+def original_acclaim(asf, amc):
+    key = (asf, amc)
+    if key not in _ORIGINALS:
+        from blender_shapesig.core.acclaim import load_acclaim
+
+        _ORIGINALS[key] = load_acclaim(DATA / amc, DATA / asf).rotations
+    return _ORIGINALS[key]
+
+
+def read_acclaim_case(asf_bytes, amc_bytes, folder, expected=None, timeout=30):
+    """Write the two files into ``folder`` and load them with ``load_acclaim``; (outcome, detail)."""
+    from blender_shapesig.core.acclaim import load_acclaim
+
+    asf = os.path.join(folder, "skel.asf")
+    amc = os.path.join(folder, "take.amc")
+    with open(asf, "wb") as f:
+        f.write(asf_bytes)
+    with open(amc, "wb") as f:
+        f.write(amc_bytes)
+    return run_case(lambda: load_acclaim(amc, asf), expected, timeout)
+
+
+def acclaim_case(rng, kind, folder):
+    asf_rel, amc_rel = rng.choice(ACCLAIM_PAIRS)
+    asf_bytes, amc_bytes = (DATA / asf_rel).read_bytes(), (DATA / amc_rel).read_bytes()
+    which = rng.choice(("asf", "amc"))
+    if which == "asf":
+        asf_bytes = mutate(asf_bytes, kind, rng, "asf")
+    else:
+        amc_bytes = mutate(amc_bytes, kind, rng, "amc")
+    expected = original_acclaim(asf_rel, amc_rel) if kind in PRESERVING else None
+    outcome, detail = read_acclaim_case(asf_bytes, amc_bytes, folder, expected)
+    return outcome, detail, f"{which}:{amc_rel if which == 'amc' else asf_rel}"
+
+
+# ----------------------------------------------------------------------------- Blender workers (subprocess)
+
+
+def _worker(target, cases_path, results_path):
+    """Run the cases of one batch inside this (bpy) process, appending one JSON line per case."""
+    import bpy
+
+    import blender_shapesig
+    from blender_shapesig import clips
+
+    if target == "import_op":
+        blender_shapesig.register()
+    with open(cases_path) as f:
+        cases = [json.loads(ln) for ln in f if ln.strip()]
+    out = open(results_path, "a", buffering=1)
+    for case in cases:
+        expected = np.load(case["expected"]) if case.get("expected") else None
+        if target == "bvh":
+            outcome, detail = run_case(lambda: clips.import_bvh(case["path"]), expected, case["timeout"])
+        elif target == "blend":
+            def read():
+                got = clips.load_clips(case["path"])
+                for c in got[1:]:
+                    why = check_clip(c)
+                    if why:
+                        raise AssertionError(why)
+                return got[0]
+            outcome, detail = run_case(read, expected, case["timeout"])
+        else:
+            outcome, detail = _operator_case(bpy, case)
+        out.write(json.dumps({"id": case["id"], "outcome": outcome, "detail": detail}) + "\n")
+    out.close()
+
+
+def data_snapshot(bpy):
+    """Names of every action, object, armature, mesh, scene and collection in bpy.data."""
+    return {coll: {i.name for i in getattr(bpy.data, coll)}
+            for coll in ("actions", "objects", "armatures", "meshes", "scenes", "collections")}
+
+
+def _operator_case(bpy, case):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    before = data_snapshot(bpy)
+    reports = []
+    try:
+        result = bpy.ops.shapesig.import_acclaim("EXEC_DEFAULT", filepath=case["path"], asf_path=case["asf"])
+    except RuntimeError as exc:
+        # an operator that reports ERROR raises RuntimeError from bpy.ops; the message is the report
+        reports = [ln for ln in str(exc).splitlines() if ln.strip()]
+        result = {"CANCELLED"}
+    except BaseException as exc:  # noqa: BLE001
+        return "FAIL", f"operator raised {type(exc).__name__}: {str(exc)[:200]}"
+    after = data_snapshot(bpy)
+    if "FINISHED" in result:
+        new_actions = after["actions"] - before["actions"]
+        if not new_actions:
+            return "FAIL", "finished without an action"
+        for name in new_actions:
+            act = bpy.data.actions[name]
+            from blender_shapesig import compat
+
+            for fc in compat.all_action_fcurves(act):
+                co = np.empty(2 * len(fc.keyframe_points), dtype=np.float32)
+                fc.keyframe_points.foreach_get("co", co)
+                if not np.all(np.isfinite(co)):
+                    return "FAIL", f"action {name} has non-finite keys in {fc.data_path}"
+        return "ok", f"{len(new_actions)} action(s)"
+    if after != before:
+        changed = {k: sorted(after[k] ^ before[k]) for k in after if after[k] != before[k]}
+        return "FAIL", f"cancelled but bpy.data changed: {changed}"
+    text = " ".join(reports)
+    if len(reports) > 2:
+        return "FAIL", f"multi-line report: {text[:200]}"
+    return "error", text[:300]
+
+
+def run_batches(target, cases, tmp, batch, timeout, log):
+    """Run ``cases`` (dicts with 'id') in worker processes of ``batch`` cases; a worker that dies or hangs
+    marks its current case 'FAIL' (crash / hang) and a new worker takes the rest."""
+    results = {}
+    pending = list(cases)
+    while pending:
+        chunk = pending[:batch]
+        cases_path = os.path.join(tmp, f"{target}_cases.jsonl")
+        results_path = os.path.join(tmp, f"{target}_results.jsonl")
+        with open(cases_path, "w") as f:
+            for c in chunk:
+                f.write(json.dumps(c) + "\n")
+        open(results_path, "w").close()
+        cmd = [sys.executable, os.path.abspath(__file__), "--worker", target, cases_path, results_path]
+        try:
+            proc = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                  timeout=timeout * len(chunk) + 60, cwd=str(ROOT))
+            status = proc.returncode
+            err = proc.stderr.decode("utf-8", "replace").strip().splitlines()[-1:] if proc.returncode else []
+        except subprocess.TimeoutExpired:
+            status, err = "timeout", []
+        with open(results_path) as f:
+            done = [json.loads(ln) for ln in f if ln.strip()]
+        for r in done:
+            results[r["id"]] = (r["outcome"], r["detail"])
+        rest = chunk[len(done):]
+        if rest:  # the worker stopped early: the next case crashed or hung it
+            culprit = rest[0]
+            what = "hang (worker killed after the batch timeout)" if status == "timeout" else \
+                f"worker died (exit {status}) {' '.join(err)[:200]}"
+            results[culprit["id"]] = ("FAIL", what)
+            log(f"  {target} case {culprit['id']} ({culprit['kind']}): {what}")
+            pending = rest[1:] + pending[batch:]
+        else:
+            pending = pending[batch:]
+    return results
+
+
+def _make_blend(path):
+    """A .blend holding the 09_02 take imported by the add-on (an armature with one action), uncompressed."""
+    code = (
+        "import bpy, sys; sys.path.insert(0, %r)\n"
+        "import blender_shapesig; blender_shapesig.register()\n"
+        "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
+        "bpy.ops.shapesig.import_acclaim(filepath=%r, asf_path=%r)\n"
+        "bpy.ops.wm.save_as_mainfile(filepath=%r, compress=False)\n"
+    ) % (str(ROOT), str(DATA / "acclaim/09_02.amc"), str(DATA / "acclaim/09-run.asf"), path)
+    subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL, cwd=str(ROOT))
+
+
+def _blender_expected(target, src, tmp):
+    """The original file's rotations, read in a worker (for the preserving mutations)."""
+    out = os.path.join(tmp, f"expected_{target}_{abs(hash(src))}.npy")
+    if not os.path.exists(out):
+        code = (
+            "import sys, numpy as np; sys.path.insert(0, %r)\n"
+            "from blender_shapesig import clips\n"
+            "np.save(%r, clips.load_clips(%r)[0].rotations)\n"
+        ) % (str(ROOT), out, src)
+        subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.DEVNULL,
+                       stderr=subprocess.DEVNULL, cwd=str(ROOT))
+    return out
+
+
+# ----------------------------------------------------------------------------------------------- main
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description="Fuzz the ASF/AMC, BVH and .blend readers with mutated real files.")
+    p.add_argument("--cases", type=int, default=500, help="number of cases (split over the targets)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--targets", default="acclaim,bvh,blend,import_op",
+                   help="comma-separated: acclaim, bvh, blend, import_op (default all)")
+    p.add_argument("--batch", type=int, default=40, help="cases per Blender worker process")
+    p.add_argument("--timeout", type=int, default=30, help="seconds per case before it counts as a hang")
+    p.add_argument("--weights", default="acclaim=6,bvh=2,blend=1,import_op=1",
+                   help="share of the cases per target")
+    p.add_argument("--worker", nargs=3, metavar=("TARGET", "CASES", "RESULTS"), help=argparse.SUPPRESS)
+    p.add_argument("--json", action="store_true", help="also print the summary as one JSON object")
+    args = p.parse_args(argv)
+    if args.worker:
+        _worker(*args.worker)
+        return 0
+
+    targets = [t.strip() for t in args.targets.split(",") if t.strip()]
+    weights = dict(kv.split("=") for kv in args.weights.split(","))
+    for t in targets:
+        if t not in ("acclaim", "bvh", "blend", "import_op"):
+            p.error(f"unknown target {t!r}")
+    try:
+        import bpy  # noqa: F401
+        have_bpy = True
+    except ImportError:
+        have_bpy = False
+    if not have_bpy:
+        dropped = [t for t in targets if t != "acclaim"]
+        if dropped:
+            print(f"bpy is not importable: skipping {', '.join(dropped)}", file=sys.stderr)
+        targets = [t for t in targets if t == "acclaim"]
+    total_w = sum(float(weights.get(t, 1)) for t in targets)
+    counts = {t: int(round(args.cases * float(weights.get(t, 1)) / total_w)) for t in targets}
+    rng = random.Random(args.seed)
+    t0 = time.time()
+    rows = []  # (target, kind, outcome, detail, source)
+
+    def log(msg):
+        print(msg, file=sys.stderr, flush=True)
+
+    with tempfile.TemporaryDirectory(prefix="shapesig_fuzz_") as tmp:
+        if counts.get("acclaim"):
+            folder = os.path.join(tmp, "acclaim")
+            os.makedirs(folder)
+            for i in range(counts["acclaim"]):
+                kind = KINDS[i % len(KINDS)] if i < len(KINDS) else rng.choice(KINDS)
+                outcome, detail, src = acclaim_case(rng, kind, folder)
+                rows.append(("acclaim", kind, outcome, detail, src))
+                if outcome == "FAIL":
+                    log(f"  acclaim {kind} {src}: {detail}")
+        for target in ("bvh", "blend", "import_op"):
+            n = counts.get(target, 0)
+            if not n:
+                continue
+            folder = os.path.join(tmp, target)
+            os.makedirs(folder)
+            if target == "blend":
+                base = os.path.join(tmp, "base.blend")
+                _make_blend(base)
+                sources = [(base, "blend")]
+                kinds = BLEND_KINDS
+            elif target == "bvh":
+                sources = [(str(DATA / b), "bvh") for b in BVH_FILES]
+                kinds = KINDS
+            else:
+                sources = [(str(DATA / a), str(DATA / m)) for a, m in ACCLAIM_PAIRS[:2]]
+                kinds = KINDS
+            cases = []
+            for i in range(n):
+                kind = kinds[i % len(kinds)] if i < len(kinds) else rng.choice(kinds)
+                src = rng.choice(sources)
+                case = {"id": f"{target}-{i}", "kind": kind, "timeout": args.timeout, "expected": None}
+                if target == "import_op":
+                    asf, amc = src
+                    which = rng.choice(("asf", "amc"))
+                    fmt_path = asf if which == "asf" else amc
+                    mutated = mutate(pathlib.Path(fmt_path).read_bytes(), kind, rng, which)
+                    path = os.path.join(folder, f"{i}.{which}")
+                    pathlib.Path(path).write_bytes(mutated)
+                    case["asf"] = path if which == "asf" else asf
+                    case["path"] = amc if which == "asf" else path
+                    case["source"] = f"{which}:{os.path.basename(fmt_path)}"
+                else:
+                    fmt = "blend" if target == "blend" else "bvh"
+                    mutated = mutate(pathlib.Path(src[0]).read_bytes(), kind, rng, fmt)
+                    path = os.path.join(folder, f"{i}.{fmt}")
+                    pathlib.Path(path).write_bytes(mutated)
+                    case["path"] = path
+                    case["source"] = os.path.basename(src[0])
+                    if kind in PRESERVING and target == "bvh":
+                        case["expected"] = _blender_expected(target, src[0], tmp)
+                cases.append(case)
+            results = run_batches(target, cases, tmp, args.batch, args.timeout, log)
+            for c in cases:
+                outcome, detail = results[c["id"]]
+                rows.append((target, c["kind"], outcome, detail, c["source"]))
+                if outcome == "FAIL" and "worker died" not in detail and "hang" not in detail:
+                    log(f"  {target} {c['kind']} {c['source']}: {detail}")
+
+    seconds = time.time() - t0
+    table = collections.defaultdict(collections.Counter)
+    for target, kind, outcome, _, _ in rows:
+        table[(target, kind)][outcome] += 1
+    print(f"fuzz_readers: {len(rows)} cases, seed {args.seed}, {seconds:.1f} s")
+    print(f"{'target':10s} {'mutation':15s} {'cases':>6s} {'ok':>5s} {'error':>6s} {'FAIL':>5s}")
+    for (target, kind), c in sorted(table.items()):
+        print(f"{target:10s} {kind:15s} {sum(c.values()):6d} {c['ok']:5d} {c['error']:6d} {c['FAIL']:5d}")
+    by_target = collections.defaultdict(collections.Counter)
+    for target, _, outcome, _, _ in rows:
+        by_target[target][outcome] += 1
+    for target, c in sorted(by_target.items()):
+        print(f"{target:10s} {'(all)':15s} {sum(c.values()):6d} {c['ok']:5d} {c['error']:6d} {c['FAIL']:5d}")
+    fails = [r for r in rows if r[2] == "FAIL"]
+    messages = collections.Counter(re.sub(r"\d+", "N", r[3])[:90] for r in rows if r[2] == "error")
+    print("most common error messages (digits as N):")
+    for msg, k in messages.most_common(12):
+        print(f"  {k:5d}  {msg}")
+    if fails:
+        print(f"{len(fails)} FAILURES:")
+        for target, kind, _, detail, src in fails[:50]:
+            print(f"  {target} {kind} {src}: {detail}")
+    else:
+        print("no failures: every case gave a valid clip or one of our one-line errors")
+    if args.json:
+        print(json.dumps({"cases": len(rows), "seed": args.seed, "seconds": round(seconds, 1),
+                          "targets": {t: dict(c) for t, c in by_target.items()},
+                          "failures": [list(r) for r in fails]}))
+    return 1 if fails else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
