@@ -53,6 +53,10 @@ ADDON_MODULE = f"bl_ext.user_default.{EXT_ID}"
 OPERATORS = ("import_acclaim", "build_index", "rank", "blend_actions")
 
 
+class SetupError(Exception):
+    """The test could not be set up (venv, build): exit code 2."""
+
+
 def log(msg: str) -> None:
     print(f"[install_test] {msg}", file=sys.stderr, flush=True)
 
@@ -87,7 +91,7 @@ def ensure_venv(venv: Path, bpy_version: str) -> Path:
             proc = subprocess.run(cmd, capture_output=True, text=True, env=clean_env())
             if proc.returncode != 0:
                 sys.stderr.write(proc.stdout + proc.stderr)
-                raise SystemExit(f"install_test: could not create {venv} ({' '.join(cmd)})")
+                raise SetupError(f"could not create {venv} ({' '.join(cmd)})")
         stamp.write_text(want + "\n")
         log(f"  venv ready in {time.monotonic() - t0:.0f}s")
     probe = ("import importlib.util, json, sys; "
@@ -96,9 +100,9 @@ def ensure_venv(venv: Path, bpy_version: str) -> Path:
                           cwd=tempfile.gettempdir())
     present = json.loads(proc.stdout.strip().splitlines()[-1]) if proc.returncode == 0 else None
     if present is None:
-        raise SystemExit(f"install_test: cannot run {python}: {proc.stderr.strip()}")
+        raise SetupError(f"cannot run {python}: {proc.stderr.strip()}")
     if present:
-        raise SystemExit(f"install_test: {venv} is not clean, it can import {present}; delete it to recreate")
+        raise SetupError(f"{venv} is not clean, it can import {present}; delete it to recreate")
     return python
 
 
@@ -111,16 +115,16 @@ def build_zip(out: Path, without: str) -> Path:
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         sys.stderr.write(proc.stderr)
-        raise SystemExit(f"install_test: building the zip failed ({' '.join(cmd)})")
+        raise SetupError(f"building the zip failed ({' '.join(cmd)})")
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
     zips = summary["zips"]
     if len(zips) != 1:
-        raise SystemExit(f"install_test: expected one linux-x64 zip, got {zips}")
+        raise SetupError(f"expected one linux-x64 zip, got {zips}")
     log(f"built {zips[0]['zip']} ({zips[0]['bytes'] / 1e6:.1f} MB) in {time.monotonic() - t0:.1f}s")
     dists = {w.split("-")[0] for w in zips[0]["wheels"]}
     want = {"scipy"} | (set() if without else {"numba", "llvmlite", "iisignature"})
     if dists != want:
-        raise SystemExit(f"install_test: the linux-x64 zip bundles {sorted(dists)}, expected {sorted(want)} "
+        raise SetupError(f"the linux-x64 zip bundles {sorted(dists)}, expected {sorted(want)} "
                          f"({summary['notes']}); run this script with the development venv's Python "
                          "(.venv/bin/python: pip, numpy 1.26, setuptools, wheel) so it can build iisignature")
     return Path(zips[0]["zip"])
@@ -183,11 +187,21 @@ def main(argv: list[str] | None = None) -> int:
     if not versions or any(v not in BPY_VERSIONS for v in versions):
         print(f"--bpy takes {', '.join(BPY_VERSIONS)}", file=sys.stderr)
         return 2
+    if args.zip and not Path(args.zip).is_file():
+        print(f"--zip {args.zip}: no such file", file=sys.stderr)
+        return 2
     if args.bpy_venv and len(versions) != 1:
         print("--bpy-venv needs exactly one --bpy version", file=sys.stderr)
         return 2
+    try:
+        return _run(args, versions, t_start)
+    except SetupError as ex:
+        print(f"install_test: setup error: {ex}", file=sys.stderr)
+        return 2
+
+
+def _run(args, versions: list[str], t_start: float) -> int:
     out = Path(args.out)
-    runs: list[tuple[str, Path]] = []
     full = Path(args.zip).resolve() if args.zip else build_zip(out / "full", "")
     minimal = None if (args.no_minimal or args.zip) else build_zip(out / "minimal", "numba,iisignature")
     results = []
