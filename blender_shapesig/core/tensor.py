@@ -130,23 +130,30 @@ def exp(v, level):
 
 
 def log(a):
-    """Truncated logarithm of a tensor with a_0 > 0 (sec. 7.5).
+    """Truncated logarithm of a tensor with a_0 > 0 (sec. 7.5), in closed form:
 
-    log a = log a_0 + sum_{k=1}^{n} (-1)^{k+1} X^{⊗k} / k with X = a / a_0 - 1, evaluated by Horner's
-    scheme: X (1 - X (1/2 - X (1/3 - ... ))).
+        log a = log a_0 + sum_{k=1}^{n} (-1)^{k+1} X^{⊗k} / k,     X = a / a_0 - 1.
+
+    X has no level-0 part, so X^{⊗k} starts at level k; each power is built from the previous one
+    level by level, skipping the levels that are zero (at level 3: three outer products in all).
     """
     n = _level_count(a)
     a0 = float(a[0][0])
     if not a0 > 0:
         raise ShapeSigError("the logarithm needs a positive level-0 coefficient")
-    x = [np.zeros(1)] + [ak / a0 for ak in a[1:]]
-    # Horner: acc = 1/n; acc = 1/k - X acc for k = n-1 .. 1; log = X acc.
-    acc = [np.array([1.0 / n])] + [np.zeros_like(ak) for ak in x[1:]]
-    for k in range(n - 1, 0, -1):
-        prod = mul(x, acc, n)
-        acc = [np.array([1.0 / k]) - prod[0]] + [-p for p in prod[1:]]
-    out = mul(x, acc, n)
-    out[0] = np.array([math.log(a0)])
+    x = [None] + [ak / a0 for ak in a[1:]]
+    out = [np.array([math.log(a0)])] + [xk.copy() for xk in x[1:]]
+    power = x  # X^k: power[j] for j >= k (entries below k unused)
+    for k in range(2, n + 1):
+        new = [None] * (n + 1)
+        for j in range(k, n + 1):
+            acc = None
+            for i in range(1, j - k + 2):  # (X^(k-1))_{j-i} ⊗ X_i, with j - i >= k - 1
+                term = np.multiply.outer(power[j - i], x[i]).reshape(-1)
+                acc = term if acc is None else acc + term
+            new[j] = acc
+            out[j] += (((-1) ** (k + 1)) / k) * acc
+        power = new
     return out
 
 
