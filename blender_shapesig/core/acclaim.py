@@ -539,7 +539,9 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
             rows[n].append(current[n])
 
     lines = text.splitlines()
+    last = max((k for k, ln in enumerate(lines, 1) if ln.strip()), default=0)
     for no, raw in enumerate(lines, 1):
+        cut = " (truncated file?)" if no == last else ""  # a bad last line is most likely a cut one
         text_line = raw.strip()
         if not text_line or text_line.startswith("#"):
             continue
@@ -568,13 +570,13 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
         if current is None:
             raise ParseError(f"expected a frame number, got {text_line[:40]!r}", where, no)
         if name not in counts:
-            raise ParseError(f"bone {name!r} is not in the skeleton {skeleton.path or skeleton.name!r}",
+            raise ParseError(f"bone {name!r} is not in the skeleton {skeleton.path or skeleton.name!r}{cut}",
                              where, no)
         if name in current:
             raise ParseError(f"bone {name!r} given twice in frame {frame_numbers[-1]}", where, no)
         n = counts[name]
         if len(tokens) - 1 != n:
-            raise ParseError(f"bone {name!r} needs {n} values (its dof), got {len(tokens) - 1}", where, no)
+            raise ParseError(f"bone {name!r} needs {n} values (its dof), got {len(tokens) - 1}{cut}", where, no)
         if n:
             current[name] = tokens  # converted in bulk below (line number kept for errors)
             lines_of[name].append(no)

@@ -135,6 +135,9 @@ def test_wrong_value_count_truncation_and_missing_sections(tmp_path):
     cut = AMC[: len(AMC) * 2 // 3]
     cut = cut[: cut.rindex(b"\n")]
     _err(tmp_path, ASF, cut, "(truncated file?)")
+    for cut_at in (b"\nlfemur ", b"\nlhumerus "):  # cut inside a bone name or after it on the last line
+        end = AMC.rindex(cut_at) + (4 if cut_at == b"\nlfemur " else len(cut_at) + 3)
+        _err(tmp_path, ASF, AMC[:end], "(truncated file?)")
     _err(tmp_path, ASF, b"", "empty AMC file")
     _err(tmp_path, ASF, b":FULLY-SPECIFIED\n:DEGREES\n", "no frames")
     no_hier = ASF[: ASF.index(b":hierarchy")]
