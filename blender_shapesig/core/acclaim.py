@@ -322,8 +322,9 @@ def parse_asf(path_or_text) -> Skeleton:
                 if len(tokens) != 2:
                     raise ParseError(f"units {key}: expected one number", where, no)
                 value = _float(tokens[1], where, f"units {key}", no)
-                if value <= 0:
-                    raise ParseError(f"units {key} must be positive, got {tokens[1]}", where, no)
+                if not 1e-30 < value < 1e30:
+                    raise ParseError(f"units {key} must be a positive number between 1e-30 and 1e30, got "
+                                     f"{tokens[1]}", where, no)
                 if key == "length":
                     length_unit = value
                 else:
