@@ -543,6 +543,13 @@ def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake
     # compute every channel before creating anything
     channel_values = [channels_from_matrices(m, clip.rotations[:, j]) for j, m in enumerate(modes)]
     root = root_bone or (clip.root_bone if clip.root_bone in clip.bones else clip.bones[0])
+    f32 = float(np.finfo(np.float32).max)
+    for what, values in [("root translation", clip.root_translation)] + list(zip(clip.bones, channel_values)):
+        if values is not None and not (np.all(np.isfinite(values)) and np.abs(values).max(initial=0.0) < f32):
+            raise ShapeSigError(f"clip {clip.name!r}: {what} values are not finite or too large for keyframes")
+    if abs(clip.frame_start) + nf > 2 ** 24:
+        raise ShapeSigError(f"clip {clip.name!r}: frame numbers {clip.frame_start}..{clip.frame_end} are too large "
+                            f"for keyframes")
 
     action = bpy.data.actions.new(name or clip.name)
     try:
