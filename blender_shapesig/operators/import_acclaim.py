@@ -172,6 +172,11 @@ def import_acclaim(context, asf_path, amc_paths, scale=1.0, frame_step=1, fps=12
     skeleton = parse_asf(asf_path)
     motions = [parse_amc(p, skeleton) for p in amc_paths]
     name = os.path.splitext(os.path.basename(asf_path))[0]
+    with np.errstate(all="ignore"):
+        geometry = np.concatenate(rest_geometry(skeleton, scale)[:2])
+    if not (np.all(np.isfinite(geometry)) and np.abs(geometry).max() < 1e30):
+        raise ShapeSigError(f"{asf_path}: the skeleton's bone positions are not finite or too large for Blender "
+                            f"(check its :units length and the bone lengths, or the scale)")
 
     if context.object is not None and context.object.mode != "OBJECT":
         bpy.ops.object.mode_set(mode="OBJECT", toggle=False)
