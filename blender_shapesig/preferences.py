@@ -6,7 +6,7 @@ The preferences' ``bl_idname`` is the add-on's module name (``__package__`` of t
 """
 
 import bpy
-from bpy.props import StringProperty
+from bpy.props import BoolProperty, StringProperty
 
 ADDON_ID = __package__
 
@@ -30,9 +30,17 @@ class ShapeSigPreferences(bpy.types.AddonPreferences):
         default="",
     )
 
+    compact_index: BoolProperty(
+        name="Compact Index",
+        description="Do not store long log-signatures (skeletons with more than about 19 moving bones at level 3): "
+                    "such clips are ranked by their 16 KB sketch alone and their distances are approximate",
+        default=False,
+    )
+
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "cache_dir")
+        layout.prop(self, "compact_index")
         layout.prop(self, "library_folders")
         row = layout.row()
         row.operator("shapesig.clear_index", icon="TRASH")

@@ -29,6 +29,8 @@ increments on that subset (slower; a warning is given when the subset covers les
 Speed. Ranking one query against many clips of one skeleton: the sketches (one matrix product)
 select the best ``max(EXACT_POOL, 4 top, rerank)`` candidates, and only those are compared exactly;
 without ``top``, or when the library is no larger than the pool, every clip is compared exactly.
+A compact index (``SignatureCache(max_direction=N)``) does not store directions longer than N coordinates;
+those clips are ranked by their sketches alone and their results are flagged ``approximate``.
 See docs/search.md for the measurements (recall of the sketch against the exact ranking, memory).
 """
 
@@ -52,7 +54,7 @@ from .curves import exp_rotvec, relative_rotvecs
 from .errors import ShapeSigError
 
 __all__ = [
-    "DEFAULT_LEVEL", "SKETCH_DIM", "CACHE_FORMAT", "CACHE_ENV", "FEW_SHARED", "EXACT_POOL",
+    "DEFAULT_LEVEL", "SKETCH_DIM", "COMPACT_MAX_DIRECTION", "CACHE_FORMAT", "CACHE_ENV", "FEW_SHARED", "EXACT_POOL",
     "RankResult", "RankList", "LibraryItem", "IndexEntry", "SignatureCache",
     "rank_clips", "build_index", "compute_entries", "clip_key", "file_key", "default_cache_dir",
     "folder_library", "clip_items", "entry_distance", "word_codes",
@@ -63,6 +65,8 @@ DEFAULT_LEVEL = 3
 # Count-sketch buckets per clip (float32): recall@10 against the exact ranking in docs/search.md.
 SKETCH_DIM = 4096
 SKETCH_SEED = 0x9E3779B97F4A7C15
+# Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
+COMPACT_MAX_DIRECTION = 65_536
 # At least this many sketch candidates are compared exactly.
 EXACT_POOL = 64
 # Warn when the shared bones cover less than this fraction of the query's moving bones.
@@ -80,7 +84,7 @@ _MASK64 = (1 << 64) - 1
 class RankResult:
     """One ranked clip. ``distance``: sim^n (or the chosen metric); ``elastic``: d_S* when re-ranked,
     else None; ``frames``: the clip's frame count; ``shared``: bones compared; ``approximate``: True
-    only for a sketch estimate (never returned by ``rank_clips``, kept for callers that ask)."""
+    when ``distance`` is a sketch estimate (only with a compact index, see SignatureCache)."""
 
     name: str
     distance: float
@@ -287,6 +291,7 @@ class IndexEntry:
     fps: float = 0.0
     source: str = ""
     key: str = ""
+    exact: bool = True                # False: the direction is not stored (compact index), sketch only
 
     @property
     def nbytes(self):
@@ -395,7 +400,7 @@ def default_cache_dir() -> str:
     return os.path.join(base, "blender_shapesig", "signatures")
 
 
-_ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key")
+_ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact")
 
 
 class SignatureCache:
@@ -407,11 +412,15 @@ class SignatureCache:
     ``stats``: hits (memory or disk), disk_hits, misses (computed), invalid, writes.
     ``memory_limit``: bytes of directions/increments kept in memory beyond the sketches (least recently
     used are dropped and re-read from disk when needed; ignored without a path).
+    ``max_direction``: compact index: directions longer than this many coordinates are not stored, and
+    those clips are ranked by their sketch alone (``RankResult.approximate``; the elastic re-rank stays
+    exact). None (default): every direction is stored and every returned distance is exact.
     """
 
-    def __init__(self, path=None, memory_limit=512 * 2 ** 20):
+    def __init__(self, path=None, memory_limit=512 * 2 ** 20, max_direction=None):
         self.path = None if path is None else os.fspath(path)
         self.memory_limit = int(memory_limit)
+        self.max_direction = None if max_direction is None else int(max_direction)
         self._mem = {}      # (key, level) -> list[IndexEntry]
         self._heavy = {}    # id(entry) -> bytes, insertion = recency order
         self._lock = threading.RLock()
@@ -456,7 +465,8 @@ class SignatureCache:
             raise
 
     def file_for(self, key, level):
-        name = hashlib.sha1(f"{key}|L{level}|F{CACHE_FORMAT}|K{SKETCH_DIM}".encode()).hexdigest()
+        compact = "" if self.max_direction is None else f"|C{self.max_direction}"
+        name = hashlib.sha1(f"{key}|L{level}|F{CACHE_FORMAT}|K{SKETCH_DIM}{compact}".encode()).hexdigest()
         return os.path.join(self.path, name + ".npz")
 
     def _read(self, key, level):
@@ -473,15 +483,18 @@ class SignatureCache:
                     e = IndexEntry(
                         name=m["name"], bones=tuple(m["bones"]), moving=tuple(m["moving"]), frames=int(m["frames"]),
                         level=int(m["level"]), norm=float(m["norm"]), fps=float(m["fps"]), source=m["source"],
-                        key=key, direction=None, increments=None, sketch=np.asarray(z[f"s{i}"], np.float32))
+                        key=key, direction=None, increments=None, sketch=np.asarray(z[f"s{i}"], np.float32),
+                        exact=bool(m["exact"]))
                     if e.sketch.shape != (SKETCH_DIM,):
                         raise ValueError("bad sketch")
-                    e.direction = np.asarray(z[f"d{i}"], np.float32)
                     e.increments = np.asarray(z[f"i{i}"], np.float32)
                     nm = len(e.moving)
-                    if (e.increments.shape != (e.frames - 1, nm, 3)
-                            or e.direction.shape != (signatures.log_signature_dim(3 * nm, level) if nm else 0,)):
+                    if e.increments.shape != (e.frames - 1, nm, 3):
                         raise ValueError("bad shapes")
+                    if e.exact:
+                        e.direction = np.asarray(z[f"d{i}"], np.float32)
+                        if e.direction.shape != (signatures.log_signature_dim(3 * nm, level) if nm else 0,):
+                            raise ValueError("bad shapes")
                     entries.append(e)
                 return entries
         except Exception:  # noqa: BLE001 - any unreadable file is discarded and rebuilt
@@ -498,7 +511,8 @@ class SignatureCache:
             for e in entries]}
         arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
         for i, e in enumerate(entries):
-            arrays[f"s{i}"], arrays[f"d{i}"], arrays[f"i{i}"] = e.sketch, e.direction, e.increments
+            d = e.direction if e.exact else np.zeros(0, np.float32)
+            arrays[f"s{i}"], arrays[f"d{i}"], arrays[f"i{i}"] = e.sketch, d, e.increments
         import io
 
         buf = io.BytesIO()
@@ -546,7 +560,7 @@ class SignatureCache:
 
     def heavy(self, entry: IndexEntry):
         """Make sure the entry's direction and increments are loaded (re-read from disk if dropped)."""
-        if entry.direction is not None and entry.increments is not None:
+        if (entry.direction is not None or not entry.exact) and entry.increments is not None:
             return entry
         fresh = self._read(entry.key, entry.level) if self.path is not None else None
         if fresh is None:
@@ -571,6 +585,8 @@ class SignatureCache:
         out = []
         for c in clips:
             e = make_entry(c, level, key=item.key)
+            if self.max_direction is not None and e.direction.size > self.max_direction:
+                e.direction, e.exact = None, False
             if not e.source:
                 e.source = item.source
             out.append(e)
@@ -711,9 +727,9 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
 
     results = []
 
-    def result(e, d, shared):
+    def result(e, d, shared, approximate=False):
         return RankResult(name=e.name, distance=float(d), frames=e.frames, key=e.key, source=e.source,
-                          shared=shared)
+                          shared=shared, approximate=approximate)
 
     exact_count = 0
     if base == "sim":
@@ -727,8 +743,12 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
             candidates = [same[i] for i in best]
         for _, e in candidates:
             cache.heavy(e)
-            results.append(result(e, entry_distance(q, e), len(q.bones)))
-            exact_count += 1
+            if q.exact and e.exact:
+                results.append(result(e, entry_distance(q, e), len(q.bones)))
+                exact_count += 1
+            else:  # compact index: the sketch estimate
+                d = 1.0 if (q.norm == 0.0) != (e.norm == 0.0) else float(np.linalg.norm(q.sketch - e.sketch))
+                results.append(result(e, d, len(q.bones), approximate=True))
     else:
         other = same + other
 

@@ -63,9 +63,11 @@ def cache_dir(context):
 def get_cache(context):
     """One SignatureCache per index folder for the whole session (its memory layer survives operators)."""
     path = os.path.abspath(cache_dir(context))
-    cache = _CACHES.get(path)
+    prefs = _preferences(context)
+    limit = search.COMPACT_MAX_DIRECTION if getattr(prefs, "compact_index", False) else None
+    cache = _CACHES.get((path, limit))
     if cache is None:
-        cache = _CACHES[path] = search.SignatureCache(path)
+        cache = _CACHES[(path, limit)] = search.SignatureCache(path, max_direction=limit)
     return cache
 
 

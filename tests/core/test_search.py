@@ -310,3 +310,25 @@ def test_build_index_progress_and_cancel(clips, tmp_path):
 def test_default_cache_dir_honours_environment(monkeypatch, tmp_path):
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "x"))
     assert search.default_cache_dir() == str(tmp_path / "x")
+
+
+def test_compact_index_ranks_by_sketch(clips, tmp_path):
+    q = clips["07_01"]
+    lib = [clips[k] for k in ("09_02", "07_02", "16_15", "09_03")]
+    exact = {r.name: r.distance for r in search.rank_clips(q, lib, cache=search.SignatureCache())}
+    compact = search.SignatureCache(tmp_path, max_direction=10_000)  # 31-bone level-3 directions are longer
+    res = search.rank_clips(q, lib, cache=compact, rerank=1)
+    assert all(r.approximate for r in res)
+    assert [r.name for r in res][:2] == sorted(exact, key=exact.get)[:2]
+    for r in res:
+        assert r.distance == pytest.approx(exact[r.name], rel=0.15)
+    assert res[0].elastic is not None  # the elastic re-rank does not need the directions
+    # on disk: no direction stored, read back the same, and much smaller than the exact entries
+    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path, max_direction=10_000))
+    assert again.stats["misses"] == 0 and [r.distance for r in again][1:] == [r.distance for r in res][1:]
+    full = search.SignatureCache(tmp_path / "full")
+    search.rank_clips(q, lib, cache=full)
+    assert compact.disk_usage()[1] < 0.5 * full.disk_usage()[1]
+    # the exact cache in the same folder does not reuse compact entries
+    mixed = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
+    assert mixed.stats["misses"] == 5 and not any(r.approximate for r in mixed)
