@@ -175,6 +175,7 @@ def test_straight_path_signature_is_tensor_exponential():
     for k in range(1, 6):
         power = np.multiply.outer(power, a)
         np.testing.assert_allclose(sig[k], power / math.factorial(k), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(tensor.flatten(tensor.exp(a, 5)), flat(sig), rtol=0, atol=1e-14)
     # The same straight path sampled at 7 collinear points (reparametrized) has the same signature.
     ts = np.array([0.0, 0.05, 0.1, 0.4, 0.41, 0.9, 1.0])
     np.testing.assert_allclose(sg.path_signature(x[0] + ts[:, None] * a, 5), flat(sig), atol=1e-14)
