@@ -22,6 +22,8 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                             precision=4)
     elastic: FloatProperty(name="Elastic", description="Elastic distance d_S* (when re-ranked)", precision=4)
     has_elastic: BoolProperty(name="Has Elastic", default=False)
+    approximate: BoolProperty(name="Approximate", description="Distance estimated from the sketch (compact index)",
+                              default=False)
     frames: IntProperty(name="Frames")
     shared: IntProperty(name="Shared Bones")
     is_action: BoolProperty(name="Action In File", description="The result is an action of this file",

@@ -170,6 +170,7 @@ def _store_results(settings, results, query_name):
         row.name = r.name
         row.distance = r.distance
         row.has_elastic = r.elastic is not None
+        row.approximate = r.approximate
         row.elastic = r.elastic if r.elastic is not None else 0.0
         row.frames = r.frames
         row.shared = r.shared

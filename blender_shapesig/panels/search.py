@@ -24,7 +24,7 @@ class SHAPESIG_UL_results(bpy.types.UIList):
             split = row.split(factor=0.5)
             split.label(text=item.name, icon=icon)
             nums = split.row(align=True)
-            nums.label(text=f"{item.distance:.4f}")
+            nums.label(text=("~" if item.approximate else "") + f"{item.distance:.4f}")
             if item.has_elastic:
                 nums.label(text=f"e {item.elastic:.3f}")
             nums.label(text=f"{item.frames} f")
