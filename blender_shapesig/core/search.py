@@ -145,16 +145,24 @@ def clip_key(clip: Clip) -> str:
     return "clip:" + h.hexdigest()
 
 
+_FILE_KEYS = {}  # (path, size, mtime_ns) -> content hash: a file is re-hashed only when its stat changes
+
+
 def file_key(path, extra="") -> str:
     """SHA-1 of a file's bytes, with its size and mtime (and ``extra``: e.g. the skeleton's key and the
-    crop), so that any edit of the file gives a new key."""
-    path = os.fspath(path)
+    crop), so that any edit of the file gives a new key. The hash is remembered for the process until the
+    file's size or mtime changes."""
+    path = os.path.abspath(os.fspath(path))
     st = os.stat(path)
-    h = hashlib.sha1()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return f"file:{h.hexdigest()}:{st.st_size}:{st.st_mtime_ns}:{extra}"
+    memo = (path, st.st_size, st.st_mtime_ns)
+    digest = _FILE_KEYS.get(memo)
+    if digest is None:
+        h = hashlib.sha1()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        digest = _FILE_KEYS[memo] = h.hexdigest()
+    return f"file:{digest}:{st.st_size}:{st.st_mtime_ns}:{extra}"
 
 
 def clip_items(clips: Sequence[Clip]) -> List[LibraryItem]:
