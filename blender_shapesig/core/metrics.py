@@ -11,7 +11,7 @@ import re
 
 from . import curves, elastic, signatures
 from .clip import Clip, restrict_to_shared
-from .errors import ShapeSigError
+from .errors import CurveError, ShapeSigError
 
 __all__ = [
     "METRICS", "SIGNATURE_METRICS", "parse_metric", "metric_label", "clip_distance", "curve_distance",
@@ -67,5 +67,10 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
 
 def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH):
     """Distance between two clips on their shared bones (still-in-both bones dropped)."""
+    base, _ = parse_metric(metric, level)
+    if base in ("l2", "elastic"):
+        for c in (a, b):
+            if c.frames < 2:
+                raise CurveError(f"clip {c.name!r} has {c.frames} frame; the {base} distance needs at least two frames")
     a2, b2 = restrict_to_shared(a, b)
     return float(curve_distance(a2.rotations, b2.rotations, metric, level=level, depth=depth))
