@@ -89,8 +89,10 @@ def test_registered(addon):
     assert {bpy.types.SHAPESIG_PT_search_view3d.bl_category, bpy.types.SHAPESIG_PT_search_nla.bl_category} == {"ShapeSig"}
     assert hasattr(bpy.types.Scene, "shapesig")
     from blender_shapesig import preferences
+    from blender_shapesig.operators import search as ops_search
 
-    assert preferences.ShapeSigPreferences.bl_idname == "blender_shapesig"  # the package name, as imported here
+    # the add-on's module name as imported (bl_ext.<repo>.blender_shapesig when installed as an extension)
+    assert preferences.ShapeSigPreferences.bl_idname == addon.__name__ == ops_search._PACKAGE
 
 
 def test_file_library_ranks_walks_first_and_caches(rig):
