@@ -226,7 +226,7 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
     def _prepare(self, context):
         self.settings = _settings(context)
         obj, _action, q = query_item(context, self.settings)
-        self.items = [q] + library_items(context, self.settings, obj)
+        self.items = [q] + [it for it in library_items(context, self.settings, obj) if it.key != q.key]
         self.cache = get_cache(context)
         self.level = self.settings.level
         self.done = 0

@@ -289,3 +289,41 @@ def test_panel_draws_every_state(rig):
     assert "Select a result" in _draw().labels()
     s.query_action = "nope"
     assert "no action named 'nope'" in _draw().labels()
+
+
+def test_build_index_modal_steps_and_escape(rig):
+    """The modal path (a window is needed to start it for real): its timer steps and Esc, driven directly
+    on a stand-in instance that borrows the operator's methods."""
+    from blender_shapesig.operators.search import SHAPESIG_OT_build_index as Op
+
+    class Stand:
+        _timer = None
+
+        def __init__(self):
+            self.reports = []
+
+        def report(self, kind, msg):
+            self.reports.append((set(kind), msg))
+
+    for name in ("_prepare", "_step", "_finish", "_end_modal", "modal"):
+        setattr(Stand, name, getattr(Op, name))
+    ctx = bpy.context
+    s = ctx.scene.shapesig
+    op = Stand()
+    op._prepare(ctx)
+    s.index_running = True
+    timer = SimpleNamespace(type="TIMER")
+    assert op.modal(ctx, SimpleNamespace(type="MOUSEMOVE")) == {"PASS_THROUGH"}
+    assert op.modal(ctx, timer) == {"RUNNING_MODAL"}
+    assert op.modal(ctx, timer) == {"RUNNING_MODAL"}
+    assert s.index_progress == pytest.approx(2 / 6)
+    assert op.modal(ctx, SimpleNamespace(type="ESC")) == {"CANCELLED"}
+    assert not s.index_running and s.message.startswith("cancelled; index: 2 of 6")
+    assert op.reports[-1][0] == {"WARNING"}
+    # what was done stays indexed: a second, complete run computes only the other four
+    op = Stand()
+    op._prepare(ctx)
+    while (res := op.modal(ctx, timer)) == {"RUNNING_MODAL"}:
+        pass
+    assert res == {"FINISHED"} and s.index_progress == 1.0
+    assert "4 computed, 2 already indexed" in s.message
