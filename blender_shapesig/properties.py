@@ -46,6 +46,8 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     name_filter: StringProperty(name="Filter", description="Only actions whose name matches this pattern "
                                 "(wildcards * and ?; empty: all)", default="")
     assets_only: BoolProperty(name="Assets Only", description="Only actions marked as assets", default=False)
+    catalog: StringProperty(name="Catalog", description="With Assets Only: only assets whose catalog's simple name "
+                            "matches this pattern (wildcards; empty: any catalog)", default="")
     use_folders: BoolProperty(name="Folders", description="Also search clip files in folders", default=False)
     folders: StringProperty(name="Folders", description="Folders of .bvh/.amc/.blend clips, separated by ';' "
                             "(empty: the add-on preferences' library folders)", default="")

@@ -152,8 +152,13 @@ def library_items(context, settings, obj):
         for action in action_io.armature_actions(obj):
             if pattern and not fnmatch.fnmatchcase(action.name, pattern):
                 continue
-            if settings.assets_only and getattr(action, "asset_data", None) is None:
-                continue
+            if settings.assets_only:
+                asset = getattr(action, "asset_data", None)
+                if asset is None:
+                    continue
+                catalog = settings.catalog.strip()
+                if catalog and not fnmatch.fnmatchcase(getattr(asset, "catalog_simple_name", ""), catalog):
+                    continue
             items.append(_action_item(action, obj, _cropped_range(action, settings.crop_start)))
     if settings.use_folders:
         folders = _folders(context, settings)

@@ -94,6 +94,8 @@ def draw_search(layout, context):
         row = col.row(align=True)
         row.prop(s, "name_filter", text="", icon="FILTER")
         row.prop(s, "assets_only", text="", icon="ASSET_MANAGER")
+        if s.assets_only:
+            col.prop(s, "catalog", text="", icon="OUTLINER_COLLECTION")
     if s.use_folders:
         col.prop(s, "folders", text="")
     col.prop(s, "crop_start")

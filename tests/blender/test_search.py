@@ -128,6 +128,20 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     assert new["run1"] != pytest.approx(dict(got)["run1"], rel=1e-6)
     assert new["run1"] == pytest.approx(clip_distance(q, _read("run1", rig), "sim", 3), rel=1e-5)
 
+    # name filter and assets only
+    s.name_filter = "walk*"
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert {r.name for r in s.results} == {"walk2", "walk3"}
+    s.name_filter = ""
+    bpy.data.actions["jump"].asset_mark()
+    s.assets_only = True
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert [r.name for r in s.results] == ["jump"]
+    s.catalog = "Nothing*"
+    with pytest.raises(RuntimeError, match="library is empty"):
+        bpy.ops.shapesig.rank()
+    s.assets_only, s.catalog = False, ""
+
     # re-rank the best three by elastic distance: the head is ordered by it
     s.rerank, s.top = 3, 3
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
