@@ -557,14 +557,23 @@ class SignatureCache:
             return
         for e in entries:
             self._heavy[(key, level, e.name)] = e.nbytes - e.sketch.nbytes
+        self._evict(protect=len(entries))
+
+    def _evict(self, protect=1):
+        """Drop the least recently loaded directions/increments beyond ``memory_limit`` (never the last
+        ``protect`` loaded); they are re-read from disk when needed."""
         total = sum(self._heavy.values())
-        while total > self.memory_limit and len(self._heavy) > len(entries):
+        while total > self.memory_limit and len(self._heavy) > protect:
             (k, lv, name), nb = next(iter(self._heavy.items()))
             del self._heavy[(k, lv, name)]
             for e in self._mem.get((k, lv), ()):
                 if e.name == name:
                     e.direction = e.increments = None
             total -= nb
+
+    def contains(self, key, level):
+        """True when (key, level) is cached (memory or disk), without reading or counting anything."""
+        return (key, int(level)) in self._mem or (self.path is not None and os.path.exists(self.file_for(key, level)))
 
     def heavy(self, entry: IndexEntry):
         """Make sure the entry's direction and increments are loaded (re-read from disk if dropped)."""
@@ -578,6 +587,7 @@ class SignatureCache:
                 entry.direction, entry.increments = e.direction, e.increments
                 with self._lock:
                     self._heavy[(entry.key, entry.level, entry.name)] = entry.nbytes - entry.sketch.nbytes
+                    self._evict(protect=1)
                 return entry
         raise ShapeSigError(f"cache entry of {entry.name!r} changed; rebuild the index")
 

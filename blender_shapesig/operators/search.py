@@ -168,6 +168,14 @@ def library_items(context, settings, obj):
     return items
 
 
+def missing_count(context, settings):
+    """How many of the query and library clips are not in the index yet."""
+    obj, _action, q = query_item(context, settings)
+    cache = get_cache(context)
+    items = [q] + [it for it in library_items(context, settings, obj) if it.key != q.key]
+    return sum(not cache.contains(it.key, settings.level) for it in items)
+
+
 def _store_results(settings, results, query_name):
     settings.results.clear()
     for r in results:
@@ -226,6 +234,9 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
     bl_label = "Build Index"
     bl_options = {"REGISTER"}  # writes only the cache folder, never the .blend
 
+    then_rank: BoolProperty(name="Then Rank", description="Run Find Similar when the index is complete",
+                            default=False, options={"SKIP_SAVE", "HIDDEN"})
+
     _timer = None
 
     def _prepare(self, context):
@@ -260,6 +271,11 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
         s.message = msg
         self.report({"WARNING"} if (self.errors or cancelled) else {"INFO"}, msg)
         _tag_redraw(context)
+        if getattr(self, "then_rank", False) and not cancelled:
+            try:
+                bpy.ops.shapesig.rank()
+            except RuntimeError:
+                pass  # rank reported its error already
 
     def execute(self, context):
         try:
@@ -326,6 +342,19 @@ class SHAPESIG_OT_rank(bpy.types.Operator):
     bl_idname = "shapesig.rank"
     bl_label = "Find Similar"
     bl_options = {"REGISTER", "UNDO"}
+
+    def invoke(self, context, event):
+        # In the UI, when several clips still need indexing, index them first with the cancellable
+        # progress bar (build_index ranks when it is done); otherwise rank at once.
+        if context.window is not None and not bpy.app.background:
+            try:
+                missing = missing_count(context, _settings(context))
+            except ShapeSigError:
+                missing = 0  # execute reports the problem
+            if missing >= 2:
+                bpy.ops.shapesig.build_index("INVOKE_DEFAULT", then_rank=True)
+                return {"CANCELLED"}
+        return self.execute(context)
 
     def execute(self, context):
         try:

@@ -334,10 +334,16 @@ def test_build_index_modal_steps_and_escape(rig):
     assert op.modal(ctx, SimpleNamespace(type="ESC")) == {"CANCELLED"}
     assert not s.index_running and s.message.startswith("cancelled; index: 2 of 6")
     assert op.reports[-1][0] == {"WARNING"}
-    # what was done stays indexed: a second, complete run computes only the other four
+    # what was done stays indexed: a second, complete run computes only the other four, then ranks
+    from blender_shapesig.operators.search import missing_count
+
+    assert missing_count(ctx, s) == 4
     op = Stand()
+    op.then_rank = True
     op._prepare(ctx)
     while (res := op.modal(ctx, timer)) == {"RUNNING_MODAL"}:
         pass
     assert res == {"FINISHED"} and s.index_progress == 1.0
-    assert "4 computed, 2 already indexed" in s.message
+    assert [r for r in op.reports if "4 computed, 2 already indexed" in r[1]]
+    assert missing_count(ctx, s) == 0
+    assert len(s.results) == 5 and s.query_name == "walk1"  # ranked when the index was complete

@@ -267,6 +267,10 @@ def test_memory_limit_drops_and_rereads(clips, tmp_path):
     res = search.rank_clips(q, lib, cache=cache)
     assert [(r.name, r.distance) for r in res] == truth
     assert res.stats["misses"] == 0
+    loaded = [e for (_k, _l), es in cache._mem.items() for e in es if e.direction is not None]
+    assert len(loaded) == 1  # re-reads keep within the limit too (only the last one loaded stays)
+    assert cache.contains(search.clip_key(lib[0]), search.DEFAULT_LEVEL)
+    assert not cache.contains("clip:nothing", search.DEFAULT_LEVEL)
 
 
 def test_folder_library_keys_follow_file_contents(data_dir, tmp_path):
