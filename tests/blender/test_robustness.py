@@ -426,6 +426,31 @@ def test_rank_with_a_one_frame_query_reports(library, rig):
     assert snapshot() == before and all_hashes() == hashes
 
 
+def test_rank_skips_bad_library_actions_and_refuses_a_bad_query(library, rig):
+    src = _source(rig)
+    _write(rig, src.crop(src.frame_start, src.frame_start), "single")
+    _make_degenerate(rig, "nan_keys")  # action 'B' with a NaN key
+    bpy.context.view_layer.objects.active = rig
+    s = bpy.context.scene.shapesig
+    before, hashes = snapshot(), all_hashes()
+    assert bpy.ops.shapesig.build_index("EXEC_DEFAULT") == {"FINISHED"}
+    assert "could not be read" in s.message and "\n" not in s.message
+    assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
+    names = {r.name for r in s.results}
+    assert "part" in names and not names & {"single", "B"}
+    assert "warning" in s.message and "NaN" in s.message
+    s.query_action = "B"
+    assert "NaN or infinite" in op_error(bpy.ops.shapesig.rank)
+    s.query_action = ""
+    empty = bpy.data.objects.new("E", None)
+    bpy.context.collection.objects.link(empty)
+    bpy.context.view_layer.objects.active = empty
+    assert "select an armature" in op_error(bpy.ops.shapesig.rank)
+    assert "select an armature" in op_error(bpy.ops.shapesig.build_index)
+    bpy.data.objects.remove(empty)
+    assert snapshot() == before and all_hashes() == hashes
+
+
 def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
     from blender_shapesig.core import search
 
