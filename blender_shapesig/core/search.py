@@ -181,40 +181,58 @@ def _default_load(path, asf=None):
     raise ShapeSigError(f"{path}: reading {os.path.splitext(path)[1]} files needs Blender (pass load=)")
 
 
-def folder_library(paths, load=None, asf=None, start=None, recursive=True) -> List[LibraryItem]:
-    """Library items for clip files (.bvh, .amc, .blend) in the given files or folders, sorted by path.
+def _split_spec(spec):
+    """(path, action or None) for FILE.blend#ACTION, else (spec, None)."""
+    path, sep, action = spec.rpartition("#")
+    if sep and path.lower().endswith(".blend"):
+        return path, action
+    return spec, None
 
-    ``load(path, asf)`` reads one file into a Clip or a list of Clips (the command line and Blender pass
-    ``clips.load_clips``; without it only .amc files can be read). ``start``: crop every clip to begin at
-    this frame (the CMU "Daz-friendly" BVH files have a rest pose on frame 1). Files are read only
-    when their key is not in the cache."""
+
+def folder_library(paths, load=None, asf=None, start=None, recursive=True, end=None) -> List[LibraryItem]:
+    """Library items for clip files (.bvh, .amc, .blend, FILE.blend#ACTION) given directly or found in
+    folders (sorted by path), for a folder library or the command line's CLIP arguments.
+
+    ``load(spec, asf)`` reads one file (or FILE.blend#ACTION) into a Clip or a list of Clips (the command
+    line and Blender pass ``clips.load_clips``; without it only .amc files can be read). ``start``/``end``:
+    crop every clip to these frames (inclusive; the CMU "Daz-friendly" BVH files have a rest pose on frame
+    1). Files are read only when their key is not in the cache: the key is the file's content hash, size
+    and mtime, the skeleton's key, the action name and the crop."""
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
-    files = []
+    specs = []
     for p in paths:
         p = os.fspath(p)
+        path, action = _split_spec(p)
         if os.path.isdir(p):
             walker = os.walk(p) if recursive else [(p, [], os.listdir(p))]
+            found = []
             for root, _dirs, names in walker:
-                files += [os.path.join(root, n) for n in names if n.lower().endswith(CLIP_EXTENSIONS)]
-        elif os.path.isfile(p):
-            files.append(p)
+                found += [os.path.join(root, n) for n in names if n.lower().endswith(CLIP_EXTENSIONS)]
+            specs += sorted(found)
+        elif os.path.isfile(path):
+            specs.append(p)
         else:
-            raise ShapeSigError(f"library path {p!r} does not exist")
+            raise ShapeSigError(f"library path {path!r} does not exist")
     loader = load or _default_load
     asf_key = file_key(asf) if asf else ""
-    items = []
-    for f in sorted(set(files)):
-        extra = f"asf={asf_key}|start={start}"
+    items, seen = [], set()
+    for spec in specs:
+        if spec in seen:
+            continue
+        seen.add(spec)
+        path, action = _split_spec(spec)
+        extra = f"asf={asf_key}|start={start}|end={end}|action={action}"
 
-        def _load(f=f):
-            out = loader(f, asf)
+        def _load(spec=spec):
+            out = loader(spec, asf)
             clips = [out] if isinstance(out, Clip) else list(out)
-            if start is not None:
-                clips = [c.crop(start=int(start)) if c.frame_end >= int(start) else c for c in clips]
+            if start is not None or end is not None:
+                clips = [c.crop(start=start, end=end) for c in clips]
             return clips
 
-        items.append(LibraryItem(os.path.splitext(os.path.basename(f))[0], file_key(f, extra), _load, f))
+        name = action if action is not None else os.path.splitext(os.path.basename(path))[0]
+        items.append(LibraryItem(name, file_key(path, extra), _load, spec))
     return items
 
 

@@ -336,3 +336,25 @@ def test_compact_index_ranks_by_sketch(clips, tmp_path):
     # the exact cache in the same folder does not reuse compact entries
     mixed = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
     assert mixed.stats["misses"] == 5 and not any(r.approximate for r in mixed)
+
+
+def test_file_items_for_command_line_specs(data_dir, tmp_path):
+    d = data_dir / "acclaim"
+    asf = str(d / "07-walk.asf")
+    specs = [str(d / "07_01.amc"), str(d / "07_02.amc"), str(d / "07_01.amc")]
+    items = search.folder_library(specs, asf=asf)
+    assert [it.name for it in items] == ["07_01", "07_02"]  # repeated specs once, in the given order
+    cropped = search.folder_library(specs[:1], asf=asf, start=10, end=60)
+    assert cropped[0].key != items[0].key
+    (clip,) = cropped[0].clips()
+    assert (clip.frame_start, clip.frames) == (10, 51)
+    with pytest.raises(ShapeSigError, match="does not exist"):
+        search.folder_library([str(tmp_path / "x.blend#walk")])
+    with pytest.raises(ShapeSigError, match="needs Blender"):
+        search.folder_library([str(data_dir / "bvh" / "07_01.bvh")])[0].clips()
+    # a file that cannot be read is reported by rank_clips as a warning, the others are ranked
+    bad = tmp_path / "bad.amc"
+    bad.write_text("this is not an AMC file\n")
+    q = load_acclaim(specs[0], asf)
+    res = search.rank_clips(q, search.folder_library([str(bad), specs[1]], asf=asf))
+    assert [r.name for r in res] == ["07_02"] and any("bad" in w for w in res.warnings)
