@@ -26,7 +26,6 @@ Speed (ratios against a baseline measured in the same run, so they do not depend
 
 import argparse
 import json
-import os
 import pathlib
 import statistics
 import sys

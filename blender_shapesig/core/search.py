@@ -36,13 +36,13 @@ See docs/search.md for the measurements (recall of the sketch against the exact 
 
 import dataclasses
 import hashlib
+import io
 import json
 import os
 import tempfile
 import threading
 import time
-import zipfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Callable, List, Optional, Sequence, Tuple
 
@@ -324,11 +324,6 @@ class IndexEntry:
         return sum(a.nbytes for a in (self.direction, self.increments, self.sketch) if a is not None)
 
 
-def _increments_of(R):
-    """Per-frame increments (frames-1, joints, 3) as rotation vectors (the development's steps)."""
-    return relative_rotvecs(R)
-
-
 def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     """Compute the index entry of a clip at ``level``."""
     level = int(level)
@@ -336,7 +331,7 @@ def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     if R.shape[0] < 2:
         raise ShapeSigError(f"clip {clip.name!r} has {R.shape[0]} frame(s); at least two are needed")
     moving = tuple(int(j) for j in np.flatnonzero(~still_joints(R)))
-    inc = _increments_of(R[:, list(moving)]) if moving else np.zeros((R.shape[0] - 1, 0, 3))
+    inc = relative_rotvecs(R[:, list(moving)]) if moving else np.zeros((R.shape[0] - 1, 0, 3))
     if moving:
         dx = inc.reshape(inc.shape[0], -1)
         path = np.vstack([np.zeros((1, dx.shape[1])), np.cumsum(dx, axis=0)])
@@ -539,8 +534,6 @@ class SignatureCache:
         for i, e in enumerate(entries):
             d = e.direction if e.exact else np.zeros(0, np.float32)
             arrays[f"s{i}"], arrays[f"d{i}"], arrays[f"i{i}"] = e.sketch, d, e.increments
-        import io
-
         buf = io.BytesIO()
         np.savez(buf, **arrays)
         self._atomic_write(self.file_for(key, level), buf.getvalue())
