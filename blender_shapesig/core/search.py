@@ -490,7 +490,9 @@ class SignatureCache:
         name = hashlib.sha1(f"{key}|L{level}|F{CACHE_FORMAT}|K{SKETCH_DIM}{compact}".encode()).hexdigest()
         return os.path.join(self.path, name + ".npz")
 
-    def _read(self, key, level):
+    def _read(self, key, level, light=False):
+        """The entries of a file, or None (missing; unreadable or outdated files are deleted). ``light``:
+        meta and sketches only (directions and increments are read by ``heavy`` when needed)."""
         fn = self.file_for(key, level)
         if not os.path.exists(fn):
             return None
@@ -508,6 +510,9 @@ class SignatureCache:
                         exact=bool(m["exact"]))
                     if e.sketch.shape != (SKETCH_DIM,):
                         raise ValueError("bad sketch")
+                    if light:
+                        entries.append(e)
+                        continue
                     e.increments = np.asarray(z[f"i{i}"], np.float32)
                     nm = len(e.moving)
                     if e.increments.shape != (e.frames - 1, nm, 3):
@@ -548,7 +553,7 @@ class SignatureCache:
                 self.stats["hits"] += 1
                 return got
             if self.path is not None:
-                got = self._read(key, level)
+                got = self._read(key, level, light=True)
                 if got is not None:
                     self.stats["hits"] += 1
                     self.stats["disk_hits"] += 1
@@ -586,21 +591,28 @@ class SignatureCache:
         """True when (key, level) is cached (memory or disk), without reading or counting anything."""
         return (key, int(level)) in self._mem or (self.path is not None and os.path.exists(self.file_for(key, level)))
 
-    def heavy(self, entry: IndexEntry):
-        """Make sure the entry's direction and increments are loaded (re-read from disk if dropped)."""
+    def heavy(self, entry: IndexEntry, item: Optional[LibraryItem] = None):
+        """Make sure the entry's direction and increments are loaded (read from disk when needed). If its
+        file has become unreadable meanwhile, the entry is recomputed from ``item`` (else ShapeSigError)."""
         if (entry.direction is not None or not entry.exact) and entry.increments is not None:
             return entry
         fresh = self._read(entry.key, entry.level) if self.path is not None else None
+        if fresh is None and item is not None:
+            with self._lock:
+                self._mem.pop((entry.key, entry.level), None)
+            fresh = self.entries(item, entry.level)
         if fresh is None:
-            raise ShapeSigError(f"cache entry of {entry.name!r} disappeared; rebuild the index")
+            raise ShapeSigError(f"the index entry of {entry.name!r} is gone; build the index again")
         for e in fresh:
-            if e.name == entry.name:
-                entry.direction, entry.increments = e.direction, e.increments
+            if e.name == entry.name and e.bones == entry.bones and e.moving == entry.moving:
+                if e.increments is None or (e.exact and e.direction is None):
+                    e = self.heavy(e)
+                entry.direction, entry.increments, entry.exact = e.direction, e.increments, e.exact
                 with self._lock:
                     self._heavy[(entry.key, entry.level, entry.name)] = entry.nbytes - entry.sketch.nbytes
                     self._evict(protect=1)
                 return entry
-        raise ShapeSigError(f"cache entry of {entry.name!r} changed; rebuild the index")
+        raise ShapeSigError(f"the index entry of {entry.name!r} changed; build the index again")
 
     def entries(self, item: LibraryItem, level=DEFAULT_LEVEL):
         """The item's entries: from the cache, or computed (its clips loaded) and stored."""
@@ -704,15 +716,16 @@ def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None):
 # ------------------------------------------------------------------------------------------ ranking
 
 def _query_entry(query, level, cache):
+    """(item or None, entry) of the query."""
     if isinstance(query, IndexEntry):
-        return query
+        return None, query
+    if isinstance(query, Clip):
+        query = clip_items([query])[0]
     if isinstance(query, LibraryItem):
         entries = cache.entries(query, level)
         if len(entries) != 1:
             raise ShapeSigError(f"query {query.name!r} holds {len(entries)} clips; choose one")
-        return entries[0]
-    if isinstance(query, Clip):
-        return cache.entries(clip_items([query])[0], level)[0]
+        return query, entries[0]
     raise ShapeSigError(f"the query must be a Clip, got {type(query).__name__}")
 
 
@@ -742,7 +755,8 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     cache = cache if cache is not None else SignatureCache()
     before = dict(cache.stats)
     # a private copy: the cache may drop the arrays of its own object to keep within memory_limit
-    q = dataclasses.replace(cache.heavy(_query_entry(query, sig_level, cache)))
+    q_item, q_entry = _query_entry(query, sig_level, cache)
+    q = dataclasses.replace(cache.heavy(q_entry, q_item))
     items = [it for it in _as_items(library) if it.key not in exclude and it.name not in exclude]
     errors = []
     pairs = compute_entries(items, sig_level, cache, progress, errors)
@@ -770,8 +784,8 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
             approx = sq + qs @ qs - 2.0 * (S @ q.sketch).astype(np.float64)
             best = np.argpartition(approx, npool - 1)[:npool]
             candidates = [same[i] for i in best]
-        for _, e in candidates:
-            cache.heavy(e)
+        for item, e in candidates:
+            cache.heavy(e, item)
             if q.exact and e.exact:
                 results.append(result(e, entry_distance(q, e), len(q.bones)))
                 exact_count += 1
@@ -791,7 +805,7 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
         if q_moving and len(moving_shared) < FEW_SHARED * len(q_moving):
             warnings.append(f"{e.name}: shares only {len(moving_shared)} of the query's {len(q_moving)} moving "
                             f"bones")
-        cache.heavy(e)
+        cache.heavy(e, item)
         a, b = _pair_increments(q, e, shared)
         if base == "sim":
             d = _sim_from_increments(a, b, sig_level)
@@ -803,9 +817,10 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     results.sort(key=lambda r: (r.distance, r.name))
     if rerank and results:
         head = results[:rerank]
-        by_key = {(e.key, e.name): e for _, e in pairs}
+        by_key = {(e.key, e.name): (item, e) for item, e in pairs}
         for r in head:
-            e = cache.heavy(by_key[(r.key, r.name)])
+            item, e = by_key[(r.key, r.name)]
+            e = cache.heavy(e, item)
             shared = [b for b in q.bones if b in set(e.bones)]
             a, b = _pair_increments(q, e, shared)
             if base == "elastic":

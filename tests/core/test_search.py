@@ -245,12 +245,21 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     np.savez(fn, **arrays)
     res = search.rank_clips(q, [c], cache=search.SignatureCache(tmp_path))
     assert res.stats["invalid"] == 1 and res.stats["misses"] == 1
-    # 4) a manifest of another version wipes the folder
+    # 4) spoiled after the light read (meta + sketch) and before the directions are needed: recomputed
+    cache2 = search.SignatureCache(tmp_path)
+    item = search.clip_items([c])[0]
+    assert cache2.entries(item)[0].direction is None  # a light read
+    with open(fn, "wb") as f:
+        f.write(b"spoiled")
+    res = search.rank_clips(q, [item], cache=cache2)
+    assert res.stats["invalid"] == 1 and res.stats["misses"] == 1
+    assert res[0].distance == pytest.approx(truth, rel=1e-12)
+    # 5) a manifest of another version wipes the folder
     with open(os.path.join(tmp_path, "manifest.json"), "w") as f:
         json.dump({"format": -1}, f)
     cache = search.SignatureCache(tmp_path)
     assert cache.stats["invalid"] == 1 and cache.disk_usage()[0] == 0
-    # 5) an unreadable manifest too
+    # 6) an unreadable manifest too
     with open(os.path.join(tmp_path, "manifest.json"), "w") as f:
         f.write("{")
     assert search.SignatureCache(tmp_path).stats["invalid"] == 1
