@@ -147,14 +147,22 @@ def rig(empty_file):
 
 
 def _blocks(data):
-    """(offset, code, length) of each block of an uncompressed Blender 4.3+ .blend."""
-    pos, out = 17, []
+    """(offset, code, offset of the size field, size format) of each block of an uncompressed .blend with
+    8-byte pointers: 4.3+ (BLENDER17-01v0500, 32-byte headers, int64 sizes) or older (BLENDER-v402, 24 bytes,
+    int32 sizes)."""
+    if data.startswith(b"BLENDER17-01v"):
+        pos, fmt, size_at, size_fmt = 17, "<4siQqq", 16, "<q"
+    else:
+        assert data.startswith(b"BLENDER-v")
+        pos, fmt, size_at, size_fmt = 12, "<4siQii", 4, "<i"
+    hsize, out = struct.calcsize(fmt), []
     while True:
-        code, _sdna, _old, length, _nr = struct.unpack("<4siQqq", data[pos:pos + 32])
-        out.append((pos, code, length))
+        fields = struct.unpack(fmt, data[pos:pos + hsize])
+        code, length = fields[0], fields[3] if size_at == 16 else fields[1]
+        out.append((pos, code, pos + size_at, size_fmt))
         if code == b"ENDB":
             return out
-        pos += 32 + length
+        pos += hsize + length
 
 
 def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
@@ -167,11 +175,12 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
     cases = {"truncated": data[: len(data) // 2], "empty": b"", "magic": b"NOTBLEND" + data[8:],
              "garbage": bytes(random.Random(1).randrange(256) for _ in range(5000)),
              "zstd_truncated": compressed.read_bytes()[:20000], "amc": (ACC / "09_02.amc").read_bytes()}
-    if data.startswith(b"BLENDER17-01v"):
-        # a block whose size field is absurd: Blender's reader would abort the process (failed allocation)
-        pos = next(p for p, code, _ in _blocks(data) if code == b"DATA")
-        cases["huge_block"] = data[:pos + 16] + struct.pack("<q", 1 << 60) + data[pos + 24:]
-        cases["negative_block"] = data[:pos + 16] + struct.pack("<q", -5) + data[pos + 24:]
+    # a block whose size field is absurd: Blender's reader would abort the process (failed allocation)
+    _pos, _code, at, size_fmt = next(b for b in _blocks(data) if b[1] == b"DATA")
+    n = struct.calcsize(size_fmt)
+    huge = (1 << 60) if n == 8 else (1 << 31) - 1
+    cases["huge_block"] = data[:at] + struct.pack(size_fmt, huge) + data[at + n:]
+    cases["negative_block"] = data[:at] + struct.pack(size_fmt, -5) + data[at + n:]
     before = snapshot()
     for name, blob in cases.items():
         path = tmp_path / f"{name}.blend"
