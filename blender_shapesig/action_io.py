@@ -24,6 +24,11 @@ its rest pose, in the bone's own rest frame: Blender's ``matrix_basis`` rotation
 * fps: the ``fps`` argument, else the action's ``shapesig_fps`` property (set by write_action), else the scene's.
   Rotation modes without an armature: the action's ``shapesig_rotation_modes`` (set by write_action) first.
 
+Spaces: ``space="pose"`` (default) gives Blender's pose-bone rotations; ``space="armature"`` the same rotations
+expressed in the armature's axes (``to_armature_space``), the space the package compares and blends in.
+``meta["rotation_space"]`` says which; ``write_action`` converts an armature-space clip back to the pose space of
+the armature it writes for.
+
 ``write_action(clip, armature=None, name=None, rotation_modes=None, fake_user=True)`` makes a new action
 (never modifies an existing one; the name gets a ``.001`` suffix when taken) with one LINEAR key per frame
 per channel, through ``keyframe_points.add`` + ``foreach_set``: quaternions sign-continuous, Euler angles
@@ -33,6 +38,7 @@ unwrapped (no ±2π jumps between frames), one F-curve group per bone; a slot an
 import hashlib
 import math
 import re
+from dataclasses import replace
 
 import bpy
 import numpy as np
@@ -41,7 +47,10 @@ from . import compat
 from .core.clip import STILL_TOLERANCE, Clip
 from .core.errors import ShapeSigError
 
-__all__ = ["read_action", "write_action", "action_hash", "armature_actions", "EULER_MODES"]
+__all__ = ["read_action", "write_action", "action_hash", "armature_actions", "to_armature_space", "to_pose_space",
+           "EULER_MODES", "SPACES"]
+
+SPACES = ("pose", "armature")
 
 EULER_MODES = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
 ROTATION_MODES = EULER_MODES + ("QUATERNION", "AXIS_ANGLE")
@@ -340,13 +349,18 @@ def still_bones(R, names, tolerance=STILL_TOLERANCE):
 
 
 def read_action(action, armature=None, bones=None, frame_range=None, exclude_unkeyed=False,
-                rotation_modes=None, slot=None, fps=None, name=None) -> Clip:
+                rotation_modes=None, slot=None, fps=None, name=None, space="pose") -> Clip:
     """The action as a Clip (see the module docstring). ``armature``: an armature object (bone order, rotation
     modes, root bone); ``bones``: names to read, in that order; ``slot``: the action slot to read (4.4+; default:
     the armature's slot when it uses this action, else the first slot with F-curves); ``fps``: default the
-    scene's."""
+    scene's. ``space``: "pose" (Blender's pose-bone rotations) or "armature" (the same rotations in the
+    armature's axes, ``B R B^T``; needs the armature; see ``to_armature_space``)."""
     if action is None:
         raise ShapeSigError("no action given")
+    if space not in SPACES:
+        raise ShapeSigError(f"space must be one of {', '.join(SPACES)}, got {space!r}")
+    if space == "armature" and armature is None:
+        raise ShapeSigError(f"reading action {action.name!r} in armature space needs its armature")
     if armature is not None and getattr(armature, "type", None) != "ARMATURE":
         raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} is not an armature object")
     if slot is None and armature is not None and getattr(armature.animation_data, "action", None) == action:
@@ -462,7 +476,61 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         # armature-space rest orientation of each bone: world-aligned local rotation = B R B^T
         clip.meta["rest_rotations"] = np.array(
             [np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in names], dtype=np.float64)
+    clip.meta["rotation_space"] = "pose"
+    if space == "armature":
+        clip = to_armature_space(clip, armature)
     return clip
+
+
+def _rest_frames(bones, armature):
+    """(B, heads): armature-space rest orientation (bones, 3, 3) and head (bones, 3) of each named bone."""
+    missing = [b for b in bones if b not in armature.data.bones]
+    if missing:
+        raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
+    B = np.array([np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in bones], dtype=np.float64)
+    heads = np.array([np.array(armature.data.bones[b].head_local) for b in bones], dtype=np.float64)
+    return B, heads
+
+
+def to_armature_space(clip: Clip, armature) -> Clip:
+    """Pose-bone rotations P (each bone's rest frame) -> the same rotations in the armature's axes,
+    X = B P B^T with B the bone's rest orientation; the root translation becomes the root bone's head
+    position in armature space, head + B loc.
+
+    This is the space the package compares and blends clips in: it does not depend on bone rolls, so rigs
+    with other roll conventions, BVH and ASF/AMC imports of the same take, and folder clips
+    (``core.acclaim.load_acclaim(..., axes="blender")``) all agree. d_P*, d_S* and tensor-basis signatures
+    of one rig are unchanged by it (a constant rotation per joint); Lyndon coordinates change slightly.
+    """
+    if clip.meta.get("rotation_space", "pose") != "pose":
+        raise ShapeSigError(f"clip {clip.name!r} is not in pose space")
+    B, heads = _rest_frames(clip.bones, armature)
+    X = B[None] @ clip.rotations @ np.swapaxes(B, -1, -2)[None]
+    rt = clip.root_translation
+    if rt is not None and clip.root_bone in armature.data.bones:
+        Br, hr = _rest_frames([clip.root_bone], armature)
+        rt = hr[0] + rt @ Br[0].T
+    meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
+    return replace(clip, rotations=X, root_translation=rt, meta=meta)
+
+
+def to_pose_space(clip: Clip, armature) -> Clip:
+    """The inverse of ``to_armature_space`` for ``armature``'s bones: P = B^T X B, loc = B^T (x - head)."""
+    if clip.meta.get("rotation_space") != "armature":
+        raise ShapeSigError(f"clip {clip.name!r} is not in armature space")
+    B, _heads = _rest_frames(clip.bones, armature)
+    P = np.swapaxes(B, -1, -2)[None] @ clip.rotations @ B[None]
+    rt = clip.root_translation
+    if rt is not None:
+        root = clip.root_bone if clip.root_bone in armature.data.bones else None
+        if root is None:
+            rt = None
+        else:
+            Br, hr = _rest_frames([root], armature)
+            rt = (rt - hr[0]) @ Br[0]
+    meta = dict(clip.meta, rotation_space="pose")
+    meta.pop("up_axis", None)
+    return replace(clip, rotations=P, root_translation=rt, meta=meta)
 
 
 # ----------------------------------------------------------------------------------------- writing
@@ -521,6 +589,12 @@ def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake
         raise ShapeSigError("write_action needs a Clip")
     if armature is not None and getattr(armature, "type", None) != "ARMATURE":
         raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} is not an armature object")
+    space = clip.meta.get("rotation_space", "pose")
+    if space == "armature":
+        if armature is None:
+            raise ShapeSigError(f"clip {clip.name!r} is in armature space: writing it needs the target armature")
+        clip = to_pose_space(clip, armature)
+    # any other space is written as it is: its rotations become the pose-bone rotations
     override = _modes_lookup(rotation_modes, clip.bones)
     clip_modes = dict(zip(clip.bones, clip.rotation_modes)) if clip.rotation_modes else {}
     modes = []

@@ -1,9 +1,16 @@
 """Load clips from files (a CLIP argument of the command line, folder libraries, operators).
 
-``load_clips(spec, asf=None, fps=None) -> list[Clip]``:
+``load_clips(spec, asf=None, fps=None, space="armature") -> list[Clip]``:
 
-* ``FILE.amc``: ``core.acclaim.load_acclaim`` (skeleton: ``asf``, else the only .asf beside the .amc).
-  Rotations are ASF-world-aligned local rotations (see core/acclaim.py), 120 fps.
+Space: by default every clip comes in the package's comparison space, each bone's rotation relative to its
+rest pose expressed in Blender's armature axes (``action_io.to_armature_space``; ``meta["rotation_space"] ==
+"armature"``), so an .amc loaded here, the same take imported with ``shapesig.import_acclaim`` and read from
+the file, and its BVH conversion are comparable. ``space="native"`` keeps what the source gives: ASF axes for
+.amc, pose-bone rotations for .bvh and .blend. An action in a .blend with no armature that has its bones is
+read in pose space (``meta["rotation_space"] == "pose"``).
+
+* ``FILE.amc``: ``core.acclaim.load_acclaim`` (skeleton: ``asf``, else the only .asf beside the .amc), 120 fps;
+  in Blender axes (Z up, meters) unless ``space="native"``.
 * ``FILE.bvh``: Blender's own BVH importer (``bpy.ops.import_anim.bvh``, rotate_mode 'NATIVE', default axis
   conversion: BVH Y up / -Z forward -> Blender Z up, scale 1) into a temporary scene that is removed with
   the imported armature and action afterwards; read with ``action_io.read_action`` (pose-bone rotations in
@@ -42,7 +49,12 @@ def split_spec(spec):
     return spec, None
 
 
-def load_clips(spec, asf=None, fps=None):
+SPACES = ("armature", "native")
+
+
+def load_clips(spec, asf=None, fps=None, space="armature"):
+    if space not in SPACES:
+        raise ShapeSigError(f"space must be one of {', '.join(SPACES)}, got {space!r}")
     path, action_name = split_spec(spec)
     ext = os.path.splitext(path)[1].lower()
     if ext not in EXTENSIONS:
@@ -51,11 +63,11 @@ def load_clips(spec, asf=None, fps=None):
     if not os.path.isfile(path):
         raise ParseError("no such file", path)
     if ext == ".amc":
-        clips = [load_acclaim(path, asf)]
+        clips = [load_acclaim(path, asf, axes="blender" if space == "armature" else "asf")]
     elif ext == ".bvh":
-        clips = [import_bvh(path)]
+        clips = [import_bvh(path, space=space)]
     else:
-        clips = _load_blend(path, action_name)
+        clips = _load_blend(path, action_name, space=space)
     if fps is not None:
         for c in clips:
             c.fps = float(fps)
@@ -236,7 +248,7 @@ def _remove_new_ids(before):
             bpy.data.scenes.remove(sc)
 
 
-def import_bvh(path, name=None):
+def import_bvh(path, name=None, space="armature"):
     """One BVH file as a Clip through Blender's importer, leaving the file as it was."""
     path = os.fspath(path)
     if not os.path.isfile(path):
@@ -252,13 +264,13 @@ def import_bvh(path, name=None):
             copy = os.path.join(tmp, os.path.basename(path))
             with open(copy, "w", encoding="utf-8", newline="") as fh:
                 fh.write(text)
-            clip = _import_checked_bvh(copy, frame_time, name, shown=path)
+            clip = _import_checked_bvh(copy, frame_time, name, shown=path, space=space)
         clip.source = path
         return clip
-    return _import_checked_bvh(path, frame_time, name)
+    return _import_checked_bvh(path, frame_time, name, space=space)
 
 
-def _import_checked_bvh(path, frame_time, name=None, shown=None):
+def _import_checked_bvh(path, frame_time, name=None, shown=None, space="armature"):
     shown = shown or path
     before = _id_snapshot()
     window = getattr(bpy.context, "window", None)
@@ -290,7 +302,8 @@ def _import_checked_bvh(path, frame_time, name=None, shown=None):
         if abs(fps - round(fps)) < 1e-3:
             fps = float(round(fps))  # "Frame Time: 0.00833333" means 120 fps
         clip = action_io.read_action(arm.animation_data.action, armature=arm, fps=fps,
-                                     name=name or os.path.splitext(os.path.basename(path))[0])
+                                     name=name or os.path.splitext(os.path.basename(path))[0],
+                                     space="armature" if space == "armature" else "pose")
         clip.source = path
         clip.meta["format"] = "bvh"
         return clip
@@ -433,7 +446,7 @@ def check_blend(path):
         reader.close()
 
 
-def _load_blend(path, action_name):
+def _load_blend(path, action_name, space="armature"):
     check_blend(path)
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
@@ -464,7 +477,8 @@ def _load_blend(path, action_name):
                 continue
             arm = _best_armature(action, armatures)
             clip = action_io.read_action(action, armature=arm, name=want,
-                                         bones=None if arm is None else _animated_bones(action, arm))
+                                         bones=None if arm is None else _animated_bones(action, arm),
+                                         space="armature" if (space == "armature" and arm is not None) else "pose")
             clip.source = f"{path}#{want}"
             clip.meta["format"] = "blend"
             clips.append(clip)

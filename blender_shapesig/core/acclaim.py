@@ -25,7 +25,7 @@ Conventions (all in the ASF's world: right-handed, Y up):
 
 import os
 import pathlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Dict, List, Optional, Tuple
 
 import numpy as np
@@ -36,7 +36,7 @@ from .errors import ParseError
 
 __all__ = [
     "Bone", "Skeleton", "Motion",
-    "parse_asf", "parse_amc", "load_acclaim", "find_asf",
+    "parse_asf", "parse_amc", "load_acclaim", "find_asf", "to_blender_axes", "ASF_TO_BLENDER",
     "euler_matrices", "forward_kinematics",
 ]
 
@@ -634,13 +634,41 @@ def find_asf(amc_path) -> str:
     return os.path.join(folder, candidates[0])
 
 
-def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton] = None) -> Clip:
+# ASF/AMC worlds are Y up; Blender's is Z up: (x, y, z) -> (x, -z, y), the same map Blender's BVH importer uses.
+ASF_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+def to_blender_axes(clip: Clip, scale: float = 1.0) -> Clip:
+    """An Acclaim clip in ASF axes re-expressed in Blender's armature axes (Z up, meters times ``scale``).
+
+    Rotations become ``A L A^T`` (A = ASF_TO_BLENDER) and the root translation ``s A T`` with
+    ``s = meters_per_unit * scale``. This is exactly what ``action_io.read_action(..., space="armature")``
+    returns for the same take imported with ``shapesig.import_acclaim`` (at the same scale), so clips
+    loaded from files and actions in a .blend are compared in one space.
+    """
+    if clip.meta.get("rotation_space") != "asf":
+        raise ParseError(f"clip {clip.name!r} is not in ASF axes")
+    A = ASF_TO_BLENDER
+    R = A[None, None] @ clip.rotations @ A.T[None, None]
+    rt = None
+    if clip.root_translation is not None:
+        rt = float(clip.meta.get("meters_per_unit", 1.0)) * float(scale) * (clip.root_translation @ A.T)
+    meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
+    return replace(clip, rotations=R, root_translation=rt, meta=meta)
+
+
+def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton] = None, axes: str = "asf",
+                 scale: float = 1.0) -> Clip:
     """An AMC take as a Clip of local rotations ``L = C M C^-1`` (world-aligned, ASF Y-up axes) for
     every skeleton bone (root first; bones without dofs are the identity), 120 fps (the CMU rate),
     ``frame_start`` the first AMC frame number, ``root_translation`` the root position in ASF units.
 
     ``asf_path`` None: the only .asf beside the .amc. ``skeleton``: an already parsed ASF (skips parsing).
+    ``axes="blender"``: the clip in Blender's armature axes (see ``to_blender_axes``; ``scale`` applies
+    there), the space every Blender-side reader compares in.
     """
+    if axes not in ("asf", "blender"):
+        raise ParseError(f"axes must be 'asf' or 'blender', got {axes!r}")
     amc_path = os.fspath(amc_path)
     if not os.path.isfile(amc_path):
         raise ParseError("no such AMC file", amc_path)
@@ -652,7 +680,7 @@ def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton
     modes = tuple(
         skeleton.root_axis if n == "root" else b.rotation_order for n, b in skeleton.bones.items()
     )
-    return Clip(
+    clip = Clip(
         name=name or pathlib.Path(amc_path).stem,
         bones=skeleton.bone_names,
         rotations=motion.local_rotations(),
@@ -668,6 +696,9 @@ def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton
             "length_unit": skeleton.length_unit,
             "meters_per_unit": skeleton.meters_per_unit,
             "frame_numbers": motion.frame_numbers,
-            "rotation_space": "world-aligned (C M C^-1, ASF Y-up axes)",
+            # world-aligned local rotations C M C^-1 in the ASF's Y-up axes
+            "rotation_space": "asf",
+            "up_axis": "Y",
         },
     )
+    return to_blender_axes(clip, scale) if axes == "blender" else clip

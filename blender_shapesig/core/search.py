@@ -72,7 +72,7 @@ EXACT_POOL = 64
 # Warn when the shared bones cover less than this fraction of the query's moving bones.
 FEW_SHARED = 0.5
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2  # 2: clips in armature space (Blender axes), see action_io.to_armature_space
 CACHE_ENV = "SHAPESIG_CACHE_DIR"
 CLIP_EXTENSIONS = (".bvh", ".amc", ".blend")
 _MASK64 = (1 << 64) - 1
@@ -177,7 +177,8 @@ def _default_load(path, asf=None):
     if path.lower().endswith(".amc"):
         from .acclaim import load_acclaim
 
-        return load_acclaim(path, asf)
+        # Blender's armature axes, the space the Blender layer reads actions in (comparable with them)
+        return load_acclaim(path, asf, axes="blender")
     raise ShapeSigError(f"{path}: reading {os.path.splitext(path)[1]} files needs Blender (pass load=)")
 
 

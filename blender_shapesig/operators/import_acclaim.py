@@ -26,13 +26,13 @@ from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProper
 from bpy_extras.io_utils import ImportHelper
 
 from .. import action_io, compat
-from ..core.acclaim import find_asf, parse_amc, parse_asf
+from ..core.acclaim import ASF_TO_BLENDER, find_asf, parse_amc, parse_asf, to_blender_axes
 from ..core.clip import Clip
 from ..core.errors import ShapeSigError
 
 __all__ = ["SHAPESIG_OT_import_acclaim", "import_acclaim", "clip_to_pose", "AXIS_CONVERSION", "classes"]
 
-AXIS_CONVERSION = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # ASF Y up -> Blender Z up
+AXIS_CONVERSION = ASF_TO_BLENDER  # ASF Y up -> Blender Z up
 
 
 def _unit(v):
@@ -100,32 +100,18 @@ def pose_clip(motion, rest_rotations, name, scale=1.0, frame_step=1, fps=120.0, 
 
 
 def clip_to_pose(clip, armature):
-    """A core Acclaim clip (``core.acclaim.load_acclaim``: world-aligned ``L = C M C^-1`` in ASF Y-up axes,
-    root translation in ASF units), or anything computed from such clips (e.g. a blend), converted to the
-    pose-bone rotations and root location of an armature made by this importer: ``P = B^T A L A^T B`` and
-    ``loc = B_root^T (s A T - rest head)``. Bones the armature lacks raise ShapeSigError."""
+    """A core Acclaim clip (``core.acclaim.load_acclaim``: ``L = C M C^-1`` in ASF Y-up axes, root translation
+    in ASF units, or the same already in Blender axes), or anything computed from such clips (e.g. a blend),
+    converted to the pose-bone rotations and root location of an armature made by this importer
+    (``P = B^T A L A^T B``, ``loc = B_root^T (s A T - rest head)``). Bones the armature lacks raise
+    ShapeSigError."""
     props = armature.data.get("shapesig_acclaim") if armature is not None else None
     if props is None:
         raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} was not made by the Acclaim importer")
-    missing = [b for b in clip.bones if b not in armature.data.bones]
-    if missing:
-        raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
-    A = AXIS_CONVERSION
-    B = np.array([np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in clip.bones])
-    K = np.swapaxes(B, -1, -2) @ A[None]  # B^T A
-    P = K[None] @ clip.rotations @ np.swapaxes(K, -1, -2)[None]
-    loc = None
-    root = clip.root_bone if clip.root_bone in armature.data.bones else None
-    if clip.root_translation is not None and root is not None:
-        s = float(props["units_to_blender"])
-        bone = armature.data.bones[root]
-        Br = np.array(bone.matrix_local.to_3x3())
-        loc = (s * clip.root_translation @ A.T - np.array(bone.head_local)) @ Br
-    from dataclasses import replace
-
-    meta = dict(clip.meta)
-    meta["rotation_space"] = "pose"
-    return replace(clip, rotations=P, root_translation=loc, root_bone=root, meta=meta)
+    if clip.meta.get("rotation_space") == "asf":
+        scale = float(props["units_to_blender"]) / float(clip.meta.get("meters_per_unit", 1.0))
+        clip = to_blender_axes(clip, scale)
+    return action_io.to_pose_space(clip, armature)
 
 
 def _build_armature(context, skeleton, name, scale):

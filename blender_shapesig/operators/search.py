@@ -23,6 +23,8 @@ import fnmatch
 import hashlib
 import os
 
+import numpy as np
+
 import bpy
 from bpy.props import BoolProperty
 
@@ -82,6 +84,9 @@ def _armature_digest(obj):
     h = hashlib.sha1()
     for pb in obj.pose.bones:
         h.update(f"{pb.name}\x1f{pb.rotation_mode}\x1e".encode())
+        # the rest orientation: armature-space rotations (what the index stores) depend on it
+        rest = np.array(pb.bone.matrix_local.to_3x3(), dtype=np.float64)
+        h.update(np.round(rest, 9).tobytes())
     return h.hexdigest()[:16]
 
 
@@ -98,11 +103,13 @@ def _cropped_range(action, crop_start):
 def _action_item(action, obj, frame_range=None):
     from .. import action_io
 
-    key = f"action:{action_io.action_hash(action)}|arm:{_armature_digest(obj)}|range:{frame_range}"
+    key = f"action:{action_io.action_hash(action)}|arm:{_armature_digest(obj)}|range:{frame_range}|space:armature"
     name = action.name
 
     def load(action=action, obj=obj, frame_range=frame_range, name=name):
-        return action_io.read_action(action, armature=obj, frame_range=frame_range, name=name)
+        # armature space: comparable with folder clips and with actions of rigs with other bone rolls
+        return action_io.read_action(action, armature=obj, frame_range=frame_range, name=name,
+                                     space="armature" if obj is not None else "pose")
 
     return search.LibraryItem(name, key, load, source=action.name)
 

@@ -52,9 +52,15 @@ def _bvh_local_rotations(path):
 
 
 def test_amc_equals_core(empty_file):
-    (clip,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    (native,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf", space="native")
     core = load_acclaim(ACC / "09_02.amc", ACC / "09-run.asf")
-    np.testing.assert_array_equal(clip.rotations, core.rotations)
+    np.testing.assert_array_equal(native.rotations, core.rotations)
+    # default: Blender armature axes, A L A^T and s A T
+    (clip,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    assert clip.meta["rotation_space"] == "armature"
+    np.testing.assert_allclose(clip.rotations, A[None, None] @ core.rotations @ A.T[None, None], atol=1e-14)
+    s = core.meta["meters_per_unit"]
+    np.testing.assert_allclose(clip.root_translation, s * core.root_translation @ A.T, atol=1e-12)
     (c60,) = clips.load_clips(str(ACC / "09_02.amc"), asf=str(ACC / "09-run.asf"), fps=60)
     assert c60.fps == 60.0
 
@@ -62,7 +68,7 @@ def test_amc_equals_core(empty_file):
 def test_bvh_through_blender_importer(empty_file, capsys):
     scene = bpy.context.scene
     before = _all_ids()
-    (clip,) = clips.load_clips(DATA / "bvh" / "09_02.bvh")
+    (clip,) = clips.load_clips(DATA / "bvh" / "09_02.bvh", space="native")
     assert _all_ids() == before and bpy.context.scene == scene  # nothing left behind
     assert capsys.readouterr().out == ""  # the importer's progress prints are swallowed (CLI --json)
     assert clip.name == "09_02" and clip.frames == 131 and clip.fps == 120.0 and clip.frame_start == 1
@@ -76,6 +82,10 @@ def test_bvh_through_blender_importer(empty_file, capsys):
         np.testing.assert_allclose(aligned[:, j], A @ truth[name] @ A.T, atol=1e-5, err_msg=name)
     # the first (rest) frame can be cropped off
     assert clip.crop(2).frames == 130
+    # the default, armature space, is exactly that aligned form: the file's rotations in Blender axes
+    (arm,) = clips.load_clips(DATA / "bvh" / "09_02.bvh")
+    assert arm.meta["rotation_space"] == "armature" and arm.meta["up_axis"] == "Z"
+    np.testing.assert_allclose(arm.rotations, aligned, atol=1e-12)
 
 
 def _save_blend(path, walk):
@@ -121,7 +131,7 @@ def test_blend_file_and_single_action(empty_file, tmp_path, capsys):
     _save_blend(path, walk)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     before = _all_ids()
-    got = clips.load_clips(path)
+    got = clips.load_clips(path, space="native")
     assert _all_ids() == before
     assert sorted(c.name for c in got) == ["keyed", "walk_a", "walk_b"]
     by_name = {c.name: c for c in got}
@@ -135,6 +145,11 @@ def test_blend_file_and_single_action(empty_file, tmp_path, capsys):
                                atol=1e-6)
     (one,) = clips.load_clips(f"{path}#walk_b")
     assert one.name == "walk_b" and one.frames == 50
+    # armature space (the default) with the file's armature: B P B^T, back to pose by write_action
+    assert one.meta["rotation_space"] == "armature"
+    B = by_name["walk_b"].meta["rest_rotations"]
+    np.testing.assert_allclose(one.rotations, B[None] @ by_name["walk_b"].rotations @ np.swapaxes(B, -1, -2)[None],
+                               atol=1e-12)
     assert _all_ids() == before
     with pytest.raises(ParseError, match="no action 'nope' in the file"):
         clips.load_clips(f"{path}#nope")
@@ -192,3 +207,25 @@ def test_importer_failure_is_one_line_and_silent(empty_file, tmp_path, capfd):
     assert "\n" not in msg and "rot.bvh" in msg and "BVH importer failed" in msg, msg
     assert out == "" and "Traceback" not in errout, (out, errout)
     assert _all_ids() == before
+
+
+def test_imported_and_folder_amc_agree_in_armature_space(empty_file):
+    """The same take through the importer (read back from the action) and through load_clips: one space."""
+    bpy.ops.shapesig.import_acclaim(filepath=str(ACC / "09_02.amc"), asf_path=str(ACC / "09-run.asf"))
+    obj = bpy.context.view_layer.objects.active
+    action = obj.animation_data.action
+    from_file = action_io.read_action(action, armature=obj, space="armature")
+    (from_folder,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    assert from_file.bones == from_folder.bones
+    np.testing.assert_allclose(from_file.rotations, from_folder.rotations, atol=5e-6)  # float32 keys
+    np.testing.assert_allclose(from_file.root_translation, from_folder.root_translation, atol=1e-5)
+    # while their pose-space rotations differ by each bone's rest orientation (the defect this prevents)
+    pose = action_io.read_action(action, armature=obj)
+    assert np.max(np.abs(pose.rotations - from_folder.rotations)) > 0.1
+    # and the signature distance between the two readings is ~0
+    from blender_shapesig.core.metrics import clip_distance
+
+    assert clip_distance(from_file, from_folder, "sim", level=3) < 1e-4
+    # write back: an armature-space clip is converted to this armature's pose space
+    again = action_io.write_action(from_folder, armature=obj, name="again")
+    np.testing.assert_allclose(action_io.read_action(again, armature=obj).rotations, pose.rotations, atol=5e-6)

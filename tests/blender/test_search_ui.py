@@ -71,7 +71,7 @@ def _cache():
 def _read(name, arm):
     act = bpy.data.actions[name]
     first, last = (int(round(v)) for v in act.frame_range)
-    return action_io.read_action(act, armature=arm, frame_range=(2, last))
+    return action_io.read_action(act, armature=arm, frame_range=(2, last), space="armature")
 
 
 def _results():

@@ -290,7 +290,8 @@ def test_folder_library_keys_follow_file_contents(data_dir, tmp_path):
     cache_dir = tmp_path / "cache"
     items = search.folder_library(tmp_path, asf=str(tmp_path / "07-walk.asf"))
     assert [it.name for it in items] == ["07_01", "07_02"]
-    q = load_acclaim(str(src / "07_01.amc"), str(src / "07-walk.asf"))
+    # folder .amc clips are read in Blender's armature axes: so must the query be
+    q = load_acclaim(str(src / "07_01.amc"), str(src / "07-walk.asf"), axes="blender")
     first = search.rank_clips(q, items, cache=search.SignatureCache(cache_dir))
     assert first[0].name == "07_01" and first[0].distance == pytest.approx(0.0, abs=1e-6)
     again = search.rank_clips(q, search.folder_library(tmp_path, asf=str(tmp_path / "07-walk.asf")),
