@@ -2,7 +2,7 @@
 """Fuzz the motion readers with mutated real files (issue 10).
 
     .venv/bin/python tools/fuzz_readers.py --cases 2000 --seed 1
-    .venv/bin/python tools/fuzz_readers.py --cases 300 --seed 7 --targets bvh,blend --batch 50
+    .venv/bin/python tools/fuzz_readers.py --cases 300 --seed 7 --targets bvh,blend --batch 50 --keep /tmp/fails
 
 Each case takes a real CMU file from ``tests/data`` (ASF, AMC, BVH, or a .blend written from an AMC take),
 applies one mutation (``KINDS``: truncation, garbage bytes, dropped / repeated / swapped lines, wrong
@@ -21,7 +21,8 @@ translation) or in one of our errors (``ShapeSigError``: ``ParseError`` / ``Curv
 one line; for the operator, when it finishes with finite F-curves or cancels with one ``ERROR`` report and
 leaves ``bpy.data`` as it was. Mutations that keep the file valid (``PRESERVING``: CRLF, BOM, tabs, a latin-1
 comment, ...) must give the same rotations as the original. Anything else (another exception, a multi-line
-message, NaN, a different result, a hang, a crash) is a failure: listed at the end, exit code 1.
+message, NaN, a different result, a hang, a crash) is a failure: listed at the end, exit code 1; ``--keep DIR``
+copies the failing cases' files into DIR.
 
 The mutators (``mutate``) and the checks (``check_clip``, ``read_acclaim_case``) are also used by the
 bounded fuzz tests in ``tests/core/test_fuzz_readers.py`` and ``tests/blender/test_robustness.py``.
@@ -557,7 +558,7 @@ def run_batches(target, cases, tmp, batch, timeout, log):
         if rest:  # the worker stopped early: the next case crashed or hung it
             culprit = rest[0]
             what = "hang (worker killed after the batch timeout)" if status == "timeout" else \
-                f"worker died (exit {status}) {' '.join(err)[:200]}"
+                f"worker died (exit {status}{', SIGSEGV' if status == -11 else ''}) {' '.join(err)[:200]}".rstrip()
             results[culprit["id"]] = ("FAIL", what)
             log(f"  {target} case {culprit['id']} ({culprit['kind']}): {what}")
             pending = rest[1:] + pending[batch:]
@@ -608,6 +609,7 @@ def main(argv=None):
                    help="share of the cases per target")
     p.add_argument("--worker", nargs=3, metavar=("TARGET", "CASES", "RESULTS"), help=argparse.SUPPRESS)
     p.add_argument("--json", action="store_true", help="also print the summary as one JSON object")
+    p.add_argument("--keep", metavar="DIR", help="copy the files of failing cases into DIR (to reproduce them)")
     args = p.parse_args(argv)
     if args.worker:
         _worker(*args.worker)
@@ -637,6 +639,13 @@ def main(argv=None):
     def log(msg):
         print(msg, file=sys.stderr, flush=True)
 
+    def keep(path, name):
+        if args.keep:
+            import shutil
+
+            os.makedirs(args.keep, exist_ok=True)
+            shutil.copyfile(path, os.path.join(args.keep, name))
+
     with tempfile.TemporaryDirectory(prefix="shapesig_fuzz_") as tmp:
         if counts.get("acclaim"):
             folder = os.path.join(tmp, "acclaim")
@@ -647,6 +656,8 @@ def main(argv=None):
                 rows.append(("acclaim", kind, outcome, detail, src))
                 if outcome == "FAIL":
                     log(f"  acclaim {kind} {src}: {detail}")
+                    keep(os.path.join(folder, "skel.asf"), f"acclaim-{i}-{kind}.asf")
+                    keep(os.path.join(folder, "take.amc"), f"acclaim-{i}-{kind}.amc")
         for target in ("bvh", "blend", "import_op"):
             n = counts.get(target, 0)
             if not n:
@@ -692,6 +703,11 @@ def main(argv=None):
             results = run_batches(target, cases, tmp, args.batch, args.timeout, log)
             for c in cases:
                 outcome, detail = results[c["id"]]
+                if outcome == "FAIL":
+                    ext = os.path.splitext(c["path"])[1]
+                    keep(c["path"], f"{c['id']}-{c['kind']}{ext}")
+                    if target == "import_op":
+                        keep(c["asf"], f"{c['id']}-{c['kind']}.asf")
                 rows.append((target, c["kind"], outcome, detail, c["source"]))
                 if outcome == "FAIL" and "worker died" not in detail and "hang" not in detail:
                     log(f"  {target} {c['kind']} {c['source']}: {detail}")
