@@ -283,3 +283,22 @@ def test_corrupt_bvh_and_blend_end_to_end(tmp_path):
         assert len(ours) == 1 and name in ours[0], (name, p.stderr[-800:])
         assert p.stderr.strip().splitlines()[-1] == ours[0]
         assert "Traceback" not in p.stderr
+
+
+def test_rank_cache_corrupt_or_outdated_is_rebuilt(capsys, clips, tmp_path):
+    cache = tmp_path / "cache"
+    args = ["rank", clips["run"], clips["two"], clips["constant"], clips["norot"], "--cache", str(cache)]
+    first = ok_json(capsys, args)
+    files = sorted(cache.glob("*.npz"))
+    assert len(files) >= 3
+    for i, f in enumerate(files):
+        blob = f.read_bytes()
+        f.write_bytes([blob[: len(blob) // 3], b"\x00" * 100, b"PK\x03\x04garbage"][i % 3])
+    again = ok_json(capsys, args)
+    assert again["results"] == first["results"]
+    assert again["cache"]["misses"] >= len(files)  # every damaged entry was recomputed
+    third = ok_json(capsys, args)
+    assert third["results"] == first["results"] and third["cache"]["misses"] == 0  # and written back
+    (cache / "manifest.json").write_text("{not json")
+    fourth = ok_json(capsys, args)
+    assert fourth["results"] == first["results"] and fourth["cache"]["misses"] >= len(files)
