@@ -434,7 +434,17 @@ def check_blend(path):
             if length < 0:
                 raise ParseError(f"corrupt .blend file (block {blocks + 1} has a negative size)", path)
             try:
-                ok = reader.skip(length)
+                if code == b"DNA1" and length < (64 << 20):
+                    sdna = reader.read(length)
+                    ok = len(sdna) == length
+                    if ok:
+                        problem = _sdna_problem(sdna, endian)
+                        if problem:
+                            raise ParseError(f"corrupt .blend file (damaged DNA block: {problem})", path)
+                else:
+                    ok = reader.skip(length)
+            except ParseError:
+                raise
             except Exception:  # noqa: BLE001
                 raise ParseError("damaged compressed data", path) from None
             if not ok:
@@ -446,6 +456,72 @@ def check_blend(path):
         reader.close()
 
 
+def _sdna_problem(data, endian):
+    """Why the DNA1 block (the file's struct definitions: SDNA, NAME, TYPE, TLEN, STRC) is damaged, or None.
+    Blender uses these indices without bounds checks, so a damaged one crashes it."""
+    import struct
+
+    pos = 0
+
+    def take(n):
+        nonlocal pos
+        if n < 0 or pos + n > len(data):
+            raise ValueError("truncated")
+        out = data[pos:pos + n]
+        pos += n
+        return out
+
+    def align():
+        nonlocal pos
+        pos = (pos + 3) & ~3
+
+    def strings(tag):
+        if take(4) != tag:
+            raise ValueError(f"no {tag.decode()} section")
+        (count,) = struct.unpack(endian + "i", take(4))
+        if not 0 <= count <= len(data):
+            raise ValueError(f"bad {tag.decode()} count")
+        out = []
+        for _ in range(count):
+            end = data.find(b"\0", pos)
+            if end < 0:
+                raise ValueError("unterminated name")
+            word = take(end - pos + 1)[:-1]
+            if any(c < 32 or c > 126 for c in word):
+                raise ValueError(f"non-text {tag.decode()} entry")
+            out.append(word)
+        align()
+        return out
+
+    try:
+        if take(4) != b"SDNA":
+            return "no SDNA header"
+        names = strings(b"NAME")
+        types = strings(b"TYPE")
+        if take(4) != b"TLEN":
+            return "no TLEN section"
+        take(2 * len(types))
+        align()
+        if take(4) != b"STRC":
+            return "no STRC section"
+        (count,) = struct.unpack(endian + "i", take(4))
+        if not 0 <= count <= len(types):
+            return "bad struct count"
+        seen = set()
+        for _ in range(count):
+            stype, nfields = struct.unpack(endian + "hh", take(4))
+            if not 0 <= stype < len(types) or stype in seen or nfields < 0:
+                return "bad struct entry"
+            seen.add(stype)
+            fields = struct.unpack(endian + "h" * (2 * nfields), take(4 * nfields))
+            if any(not 0 <= t < len(types) for t in fields[0::2]) or \
+                    any(not 0 <= n < len(names) for n in fields[1::2]):
+                return f"struct {types[stype].decode()} has an out-of-range field"
+    except (ValueError, struct.error) as exc:
+        return str(exc)
+    return None
+
+
 def _load_blend(path, action_name, space="armature"):
     check_blend(path)
     try:
@@ -454,6 +530,8 @@ def _load_blend(path, action_name, space="armature"):
             objects = list(data_from.objects)
     except (OSError, RuntimeError) as exc:
         raise ParseError(f"cannot read .blend file: {str(exc).splitlines()[0] if str(exc) else exc}", path) from None
+    except UnicodeDecodeError:
+        raise ParseError("corrupt .blend file (a name is not valid UTF-8 text)", path) from None
     if action_name is not None and action_name not in available:
         shown = ", ".join(available[:8]) + (" ..." if len(available) > 8 else "")
         raise ParseError(f"no action {action_name!r} in the file (it has: {shown or 'none'})", path)
@@ -489,6 +567,8 @@ def _load_blend(path, action_name, space="armature"):
         if isinstance(exc, ParseError):
             raise
         raise ParseError(str(exc), path) from None
+    except UnicodeDecodeError:
+        raise ParseError("corrupt .blend file (a name is not valid UTF-8 text)", path) from None
     finally:
         _remove_new_ids(before)
 
