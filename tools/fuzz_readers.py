@@ -667,6 +667,8 @@ def main(argv=None):
             if target == "blend":
                 base = os.path.join(tmp, "base.blend")
                 _make_blend(base)
+                if args.keep:
+                    keep(base, "base.blend")
                 sources = [(base, "blend")]
                 kinds = BLEND_KINDS
             elif target == "bvh":

@@ -181,6 +181,11 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
     huge = (1 << 60) if n == 8 else (1 << 31) - 1
     cases["huge_block"] = data[:at] + struct.pack(size_fmt, huge) + data[at + n:]
     cases["negative_block"] = data[:at] + struct.pack(size_fmt, -5) + data[at + n:]
+    # a struct definition in the DNA block pointing at a type that does not exist: Blender would crash
+    strc = data.index(b"STRC", next(b[0] for b in _blocks(data) if b[1] == b"DNA1"))
+    cases["damaged_dna"] = data[:strc + 12] + struct.pack("<h", 32000) + data[strc + 14:]
+    # invalid UTF-8 in names (bone, pose channel, F-curve paths): bpy raises UnicodeDecodeError on them
+    cases["bad_utf8_names"] = data.replace(b"lfemur", b"lfem\xbar")
     before = snapshot()
     for name, blob in cases.items():
         path = tmp_path / f"{name}.blend"
@@ -189,6 +194,8 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
             clips.load_clips(path)
         assert str(info.value).startswith(str(path)) and "\n" not in str(info.value), name
         assert ".blend" in str(info.value) or "compressed" in str(info.value), (name, str(info.value))
+        if name in ("damaged_dna", "bad_utf8_names"):
+            assert {"damaged_dna": "damaged DNA block", "bad_utf8_names": "not valid UTF-8"}[name] in str(info.value)
     assert snapshot() == before
     assert snapshot() == before and [c.name for c in clips.load_clips(compressed)] == ["09_02"]
 
