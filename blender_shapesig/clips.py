@@ -406,17 +406,19 @@ def check_blend(path):
             if head[7:9] != b"17" or head[10:12] != b"01" or head[12:13] not in (b"v", b"V"):
                 return  # a newer layout: Blender decides
             endian = "<" if head[12:13] == b"v" else ">"
-            fmt, code_at, len_at = endian + "4siQqq", 0, 3
+            fmt, code_at, len_at, sdna_at = endian + "4siQqq", 0, 3, 1
             pending = head[17:]
         elif head[7:8] in (b"_", b"-") and head[8:9] in (b"v", b"V"):
             pending = head[12:]
             endian = "<" if head[8:9] == b"v" else ">"
             fmt = endian + ("4siIii" if head[7:8] == b"_" else "4siQii")
-            code_at, len_at = 0, 1
+            code_at, len_at, sdna_at = 0, 1, 3
         else:
             raise ParseError("not a .blend file (unknown header)", path)
         hsize = struct.calcsize(fmt)
         blocks = 0
+        typed = []  # (struct index, size, count, block number) of blocks holding structs
+        struct_sizes = None
         while True:
             try:
                 raw = pending + reader.read(hsize - len(pending))
@@ -428,7 +430,10 @@ def check_blend(path):
             fields = struct.unpack(fmt, raw)
             code, length = fields[code_at], fields[len_at]
             if code == b"ENDB":
+                _check_struct_blocks(typed, struct_sizes, path)
                 return
+            if fields[sdna_at] != 0 and code != b"DNA1":
+                typed.append((fields[sdna_at], length, fields[4], blocks + 1))
             if not code[:1].isalpha() or any(c != 0 and not 32 <= c < 127 for c in code):
                 raise ParseError(f"corrupt .blend file (damaged header of block {blocks + 1})", path)
             if length < 0:
@@ -438,7 +443,7 @@ def check_blend(path):
                     sdna = reader.read(length)
                     ok = len(sdna) == length
                     if ok:
-                        problem = _sdna_problem(sdna, endian)
+                        problem, struct_sizes = _sdna_problem(sdna, endian)
                         if problem:
                             raise ParseError(f"corrupt .blend file (damaged DNA block: {problem})", path)
                 else:
@@ -456,9 +461,24 @@ def check_blend(path):
         reader.close()
 
 
+def _check_struct_blocks(typed, struct_sizes, path):
+    """Every block of structs must name an existing struct definition and hold ``count * size`` bytes:
+    Blender trusts both (a damaged one makes it read outside the block)."""
+    if struct_sizes is None:
+        return
+    for index, length, count, number in typed:
+        if not 0 <= index < len(struct_sizes):
+            raise ParseError(f"corrupt .blend file (block {number} names struct definition {index} of "
+                             f"{len(struct_sizes)})", path)
+        if count < 0 or count * struct_sizes[index] > length:
+            raise ParseError(f"corrupt .blend file (block {number}: {count} structs of "
+                             f"{struct_sizes[index]} bytes in {length} bytes)", path)
+
+
 def _sdna_problem(data, endian):
-    """Why the DNA1 block (the file's struct definitions: SDNA, NAME, TYPE, TLEN, STRC) is damaged, or None.
-    Blender uses these indices without bounds checks, so a damaged one crashes it."""
+    """(why the DNA1 block - the file's struct definitions: SDNA, NAME, TYPE, TLEN, STRC - is damaged or None,
+    the size of each struct definition). Blender uses these indices without bounds checks, so a damaged one
+    crashes it."""
     import struct
 
     pos = 0
@@ -495,31 +515,33 @@ def _sdna_problem(data, endian):
 
     try:
         if take(4) != b"SDNA":
-            return "no SDNA header"
+            return "no SDNA header", None
         names = strings(b"NAME")
         types = strings(b"TYPE")
         if take(4) != b"TLEN":
-            return "no TLEN section"
-        take(2 * len(types))
+            return "no TLEN section", None
+        lengths = struct.unpack(endian + "H" * len(types), take(2 * len(types)))
         align()
         if take(4) != b"STRC":
-            return "no STRC section"
+            return "no STRC section", None
         (count,) = struct.unpack(endian + "i", take(4))
         if not 0 <= count <= len(types):
-            return "bad struct count"
+            return "bad struct count", None
+        sizes = []
         seen = set()
         for _ in range(count):
             stype, nfields = struct.unpack(endian + "hh", take(4))
             if not 0 <= stype < len(types) or stype in seen or nfields < 0:
-                return "bad struct entry"
+                return "bad struct entry", None
             seen.add(stype)
+            sizes.append(lengths[stype])
             fields = struct.unpack(endian + "h" * (2 * nfields), take(4 * nfields))
             if any(not 0 <= t < len(types) for t in fields[0::2]) or \
                     any(not 0 <= n < len(names) for n in fields[1::2]):
-                return f"struct {types[stype].decode()} has an out-of-range field"
+                return f"struct {types[stype].decode()} has an out-of-range field", None
     except (ValueError, struct.error) as exc:
-        return str(exc)
-    return None
+        return str(exc), None
+    return None, sizes
 
 
 def _load_blend(path, action_name, space="armature"):
