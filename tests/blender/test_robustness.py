@@ -147,19 +147,21 @@ def rig(empty_file):
 
 
 def _blocks(data):
-    """(offset, code, offset of the size field, size format) of each block of an uncompressed .blend with
+    """(offset, code, offset of the size field, size format, offset of the struct index, offset of the count,
+    struct index) of each block of an uncompressed .blend with
     8-byte pointers: 4.3+ (BLENDER17-01v0500, 32-byte headers, int64 sizes) or older (BLENDER-v402, 24 bytes,
     int32 sizes)."""
     if data.startswith(b"BLENDER17-01v"):
-        pos, fmt, size_at, size_fmt = 17, "<4siQqq", 16, "<q"
+        pos, fmt, size_at, size_fmt, sdna_at, nr_at = 17, "<4siQqq", 16, "<q", 4, 24
     else:
         assert data.startswith(b"BLENDER-v")
-        pos, fmt, size_at, size_fmt = 12, "<4siQii", 4, "<i"
+        pos, fmt, size_at, size_fmt, sdna_at, nr_at = 12, "<4siQii", 4, "<i", 16, 20
     hsize, out = struct.calcsize(fmt), []
     while True:
         fields = struct.unpack(fmt, data[pos:pos + hsize])
         code, length = fields[0], fields[3] if size_at == 16 else fields[1]
-        out.append((pos, code, pos + size_at, size_fmt))
+        sdna = fields[1] if size_at == 16 else fields[3]
+        out.append((pos, code, pos + size_at, size_fmt, pos + sdna_at, pos + nr_at, sdna))
         if code == b"ENDB":
             return out
         pos += hsize + length
@@ -176,7 +178,7 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
              "garbage": bytes(random.Random(1).randrange(256) for _ in range(5000)),
              "zstd_truncated": compressed.read_bytes()[:20000], "amc": (ACC / "09_02.amc").read_bytes()}
     # a block whose size field is absurd: Blender's reader would abort the process (failed allocation)
-    _pos, _code, at, size_fmt = next(b for b in _blocks(data) if b[1] == b"DATA")
+    _pos, _code, at, size_fmt, _s, _n, _i = next(b for b in _blocks(data) if b[1] == b"DATA")
     n = struct.calcsize(size_fmt)
     huge = (1 << 60) if n == 8 else (1 << 31) - 1
     cases["huge_block"] = data[:at] + struct.pack(size_fmt, huge) + data[at + n:]
@@ -184,6 +186,12 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
     # a struct definition in the DNA block pointing at a type that does not exist: Blender would crash
     strc = data.index(b"STRC", next(b[0] for b in _blocks(data) if b[1] == b"DNA1"))
     cases["damaged_dna"] = data[:strc + 12] + struct.pack("<h", 32000) + data[strc + 14:]
+    # a block of structs naming a struct definition that does not exist, or holding fewer bytes than its count
+    typed = next(b for b in _blocks(data) if b[6] > 0 and b[1] == b"DATA")
+    cases["bad_struct_index"] = data[:typed[4]] + struct.pack("<i", -2 ** 31 + 51) + data[typed[4] + 4:]
+    cnt_fmt = "<q" if typed[3] == "<q" else "<i"
+    cases["short_struct_block"] = (data[:typed[5]] + struct.pack(cnt_fmt, 10 ** 6)
+                                   + data[typed[5] + struct.calcsize(cnt_fmt):])
     # invalid UTF-8 in names (bone, pose channel, F-curve paths): bpy raises UnicodeDecodeError on them
     cases["bad_utf8_names"] = data.replace(b"lfemur", b"lfem\xbar")
     before = snapshot()
@@ -194,8 +202,10 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
             clips.load_clips(path)
         assert str(info.value).startswith(str(path)) and "\n" not in str(info.value), name
         assert ".blend" in str(info.value) or "compressed" in str(info.value), (name, str(info.value))
-        if name in ("damaged_dna", "bad_utf8_names"):
-            assert {"damaged_dna": "damaged DNA block", "bad_utf8_names": "not valid UTF-8"}[name] in str(info.value)
+        expected = {"damaged_dna": "damaged DNA block", "bad_utf8_names": "not valid UTF-8",
+                    "bad_struct_index": "names struct definition", "short_struct_block": "structs of"}
+        if name in expected:
+            assert expected[name] in str(info.value), (name, str(info.value))
     assert snapshot() == before
     assert snapshot() == before and [c.name for c in clips.load_clips(compressed)] == ["09_02"]
 
