@@ -496,6 +496,7 @@ def cmd_evaluate(args):
         workers=args.workers,
         figures=not args.no_figures,
         progress=None if args.no_progress else "tqdm",
+        repeat=args.repeat,
     )
     lines = [f"{summary['clips']} clips; wrote {os.path.join(args.out, 'summary.json')}"]
     for name, row in summary["metrics"].items():
@@ -616,6 +617,8 @@ def build_parser():
     p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--no-figures", action="store_true", help="write only the numbers")
+    p.add_argument("--repeat", type=int, default=1, metavar="N",
+                   help="time every matrix N times and report the shortest (default 1)")
     _add_common(p, crop=False)
     p.set_defaults(func=cmd_evaluate)
     return parser

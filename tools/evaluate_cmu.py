@@ -4,7 +4,8 @@
   .venv/bin/python tools/evaluate_cmu.py --data /work/shared/data/cmu --out out/eval [--docs docs/img]
 
 1. ``evaluate`` on the 27-clip set (tools/eval_sets/cmu27.csv: 12 walks, 12 runs, 3 forward jumps)
-   and on the larger set (tools/eval_sets/cmu_large.csv: + 17 walks, 5 other jumps): leave-one-out
+   and on the larger set (tools/eval_sets/cmu_large.csv: + 17 walks, 5 other jumps), optionally on
+   the ASF/AMC walk/run set (``--sets cmu_amc``, tools/eval_sets/cmu_amc.csv): leave-one-out
    1-NN accuracy, confusion tables and wall time of every metric, with our DP and the plain numpy DP
    baseline in the same run, the signature variants and the two-stage search;
 2. the interpolation experiment (thesis Figs 9.1, 9.2, 9.6): every measure between the SRVT
@@ -34,6 +35,9 @@ from blender_shapesig.core import evaluation as ev  # noqa: E402
 SETS = {
     "cmu27": os.path.join(ROOT, "tools", "eval_sets", "cmu27.csv"),
     "cmu_large": os.path.join(ROOT, "tools", "eval_sets", "cmu_large.csv"),
+    "cmu_amc": os.path.join(ROOT, "tools", "eval_sets", "cmu_amc.csv"),
+    # The 27 clips cropped only by the rest-pose frame: frames 2..6 still hold the converter's ramp.
+    "cmu27_start2": os.path.join(ROOT, "tools", "eval_sets", "cmu27_start2.csv"),
 }
 _SIGNATURE = (
     "group3", "concat3", "linear3", "sim2", "sim3",
@@ -41,13 +45,15 @@ _SIGNATURE = (
 )
 _TWO_STAGE = (
     "sim3+elastic3", "sim3+elastic5", "sim3+elastic10",
-    "sim3_tensor+elastic5", "sim3_tensor+elastic10",
+    "sim3_tensor+elastic5", "sim3_tensor+elastic10", "sim2_tensor+elastic5", "sim2_tensor+elastic10",
     "sim3_levelnorm+elastic5", "sim3_levelnorm+elastic10",
     "group3+elastic5", "group3+elastic10",
 )
 METRICS = {
-    "cmu27": ("l2", "elastic", "elastic_numpy") + _SIGNATURE + ("sim4_levelnorm",) + _TWO_STAGE,
+    "cmu27": ("l2", "elastic", "elastic_numpy") + _SIGNATURE + _TWO_STAGE,
     "cmu_large": ("l2", "elastic", "elastic_numpy") + _SIGNATURE + _TWO_STAGE,
+    "cmu_amc": ("l2", "elastic") + _SIGNATURE + _TWO_STAGE,
+    "cmu27_start2": ("l2", "elastic") + _SIGNATURE + ("sim3+elastic10",),
 }
 
 _CACHE = {}
@@ -66,12 +72,13 @@ def make_loader(data):
     return loader
 
 
-def run_set(name, data, out, metrics, depth, workers):
+def run_set(name, data, out, metrics, depth, workers, repeat=1):
     entries = ev.read_index(SETS[name])
     out_dir = os.path.join(out, name)
     t0 = time.perf_counter()
     summary = ev.evaluate(entries, make_loader(data), metrics, out_dir, depth=depth, workers=workers,
-                          figures=True, progress="tqdm", log=lambda m: print(f"[{name}] {m}", file=sys.stderr))
+                          figures=True, progress="tqdm", log=lambda m: print(f"[{name}] {m}", file=sys.stderr),
+                          repeat=repeat)
     print(f"[{name}] done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return summary
 
@@ -97,6 +104,30 @@ def relabelled(summary, out_dir, mapping, path):
             rows[name] = {"accuracy": ev.loo_1nn(D, labels)[0], "map": ev.mean_average_precision(D, labels)}
     with open(path, "w") as fh:
         json.dump({"mapping": mapping, "metrics": rows}, fh, indent=1)
+    return rows
+
+
+def signature_scale(data, out, set_name="cmu27", level=3):
+    """Per clip: length of the development (total rotation, radians), duration and the norm of every
+    level of the log-signature: what the unnormalized measures (rho, sigma_L, sigma_*) are dominated by."""
+    from blender_shapesig.core import signatures
+    from blender_shapesig.core.clip import restrict_to_shared
+
+    entries = ev.read_index(SETS[set_name])
+    load = make_loader(data)
+    clips = restrict_to_shared(*[load(e).crop(e.start, e.end) for e in entries])
+    d = 3 * len(clips[0].bones)
+    sizes = ev.lyndon_level_sizes(d, level)
+    rows = []
+    for e, c in zip(entries, clips):
+        inc = signatures.development_increments(c.rotations)
+        ls = signatures.log_signature(c.rotations, level)
+        blocks = np.split(ls, np.cumsum(sizes)[:-1])
+        rows.append({"clip": os.path.splitext(os.path.basename(e.file))[0], "label": e.label, "frames": c.frames,
+                     "length": float(np.sum(np.linalg.norm(inc, axis=1))),
+                     "level_norms": [float(np.linalg.norm(b)) for b in blocks]})
+    with open(os.path.join(out, f"signature_scale_{set_name}.json"), "w") as fh:
+        json.dump(rows, fh, indent=1)
     return rows
 
 
@@ -207,6 +238,8 @@ DOC_FIGURES = {
     "eval_large_mds_sim3.png": ("cmu_large", "figures/mds_sim3.png"),
     "eval_large_mds_sim3_levelnorm.png": ("cmu_large", "figures/mds_sim3_levelnorm.png"),
     "eval_large_dendrogram_elastic.png": ("cmu_large", "figures/dendrogram_elastic.png"),
+    "eval_27_mds_sim2_tensor.png": ("cmu27", "figures/mds_sim2_tensor.png"),
+    "eval_27start2_mds_sim3.png": ("cmu27_start2", "figures/mds_sim3.png"),
     "eval_interp_group.png": (None, "interpolation_group_unaligned.png"),
     "eval_interp_logsig.png": (None, "interpolation_logsig_unaligned.png"),
     "eval_interp_sim.png": (None, "interpolation_sim_unaligned.png"),
@@ -226,10 +259,12 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", required=True, help="the shared CMU folder (e.g. /work/shared/data/cmu)")
     p.add_argument("--out", default="out/eval", help="output folder (default out/eval)")
-    p.add_argument("--sets", default="cmu27,cmu_large", help="comma-separated: cmu27, cmu_large")
+    p.add_argument("--sets", default="cmu27,cmu_large,cmu_amc,cmu27_start2",
+                   help="comma-separated: cmu27, cmu_large, cmu_amc, cmu27_start2 (default: all)")
     p.add_argument("--metrics", help="override the metric list (comma-separated) for every set")
     p.add_argument("--depth", type=int, default=9)
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--repeat", type=int, default=3, help="time every matrix N times, keep the shortest (default 3)")
     p.add_argument("--no-interpolation", action="store_true")
     p.add_argument("--docs", help="copy the documentation figures to this folder as eval_*.png")
     args = p.parse_args(argv)
@@ -237,13 +272,16 @@ def main(argv=None):
     results = {}
     for name in [s.strip() for s in args.sets.split(",") if s.strip()]:
         metrics = tuple(args.metrics.split(",")) if args.metrics else METRICS[name]
-        results[name] = run_set(name, args.data, args.out, metrics, args.depth, args.workers)
+        results[name] = run_set(name, args.data, args.out, metrics, args.depth, args.workers, args.repeat)
         if name == "cmu_large":
             merged = relabelled(results[name], os.path.join(args.out, name), {"forward jump": "jump"},
                                 os.path.join(args.out, name, "merged_jumps.json"))
             print(f"== {name} with 'forward jump' and 'jump' merged")
             for metric, row in merged.items():
                 print(f"  {metric:26s} {row['accuracy']:.3f}" + (f"  map {row['map']:.3f}" if "map" in row else ""))
+    for row in ([] if args.no_interpolation else signature_scale(args.data, args.out)):
+        print(f"  {row['clip']} {row['label']:12s} {row['frames']:4d} frames, length {row['length']:7.1f} rad, "
+              f"|log S| by level " + " ".join(f"{v:10.1f}" for v in row["level_norms"]), file=sys.stderr)
     if not args.no_interpolation:
         entries = {os.path.basename(e.file): e for e in ev.read_index(SETS["cmu27"])}
         walk, run = entries["07_01.bvh"], entries["09_02.bvh"]
