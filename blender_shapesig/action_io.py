@@ -474,8 +474,7 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     clip.meta["still_bones"] = still_bones(R, names)
     if armature is not None:
         # armature-space rest orientation of each bone: world-aligned local rotation = B R B^T
-        clip.meta["rest_rotations"] = np.array(
-            [np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in names], dtype=np.float64)
+        clip.meta["rest_rotations"] = _rest_frames(names, armature)[0]
     clip.meta["rotation_space"] = "pose"
     if space == "armature":
         clip = to_armature_space(clip, armature)
@@ -487,9 +486,23 @@ def _rest_frames(bones, armature):
     missing = [b for b in bones if b not in armature.data.bones]
     if missing:
         raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
-    B = np.array([np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in bones], dtype=np.float64)
+    B = nearest_rotations(
+        np.array([np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in bones], dtype=np.float64))
     heads = np.array([np.array(armature.data.bones[b].head_local) for b in bones], dtype=np.float64)
     return B, heads
+
+
+def nearest_rotations(M):
+    """The rotation matrices nearest to (n, 3, 3) matrices ``M`` (polar factor by SVD). Blender stores rest
+    matrices in float32, and those of very short bones are orthogonal only to ~1e-5: B P B^T would then not be
+    a rotation."""
+    U, _, Vt = np.linalg.svd(M)
+    R = U @ Vt
+    flip = np.linalg.det(R) < 0
+    if flip.any():
+        U[flip, :, -1] *= -1
+        R = U @ Vt
+    return R
 
 
 def to_armature_space(clip: Clip, armature) -> Clip:
