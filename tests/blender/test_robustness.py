@@ -502,3 +502,17 @@ def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
     manifest = (library / "manifest.json").read_text()
     assert f'"format": {search.CACHE_FORMAT}' in manifest.replace(" ", "").replace(":", ": ")
+
+
+def test_bvh_tiny_bones_still_give_rotation_matrices(empty_file, tmp_path):
+    """End sites 1e-5 long: Blender's float32 rest matrices of such bones are orthogonal only to ~1e-5;
+    the clip (rotations in armature axes, B P B^T) must still hold rotation matrices."""
+    text = re.sub(rb"(End Site\s*\{\s*OFFSET) [^\n]*", rb"\1 0 0.00001 0.00001", BVH)
+    path = tmp_path / "tiny.bvh"
+    path.write_bytes(text)
+    clip = clips.import_bvh(path)
+    R = clip.rotations
+    assert np.abs(R @ np.swapaxes(R, -1, -2) - np.eye(3)).max() < 1e-9
+    assert np.linalg.det(R).min() > 1 - 1e-9
+    B = clip.meta["rest_rotations"]
+    assert np.abs(B @ np.swapaxes(B, -1, -2) - np.eye(3)).max() < 1e-12
