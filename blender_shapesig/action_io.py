@@ -429,7 +429,12 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         if prop not in chans:
             R[:, j] = np.eye(3)
             continue
-        R[:, j] = matrices_from_channels(mode, _sample_prop(chans, prop, frames, start, co_cache))
+        values = _sample_prop(chans, prop, frames, start, co_cache)
+        if not np.all(np.isfinite(values)):
+            bad = int(frames[np.argmax(~np.all(np.isfinite(values), axis=1))])
+            raise ShapeSigError(f"action {action.name!r}: bone {b!r} has NaN or infinite {prop} values "
+                                f"(first at frame {bad})")
+        R[:, j] = matrices_from_channels(mode, values)
 
     root = None
     if armature is not None:
