@@ -302,3 +302,64 @@ def test_rank_cache_corrupt_or_outdated_is_rebuilt(capsys, clips, tmp_path):
     (cache / "manifest.json").write_text("{not json")
     fourth = ok_json(capsys, args)
     assert fourth["results"] == first["results"] and fourth["cache"]["misses"] >= len(files)
+
+
+@pytest.fixture(scope="module")
+def degenerate_blend(tmp_path_factory):
+    """A .blend with the 09_02 run ('run') and degenerate actions of its armature: 'one' (1 frame), 'nan'
+    (a NaN key), 'const' (60 equal frames), 'loc' (location keys only)."""
+    bpy = pytest.importorskip("bpy")
+    import numpy as np
+
+    import blender_shapesig
+    from blender_shapesig import action_io, compat
+    from blender_shapesig.core.clip import Clip
+
+    try:
+        bpy.ops.shapesig.import_acclaim.get_rna_type()
+    except (AttributeError, KeyError):
+        blender_shapesig.register()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.shapesig.import_acclaim("EXEC_DEFAULT", filepath=str(ACC / "09_02.amc"), asf_path=str(ACC / "09-run.asf"))
+    arm = bpy.context.view_layer.objects.active
+    bpy.data.actions["09_02"].name = "run"
+    src = action_io.read_action(bpy.data.actions["run"], armature=arm, exclude_unkeyed=True)
+    action_io.write_action(src.crop(1, 1), armature=arm, name="one")
+    nan = action_io.write_action(src.crop(1, 40), armature=arm, name="nan")
+    fc = next(f for f in compat.all_action_fcurves(nan) if "rotation" in f.data_path)
+    co = np.empty(2 * len(fc.keyframe_points), dtype=np.float32)
+    fc.keyframe_points.foreach_get("co", co)
+    co[7] = np.nan
+    fc.keyframe_points.foreach_set("co", co)
+    const = Clip(name="const", bones=src.bones, rotations=np.repeat(src.rotations[4:5], 60, axis=0),
+                 rotation_modes=src.rotation_modes)
+    action_io.write_action(const, armature=arm, name="const")
+    loc = bpy.data.actions.new("loc")
+    loc.use_fake_user = True
+    bag, _slot = compat.ensure_channelbag(loc, "OBJECT", name=arm.name)
+    f = compat.new_fcurve(bag, 'pose.bones["root"].location', 0, "root")
+    f.keyframe_points.add(3)
+    f.keyframe_points.foreach_set("co", np.array([1, 0, 2, 1, 3, 0], dtype=np.float32))
+    path = tmp_path_factory.mktemp("blend") / "degenerate.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return str(path)
+
+
+def test_degenerate_actions_in_a_blend_file(capsys, degenerate_blend, tmp_path):
+    b = degenerate_blend
+    assert "'one' has 1 frame" in error_line(capsys, ["distance", f"{b}#one", f"{b}#run", "--metric", "elastic"])
+    assert "NaN or infinite" in error_line(capsys, ["distance", f"{b}#nan", f"{b}#run"])
+    # the whole file: one bad action makes it an error naming that action
+    assert "action 'nan'" in error_line(capsys, ["distance", b, f"{b}#run"])
+    assert "no action 'nope'" in error_line(capsys, ["distance", f"{b}#nope", f"{b}#run"])
+    out = tmp_path / "x.blend"
+    assert "NaN" in error_line(capsys, ["blend", f"{b}#run", f"{b}#nan", "--weight", "0.5", "--out", str(out)])
+    assert not out.exists()
+    for metric in ("sim", "elastic", "l2"):
+        d = ok_json(capsys, ["distance", f"{b}#const", f"{b}#run", "--metric", metric])["distance"]
+        assert d is not None and math.isfinite(d) and d > 0
+    d = ok_json(capsys, ["distance", f"{b}#loc", f"{b}#run", "--metric", "sim"])["distance"]
+    assert d is not None and math.isfinite(d)
+    got = ok_json(capsys, ["blend", f"{b}#run", f"{b}#const", "--weight", "0.5", "--out", str(out)])
+    assert out.exists() and len(got["actions"]) == 1
