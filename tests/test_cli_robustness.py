@@ -309,16 +309,27 @@ def degenerate_blend(tmp_path_factory):
     """A .blend with the 09_02 run ('run') and degenerate actions of its armature: 'one' (1 frame), 'nan'
     (a NaN key), 'const' (60 equal frames), 'loc' (location keys only)."""
     bpy = pytest.importorskip("bpy")
-    import numpy as np
-
     import blender_shapesig
-    from blender_shapesig import action_io, compat
-    from blender_shapesig.core.clip import Clip
 
+    registered_here = False
     try:
         bpy.ops.shapesig.import_acclaim.get_rna_type()
     except (AttributeError, KeyError):
         blender_shapesig.register()
+        registered_here = True  # unregistered below: the Blender tests' session fixture registers it
+    try:
+        return _write_degenerate_blend(bpy, tmp_path_factory)
+    finally:
+        if registered_here:
+            blender_shapesig.unregister()
+
+
+def _write_degenerate_blend(bpy, tmp_path_factory):
+    import numpy as np
+
+    from blender_shapesig import action_io, compat
+    from blender_shapesig.core.clip import Clip
+
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.shapesig.import_acclaim("EXEC_DEFAULT", filepath=str(ACC / "09_02.amc"), asf_path=str(ACC / "09-run.asf"))
     arm = bpy.context.view_layer.objects.active
