@@ -236,7 +236,6 @@ DOC_FIGURES = {
     "eval_27_dendrogram_sim3.png": ("cmu27", "figures/dendrogram_sim3.png"),
     "eval_large_mds_elastic.png": ("cmu_large", "figures/mds_elastic.png"),
     "eval_large_mds_sim3.png": ("cmu_large", "figures/mds_sim3.png"),
-    "eval_large_mds_sim3_levelnorm.png": ("cmu_large", "figures/mds_sim3_levelnorm.png"),
     "eval_large_dendrogram_elastic.png": ("cmu_large", "figures/dendrogram_elastic.png"),
     "eval_27_mds_sim2_tensor.png": ("cmu27", "figures/mds_sim2_tensor.png"),
     "eval_27start2_mds_sim3.png": ("cmu27_start2", "figures/mds_sim3.png"),
