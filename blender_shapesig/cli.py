@@ -148,7 +148,8 @@ def load_clip_spec(spec, asf=None):
         # Pure Python: no bpy for Acclaim files.
         from .core.acclaim import load_acclaim
 
-        clip = load_acclaim(path, find_asf(path, asf))
+        # Blender's armature axes: the space clips.load_clips gives every format (comparable with .bvh/.blend).
+        clip = load_acclaim(path, find_asf(path, asf), axes="blender")
         return [clip]
     from .clips import load_clips  # the Blender layer (imports bpy lazily)
 
@@ -406,6 +407,9 @@ def cmd_blend(args):
     finally:
         bar.close()
     for clip, w in zip(blended, weights):
+        # The blend lives in A's rotation space (pose or armature axes); write_action converts by it.
+        if "rotation_space" in a.meta:
+            clip.meta.setdefault("rotation_space", a.meta["rotation_space"])
         if args.name:
             clip.name = args.name if len(weights) == 1 else f"{args.name}_{w:.2f}"
         else:

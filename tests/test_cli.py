@@ -43,7 +43,7 @@ def amc(tmp_path_factory):
 def _clip(path):
     folder = os.path.dirname(path)
     asf = [f for f in os.listdir(folder) if f.endswith(".asf")][0]
-    return load_acclaim(path, os.path.join(folder, asf))
+    return load_acclaim(path, os.path.join(folder, asf), axes="blender")
 
 
 def run_json(capsys, args):
