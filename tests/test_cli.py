@@ -307,3 +307,19 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     # The file carries an armature with the clip's bones.
     with bpy.data.libraries.load(str(out)) as (src, dst):
         assert "07_01_x_09_02_0.25" in src.actions and src.armatures
+
+
+def test_subprocess_blend_amc_inbetweens(amc, tmp_path):
+    """--inbetweens 2 from .amc clips: the armature comes from the add-on's Acclaim importer; two actions at
+    weights 1/3, 2/3 with the default length round((1-w)(N0-1) + w(N1-1)) + 1 (N0 = 316, N1 = 329)."""
+    pytest.importorskip("bpy")
+    out = tmp_path / "inb.blend"
+    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "blend", amc["w1"], amc["w2"], "--inbetweens", "2",
+                        "--out", str(out), "--json", "--no-progress"], capture_output=True, text=True, env=_env(),
+                       cwd=str(ROOT), timeout=600)
+    assert p.returncode == 0, p.stderr
+    report = json.loads(p.stdout)
+    assert report["weights"] == pytest.approx([1 / 3, 2 / 3])
+    assert report["actions"] == ["07_01_x_07_02_0.33", "07_01_x_07_02_0.67"]
+    assert report["frames"] == [320, 325]
+    assert out.exists()
