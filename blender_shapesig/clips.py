@@ -93,6 +93,22 @@ def _bvh_text(path):
         return data.decode("latin-1"), False
 
 
+_FLOAT32_MAX = 3.4028234e38
+
+
+def _bvh_number(token, path, line):
+    """A BVH number that Blender can key: finite and within float32 range (else ParseError)."""
+    try:
+        x = float(token)
+    except ValueError:
+        raise ParseError(f"{token!r} is not a number", path, line) from None
+    if x != x or x in (float("inf"), float("-inf")):
+        raise ParseError(f"{token!r} is not a finite number", path, line)
+    if abs(x) >= _FLOAT32_MAX:
+        raise ParseError(f"{token!r} is too large for Blender (32-bit floats)", path, line)
+    return x
+
+
 def check_bvh(path):
     """Validate a BVH file's structure and numbers before Blender's importer sees it (its failures are
     tracebacks); returns the frame time. Raises ParseError naming the line."""
@@ -131,6 +147,8 @@ def check_bvh(path):
         elif key == "OFFSET":
             if len(tokens) != 4:
                 raise ParseError("OFFSET needs 3 numbers", path, no)
+            for v in tokens[1:]:
+                _bvh_number(v, path, no)
         elif key == "MOTION":
             motion_line = no
             break
@@ -167,12 +185,7 @@ def check_bvh(path):
         if len(values) != channels:
             raise ParseError(f"{len(values)} values for {channels} channels", path, i)
         for v in values:
-            try:
-                x = float(v)
-            except ValueError:
-                raise ParseError(f"{v!r} is not a number", path, i) from None
-            if x != x or x in (float("inf"), float("-inf")):
-                raise ParseError(f"{v!r} is not a finite number", path, i)
+            _bvh_number(v, path, i)
     return frame_time
 
 
