@@ -54,6 +54,8 @@ class Clip:
                 raise CurveError(
                     f"clip {self.name!r}: root translation has shape {rt.shape}, expected ({self.frames}, 3)"
                 )
+            if not np.all(np.isfinite(rt)):
+                raise CurveError(f"clip {self.name!r}: root translation contains NaN or infinite values")
             self.root_translation = rt
         self.rotation_modes = tuple(self.rotation_modes)
 
