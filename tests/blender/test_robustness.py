@@ -114,6 +114,14 @@ def test_bvh_encodings_and_layouts(empty_file, tmp_path, bvh_original, encoding)
         assert clip.bones == bvh_original.bones
 
 
+def _motion_value(data, value):
+    """The BVH with the first number of its first motion line replaced by ``value``."""
+    head, _, rest = data.partition(b"Frame Time:")
+    time_line, _, frames = rest.partition(b"\n")
+    first = frames.split(b" ", 1)
+    return head + b"Frame Time:" + time_line + b"\n" + value + b" " + first[1]
+
+
 def test_bvh_structural_errors_are_one_line(empty_file, tmp_path):
     cases = {
         "nan_offset": (BVH.replace(b"OFFSET 0 0 0", b"OFFSET nan 0 0", 1), None),
@@ -121,6 +129,9 @@ def test_bvh_structural_errors_are_one_line(empty_file, tmp_path):
         "huge_frames": (BVH.replace(b"Frames: 12", b"Frames: 99999999999"), "truncated file?"),
         "zero_time": (BVH.replace(b"Frame Time:", b"Frame Time: 0 #"), "Frame Time"),
         "utf16_no_bom": (BVH.decode().encode("utf-16-le"), None),
+        "inf_offset": (BVH.replace(b"OFFSET 0 0 0", b"OFFSET 0 Infinity 0", 1), "is not a finite number"),
+        "huge_position": (_motion_value(BVH, b"1e300"), "too large for Blender"),
+        "huge_float32": (_motion_value(BVH, b"3.5e38"), "too large for Blender"),
     }
     before = snapshot()
     for name, (data, needle) in cases.items():

@@ -240,6 +240,10 @@ def test_nan_and_no_shared_bones_are_curve_errors(walk):
     R[3, 2, 0, 0] = np.inf
     with pytest.raises(CurveError, match="NaN or infinite"):
         _clip("inf", R, walk.bones)
+    rt = np.zeros((walk.frames, 3))
+    rt[4, 1] = np.inf
+    with pytest.raises(CurveError, match="root translation contains NaN or infinite"):
+        Clip(name="far", bones=walk.bones, rotations=walk.rotations, root_translation=rt)
     other = _clip("other", walk.rotations[:, :3], ("a", "b", "c"))
     with pytest.raises(CurveError, match="share no bones"):
         restrict_to_shared(walk, other)
