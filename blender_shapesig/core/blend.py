@@ -568,6 +568,10 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
     ``warp``, ``warp_bones``, ``elastic_distance`` (None without align), ``root_mode`` and
     ``up_axis``.
     """
+    space_a, space_b = a.meta.get("rotation_space"), b.meta.get("rotation_space")
+    if space_a is not None and space_b is not None and space_a != space_b:
+        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} have rotations in different spaces "
+                            f"({space_a} and {space_b}); read both in the same space")
     if not isinstance(a, Clip) or not isinstance(b, Clip):
         raise ShapeSigError("blend_clips: expected two Clip objects")
     w = _check_weight(weight)
@@ -659,6 +663,9 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
         "up_axis": None if up is None else tuple(float(x) for x in up),
         "time_map": plan.u_out,
     }
+    if a.meta.get("rotation_space") is not None:
+        # the blend is in A's rotation space (write_action converts an armature-space blend back to pose)
+        meta["rotation_space"] = a.meta["rotation_space"]
     return Clip(
         name=name if name is not None else blend_name(a.name, b.name, w),
         bones=a.bones,

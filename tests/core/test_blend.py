@@ -405,3 +405,20 @@ def test_quaternion_input_gives_the_same_blend(walk, run):
     R = geodesic_blend(walk.rotations[:150], run.rotations, 0.3)
     Q = geodesic_blend(quats(walk.rotations[:150]), quats(run.rotations), 0.3)
     assert _angle(R, Q) < 1e-9
+
+
+def test_clip_blend_keeps_the_rotation_space_and_refuses_mixed_spaces(data_dir):
+    acc = data_dir / "acclaim"
+    a = load_acclaim(acc / "07_01.amc", acc / "07-walk.asf", axes="blender").crop(1, 120)
+    b = load_acclaim(acc / "07_02.amc", acc / "07-walk.asf", axes="blender").crop(1, 120)
+    out = blend_clips(a, b, 0.5, align=False)
+    assert out.meta["rotation_space"] == "armature"
+    # the same blend in ASF axes is the armature-space blend conjugated by the axis change
+    a_asf = load_acclaim(acc / "07_01.amc", acc / "07-walk.asf").crop(1, 120)
+    b_asf = load_acclaim(acc / "07_02.amc", acc / "07-walk.asf").crop(1, 120)
+    out_asf = blend_clips(a_asf, b_asf, 0.5, align=False)
+    from blender_shapesig.core.acclaim import ASF_TO_BLENDER as A
+
+    np.testing.assert_allclose(out.rotations, A @ out_asf.rotations @ A.T, atol=1e-10)
+    with pytest.raises(ShapeSigError, match="different spaces"):
+        blend_clips(a, b_asf, 0.5, align=False)
