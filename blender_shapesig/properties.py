@@ -56,8 +56,9 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     folders: StringProperty(name="Folders", description="Folders of .bvh/.amc/.blend clips, separated by ';' "
                             "(empty: the add-on preferences' library folders)", default="")
     crop_start: IntProperty(name="Crop Start", description="Ignore the frames before this one in every clip "
-                            "(library actions, folder clips and the query unless it has a frame range): 2 for "
-                            "CMU 'Daz-friendly' BVH files: 7 (frame 1 is a rest pose, frames 2-6 a ramp from it); 0 keeps all",
+                            "(library actions, folder clips and the query unless it has a frame range): 7 for "
+                            "CMU 'Daz-friendly' BVH files (frame 1 is a rest pose, frames 2-6 a ramp from it); "
+                            "0 keeps all",
                             default=0, min=0)
     # search
     level: IntProperty(name="Level", description="Log-signature level n of sim^n", default=DEFAULT_LEVEL,
