@@ -105,46 +105,52 @@ def import_clips(bpy, data, report):
 
 
 def rank(bpy, imported, query_name, report):
-    from blender_shapesig import action_io
-    from blender_shapesig.core.search import rank_clips
-
-    clips = {}
-    for name, (arm, _label) in imported.items():
-        action = bpy.data.actions[name]
-        start = action.get("shapesig_start")
-        end = int(action.frame_range[1])
-        clips[name] = action_io.read_action(action, armature=arm, frame_range=(start, end))
-    query = clips[query_name]
-    library = [c for n, c in clips.items() if n != query_name]
-    results = rank_clips(query, library, metric="sim", level=3, rerank=3)
+    """The search panel's work: index the file's actions, then rank them against the query's action."""
+    arm, query_label = imported[query_name]
+    ctx = bpy.context
+    ctx.view_layer.objects.active = arm
+    arm.animation_data.action = bpy.data.actions[query_name]
+    s = ctx.scene.shapesig
+    s.crop_start = 7  # the Daz-friendly BVH files: rest pose + ramp on frames 1-6
+    s.top = 0
+    with quiet_stdout():
+        assert bpy.ops.shapesig.build_index() == {"FINISHED"}
+        assert bpy.ops.shapesig.rank() == {"FINISHED"}
     label = {n: lab for n, (_a, lab) in imported.items()}
-    report(f"- ranked {len(library)} actions against query {query_name!r} ({label[query_name]}) by sim^3, "
-           f"top 3 re-ranked by elastic distance d_S*:")
-    report("  | rank | action | label | sim^3 | d_S* |")
-    report("  |---|---|---|---|---|")
+    results = list(s.results)
+    report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by sim^{s.level}, "
+           f"top {s.rerank} re-ranked by elastic distance d_S* (shapesig.build_index + shapesig.rank):")
+    report("  | rank | action | label | sim | d_S* | frames |")
+    report("  |---|---|---|---|---|---|")
     for i, r in enumerate(results, 1):
-        el = "" if r.elastic is None else f"{r.elastic:.3f}"
-        report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {r.distance:.4f} | {el} |")
+        el = f"{r.elastic:.3f}" if r.has_elastic else ""
+        report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {r.distance:.4f} | {el} | {r.frames} |")
+    if s.message:
+        report(f"  panel says: {s.message}")
     top = [label.get(r.name) for r in results[:3]]
-    report(f"  top 3 labels: {top}")
+    report(f"  labels of the top 3: {top}")
     return results
 
 
 def blend(bpy, imported, name_a, name_b, report):
-    from blender_shapesig import action_io
-    from blender_shapesig.core.blend import blend_clips
-
-    arm_a, _ = imported[name_a]
-    arm_b, _ = imported[name_b]
-    act_a, act_b = bpy.data.actions[name_a], bpy.data.actions[name_b]
-    a = action_io.read_action(act_a, armature=arm_a,
-                              frame_range=(act_a.get("shapesig_start"), int(act_a.frame_range[1])))
-    b = action_io.read_action(act_b, armature=arm_b,
-                              frame_range=(act_b.get("shapesig_start"), int(act_b.frame_range[1])))
-    out = blend_clips(a, b, 0.5, align=True, depth=9)
-    action = action_io.write_action(out, armature=arm_a, assign=True)
-    report(f"- blended {name_a!r} ({a.frames} frames) with {name_b!r} ({b.frames} frames) at weight 0.5, "
-           f"time-aligned (D = 9): new action {action.name!r}, {out.frames} frames, on armature {arm_a.name!r}")
+    """shapesig.blend_actions on the first armature: a time-aligned geodesic blend at weight 0.5."""
+    arm, _ = imported[name_a]
+    ctx = bpy.context
+    ctx.view_layer.objects.active = arm
+    before = set(bpy.data.actions)
+    with quiet_stdout():
+        result = bpy.ops.shapesig.blend_actions(action_a=name_a, action_b=name_b, weight=0.5, align=True,
+                                                depth=9, assign=True)
+    new = [a for a in bpy.data.actions if a not in before]
+    if result != {"FINISHED"} or not new:
+        raise RuntimeError(f"shapesig.blend_actions returned {result}")
+    action = new[0]
+    first, last = (int(round(v)) for v in action.frame_range)
+    frames = {int(round(a.frame_range[1] - a.frame_range[0])) + 1 for a in (bpy.data.actions[name_a],
+                                                                               bpy.data.actions[name_b])}
+    report(f"- blended {name_a!r} with {name_b!r} at weight 0.5, time-aligned (D = 9; source lengths "
+           f"{sorted(frames)} frames): new action {action.name!r}, frames {first}..{last}, assigned to "
+           f"{arm.name!r} (shapesig.blend_actions)")
     return action
 
 
@@ -156,6 +162,8 @@ def main(argv=None):
     data = pathlib.Path(args.data).resolve()
     out = pathlib.Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    # the signature index of this demo lives beside its outputs (a second run reuses it)
+    os.environ.setdefault("SHAPESIG_CACHE_DIR", str(out / "cache"))
 
     report = Report()
     t_start = time.perf_counter()

@@ -84,7 +84,8 @@ _MASK64 = (1 << 64) - 1
 class RankResult:
     """One ranked clip. ``distance``: sim^n (or the chosen metric); ``elastic``: d_S* when re-ranked,
     else None; ``frames``: the clip's frame count; ``shared``: bones compared; ``approximate``: True
-    when ``distance`` is a sketch estimate (only with a compact index, see SignatureCache)."""
+    when ``distance`` is a sketch estimate (only with a compact index, see SignatureCache); ``partial``:
+    the clip shares fewer than FEW_SHARED of the query's moving bones (ranked after the others)."""
 
     name: str
     distance: float
@@ -94,6 +95,7 @@ class RankResult:
     source: str = ""
     shared: int = 0
     approximate: bool = False
+    partial: bool = False
 
     def as_dict(self):
         return {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
@@ -740,8 +742,10 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     d_S* (depth ``depth``), which fills their ``elastic``. ``top``: keep the first ``top``. ``cache``: a
     SignatureCache (default: a fresh in-memory one). ``exclude``: item keys or names to leave out (e.g.
     the query's own action). ``pool``: sketch candidates compared exactly (default max(EXACT_POOL,
-    4 top, rerank)). Clips of other skeletons are compared on the shared bones; clips sharing none are
-    skipped with a warning in ``result.warnings``.
+    4 top, rerank)). Clips of other skeletons are compared on the shared bones; clips sharing fewer than
+    FEW_SHARED of the query's moving bones are ``partial``: warned about and ranked after all others (their
+    distances cover a different, smaller part of the body), and never re-ranked above them; clips sharing
+    none are skipped with a warning in ``result.warnings``.
     """
     from .metrics import curve_distance, parse_metric
 
@@ -803,9 +807,10 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
             warnings.append(f"{e.name}: shares no bones with the query {q.name!r}; skipped")
             continue
         moving_shared = q_moving & set(shared)
-        if q_moving and len(moving_shared) < FEW_SHARED * len(q_moving):
+        partial = bool(q_moving) and len(moving_shared) < FEW_SHARED * len(q_moving)
+        if partial:
             warnings.append(f"{e.name}: shares only {len(moving_shared)} of the query's {len(q_moving)} moving "
-                            f"bones")
+                            f"bones; ranked after the clips that share most of them")
         cache.heavy(e, item)
         a, b = _pair_increments(q, e, shared)
         if base == "sim":
@@ -814,10 +819,14 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
             d = curve_distance(_curve_from_increments(a), _curve_from_increments(b), base, level=lvl, depth=depth)
         exact_count += 1
         results.append(result(e, d, len(shared)))
+        results[-1].partial = partial
 
-    results.sort(key=lambda r: (r.distance, r.name))
+    # Distances over a small part of the body are not comparable with whole-body ones (a clip that shares
+    # only the head can look close): clips sharing few of the query's moving bones form a second tier.
+    results.sort(key=lambda r: (r.partial, r.distance, r.name))
     if rerank and results:
-        head = results[:rerank]
+        full = sum(1 for r in results if not r.partial)
+        head = results[:min(rerank, full)] if full else results[:rerank]
         by_key = {(e.key, e.name): (item, e) for item, e in pairs}
         for r in head:
             item, e = by_key[(r.key, r.name)]
@@ -831,7 +840,7 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
 
                 r.elastic = float(elastic_distance(_curve_from_increments(a), _curve_from_increments(b), depth=depth))
         head.sort(key=lambda r: (r.elastic, r.distance, r.name))
-        results[:rerank] = head
+        results[:len(head)] = head
     if top is not None:
         results = results[:top]
     stats = {k: cache.stats[k] - before.get(k, 0) for k in cache.stats}

@@ -100,16 +100,37 @@ def _cropped_range(action, crop_start):
     return (int(crop_start), last)
 
 
+def _owner_armature(action, default):
+    """The armature object that plays ``action`` (active action or an NLA strip), else ``default``.
+
+    A library action is read with its own rig: its bones' rest orientations give the armature space, and
+    bones of another rig are not mistaken for unanimated bones of this one."""
+    if default is not None and getattr(default.animation_data, "action", None) == action:
+        return default
+    for ob in bpy.data.objects:
+        if ob.type != "ARMATURE" or ob.animation_data is None:
+            continue
+        if ob.animation_data.action == action:
+            return ob
+        for track in ob.animation_data.nla_tracks:
+            if any(strip.action == action for strip in track.strips):
+                return ob
+    return default
+
+
 def _action_item(action, obj, frame_range=None):
     from .. import action_io
 
-    key = f"action:{action_io.action_hash(action)}|arm:{_armature_digest(obj)}|range:{frame_range}|space:armature"
+    arm = _owner_armature(action, obj)
+    key = (f"action:{action_io.action_hash(action)}|arm:{_armature_digest(arm)}|range:{frame_range}"
+           f"|space:armature|keyed")
     name = action.name
 
-    def load(action=action, obj=obj, frame_range=frame_range, name=name):
-        # armature space: comparable with folder clips and with actions of rigs with other bone rolls
-        return action_io.read_action(action, armature=obj, frame_range=frame_range, name=name,
-                                     space="armature" if obj is not None else "pose")
+    def load(action=action, arm=arm, frame_range=frame_range, name=name):
+        # armature space: comparable with folder clips and with actions of rigs with other bone rolls;
+        # only the bones the action keys (a bone it does not animate is unknown, not the rest pose)
+        return action_io.read_action(action, armature=arm, frame_range=frame_range, name=name,
+                                     space="armature", exclude_unkeyed=True)
 
     return search.LibraryItem(name, key, load, source=action.name)
 

@@ -347,3 +347,25 @@ def test_build_index_modal_steps_and_escape(rig):
     assert [r for r in op.reports if "4 computed, 2 already indexed" in r[1]]
     assert missing_count(ctx, s) == 0
     assert len(s.results) == 5 and s.query_name == "walk1"  # ranked when the index was complete
+
+
+def test_actions_of_another_rig_are_read_with_it_and_rank_after(rig):
+    """An ASF/AMC walk on its own armature shares almost no bones with the BVH rig: read with its own armature
+    (not the query's, which would make its unkeyed BVH bones look like rest poses) it is a partial match, listed
+    after every same-rig clip and never re-ranked above them."""
+    acc = BVH.parent / "acclaim"
+    bpy.ops.shapesig.import_acclaim(filepath=str(acc / "07_02.amc"), asf_path=str(acc / "07-walk.asf"))
+    amc_rig = bpy.context.view_layer.objects.active
+    amc_action = amc_rig.animation_data.action.name
+    bpy.context.view_layer.objects.active = rig
+    s = bpy.context.scene.shapesig
+    s.rerank, s.top = 10, 0
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    names = [r.name for r in s.results]
+    assert names[-1] == amc_action and len(names) == 6
+    assert {n for n in names[:5]} == {"walk2", "walk3", "run1", "run2", "jump"}
+    assert "shares only" in s.message
+    from blender_shapesig.operators.search import _owner_armature
+
+    assert _owner_armature(bpy.data.actions[amc_action], rig) == amc_rig
+    assert _owner_armature(bpy.data.actions["walk2"], rig) == rig  # no armature plays it: the query's

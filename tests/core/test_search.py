@@ -368,3 +368,20 @@ def test_file_items_for_command_line_specs(data_dir, tmp_path):
     q = load_acclaim(specs[0], asf)
     res = search.rank_clips(q, search.folder_library([str(bad), specs[1]], asf=asf))
     assert [r.name for r in res] == ["07_02"] and any("bad" in w for w in res.warnings)
+
+
+def test_clips_sharing_few_moving_bones_rank_after_the_rest(data_dir):
+    """A clip compared on a small part of the body must not outrank whole-body matches (even re-ranked)."""
+    acc = data_dir / "acclaim"
+    q = load_acclaim(str(acc / "07_01.amc"), str(acc / "07-walk.asf"), axes="blender")
+    walk = load_acclaim(str(acc / "07_02.amc"), str(acc / "07-walk.asf"), axes="blender")
+    run = load_acclaim(str(acc / "09_02.amc"), str(acc / "09-run.asf"), axes="blender")
+    # the same walk as q, but only two of its bones: alone, its distance on them is ~0
+    head_only = q.select(("head", "lowerneck"))
+    head_only.name = "head_only"
+    for rerank in (0, 3):
+        res = search.rank_clips(q, [head_only, run, walk], rerank=rerank)
+        assert [r.name for r in res] == ["07_02", "09_02", "head_only"], rerank
+        assert [r.partial for r in res] == [False, False, True]
+        assert res[2].distance < res[0].distance  # it would have been first on distance alone
+    assert any("head_only: shares only" in w for w in res.warnings)
