@@ -527,3 +527,20 @@ def test_bvh_tiny_bones_still_give_rotation_matrices(empty_file, tmp_path):
     assert np.linalg.det(R).min() > 1 - 1e-9
     B = clip.meta["rest_rotations"]
     assert np.abs(B @ np.swapaxes(B, -1, -2) - np.eye(3)).max() < 1e-12
+
+
+def test_import_acclaim_several_takes_one_bad_creates_nothing(empty_file, tmp_path):
+    """Several AMC takes at once: a bad second take cancels the whole import (no armature, no first action)."""
+    (tmp_path / "09-run.asf").write_bytes((ACC / "09-run.asf").read_bytes())
+    (tmp_path / "a.amc").write_bytes((ACC / "09_02.amc").read_bytes())
+    good_b = (ACC / "09_03.amc").read_bytes()
+    (tmp_path / "b.amc").write_bytes(good_b[: len(good_b) // 2])
+    before = snapshot()
+    msg = op_error(bpy.ops.shapesig.import_acclaim, directory=str(tmp_path), filepath=str(tmp_path / "a.amc"),
+                   files=[{"name": "a.amc"}, {"name": "b.amc"}])
+    assert "b.amc" in msg and "truncated file?" in msg
+    assert snapshot() == before
+    (tmp_path / "b.amc").write_bytes(good_b)
+    assert bpy.ops.shapesig.import_acclaim("EXEC_DEFAULT", directory=str(tmp_path), filepath=str(tmp_path / "a.amc"),
+                                           files=[{"name": "a.amc"}, {"name": "b.amc"}]) == {"FINISHED"}
+    assert {"a", "b"} <= {a.name for a in bpy.data.actions}
