@@ -620,11 +620,9 @@ def main(argv=None):
     for t in targets:
         if t not in ("acclaim", "bvh", "blend", "import_op"):
             p.error(f"unknown target {t!r}")
-    try:
-        import bpy  # noqa: F401
-        have_bpy = True
-    except ImportError:
-        have_bpy = False
+    import importlib.util
+
+    have_bpy = importlib.util.find_spec("bpy") is not None  # the workers import it, not this process
     if not have_bpy:
         dropped = [t for t in targets if t != "acclaim"]
         if dropped:
