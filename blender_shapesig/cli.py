@@ -436,7 +436,9 @@ def cmd_matrix(args):
     if len(clips) < 2:
         raise CommandError("matrix needs at least two clips")
     names = evaluation.unique_names([c.name for c in clips])
-    os.makedirs(args.out, exist_ok=True)
+    labels = None
+    if args.labels:
+        labels = evaluation.labels_from_csv(args.labels, names)
     bar = _progress(args, len(clips) * (len(clips) - 1) // 2, f"{label} matrix")
     try:
         D, seconds = evaluation.clip_distance_matrix(
@@ -444,10 +446,9 @@ def cmd_matrix(args):
         )
     finally:
         bar.close()
+    # the output folder is made only once there is something to write into it
+    os.makedirs(args.out, exist_ok=True)
     paths = evaluation.write_matrix(D, names, args.out)
-    labels = None
-    if args.labels:
-        labels = evaluation.labels_from_csv(args.labels, names)
     figures = []
     if not args.no_figures and len(clips) >= 3:
         figures.append(

@@ -247,11 +247,23 @@ def _window_sums(x, depth):
     return B
 
 
+# Memory of one DP: the inner-product matrix G and the DP values, 16 bytes per grid node. Two 10,000-frame
+# clips need 1.5 GiB; above MAX_DP_BYTES elastic_align refuses with a clear error instead of exhausting memory.
+DP_BYTES_PER_NODE = 16
+MAX_DP_BYTES = 4 * 2**30
+
+
 class _Problem:
     """Everything the kernels need for one pair of curves (uniform grids)."""
 
     def __init__(self, Q0, Q1, depth, penalty, prune=True):
         n0, n1 = Q0.shape[0], Q1.shape[0]
+        need = DP_BYTES_PER_NODE * n0 * n1
+        if need > MAX_DP_BYTES:
+            raise CurveError(
+                f"the elastic DP over {n0 + 1} x {n1 + 1} frames needs about {need / 2**30:.1f} GiB "
+                f"(limit {MAX_DP_BYTES / 2**30:.1f} GiB): crop or resample the clips, or raise "
+                f"core.elastic.MAX_DP_BYTES")
         self.n0, self.n1 = n0, n1
         self.max_step = _max_steps(n0, n1, depth)
         mi, mj = self.max_step

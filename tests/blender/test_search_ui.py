@@ -369,3 +369,17 @@ def test_actions_of_another_rig_are_read_with_it_and_rank_after(rig):
 
     assert _owner_armature(bpy.data.actions[amc_action], rig) == amc_rig
     assert _owner_armature(bpy.data.actions["walk2"], rig) == rig  # no armature plays it: the query's
+
+
+def test_query_with_only_location_keys_is_a_clear_error(rig):
+    """A query action that keys no rotation has no curve in SO(3)^d: one clear message, nothing ranked."""
+    act = bpy.data.actions.new("slide")
+    bag, _slot = compat.ensure_channelbag(act, "OBJECT", name=rig.name)
+    fc = compat.new_fcurve(bag, 'pose.bones["hip"].location', 0, "hip")
+    fc.keyframe_points.add(3)
+    fc.keyframe_points.foreach_set("co", np.array([1, 0, 2, 1, 3, 0], dtype=np.float32))
+    compat.assign_action(rig, act)
+    s = bpy.context.scene.shapesig
+    with pytest.raises(RuntimeError, match="no rotation channels"):
+        bpy.ops.shapesig.rank()
+    assert len(s.results) == 0

@@ -457,3 +457,15 @@ def test_real_clips_walks_closer_than_run(data_dir):
     assert run_run < walk_run.min()
     # Elastic alignment helps the two walks (same frame rate, different timing).
     assert walk_walk < l2_distance(w1, w2)
+
+
+def test_memory_guard_refuses_grids_beyond_the_limit(monkeypatch):
+    from blender_shapesig.core import elastic as el
+
+    R0 = np.repeat(np.eye(3)[None, None], 60, axis=0)
+    R1 = np.repeat(np.eye(3)[None, None], 50, axis=0)
+    monkeypatch.setattr(el, "MAX_DP_BYTES", el.DP_BYTES_PER_NODE * 59 * 49 - 1)
+    with pytest.raises(CurveError, match="crop or resample"):
+        el.elastic_distance(R0, R1)
+    monkeypatch.setattr(el, "MAX_DP_BYTES", el.DP_BYTES_PER_NODE * 59 * 49)
+    assert el.elastic_distance(R0, R1) == 0.0
