@@ -41,7 +41,7 @@ from .curves import (
     relative_rotvecs,
     uniform_times,
 )
-from .errors import CurveError, ShapeSigError
+from .errors import CurveError, ShapeSigError, check_integer, check_number
 
 __all__ = [
     "geodesic_blend",
@@ -62,25 +62,11 @@ _GRID_TOL = 1e-12
 
 
 def _check_weight(weight):
-    try:
-        w = float(weight)
-    except (TypeError, ValueError):
-        raise ShapeSigError(f"weight: expected a number in [0, 1], got {weight!r}") from None
-    if not math.isfinite(w) or w < 0.0 or w > 1.0:
-        raise ShapeSigError(f"weight: must lie in [0, 1], got {weight!r}")
-    return w
+    return check_number(weight, "weight", 0.0, 1.0)
 
 
 def _check_frames(frames):
-    if frames is None:
-        return None
-    try:
-        n = int(frames)
-    except (TypeError, ValueError):
-        raise ShapeSigError(f"frames: expected an integer >= 2 or None, got {frames!r}") from None
-    if n != frames or n < 2:
-        raise ShapeSigError(f"frames: expected an integer >= 2 or None, got {frames!r}")
-    return n
+    return check_integer(frames, "frames", minimum=2, allow_none=True)
 
 
 def identity_warp():

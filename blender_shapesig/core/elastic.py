@@ -57,7 +57,7 @@ import numpy as np
 
 from . import _dp_kernels
 from .curves import as_curve, as_times, move_to_identity, geodesic_interpolate, srvt
-from .errors import CurveError, ShapeSigError
+from .errors import CurveError, ShapeSigError, check_integer, check_number
 
 __all__ = [
     "elastic_align",
@@ -77,23 +77,11 @@ METHODS = ("auto", "numba", "numpy")
 
 
 def _check_depth(depth):
-    try:
-        d = int(depth)
-    except (TypeError, ValueError):
-        raise ShapeSigError(f"depth must be an integer >= 1, got {depth!r}") from None
-    if d != depth or d < 1:
-        raise ShapeSigError(f"depth must be an integer >= 1, got {depth!r}")
-    return d
+    return check_integer(depth, "depth", minimum=1)
 
 
 def _check_penalty(penalty):
-    try:
-        lam = float(penalty)
-    except (TypeError, ValueError):
-        raise ShapeSigError(f"penalty must be a finite number >= 0, got {penalty!r}") from None
-    if not math.isfinite(lam) or lam < 0.0:
-        raise ShapeSigError(f"penalty must be a finite number >= 0, got {penalty!r}")
-    return lam
+    return check_number(penalty, "penalty", 0.0)
 
 
 def _check_method(method):

@@ -4,6 +4,8 @@ Every error that bad input can cause is one of these, with a one-line message th
 input and what is wrong with it. Callers (operators, the command line) show ``str(error)``.
 """
 
+import math
+
 
 class ShapeSigError(ValueError):
     """Base class: invalid input or a computation that cannot proceed."""
@@ -26,3 +28,29 @@ class ParseError(ShapeSigError):
         super().__init__(where + message)
         self.path = path
         self.line = line
+
+
+def check_integer(value, name, minimum=1, allow_none=False):
+    """``value`` as an int >= minimum (an integral float is fine); ShapeSigError naming ``name`` otherwise."""
+    if value is None and allow_none:
+        return None
+    expected = f"an integer >= {minimum}" + (" or None" if allow_none else "")
+    try:
+        n = int(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ShapeSigError(f"{name}: expected {expected}, got {value!r}") from None
+    if n != value or n < minimum:
+        raise ShapeSigError(f"{name}: expected {expected}, got {value!r}")
+    return n
+
+
+def check_number(value, name, low=0.0, high=float("inf")):
+    """``value`` as a finite float in [low, high]; ShapeSigError naming ``name`` otherwise."""
+    span = f"in [{low:g}, {high:g}]" if math.isfinite(high) else f">= {low:g}"
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ShapeSigError(f"{name}: expected a finite number {span}, got {value!r}") from None
+    if not math.isfinite(x) or x < low or x > high:
+        raise ShapeSigError(f"{name}: expected a finite number {span}, got {value!r}")
+    return x
