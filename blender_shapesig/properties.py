@@ -19,6 +19,7 @@ __all__ = ["ShapeSigResult", "ShapeSigSettings", "classes", "settings_of"]
 # K of the two-stage search the panel uses by default (see docs/evaluation.md, "Winner").
 RERANK_DEFAULT = 10
 
+
 class ShapeSigResult(bpy.types.PropertyGroup):
     """One ranked clip. ``name`` (the item name) is the action's name or the file's base name."""
 
@@ -30,6 +31,9 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                               default=False)
     frames: IntProperty(name="Frames")
     shared: IntProperty(name="Shared Bones")
+    partial: BoolProperty(name="Partial Match", default=False,
+                          description="Shares few of the query's moving bones: compared on those only, ranked "
+                                      "after the whole-body matches")
     is_action: BoolProperty(name="Action In File", description="The result is an action of this file",
                             default=True)
     source: StringProperty(name="Source", description="Action name, or the clip file (FILE.blend#ACTION)")

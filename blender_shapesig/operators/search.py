@@ -215,6 +215,7 @@ def _store_results(settings, results, query_name):
         row.elastic = r.elastic if r.elastic is not None else 0.0
         row.frames = r.frames
         row.shared = r.shared
+        row.partial = r.partial
         row.is_action = r.key.startswith("action:")
         row.source = r.source if not row.is_action else r.name
         row.clip_name = r.name

@@ -22,7 +22,9 @@ class SHAPESIG_UL_results(bpy.types.UIList):
         if self.layout_type in {"DEFAULT", "COMPACT"}:
             row = layout.row(align=True)
             split = row.split(factor=0.5)
-            split.label(text=item.name, icon=icon)
+            # a partial match (few shared bones) is greyed out, with the number of bones it was compared on
+            split.active = not item.partial
+            split.label(text=item.name + (f" ({item.shared} bones)" if item.partial else ""), icon=icon)
             nums = split.row(align=True)
             nums.label(text=("~" if item.approximate else "") + f"{item.distance:.4f}")
             if item.has_elastic:

@@ -365,6 +365,13 @@ def test_actions_of_another_rig_are_read_with_it_and_rank_after(rig):
     assert names[-1] == amc_action and len(names) == 6
     assert {n for n in names[:5]} == {"walk2", "walk3", "run1", "run2", "jump"}
     assert "shares only" in s.message
+    assert [r.partial for r in s.results] == [False] * 5 + [True]
+    from blender_shapesig.panels.search import SHAPESIG_UL_results
+
+    row = FakeLayout()
+    SHAPESIG_UL_results.draw_item(SimpleNamespace(layout_type="DEFAULT"), bpy.context, row, s, s.results[5], 5, s,
+                                  "results_index")
+    assert f"{amc_action} ({s.results[5].shared} bones)" in row.labels()
     from blender_shapesig.operators.search import _owner_armature
 
     assert _owner_armature(bpy.data.actions[amc_action], rig) == amc_rig
