@@ -41,6 +41,7 @@ from .curves import (
     relative_rotvecs,
     uniform_times,
 )
+from .elastic import check_warp
 from .errors import CurveError, ShapeSigError, check_integer, check_number
 
 __all__ = [
@@ -72,22 +73,6 @@ def _check_frames(frames):
 def identity_warp():
     """The warp of no alignment: phi(t) = t."""
     return np.array([[0.0, 0.0], [1.0, 1.0]])
-
-
-def _check_warp(warp):
-    w = np.asarray(warp, dtype=np.float64)
-    if w.ndim != 2 or w.shape[1] != 2 or w.shape[0] < 2:
-        raise CurveError(f"warp: expected an array (nodes >= 2, 2) of times (t0, t1), got shape {w.shape}")
-    if not np.all(np.isfinite(w)):
-        raise CurveError("warp: contains NaN or infinite values")
-    if np.any(np.abs(w[0]) > 1e-9) or np.any(np.abs(w[-1] - 1.0) > 1e-9):
-        raise CurveError(f"warp: must run from (0, 0) to (1, 1), got {tuple(w[0])} to {tuple(w[-1])}")
-    if np.any(np.diff(w[:, 0]) <= 0.0) or np.any(np.diff(w[:, 1]) <= 0.0):
-        raise CurveError("warp: both columns must be strictly increasing")
-    w = w.copy()
-    w[0] = (0.0, 0.0)
-    w[-1] = (1.0, 1.0)
-    return w
 
 
 def default_frames(frames0, frames1, weight, duration0=None, duration1=None, fps=None):
@@ -291,7 +276,7 @@ def compute_warp(R0, R1, align=True, depth=9, penalty=0.0):
     from .elastic import elastic_align
 
     warp, dist = elastic_align(R0, R1, depth=depth, penalty=penalty)
-    return _check_warp(warp), float(dist)
+    return check_warp(warp, strict=True), float(dist)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -325,7 +310,7 @@ def geodesic_blend(R0, R1, weight, align=True, depth=9, *, frames=None, warp=Non
         raise CurveError("each curve needs at least two frames")
     frames = _check_frames(frames)
     if warp is not None:
-        warp, edist = _check_warp(warp), None
+        warp, edist = check_warp(warp, strict=True), None
     else:
         warp, edist = compute_warp(R0, R1, align, depth, penalty)
     plan = _Plan(R0.shape[0], R1.shape[0], w, warp, frames, durations)
@@ -589,7 +574,7 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
     warp_bones = [x for x, m in zip(shared, moving) if m] or list(shared)
     given_warp = warp is not None
     if given_warp:
-        warp, edist = _check_warp(warp), None
+        warp, edist = check_warp(warp, strict=True), None
     else:
         wa = [ia[x] for x in warp_bones]
         wb = [ib[x] for x in warp_bones]

@@ -60,6 +60,7 @@ from .curves import as_curve, as_times, move_to_identity, geodesic_interpolate, 
 from .errors import CurveError, ShapeSigError, check_integer, check_number
 
 __all__ = [
+    "check_warp",
     "elastic_align",
     "elastic_distance",
     "elastic_distance_matrix",
@@ -380,19 +381,27 @@ def elastic_distance_matrix(curves, depth=9, penalty=0.0, workers=2, *, method="
 # warps
 
 
-def _check_warp(warp):
+def check_warp(warp, strict=False):
+    """A warp as a float array (nodes, 2) of matching times (t0, t1) from (0, 0) to (1, 1) (ends within 1e-9,
+    then set exactly); t0 strictly increasing, t1 non-decreasing (``strict``: strictly increasing too, an
+    invertible warp). CurveError otherwise."""
     w = np.asarray(warp, dtype=np.float64)
     if w.ndim != 2 or w.shape[1] != 2 or w.shape[0] < 2:
         raise CurveError(f"warp: expected an array (nodes >= 2, 2) of times (t0, t1), got shape {w.shape}")
     if not np.all(np.isfinite(w)):
         raise CurveError("warp: contains NaN or infinite values")
-    tol = 1e-12
+    tol = 1e-9
     if np.any(np.abs(w[0]) > tol) or np.any(np.abs(w[-1] - 1.0) > tol):
         raise CurveError(f"warp: must run from (0, 0) to (1, 1), got {tuple(w[0])} to {tuple(w[-1])}")
     if np.any(np.diff(w[:, 0]) <= 0.0):
         raise CurveError("warp: the t0 column must be strictly increasing")
+    if strict and np.any(np.diff(w[:, 1]) <= 0.0):
+        raise CurveError("warp: the t1 column must be strictly increasing")
     if np.any(np.diff(w[:, 1]) < 0.0):
         raise CurveError("warp: the t1 column must be non-decreasing")
+    w = w.copy()
+    w[0] = (0.0, 0.0)
+    w[-1] = (1.0, 1.0)
     return w
 
 
@@ -415,7 +424,7 @@ def reparametrize(R, t, warp, t_new=None):
     """
     R = as_curve(R, "R")
     t = as_times(t, R.shape[0], "t")
-    w = _check_warp(warp)
+    w = check_warp(warp)
     if t_new is None:
         s = t
     else:
@@ -436,7 +445,7 @@ def warp_grid(warp, t):
     strictly increasing in both columns (as returned by ``elastic_align``). Returns a sorted
     array of unique times from 0 to 1.
     """
-    w = _check_warp(warp)
+    w = check_warp(warp)
     if np.any(np.diff(w[:, 1]) <= 0.0):
         raise CurveError("warp: the t1 column must be strictly increasing to invert it")
     if np.isscalar(t) or np.ndim(t) == 0:

@@ -229,23 +229,9 @@ def _feature_job(args):
 
 def lyndon_level_sizes(dim, level):
     """Number of Lyndon words of each length 1..level over ``dim`` letters (Witt's formula)."""
+    from . import tensor
 
-    def mobius(n):
-        result, p, m = 1, 2, n
-        while p * p <= m:
-            if m % p == 0:
-                m //= p
-                if m % p == 0:
-                    return 0
-                result = -result
-            p += 1
-        return -result if m > 1 else result
-
-    sizes = []
-    for k in range(1, level + 1):
-        total = sum(mobius(k // q) * dim**q for q in range(1, k + 1) if k % q == 0)
-        sizes.append(total // k)
-    return sizes
+    return tensor.lyndon_level_sizes(dim, level)
 
 
 def _level_blocks(vec, dim, level, tensor):

@@ -45,6 +45,7 @@ __all__ = [
     "lyndon_coordinates",
     "lyndon_to_tensor",
     "log_signature_dim",
+    "lyndon_level_sizes",
 ]
 
 # Largest number of coefficients of one level we agree to build (d^n): 93 dimensions at level 3 is
@@ -458,12 +459,16 @@ def _mobius(n):
     return result
 
 
-def log_signature_dim(dim, level):
-    """Dimension of the free Lie algebra over R^dim truncated at ``level`` (Witt's formula):
-    sum_{m<=level} (1/m) sum_{k | m} mu(k) dim^(m/k); equals iisignature.logsiglength."""
+def lyndon_level_sizes(dim, level):
+    """Number of Lyndon words of each length 1..level over ``dim`` letters (Witt's formula
+    (1/m) sum_{k | m} mu(k) dim^(m/k)): the log-signature's coordinates per level."""
     if dim < 1 or level < 1:
         raise ShapeSigError(f"log-signature needs dimension >= 1 and level >= 1, got {dim} and {level}")
-    total = 0
-    for m in range(1, level + 1):
-        total += sum(_mobius(k) * dim ** (m // k) for k in range(1, m + 1) if m % k == 0) // m
-    return total
+    return [sum(_mobius(k) * dim ** (m // k) for k in range(1, m + 1) if m % k == 0) // m
+            for m in range(1, level + 1)]
+
+
+def log_signature_dim(dim, level):
+    """Dimension of the free Lie algebra over R^dim truncated at ``level``: the sum of
+    ``lyndon_level_sizes``; equals iisignature.logsiglength."""
+    return sum(lyndon_level_sizes(dim, level))
