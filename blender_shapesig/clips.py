@@ -19,7 +19,9 @@ read in pose space (``meta["rotation_space"] == "pose"``).
   (the Daz-friendly CMU files' first rest-pose frame too: crop it with ``Clip.crop``).
 * ``FILE.blend``: every action in the file that animates pose bones; ``FILE.blend#ACTION``: that one. The
   actions (and the file's armature objects, for bone rotation modes and order) are appended with
-  ``bpy.data.libraries.load``, read, and every data-block the append created is removed again.
+  ``bpy.data.libraries.load``, read, and every data-block the append created is removed again — in a child
+  process (``_blend_child``), so that a damaged file that crashes Blender's reader is a ParseError here
+  (``SHAPESIG_BLEND_IN_PROCESS=1``: in this process).
 
 ``fps`` overrides the clips' frame rate. Errors are ``ParseError`` with a one-line message.
 """
@@ -557,8 +559,68 @@ def _sdna_problem(data, endian):
     return None, sizes
 
 
+# "1": read .blend clip files in this process (faster by the start-up of a child; a damaged file can then crash
+# this process). Default: a child process reads them (see _blend_child).
+BLEND_IN_PROCESS_ENV = "SHAPESIG_BLEND_IN_PROCESS"
+BLEND_CHILD_TIMEOUT = 600.0
+
+
 def _load_blend(path, action_name, space="armature"):
     check_blend(path)
+    if os.environ.get(BLEND_IN_PROCESS_ENV) == "1":
+        return _load_blend_here(path, action_name, space)
+    return _load_blend_isolated(path, action_name, space)
+
+
+def _child_command(args_json):
+    """The command that runs _blend_child: the Blender binary in background mode inside Blender, else this
+    Python (which has the bpy module)."""
+    import sys
+
+    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_blend_child.py")
+    binary = getattr(bpy.app, "binary_path", "") or ""
+    if binary and os.path.basename(binary).lower().startswith("blender"):
+        return [binary, "--background", "--factory-startup", "--python-exit-code", "3", "--python", script,
+                "--", args_json]
+    return [sys.executable, script, args_json]
+
+
+def _load_blend_isolated(path, action_name, space):
+    """_load_blend_here in a child process: a .blend that crashes Blender gives a ParseError, not a crash."""
+    import json
+    import subprocess
+    import sys
+    import tempfile
+
+    from . import _blend_child
+    from .core.clip import Clip
+
+    package_root = os.path.dirname(os.path.abspath(__file__))
+    with tempfile.TemporaryDirectory(prefix="shapesig_blend_") as tmp:
+        out = os.path.join(tmp, "clips.npz")
+        args = json.dumps({"path": os.path.abspath(path), "action": action_name, "space": space, "out": out,
+                           "package_dir": os.path.dirname(package_root),
+                           "package": os.path.basename(package_root), "sys_path": [p for p in sys.path if p]})
+        try:
+            proc = subprocess.run(_child_command(args), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, timeout=BLEND_CHILD_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            raise ParseError(f"reading the .blend file took more than {BLEND_CHILD_TIMEOUT:.0f} s", path) from None
+        except OSError as exc:
+            raise ParseError(f"cannot start a process to read the .blend file: {exc}", path) from None
+        if not os.path.isfile(out):
+            if proc.returncode < 0 or proc.returncode > 128:
+                raise ParseError("corrupt .blend file: Blender crashed reading it (damaged data)", path)
+            last = [ln for ln in proc.stderr.decode("utf-8", "replace").splitlines() if ln.strip()]
+            raise ParseError(f"could not read the .blend file ({last[-1] if last else f'exit {proc.returncode}'})",
+                             path)
+        clips, error = _blend_child.read_result(out, Clip)
+    if error is not None:
+        raise ParseError(error)
+    return clips
+
+
+def _load_blend_here(path, action_name, space="armature"):
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
             available = list(data_from.actions)

@@ -1,0 +1,86 @@
+"""Read the actions of a .blend file in a child process (see ``clips._load_blend``).
+
+Blender trusts the pointers stored in a .blend file; a damaged one crashes it while loading, which would
+end the animator's session (or the command line). So a .blend clip file is read here, in a separate
+process — this Python with the bpy module, or the Blender binary in background mode — and the clips come
+back as plain arrays. Run as ``python _blend_child.py JSON`` or ``blender --background --factory-startup
+--python _blend_child.py -- JSON``; JSON holds ``path``, ``action``, ``space``, ``out``, ``package_dir``
+(the folder holding the package), ``package`` (its folder name) and ``sys_path`` (the parent's, for the
+bundled wheels). The result is an .npz at ``out`` with a JSON header: ``{"clips": [...]}`` or
+``{"error": "one line"}``.
+"""
+
+import importlib
+import json
+import os
+import sys
+
+import numpy as np
+
+# meta entries that travel back (JSON values; rest_rotations as an array)
+_META_KEYS = ("rotation_space", "up_axis", "format", "action", "slot", "fcurve_hash", "still_bones",
+              "missing_rotation_bones")
+
+
+def write_result(out, clips=None, error=None):
+    arrays, header = {}, {}
+    if error is not None:
+        header["error"] = str(error).splitlines()[0] if str(error) else type(error).__name__
+    else:
+        header["clips"] = []
+        for i, c in enumerate(clips):
+            arrays[f"rotations{i}"] = c.rotations
+            if c.root_translation is not None:
+                arrays[f"root{i}"] = c.root_translation
+            if "rest_rotations" in c.meta:
+                arrays[f"rest{i}"] = np.asarray(c.meta["rest_rotations"])
+            meta = {k: (list(v) if isinstance(v, tuple) else v) for k, v in c.meta.items() if k in _META_KEYS}
+            header["clips"].append({
+                "name": c.name, "bones": list(c.bones), "fps": c.fps, "frame_start": c.frame_start,
+                "root_bone": c.root_bone, "rotation_modes": list(c.rotation_modes), "source": c.source,
+                "meta": meta,
+            })
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+    tmp = out + ".part"
+    with open(tmp, "wb") as fh:
+        np.savez(fh, **arrays)
+    os.replace(tmp, out)
+
+
+def read_result(out, clip_type):
+    """The clips (or the error message) written by ``write_result``: (clips, error)."""
+    with np.load(out, allow_pickle=False) as data:
+        header = json.loads(bytes(data["header"]).decode())
+        if "error" in header:
+            return None, header["error"]
+        clips = []
+        for i, h in enumerate(header["clips"]):
+            meta = {k: (tuple(v) if isinstance(v, list) else v) for k, v in h["meta"].items()}
+            if f"rest{i}" in data:
+                meta["rest_rotations"] = np.array(data[f"rest{i}"])
+            clips.append(clip_type(
+                name=h["name"], bones=tuple(h["bones"]), rotations=np.array(data[f"rotations{i}"]),
+                fps=h["fps"], frame_start=h["frame_start"],
+                root_translation=np.array(data[f"root{i}"]) if f"root{i}" in data else None,
+                root_bone=h["root_bone"], rotation_modes=tuple(h["rotation_modes"]), source=h["source"], meta=meta,
+            ))
+        return clips, None
+
+
+def main(argv):
+    args = json.loads(argv[-1])
+    for p in [args["package_dir"]] + list(args["sys_path"]):
+        if p not in sys.path:
+            sys.path.append(p)
+    clips_module = importlib.import_module(f"{args['package']}.clips")
+    errors = importlib.import_module(f"{args['package']}.core.errors")
+    try:
+        clips = clips_module._load_blend_here(args["path"], args["action"], args["space"])
+    except errors.ShapeSigError as exc:
+        write_result(args["out"], error=exc)
+    else:
+        write_result(args["out"], clips=clips)
+
+
+if __name__ == "__main__":
+    main(sys.argv)
