@@ -420,6 +420,7 @@ def run_operators(bpy, ck: Checks, work: Path, allow_missing: bool) -> None:
     ck.add("import two motions", result == {"FINISHED"} and len(arm) == 1 and len(acts) == 2,
            f"{result}, {len(arm)} armature(s), actions {[a.name for a in acts]}")
     search_ops(bpy, ck, work, missing)
+    blend_file_clips(bpy, ck, work)
     if "blend_actions" in missing or len(arm) != 1 or len(acts) != 2:
         if "blend_actions" not in missing:
             ck.add("shapesig.blend_actions", False, "not run: the two-motion import failed")
@@ -490,6 +491,25 @@ def search_ops(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
     ck.add("shapesig.rank", ok, f"{result}, {[(n, round(d, 4), 'action' if a else 'file') for n, d, a in rows]}, "
            f"{s.message!r}, in {ck.timings['rank']:.1f}s")
     bpy.context.view_layer.objects.active = obj
+
+
+def blend_file_clips(bpy, ck: Checks, work: Path) -> None:
+    """clips.load_clips on a saved .blend: read in a child process (the installed package imported there by its
+    folder, with the extension's wheels), the clips back here."""
+    import importlib
+
+    path = work / "library.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
+    t0 = time.monotonic()
+    try:
+        got = importlib.import_module(f"{ADDON_MODULE}.clips").load_clips(str(path))
+        names = sorted(c.name for c in got)
+        ok = len(got) >= 2 and all(c.rotations.shape[1] > 0 for c in got)
+        detail = f"{names}"
+    except Exception as exc:  # noqa: BLE001 - reported as a failed check
+        ok, detail = False, f"{type(exc).__name__}: {exc}"
+    ck.timings["load_blend"] = time.monotonic() - t0
+    ck.add("clips.load_clips(.blend) in a child process", ok, f"{detail}, in {ck.timings['load_blend']:.1f}s")
 
 
 def run_uninstall(bpy, ck: Checks, ext_dir: Path) -> None:
