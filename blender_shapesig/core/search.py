@@ -466,14 +466,17 @@ class SignatureCache:
         if not ok:
             if os.path.exists(manifest):
                 self.stats["invalid"] += 1
-            for n in os.listdir(self.path):
-                if n.endswith(".npz"):
-                    try:
-                        os.remove(os.path.join(self.path, n))
-                    except OSError:
-                        pass
+            self._remove_entry_files()
             self._atomic_write(manifest, json.dumps({"format": CACHE_FORMAT, "program": "blender_shapesig",
                                                      "sketch_dim": SKETCH_DIM}).encode())
+
+    def _remove_entry_files(self):
+        for n in os.listdir(self.path):
+            if n.endswith(".npz"):
+                try:
+                    os.remove(os.path.join(self.path, n))
+                except OSError:
+                    pass
 
     def _atomic_write(self, target, data: bytes):
         fd, tmp = tempfile.mkstemp(dir=self.path, suffix=".tmp")
@@ -656,12 +659,7 @@ class SignatureCache:
             self._heavy.clear()
             self._sketch_memo = None
             if self.path is not None:
-                for n in os.listdir(self.path):
-                    if n.endswith(".npz"):
-                        try:
-                            os.remove(os.path.join(self.path, n))
-                        except OSError:
-                            pass
+                self._remove_entry_files()
 
     def disk_usage(self):
         """(files, bytes) of the entry files on disk."""

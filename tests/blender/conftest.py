@@ -23,3 +23,23 @@ def empty_file(addon):
     """An empty scene (factory settings, no objects) with the add-on registered."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     yield bpy.context
+
+
+@pytest.fixture
+def line_armature(addon):
+    """A function making an armature with one upright bone per name, 1 unit apart along X, linked to the scene,
+    active and in object mode."""
+
+    def make(bone_names, name="Skel"):
+        data = bpy.data.armatures.new(name)
+        obj = bpy.data.objects.new(name, data)
+        bpy.context.collection.objects.link(obj)
+        bpy.context.view_layer.objects.active = obj
+        bpy.ops.object.mode_set(mode="EDIT")
+        for i, b in enumerate(bone_names):
+            eb = data.edit_bones.new(b)
+            eb.head, eb.tail = (i, 0, 0), (i, 0, 1)
+        bpy.ops.object.mode_set(mode="OBJECT")
+        return obj
+
+    return make

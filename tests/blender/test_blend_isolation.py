@@ -19,18 +19,10 @@ ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
 
 
 @pytest.fixture
-def small_blend(empty_file, tmp_path):
+def small_blend(empty_file, line_armature, tmp_path):
     """A saved file with one armature and one 30-frame action of a real walk."""
     walk = load_acclaim(ACC / "07_01.amc", ACC / "07-walk.asf").crop(1, 30).select(("root", "lfemur", "ltibia"))
-    data = bpy.data.armatures.new("Skel")
-    obj = bpy.data.objects.new("Skel", data)
-    bpy.context.collection.objects.link(obj)
-    bpy.context.view_layer.objects.active = obj
-    bpy.ops.object.mode_set(mode="EDIT")
-    for i, b in enumerate(walk.bones):
-        eb = data.edit_bones.new(b)
-        eb.head, eb.tail = (i, 0, 0), (i, 0, 1)
-    bpy.ops.object.mode_set(mode="OBJECT")
+    obj = line_armature(walk.bones)
     action_io.write_action(walk, armature=obj, name="walk", assign=True)
     path = tmp_path / "small.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=False)

@@ -88,17 +88,9 @@ def test_bvh_through_blender_importer(empty_file, capsys):
     np.testing.assert_allclose(arm.rotations, aligned, atol=1e-12)
 
 
-def _save_blend(path, walk):
+def _save_blend(path, walk, line_armature):
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    data = bpy.data.armatures.new("Skel")
-    obj = bpy.data.objects.new("Skel", data)
-    bpy.context.collection.objects.link(obj)
-    bpy.context.view_layer.objects.active = obj
-    bpy.ops.object.mode_set(mode="EDIT")
-    for i, b in enumerate(walk.bones):
-        eb = data.edit_bones.new(b)
-        eb.head, eb.tail = (i, 0, 0), (i, 0, 1)
-    bpy.ops.object.mode_set(mode="OBJECT")
+    obj = line_armature(walk.bones)
     for pb in obj.pose.bones:
         pb.rotation_mode = "ZXY"
     a = action_io.write_action(walk, armature=obj, name="walk_a", assign=True)
@@ -125,10 +117,10 @@ def _save_blend(path, walk):
     return a.name, b.name
 
 
-def test_blend_file_and_single_action(empty_file, tmp_path, capsys):
+def test_blend_file_and_single_action(empty_file, line_armature, tmp_path, capsys):
     walk = load_acclaim(ACC / "16_15.amc", ACC / "16.asf").crop(1, 120)
     path = tmp_path / "lib.blend"
-    _save_blend(path, walk)
+    _save_blend(path, walk, line_armature)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     before = _all_ids()
     got = clips.load_clips(path, space="native")
