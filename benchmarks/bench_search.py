@@ -157,7 +157,7 @@ def bench_synthetic(n, level, moving_joints, repeat=5):
 def bench_real(files, level):
     """First (cold) and repeated (warm, new cache object on the same folder) queries over the files."""
     with tempfile.TemporaryDirectory() as tmp:
-        lib = search.folder_library(files, load=_load, start=2)
+        lib = search.folder_library(files, start=2)
         query = lib[0]
         cache = search.SignatureCache(tmp)
         per = []
@@ -172,7 +172,7 @@ def bench_real(files, level):
         first = search.rank_clips(query, lib[1:], level=level, top=10, cache=cache, progress=progress)
         t_first = time.perf_counter() - t0
         t0 = time.perf_counter()
-        second = search.rank_clips(query, search.folder_library(files, load=_load, start=2)[1:], level=level,
+        second = search.rank_clips(query, search.folder_library(files, start=2)[1:], level=level,
                                    top=10, cache=search.SignatureCache(tmp))
         t_second = time.perf_counter() - t0
         t0 = time.perf_counter()

@@ -44,7 +44,7 @@ import threading
 import time
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -52,6 +52,7 @@ from . import signatures, tensor
 from .clip import Clip, still_joints
 from .curves import exp_rotvec, relative_rotvecs
 from .errors import ShapeSigError
+from .sources import LibraryItem, as_items, clip_item, clip_key, file_key, library
 
 __all__ = [
     "DEFAULT_LEVEL", "SKETCH_DIM", "COMPACT_MAX_DIRECTION", "CACHE_FORMAT", "CACHE_ENV", "FEW_SHARED", "EXACT_POOL",
@@ -74,7 +75,6 @@ FEW_SHARED = 0.5
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
 CACHE_FORMAT = 2  # 2: clips in armature space (Blender axes), see action_io.to_armature_space
 CACHE_ENV = "SHAPESIG_CACHE_DIR"
-CLIP_EXTENSIONS = (".bvh", ".amc", ".blend")
 _MASK64 = (1 << 64) - 1
 
 
@@ -115,128 +115,17 @@ class RankList(list):
 
 
 # ----------------------------------------------------------------------------------------- library
-
-@dataclass
-class LibraryItem:
-    """A library member that may not be loaded yet: ``key`` identifies its content (changes whenever
-    the data changes), ``load()`` returns its clip(s) (a Clip or a list: a .blend file holds several)."""
-
-    name: str
-    key: str
-    load: Callable[[], object]
-    source: str = ""
-
-    def clips(self) -> List[Clip]:
-        out = self.load()
-        if isinstance(out, Clip):
-            return [out]
-        out = list(out)
-        for c in out:
-            if not isinstance(c, Clip):
-                raise ShapeSigError(f"library item {self.name!r}: loader returned {type(c).__name__}, not a Clip")
-        return out
-
-
-def clip_key(clip: Clip) -> str:
-    """SHA-1 of a clip's bones and rotations (what every distance depends on)."""
-    h = hashlib.sha1()
-    h.update("\x1f".join(clip.bones).encode())
-    R = np.ascontiguousarray(clip.rotations, dtype=np.float64)
-    h.update(str(R.shape).encode())
-    h.update(R.tobytes())
-    return "clip:" + h.hexdigest()
-
-
-_FILE_KEYS = {}  # (path, size, mtime_ns) -> content hash: a file is re-hashed only when its stat changes
-
-
-def file_key(path, extra="") -> str:
-    """SHA-1 of a file's bytes, with its size and mtime (and ``extra``: e.g. the skeleton's key and the
-    crop), so that any edit of the file gives a new key. The hash is remembered for the process until the
-    file's size or mtime changes."""
-    path = os.path.abspath(os.fspath(path))
-    st = os.stat(path)
-    memo = (path, st.st_size, st.st_mtime_ns)
-    digest = _FILE_KEYS.get(memo)
-    if digest is None:
-        h = hashlib.sha1()
-        with open(path, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                h.update(block)
-        digest = _FILE_KEYS[memo] = h.hexdigest()
-    return f"file:{digest}:{st.st_size}:{st.st_mtime_ns}:{extra}"
-
+# Library members, keys and clip files are owned by core.sources.
 
 def clip_items(clips: Sequence[Clip]) -> List[LibraryItem]:
     """Library items for clips already in memory, keyed by their data."""
-    out = []
-    for c in clips:
-        out.append(LibraryItem(c.name, c.meta.get("cache_key") or clip_key(c), (lambda c=c: c), c.source))
-    return out
-
-
-def _default_load(path, asf=None):
-    if path.lower().endswith(".amc"):
-        from .acclaim import load_acclaim
-
-        # Blender's armature axes, the space the Blender layer reads actions in (comparable with them)
-        return load_acclaim(path, asf, axes="blender")
-    raise ShapeSigError(f"{path}: reading {os.path.splitext(path)[1]} files needs Blender (pass load=)")
-
-
-def _split_spec(spec):
-    """(path, action or None) for FILE.blend#ACTION, else (spec, None)."""
-    path, sep, action = spec.rpartition("#")
-    if sep and path.lower().endswith(".blend"):
-        return path, action
-    return spec, None
+    return [clip_item(c) for c in clips]
 
 
 def folder_library(paths, load=None, asf=None, start=None, recursive=True, end=None) -> List[LibraryItem]:
-    """Library items for clip files (.bvh, .amc, .blend, FILE.blend#ACTION) given directly or found in
-    folders (sorted by path), for a folder library or the command line's CLIP arguments.
-
-    ``load(spec, asf)`` reads one file (or FILE.blend#ACTION) into a Clip or a list of Clips (the command
-    line and Blender pass ``clips.load_clips``; without it only .amc files can be read). ``start``/``end``:
-    crop every clip to these frames (inclusive; the CMU "Daz-friendly" BVH files have a rest pose on frame
-    1). Files are read only when their key is not in the cache: the key is the file's content hash, size
-    and mtime, the skeleton's key, the action name and the crop."""
-    if isinstance(paths, (str, os.PathLike)):
-        paths = [paths]
-    specs = []
-    for p in paths:
-        p = os.fspath(p)
-        path, action = _split_spec(p)
-        if os.path.isdir(p):
-            walker = os.walk(p) if recursive else [(p, [], os.listdir(p))]
-            found = []
-            for root, _dirs, names in walker:
-                found += [os.path.join(root, n) for n in names if n.lower().endswith(CLIP_EXTENSIONS)]
-            specs += sorted(found)
-        elif os.path.isfile(path):
-            specs.append(p)
-        else:
-            raise ShapeSigError(f"library path {path!r} does not exist")
-    loader = load or _default_load
-    asf_key = file_key(asf) if asf else ""
-    items, seen = [], set()
-    for spec in specs:
-        if spec in seen:
-            continue
-        seen.add(spec)
-        path, action = _split_spec(spec)
-        extra = f"asf={asf_key}|start={start}|end={end}|action={action}"
-
-        def _load(spec=spec):
-            out = loader(spec, asf)
-            clips = [out] if isinstance(out, Clip) else list(out)
-            if start is not None or end is not None:
-                clips = [c.crop(start=start, end=end) for c in clips]
-            return clips
-
-        name = action if action is not None else os.path.splitext(os.path.basename(path))[0]
-        items.append(LibraryItem(name, file_key(path, extra), _load, spec))
-    return items
+    """Library items for clip files given directly or found in folders (``sources.library``); ``load(spec)``
+    reads one ClipSpec (default: the reader registry)."""
+    return library(paths, recursive, load=load, asf=asf, start=start, end=end)
 
 
 # -------------------------------------------------------------------------------------- word codes
@@ -671,24 +560,12 @@ class SignatureCache:
 
 # -------------------------------------------------------------------------------------------- index
 
-def _as_items(library):
-    items = []
-    for x in library:
-        if isinstance(x, LibraryItem):
-            items.append(x)
-        elif isinstance(x, Clip):
-            items.extend(clip_items([x]))
-        else:
-            raise ShapeSigError(f"library members must be Clips or LibraryItems, got {type(x).__name__}")
-    return items
-
-
 def compute_entries(items, level=DEFAULT_LEVEL, cache=None, progress=None, errors=None):
     """[(item, entry)] for every clip of every item, through the cache. ``progress(done, total, name)``
     may return False to stop early. A ShapeSigError while loading an item is recorded in ``errors`` (a
     list of one-line messages) when given, else raised."""
     cache = cache if cache is not None else SignatureCache()
-    items = _as_items(items)
+    items = as_items(items)
     out = []
     for i, item in enumerate(items):
         if progress is not None and progress(i, len(items), item.name) is False:
@@ -760,7 +637,7 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     # a private copy: the cache may drop the arrays of its own object to keep within memory_limit
     q_item, q_entry = _query_entry(query, sig_level, cache)
     q = dataclasses.replace(cache.heavy(q_entry, q_item))
-    items = [it for it in _as_items(library) if it.key not in exclude and it.name not in exclude]
+    items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
     errors = []
     pairs = compute_entries(items, sig_level, cache, progress, errors)
     warnings = list(errors)

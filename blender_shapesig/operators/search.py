@@ -164,12 +164,6 @@ def _folders(context, settings):
     return [bpy.path.abspath(p.strip()) for p in text.split(";") if p.strip()]
 
 
-def _load_file(path, asf=None):
-    from .. import clips
-
-    return clips.load_clips(path, asf)
-
-
 def library_items(context, settings, obj):
     """The library as LibraryItems: the file's actions (filtered), then the folders' clip files."""
     from .. import action_io
@@ -192,7 +186,7 @@ def library_items(context, settings, obj):
         folders = _folders(context, settings)
         if not folders:
             raise ShapeSigError("no library folders: add some in the panel or the add-on preferences")
-        items += search.folder_library(folders, load=_load_file, start=settings.crop_start or None)
+        items += search.folder_library(folders, start=settings.crop_start or None)
     return items
 
 

@@ -360,8 +360,16 @@ def test_file_items_for_command_line_specs(data_dir, tmp_path):
     assert (clip.frame_start, clip.frames) == (10, 51)
     with pytest.raises(ShapeSigError, match="does not exist"):
         search.folder_library([str(tmp_path / "x.blend#walk")])
-    with pytest.raises(ShapeSigError, match="needs Blender"):
-        search.folder_library([str(data_dir / "bvh" / "07_01.bvh")])[0].clips()
+    # .bvh and .blend readers live in the Blender layer, imported when first needed: without bpy, one line
+    from blender_shapesig.core import sources
+
+    saved = dict(sources._READERS)
+    try:
+        sources._READERS[".bvh"] = "blender_shapesig._no_such_reader_module:read"
+        with pytest.raises(ShapeSigError, match="needs Blender"):
+            search.folder_library([str(data_dir / "bvh" / "07_01.bvh")])[0].clips()
+    finally:
+        sources._READERS.update(saved)
     # a file that cannot be read is reported by rank_clips as a warning, the others are ranked
     bad = tmp_path / "bad.amc"
     bad.write_text("this is not an AMC file\n")

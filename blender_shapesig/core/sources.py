@@ -1,0 +1,301 @@
+"""Where clips come from: the one front door for reading clips by name (pure Python, never imports bpy).
+
+A *source* is what a user names: a file (``.bvh``, ``.amc``, ``.blend``), ``FILE.blend#ACTION``, a folder of
+such files, or a clip already in memory. This module owns, once for the whole package:
+
+* ``ClipSpec``: a parsed CLIP argument with the options that change what is read (skeleton, crop, frame
+  rate); ``ClipSpec.parse(text)`` splits ``FILE.blend#ACTION``.
+* the extensions (``EXTENSIONS``) and discovery of clip files in folders (``discover``);
+* ``find_asf``: the skeleton of an ``.amc`` (given, else the only ``.asf`` beside it);
+* the **key recipe** (``ClipSpec.key``, ``file_key``, ``clip_key``): one string that changes whenever anything
+  the distances depend on changes. The command line, the panel's folder libraries and the tools build keys
+  only here, so they share signature-cache entries for the same file;
+* the **reader registry**: one reader per extension, ``read(spec) -> [Clip]``. ``.amc`` is read here (pure
+  Python); ``.bvh`` and ``.blend`` by the Blender layer (``blender_shapesig.readers``), named by module path
+  and imported only when such a file is read, so core stays importable without Blender;
+* ``LibraryItem``: a library member that is loaded only when its key is not cached (``library``,
+  ``clip_item``).
+
+Data flows one way: sources -> Clip -> maths (curves, elastic, signatures, index) -> writers.
+"""
+
+import dataclasses
+import hashlib
+import importlib
+import os
+from dataclasses import dataclass
+from typing import Callable, List, Optional, Sequence
+
+import numpy as np
+
+from .clip import Clip
+from .errors import ParseError, ShapeSigError
+
+__all__ = [
+    "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "find_asf", "discover",
+    "read", "read_one", "file_key", "clip_key", "clip_item", "library",
+]
+
+EXTENSIONS = (".bvh", ".amc", ".blend")
+
+# extension -> reader(spec: ClipSpec) -> list[Clip], or "module:function" imported on first use
+_READERS = {
+    ".amc": "blender_shapesig.core.sources:_read_amc",
+    ".bvh": "blender_shapesig.readers:read_bvh",
+    ".blend": "blender_shapesig.readers:read_blend",
+}
+
+
+# ----------------------------------------------------------------------------------------------- specs
+
+@dataclass(frozen=True)
+class ClipSpec:
+    """One named source: ``path`` (a file), ``action`` (for ``FILE.blend#ACTION``), ``asf`` (skeleton of an
+    ``.amc``; None: the only .asf beside it), ``start``/``end`` (crop, inclusive frame numbers), ``fps``
+    (override of the file's frame rate). Every field that changes the clips read is part of ``key()``."""
+
+    path: str
+    action: Optional[str] = None
+    asf: Optional[str] = None
+    start: Optional[int] = None
+    end: Optional[int] = None
+    fps: Optional[float] = None
+
+    @classmethod
+    def parse(cls, text, **options) -> "ClipSpec":
+        """``FILE.blend#ACTION`` -> path and action; any other text is a path. ``options``: the other fields."""
+        text = os.fspath(text)
+        path, sep, action = text.rpartition("#")
+        if sep and path.lower().endswith(".blend"):
+            return cls(path, action or None, **options)
+        return cls(text, None, **options)
+
+    @property
+    def ext(self) -> str:
+        return os.path.splitext(self.path)[1].lower()
+
+    @property
+    def name(self) -> str:
+        """The display name: the action for ``FILE.blend#ACTION``, else the file name without extension."""
+        return self.action if self.action is not None else os.path.splitext(os.path.basename(self.path))[0]
+
+    @property
+    def text(self) -> str:
+        """The spec as a user writes it (``FILE.blend#ACTION`` or the path)."""
+        return self.path if self.action is None else f"{self.path}#{self.action}"
+
+    def check(self) -> "ClipSpec":
+        """ParseError when the file is missing, a folder or of an unknown type."""
+        if self.ext not in EXTENSIONS:
+            raise ParseError(f"unknown clip type {self.ext or '(no extension)'!r}; expected .bvh, .amc, .blend "
+                             f"or FILE.blend#ACTION", self.path)
+        if os.path.isdir(self.path):
+            raise ParseError("is a folder, expected a .bvh, .amc or .blend file", self.path)
+        if not os.path.isfile(self.path):
+            raise ParseError("no such file", self.path)
+        return self
+
+    def skeleton(self) -> Optional[str]:
+        """The skeleton file of an ``.amc`` (``find_asf``), None for other formats."""
+        return find_asf(self.path, self.asf) if self.ext == ".amc" else None
+
+    def key(self) -> str:
+        """The cache key: the file's content (``file_key``), the skeleton's content, the action, the crop and
+        the frame rate. Equal keys mean equal clips."""
+        skeleton = self.skeleton()
+        extra = (f"asf={file_key(skeleton) if skeleton else ''}|action={self.action}|start={self.start}"
+                 f"|end={self.end}|fps={self.fps}")
+        return file_key(self.path, extra)
+
+
+def find_asf(amc_path, asf=None) -> str:
+    """The skeleton of an ``.amc``: ``asf`` when given (it must exist), else the only ``.asf`` in the AMC's folder;
+    ParseError when there is none or several."""
+    amc_path = os.fspath(amc_path)
+    if asf:
+        asf = os.fspath(asf)
+        if not os.path.isfile(asf):
+            raise ParseError("skeleton file not found", asf)
+        return asf
+    folder = os.path.dirname(os.path.abspath(amc_path))
+    try:
+        found = sorted(f for f in os.listdir(folder) if f.lower().endswith(".asf"))
+    except OSError:
+        raise ParseError("cannot list the folder to find its .asf skeleton", amc_path) from None
+    if not found:
+        raise ParseError("no .asf skeleton beside the .amc; give one (--asf)", amc_path)
+    if len(found) > 1:
+        raise ParseError(f"{len(found)} .asf files beside the .amc ({', '.join(found[:4])}"
+                         f"{', ...' if len(found) > 4 else ''}); choose one (--asf)", amc_path)
+    return os.path.join(folder, found[0])
+
+
+def discover(paths, recursive=True) -> List[str]:
+    """Clip specs for files and ``FILE.blend#ACTION`` given directly and clip files found in folders (each
+    folder's files sorted by path), without repeats. ShapeSigError for a path that does not exist."""
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    out, seen = [], set()
+    for p in paths:
+        p = os.fspath(p)
+        if os.path.isdir(p):
+            walker = os.walk(p) if recursive else [(p, [], os.listdir(p))]
+            found = []
+            for root, _dirs, names in walker:
+                found += [os.path.join(root, n) for n in names if n.lower().endswith(EXTENSIONS)]
+            specs = sorted(found)
+        elif os.path.isfile(ClipSpec.parse(p).path):
+            specs = [p]
+        else:
+            raise ShapeSigError(f"library path {ClipSpec.parse(p).path!r} does not exist")
+        for s in specs:
+            if s not in seen:
+                seen.add(s)
+                out.append(s)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- readers
+
+def register_reader(ext, reader):
+    """Use ``reader(spec) -> [Clip]`` (or a ``"module:function"`` string) for files ending in ``ext``."""
+    ext = ext.lower()
+    if ext not in EXTENSIONS:
+        raise ShapeSigError(f"unknown clip extension {ext!r}")
+    _READERS[ext] = reader
+
+
+def reader_for(ext) -> Callable:
+    reader = _READERS[ext]
+    if isinstance(reader, str):
+        module, _, attr = reader.partition(":")
+        try:
+            reader = getattr(importlib.import_module(module), attr)
+        except ImportError as exc:
+            raise ShapeSigError(f"reading {ext} files needs Blender (the bpy module): {exc}") from None
+    return reader
+
+
+def _read_amc(spec: ClipSpec) -> List[Clip]:
+    from .acclaim import load_acclaim
+
+    # Blender's armature axes: the space every reader gives (comparable with .bvh and .blend clips)
+    return [load_acclaim(spec.path, spec.skeleton(), axes="blender")]
+
+
+def read(spec, **options) -> List[Clip]:
+    """Every clip a source names (a ``.blend`` may hold several actions), cropped and at the spec's frame rate.
+
+    ``spec``: a ClipSpec or the text of one (``options`` then fill its other fields)."""
+    spec = spec if isinstance(spec, ClipSpec) else ClipSpec.parse(spec, **options)
+    spec.check()
+    clips = list(reader_for(spec.ext)(spec))
+    if not clips:
+        raise ParseError("no armature action found" if spec.action is None else f"no action {spec.action!r}",
+                         spec.path)
+    if spec.fps is not None:
+        clips = [dataclasses.replace(c, fps=float(spec.fps)) for c in clips]
+    if spec.start is not None or spec.end is not None:
+        clips = [c.crop(spec.start, spec.end) for c in clips]
+    return clips
+
+
+def read_one(spec, **options) -> Clip:
+    """The one clip a source names; ShapeSigError when it holds several (pick one with ``FILE.blend#ACTION``)."""
+    spec = spec if isinstance(spec, ClipSpec) else ClipSpec.parse(spec, **options)
+    clips = read(spec)
+    if len(clips) != 1:
+        names = ", ".join(c.name for c in clips[:5])
+        raise ShapeSigError(f"{spec.text} holds {len(clips)} actions ({names}{', ...' if len(clips) > 5 else ''}); "
+                            f"pick one with FILE.blend#ACTION")
+    return clips[0]
+
+
+# ------------------------------------------------------------------------------------------------- keys
+
+_FILE_KEYS = {}  # (path, size, mtime_ns) -> content hash: a file is re-hashed only when its stat changes
+
+
+def file_key(path, extra="") -> str:
+    """SHA-1 of a file's bytes, with its size and mtime and ``extra`` (the rest of a ClipSpec's key), so that any
+    edit of the file gives a new key. The hash is remembered for the process until the file's stat changes."""
+    path = os.path.abspath(os.fspath(path))
+    st = os.stat(path)
+    memo = (path, st.st_size, st.st_mtime_ns)
+    digest = _FILE_KEYS.get(memo)
+    if digest is None:
+        h = hashlib.sha1()
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+        digest = _FILE_KEYS[memo] = h.hexdigest()
+    return f"file:{digest}:{st.st_size}:{st.st_mtime_ns}:{extra}"
+
+
+def clip_key(clip: Clip) -> str:
+    """SHA-1 of a clip's bones and rotations (what every distance depends on)."""
+    h = hashlib.sha1()
+    h.update("\x1f".join(clip.bones).encode())
+    R = np.ascontiguousarray(clip.rotations, dtype=np.float64)
+    h.update(str(R.shape).encode())
+    h.update(R.tobytes())
+    return "clip:" + h.hexdigest()
+
+
+# ---------------------------------------------------------------------------------------------- library
+
+@dataclass
+class LibraryItem:
+    """A library member that may not be loaded yet: ``key`` identifies its content (it changes whenever the
+    data changes), ``load()`` returns its clip(s) (a Clip or a list: a .blend file holds several).
+    ``path``/``action``: where it comes from (the file as given, the action name or None)."""
+
+    name: str
+    key: str
+    load: Callable[[], object]
+    source: str = ""
+    path: Optional[str] = None
+    action: Optional[str] = None
+
+    def clips(self) -> List[Clip]:
+        out = self.load()
+        if isinstance(out, Clip):
+            return [out]
+        out = list(out)
+        for c in out:
+            if not isinstance(c, Clip):
+                raise ShapeSigError(f"library item {self.name!r}: loader returned {type(c).__name__}, not a Clip")
+        return out
+
+
+def clip_item(clip: Clip) -> LibraryItem:
+    """A library item for a clip already in memory, keyed by its data (or ``meta["cache_key"]``)."""
+    return LibraryItem(clip.name, clip.meta.get("cache_key") or clip_key(clip), (lambda c=clip: c), clip.source)
+
+
+def spec_item(spec: ClipSpec, load: Optional[Callable] = None) -> LibraryItem:
+    """The library item of one source: keyed by ``spec.key()`` and read (by ``load(spec)``, default ``read``)
+    only when the key is not cached."""
+    loader = load or read
+    return LibraryItem(spec.name, spec.key(), lambda: loader(spec), spec.text, spec.path, spec.action)
+
+
+def library(paths, recursive=True, load=None, **options) -> List[LibraryItem]:
+    """Library items for sources (files, ``FILE.blend#ACTION``, folders searched for clip files).
+
+    ``options``: ClipSpec fields for every source (``asf``, ``start``, ``end``, ``fps``). Files are read only
+    when their key is not in the cache."""
+    return [spec_item(ClipSpec.parse(s, **options), load) for s in discover(paths, recursive)]
+
+
+def as_items(members: Sequence) -> List[LibraryItem]:
+    """LibraryItems for a mixed sequence of LibraryItems and Clips."""
+    items = []
+    for x in members:
+        if isinstance(x, LibraryItem):
+            items.append(x)
+        elif isinstance(x, Clip):
+            items.append(clip_item(x))
+        else:
+            raise ShapeSigError(f"library members must be Clips or LibraryItems, got {type(x).__name__}")
+    return items
