@@ -47,7 +47,7 @@ from . import compat
 from .core.clip import STILL_TOLERANCE, Clip
 from .core.errors import ShapeSigError
 
-__all__ = ["read_action", "write_action", "action_hash", "armature_actions", "to_armature_space", "to_pose_space",
+__all__ = ["read_action", "write_action", "assign_action", "action_hash", "armature_actions", "to_armature_space", "to_pose_space",
            "EULER_MODES", "SPACES"]
 
 SPACES = ("pose", "armature")
@@ -662,12 +662,28 @@ def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake
         action["shapesig_fps"] = float(clip.fps)
         action["shapesig_rotation_modes"] = dict(zip(clip.bones, modes))
         if assign and armature is not None:
-            for b, mode in zip(clip.bones, modes):
-                pb = armature.pose.bones.get(b)
-                if pb is not None and pb.rotation_mode != mode:
-                    pb.rotation_mode = mode
-            compat.assign_action(armature, action)
+            assign_action(armature, action)
     except Exception:
         compat.remove_action(action)
         raise
     return action
+
+
+def assign_action(armature, action):
+    """Make ``action`` the armature's active action, with each bone it keys rotations for switched to the
+    rotation mode of those curves (the exact Euler order recorded by ``write_action`` when there is one). A bone
+    the action keys no rotation for keeps its mode: a bone is never left in a mode the action has no curves for."""
+    written = action.get("shapesig_rotation_modes")
+    written = written.to_dict() if hasattr(written, "to_dict") else dict(written or {})
+    for bone, props in _bone_channels(compat.all_action_fcurves(action)).items():
+        pb = armature.pose.bones.get(bone)
+        if pb is None or not any(p.startswith("rotation_") for p in props):
+            continue
+        mode = written.get(bone)
+        if mode not in ROTATION_MODES or _prop_for_mode(mode) not in props:
+            if _prop_for_mode(pb.rotation_mode) in props:
+                continue  # the current mode already plays the action's curves
+            mode = _mode_from_channels(props)
+        if pb.rotation_mode != mode:
+            pb.rotation_mode = mode
+    compat.assign_action(armature, action)

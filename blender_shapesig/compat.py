@@ -171,3 +171,10 @@ def remove_action(action):
         bpy.data.actions.remove(action, do_unlink=True)
     except (ReferenceError, RuntimeError):
         pass
+
+
+def pose_bone_selected(pose_bone) -> bool:
+    """Whether a pose bone is selected (5.0: ``PoseBone.select``; before: ``Bone.select``)."""
+    if "select" in pose_bone.bl_rna.properties:
+        return pose_bone.select
+    return pose_bone.bone.select

@@ -94,14 +94,15 @@ def settings_of(context):
     return getattr(scene, "shapesig", None) if scene is not None else None
 
 
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
+
+
 def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
+    _register_classes()
     bpy.types.Scene.shapesig = PointerProperty(type=ShapeSigSettings)
 
 
 def unregister():
     if hasattr(bpy.types.Scene, "shapesig"):
         del bpy.types.Scene.shapesig
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+    _unregister_classes()

@@ -1,14 +1,24 @@
-"""Operators (bpy.ops.shapesig.*). Operators are thin: parse inputs, call core, write results, report.
-Each submodule lists its classes in ``classes``; see ``_registry``."""
+"""Operators (bpy.ops.shapesig.*). Operators are thin: parse inputs, call the library, write results, report.
+Each submodule lists its classes in ``classes`` and may add menu entries (``menu_register``/``menu_unregister``)."""
 
-from .. import _registry
+import bpy
 
-_SUBMODULES = ("import_acclaim", "blend", "search")
+from . import blend, import_acclaim, search
+
+_MODULES = (import_acclaim, blend, search)
+classes = tuple(cls for module in _MODULES for cls in module.classes)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
 
 
 def register():
-    _registry.register(__name__, _SUBMODULES)
+    _register_classes()
+    for module in _MODULES:
+        if hasattr(module, "menu_register"):
+            module.menu_register()
 
 
 def unregister():
-    _registry.unregister(__name__, _SUBMODULES)
+    for module in reversed(_MODULES):
+        if hasattr(module, "menu_unregister"):
+            module.menu_unregister()
+    _unregister_classes()

@@ -1,61 +1,17 @@
 """``shapesig.blend_actions``: time-aligned SRVT geodesic blends of two actions (issue 6).
 
-On the active armature, reads actions A and B (``action_io.read_action``, keyed bones only), blends
-them with ``core.blend.blend_clip_series`` (one elastic warp for every in-between) and writes each
-blend as a new action ``<A>_x_<B>_<weight>`` with a fake user (``action_io.write_action``). A and B
-are never modified; on any error nothing is created. See docs/blending.md.
+A thin operator: it parses its properties, calls ``blend_actions.blend_actions`` (read both actions, blend,
+write new actions ``<A>_x_<B>_<weight>`` with a fake user; nothing is created on error), optionally assigns the
+first blend, and reports. See docs/blending.md.
 """
 
 import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
-from ..core.blend import blend_clip_series, blend_weights
+from ..core.blend import blend_weights
 from ..core.errors import ShapeSigError
 
-__all__ = ["SHAPESIG_OT_blend_actions", "armature_up_axis", "unique_action_name", "classes"]
-
-
-def armature_up_axis(armature, bone_name):
-    """The world's up (+Z) in the rest frame of ``bone_name`` (where its location and rotation
-    channels live), as a unit 3-vector; None when the bone does not exist."""
-    bone = armature.data.bones.get(bone_name) if bone_name else None
-    if bone is None:
-        return None
-    obj_rot = armature.matrix_world.to_3x3().normalized()
-    rest = bone.matrix_local.to_3x3().normalized()
-    # world vector -> armature space -> bone rest space
-    up = rest.transposed() @ (obj_rot.transposed() @ _z_axis())
-    n = up.length
-    if n < 1e-9:
-        return None
-    return tuple(c / n for c in up)
-
-
-def _z_axis():
-    from mathutils import Vector
-
-    return Vector((0.0, 0.0, 1.0))
-
-
-def unique_action_name(base, taken=()):
-    """``base`` when no action has that name, else ``base_2``, ``base_3``, ... (Blender would turn a
-    taken ``walk_x_run_0.50`` into ``walk_x_run_0.001``: it reads ``.50`` as a number suffix)."""
-    if base not in bpy.data.actions and base not in taken:
-        return base
-    k = 2
-    while f"{base}_{k}" in bpy.data.actions or f"{base}_{k}" in taken:
-        k += 1
-    return f"{base}_{k}"
-
-
-def _selected_bone_names(armature):
-    names = []
-    for pb in armature.pose.bones:
-        # 5.0: PoseBone.select; 4.2: Bone.select
-        sel = pb.select if "select" in pb.bl_rna.properties else pb.bone.select
-        if sel:
-            names.append(pb.name)
-    return names
+__all__ = ["SHAPESIG_OT_blend_actions", "classes"]
 
 
 class SHAPESIG_OT_blend_actions(bpy.types.Operator):
@@ -107,7 +63,13 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        # Errors (no armature, missing actions) are reported by execute with a clear message.
+        obj = context.active_object
+        if obj is None or obj.type != "ARMATURE":
+            cls.poll_message_set("The active object must be an armature")
+            return False
+        if len(bpy.data.actions) < 2:
+            cls.poll_message_set("Blending needs two actions in the file")
+            return False
         return True
 
     def invoke(self, context, event):
@@ -147,90 +109,56 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         self.report({"ERROR"}, f"Blend Actions: {message}")
         return {"CANCELLED"}
 
-    def execute(self, context):
-        from .. import action_io
+    def _bones(self, obj):
+        """The bone subset (None: every shared bone); ShapeSigError when the subset is empty."""
+        from ..blend_actions import selected_bone_names
 
-        obj = context.active_object
-        if obj is None or obj.type != "ARMATURE":
-            return self._fail("the active object must be an armature")
-        if not self.action_a or not self.action_b:
-            return self._fail("choose two actions A and B")
-        act_a = bpy.data.actions.get(self.action_a)
-        act_b = bpy.data.actions.get(self.action_b)
-        for name, act in ((self.action_a, act_a), (self.action_b, act_b)):
-            if act is None:
-                return self._fail(f"no action named {name!r}")
-        if act_a == act_b:
-            return self._fail(f"A and B are the same action {act_a.name!r}; choose two different actions")
-
-        bones = None
         if self.bone_subset == "SELECTED":
-            bones = _selected_bone_names(obj)
+            bones = selected_bone_names(obj)
             if not bones:
-                return self._fail("no pose bones are selected")
-        elif self.bone_subset == "LIST":
+                raise ShapeSigError("no pose bones are selected")
+            return bones
+        if self.bone_subset == "LIST":
             bones = [b.strip() for b in self.bone_list.split(",") if b.strip()]
             if not bones:
-                return self._fail("the bone list is empty")
+                raise ShapeSigError("the bone list is empty")
+            return bones
+        return None
 
-        wm = getattr(context, "window_manager", None)
-        progress = wm is not None and getattr(context, "window", None) is not None and self.inbetweens > 1
-        created = []
+    def execute(self, context):
+        from .. import action_io
+        from ..blend_actions import blend_actions
+
+        obj = context.active_object
+        wm = context.window_manager if getattr(context, "window", None) is not None else None
         try:
+            if not self.action_a or not self.action_b:
+                raise ShapeSigError("choose two actions A and B")
+            acts = [bpy.data.actions.get(n) for n in (self.action_a, self.action_b)]
+            for name, act in zip((self.action_a, self.action_b), acts):
+                if act is None:
+                    raise ShapeSigError(f"no action named {name!r}")
             weights = blend_weights(self.inbetweens, self.weight)
-            a = action_io.read_action(act_a, armature=obj, exclude_unkeyed=True)
-            b = action_io.read_action(act_b, armature=obj, exclude_unkeyed=True)
-            up = armature_up_axis(obj, a.root_bone)
-            if bones is not None:
-                shared = set(a.bones) & set(b.bones)
-                missing = [x for x in bones if x not in shared]
-                if missing:
-                    raise ShapeSigError(
-                        f"bone(s) {', '.join(missing[:5])} are not animated in both {act_a.name!r} and "
-                        f"{act_b.name!r}")
-            if progress:
+            show = wm is not None and len(weights) > 1
+            if show:
                 wm.progress_begin(0, 2 * len(weights))
             try:
-                clips = blend_clip_series(
-                    a, b, weights, align=self.align, depth=self.depth, frames=self.frames or None,
-                    bones=bones, root="a" if self.root == "A" else "blend", up_axis=up,
-                    progress=(lambda i, n: wm.progress_update(i)) if progress else None)
-                names = []
-                for clip in clips:
-                    names.append(unique_action_name(clip.name, names))
-                for i, clip in enumerate(clips):
-                    act = action_io.write_action(clip, armature=obj, name=names[i], fake_user=True,
-                                                 assign=False)
-                    created.append(act)
-                    if progress:
-                        wm.progress_update(len(weights) + i + 1)
+                result = blend_actions(obj, acts[0], acts[1], weights, align=self.align, depth=self.depth,
+                                       frames=self.frames or None, bones=self._bones(obj),
+                                       root="a" if self.root == "A" else "blend",
+                                       progress=(lambda i, n: wm.progress_update(i)) if show else None)
             finally:
-                if progress:
+                if show:
                     wm.progress_end()
         except ShapeSigError as exc:
-            for act in created:
-                bpy.data.actions.remove(act)
             return self._fail(str(exc))
-        except Exception:
-            for act in created:
-                bpy.data.actions.remove(act)
-            raise
-
-        if self.assign and created:
-            from .. import compat
-
-            first = clips[0]
-            for name, mode in zip(first.bones, first.rotation_modes):
-                pb = obj.pose.bones.get(name)
-                if pb is not None and mode and pb.rotation_mode != mode:
-                    pb.rotation_mode = mode
-            compat.assign_action(obj, created[0])
-        names = ", ".join(act.name for act in created)
+        if self.assign:
+            action_io.assign_action(obj, result.actions[0])
         note = ""
-        unmatched = clips[0].meta.get("unmatched_a", ())
-        if unmatched:
-            note = f"; {len(unmatched)} bone(s) animated only in A keep A's motion"
-        self.report({"INFO"}, f"Blend Actions: created {len(created)} action(s): {names}{note}")
+        if result.unmatched:
+            note = f"; {len(result.unmatched)} bone(s) animated only in A keep A's motion"
+        names = ", ".join(act.name for act in result.actions)
+        self.report({"INFO"}, f"Blend Actions: created {len(result.actions)} action(s): {names}{note}")
         return {"FINISHED"}
 
 

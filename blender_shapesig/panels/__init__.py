@@ -1,14 +1,8 @@
-"""Panels and UI lists (sidebar tab "ShapeSig"). Each submodule lists its classes in ``classes``; see
-``_registry``."""
+"""Panels and UI lists (sidebar tab "ShapeSig")."""
 
-from .. import _registry
+import bpy
 
-_SUBMODULES = ("search",)
+from . import search
 
-
-def register():
-    _registry.register(__name__, _SUBMODULES)
-
-
-def unregister():
-    _registry.unregister(__name__, _SUBMODULES)
+classes = search.classes
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -119,7 +119,7 @@ def test_blend_writes_a_new_action(rig):
 
 
 def _up(arm, bone):
-    from blender_shapesig.operators.blend import armature_up_axis
+    from blender_shapesig.blend_actions import armature_up_axis
 
     return armature_up_axis(arm, bone)
 
