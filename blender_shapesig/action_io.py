@@ -669,10 +669,18 @@ def write_action(clip: Clip, armature=None, name=None, rotation_modes=None, fake
     return action
 
 
-def assign_action(armature, action):
+def assign_action(armature, action, keep_previous=True):
     """Make ``action`` the armature's active action, with each bone it keys rotations for switched to the
     rotation mode of those curves (the exact Euler order recorded by ``write_action`` when there is one). A bone
-    the action keys no rotation for keeps its mode: a bone is never left in a mode the action has no curves for."""
+    the action keys no rotation for keeps its mode: a bone is never left in a mode the action has no curves for.
+
+    ``keep_previous``: the action it replaces is never left without users (it would vanish on save): when the
+    armature was its only user and it has no fake user, it is stashed in the NLA (``compat.stash_action``)."""
+    ad = armature.animation_data
+    previous = ad.action if ad is not None else None
+    if keep_previous and previous is not None and previous != action and not previous.use_fake_user \
+            and previous.users <= 1:
+        compat.stash_action(armature, previous)
     written = action.get("shapesig_rotation_modes")
     written = written.to_dict() if hasattr(written, "to_dict") else dict(written or {})
     for bone, props in _bone_channels(compat.all_action_fcurves(action)).items():

@@ -21,7 +21,7 @@ import bpy
 
 __all__ = [
     "is_layered", "action_slots", "action_fcurves", "all_action_fcurves", "ensure_channelbag",
-    "new_fcurve", "assign_action", "object_action_slot", "remove_action",
+    "new_fcurve", "assign_action", "stash_action", "object_action_slot", "remove_action",
 ]
 
 
@@ -178,3 +178,27 @@ def pose_bone_selected(pose_bone) -> bool:
     if "select" in pose_bone.bl_rna.properties:
         return pose_bone.select
     return pose_bone.bone.select
+
+
+STASH_TRACK = "[Action Stash]"  # the name Blender's own action switching gives its stash tracks
+
+
+def stash_action(obj, action):
+    """Keep ``action`` in the object's NLA as Blender does when an action editor switches away from an action
+    nobody else uses: a muted track "[Action Stash]" holding one strip of it (on 4.4+ the strip plays the slot
+    the object used). The strip is a user, so the action survives saving."""
+    ad = obj.animation_data or obj.animation_data_create()
+    for track in ad.nla_tracks:
+        if any(strip.action == action for strip in track.strips):
+            return track  # already kept
+    slot = getattr(ad, "action_slot", None) if ad.action == action else None
+    track = ad.nla_tracks.new()
+    track.name = STASH_TRACK
+    track.mute = True
+    strip = track.strips.new(action.name, int(round(action.frame_range[0])), action)
+    if slot is not None and hasattr(strip, "action_slot"):
+        try:
+            strip.action_slot = slot
+        except (TypeError, RuntimeError, AttributeError):
+            pass
+    return track

@@ -5,14 +5,18 @@ names, frames and keys of the written actions, their content against core.blend,
 import contextlib
 import hashlib
 import io
+import json
 import pathlib
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, default_frames  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
@@ -244,3 +248,60 @@ def test_selected_pose_bones_subset(rig):
                            up_axis=_up(arm, walk.root_bone))
     got = _read("walk_x_run_0.40", arm)
     assert _angle(got.rotations, expected.rotations) < 1e-5
+
+
+# ------------------------------------------------------------ animator safety: never orphan an action (issue 17)
+
+_REOPEN = textwrap.dedent("""
+    import hashlib, json, sys
+    import numpy as np
+    import bpy
+    sys.path.insert(0, sys.argv[2])
+    bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
+""")
+
+
+def _reopen(path):
+    """{action: _buffer_hash} of the saved file, read in a fresh process (the same hash function)."""
+    import inspect
+
+    code = _REOPEN + inspect.getsource(_fcurves) + inspect.getsource(_buffer_hash) + \
+        'print("RESULT" + json.dumps({a.name: _buffer_hash(a) for a in bpy.data.actions}))\n'
+    root = str(pathlib.Path(__file__).resolve().parents[2])
+    out = subprocess.run([sys.executable, "-c", code, str(path), root], capture_output=True, text=True, timeout=300)
+    line = [ln for ln in out.stdout.splitlines() if ln.startswith("RESULT")]
+    assert line, out.stderr[-2000:]
+    return json.loads(line[-1][len("RESULT"):])
+
+
+def test_blend_assign_keeps_the_previous_action_through_save_and_reopen(rig, tmp_path):
+    walk = bpy.data.actions["walk"]
+    assert walk.users == 1 and not walk.use_fake_user  # only the armature uses it: assigning would orphan it
+    before = {a.name: _buffer_hash(a) for a in bpy.data.actions}
+    bpy.ops.shapesig.blend_actions("EXEC_DEFAULT", action_a="walk", action_b="run", weight=0.5, align=False,
+                                   assign=True)
+    assert rig.animation_data.action.name.startswith("walk_x_run")
+    tracks = [t for t in rig.animation_data.nla_tracks if t.name == compat.STASH_TRACK]
+    assert len(tracks) == 1 and tracks[0].mute and tracks[0].strips[0].action == walk
+    path = tmp_path / "kept.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    after = _reopen(path)
+    for name, digest in before.items():
+        assert after.get(name) == digest, name
+    assert len(after) == len(before) + 1
+
+
+def test_assign_does_not_stash_an_action_that_has_other_users(rig):
+    walk = bpy.data.actions["walk"]
+    walk.use_fake_user = True
+    clip = action_io.read_action(bpy.data.actions["run"], armature=rig)
+    action_io.write_action(clip, rig, name="copy", assign=True)
+    assert not any(t.name == compat.STASH_TRACK for t in rig.animation_data.nla_tracks)
+    # assigning back and forth stashes nothing twice
+    walk.use_fake_user = False
+    action_io.assign_action(rig, walk)
+    action_io.assign_action(rig, bpy.data.actions["copy"])
+    action_io.assign_action(rig, walk)
+    action_io.assign_action(rig, bpy.data.actions["copy"])
+    stashed = [s.action.name for t in rig.animation_data.nla_tracks for s in t.strips]
+    assert stashed == ["walk"]
