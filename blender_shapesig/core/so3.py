@@ -302,7 +302,7 @@ def matrix_from_euler(angles, order):
 def euler_from_matrix(R, order):
     """Angles (..., 3) in the order of the letters of the Euler mode ``order`` (three different letters,
     e.g. 'XYZ') of matrices (..., 3, 3); the middle angle in [-pi/2, pi/2] (the inverse of
-    ``matrix_from_euler``). At gimbal lock the first angle is 0."""
+    ``matrix_from_euler``). At gimbal lock (within 1e-14) the first angle is 0."""
     axes = _axes(order)
     if len(axes) != 3 or len(set(axes)) != 3:
         raise ShapeSigError(f"Euler mode {order!r}: expected three different letters (e.g. 'XYZ')")
@@ -312,11 +312,12 @@ def euler_from_matrix(R, order):
     cb = np.hypot(R[..., k, j], R[..., k, k])
     b = np.arctan2(-s * R[..., k, i], cb)  # accurate near +-pi/2, unlike arcsin
     a = np.arctan2(s * R[..., k, j], R[..., k, k])
-    c = np.arctan2(s * R[..., j, i], R[..., i, i])
-    lock = cb < 1e-8  # balances the fallback error (~cb) against atan2 of tiny values (~eps / cb)
-    if np.any(lock):
-        a = np.where(lock, 0.0, a)
-        c = np.where(lock, np.arctan2(-s * R[..., i, j], R[..., j, j]), c)
+    # At gimbal lock (cb = 0) only a + c or a - c is defined: a = 0 there. Near it a loses digits (~eps/cb),
+    # but c is taken from M = R Ra^T = Rc Rb, whose (i, j) and (j, j) entries are -s sin(c) and cos(c)
+    # whatever b is: the error of a moves R by ~cb * eps/cb only, and the angles always reproduce R.
+    a = np.where(cb < 1e-14, 0.0, a)
+    M = R @ matrix_from_euler(-a[..., None], order[0])
+    c = np.arctan2(-s * M[..., i, j], M[..., j, j])
     return np.stack([a, b, c], axis=-1)
 
 
