@@ -100,14 +100,13 @@ def _log_rows(m):
     np.multiply(w, ratio, out=out.T)
     far = np.flatnonzero(c < 0.0)  # theta > pi/2: the axis from the symmetric part
     if far.size:
-        M = m[:, far].T.reshape(-1, 3, 3)
+        mf = m[:, far]
         cf = c[far]
-        B = 0.5 * (M + np.swapaxes(M, -1, -2))
-        n = np.arange(far.size)
-        i = np.argmax(np.diagonal(B, axis1=-2, axis2=-1), axis=-1)
-        col = B[n, :, i]
-        col[n, i] -= cf
-        col /= np.linalg.norm(col, axis=-1, keepdims=True)
+        d = mf[0:9:4] - cf  # diagonal of B - c I, B = (R + R^T)/2 = c I + (1 - c) a a^T
+        s01, s02, s12 = 0.5 * (mf[1] + mf[3]), 0.5 * (mf[2] + mf[6]), 0.5 * (mf[5] + mf[7])
+        cols = np.array([[d[0], s01, s02], [s01, d[1], s12], [s02, s12, d[2]]])
+        col = cols[np.argmax(d, axis=0), :, np.arange(far.size)]  # (far, 3): the column of largest diagonal
+        col /= np.linalg.norm(col, axis=1, keepdims=True)
         sign = np.where(np.einsum("ni,in->n", col, w[:, far]) < 0.0, -1.0, 1.0)
         out[far] = col * (sign * theta[far])[:, None]
     return out
