@@ -122,10 +122,8 @@ def srvt_of_velocity(eta, steps):
     (rounding noise of a still joint) or eta is 0. The one SRVT zero rule (``srvt``, the blends)."""
     norm = np.linalg.norm(eta, axis=-1)
     nz = (np.linalg.norm(steps, axis=-1) > ZERO_STEP) & (norm > 0.0)
-    nz = np.broadcast_to(nz, norm.shape)
-    out = np.zeros_like(eta)
-    out[nz] = eta[nz] / np.sqrt(norm[nz])[:, None]
-    return out
+    scale = np.divide(1.0, np.sqrt(norm), out=np.zeros_like(norm), where=nz)
+    return eta * scale[..., None]
 
 
 def srvt(R, t=None):
@@ -136,7 +134,7 @@ def srvt(R, t=None):
     """
     R = as_curve(R)
     t = as_times(t, R.shape[0])
-    steps = relative_rotvecs(R)
+    steps = so3.relative_rotvecs(R)
     return srvt_of_velocity(steps / np.diff(t)[:, None, None], steps)
 
 
