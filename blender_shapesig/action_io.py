@@ -44,16 +44,16 @@ import bpy
 import numpy as np
 
 from . import compat
-from .core.clip import STILL_TOLERANCE, Clip
+from .core.clip import Clip
 from .core.errors import ShapeSigError
+# the rotation maths is core.so3's; the channel conversions are re-exported here, where callers know them
+from .core.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
 __all__ = ["read_action", "write_action", "assign_action", "action_hash", "armature_actions", "to_armature_space", "to_pose_space",
            "EULER_MODES", "SPACES"]
 
 SPACES = ("pose", "armature")
 
-EULER_MODES = ("XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX")
-ROTATION_MODES = EULER_MODES + ("QUATERNION", "AXIS_ANGLE")
 _PATH = re.compile(r'^pose\.bones\["((?:[^"\\]|\\.)*)"\]\.([A-Za-z_]+)$')
 _PROPS = {"rotation_quaternion": 4, "rotation_euler": 3, "rotation_axis_angle": 4, "location": 3, "scale": 3}
 _DEFAULTS = {
@@ -64,90 +64,6 @@ _DEFAULTS = {
 }
 _MODE_PROP = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_angle"}
 _INTERP_LINEAR = 1  # Keyframe.interpolation enum value of 'LINEAR' (CONSTANT=0, LINEAR=1, BEZIER=2)
-
-
-# ------------------------------------------------------------- fast batched rotation conversions
-# (numpy closed forms: scipy's Rotation.from_matrix/from_euler cost ~20 ms per 12k rotations)
-
-_AX = {"X": 0, "Y": 1, "Z": 2}
-
-
-def quat_to_matrix(q):
-    """(n, 4) unit quaternions (w, x, y, z) -> (n, 3, 3)."""
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    out = np.empty((len(q), 3, 3))
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    out[:, 0, 0] = 1 - 2 * (yy + zz)
-    out[:, 0, 1] = 2 * (xy - wz)
-    out[:, 0, 2] = 2 * (xz + wy)
-    out[:, 1, 0] = 2 * (xy + wz)
-    out[:, 1, 1] = 1 - 2 * (xx + zz)
-    out[:, 1, 2] = 2 * (yz - wx)
-    out[:, 2, 0] = 2 * (xz - wy)
-    out[:, 2, 1] = 2 * (yz + wx)
-    out[:, 2, 2] = 1 - 2 * (xx + yy)
-    return out
-
-
-def matrix_to_quat(R):
-    """(n, 3, 3) rotation matrices -> (n, 4) unit quaternions (w, x, y, z) with w >= 0."""
-    m00, m01, m02 = R[:, 0, 0], R[:, 0, 1], R[:, 0, 2]
-    m10, m11, m12 = R[:, 1, 0], R[:, 1, 1], R[:, 1, 2]
-    m20, m21, m22 = R[:, 2, 0], R[:, 2, 1], R[:, 2, 2]
-    cand = np.empty((4, 4, len(R)))
-    cand[0] = (1 + m00 + m11 + m22, m21 - m12, m02 - m20, m10 - m01)
-    cand[1] = (m21 - m12, 1 + m00 - m11 - m22, m01 + m10, m02 + m20)
-    cand[2] = (m02 - m20, m01 + m10, 1 - m00 + m11 - m22, m12 + m21)
-    cand[3] = (m10 - m01, m02 + m20, m12 + m21, 1 - m00 - m11 + m22)
-    diag = np.stack([cand[0, 0], cand[1, 1], cand[2, 2], cand[3, 3]])
-    best = np.argmax(diag, axis=0)
-    q = cand[best, :, np.arange(len(R))]
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return q
-
-
-def quat_mul(a, b):
-    """Hamilton product of (n, 4) quaternions (w, x, y, z)."""
-    aw, ax, ay, az = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
-    bw, bx, by, bz = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
-    return np.column_stack([
-        aw * bw - ax * bx - ay * by - az * bz,
-        aw * bx + ax * bw + ay * bz - az * by,
-        aw * by - ax * bz + ay * bw + az * bx,
-        aw * bz + ax * by - ay * bx + az * bw,
-    ])
-
-
-def euler_to_quat(mode, xyz):
-    """Blender Euler ``mode`` (first letter applied first), angles (n, 3) as (x, y, z) -> quaternions."""
-    q = None
-    for a in mode:
-        ax = _AX[a]
-        h = xyz[:, ax] * 0.5
-        e = np.zeros((len(xyz), 4))
-        e[:, 0] = np.cos(h)
-        e[:, 1 + ax] = np.sin(h)
-        q = e if q is None else quat_mul(e, q)
-    return q
-
-
-def matrix_to_euler(mode, R):
-    """(n, 3, 3) -> angles (n, 3) as (x, y, z) for Blender Euler ``mode``; the middle angle in [-pi/2, pi/2]."""
-    i, j, k = (_AX[a] for a in mode)
-    s = 1.0 if (j - i) % 3 == 1 else -1.0
-    cb = np.hypot(R[:, k, j], R[:, k, k])
-    b = np.arctan2(-s * R[:, k, i], cb)  # accurate near +-pi/2, unlike arcsin
-    a = np.arctan2(s * R[:, k, j], R[:, k, k])
-    c = np.arctan2(s * R[:, j, i], R[:, i, i])
-    lock = cb < 1e-8  # balances the fallback error (~cb) against atan2 of tiny values (~eps / cb)
-    if lock.any():
-        a = np.where(lock, 0.0, a)
-        c = np.where(lock, np.arctan2(-s * R[:, i, j], R[:, j, j]), c)
-    out = np.empty((len(R), 3))
-    out[:, i], out[:, j], out[:, k] = a, b, c
-    return out
 
 
 def _unescape(name):
@@ -262,39 +178,6 @@ def _sample_prop(chans, prop, frames, start, co_cache=None):
     return out
 
 
-def _quat_continuous(q):
-    """Flip signs so that consecutive quaternions (frames, 4) lie in the same hemisphere."""
-    if len(q) < 2:
-        return q
-    dots = np.einsum("ij,ij->i", q[1:], q[:-1])
-    signs = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
-    return q * signs[:, None]
-
-
-def matrices_from_channels(mode, values):
-    """Rotation matrices (frames, 3, 3) from Blender channel values (frames, 3 or 4) in ``mode``."""
-    n = len(values)
-    if mode == "QUATERNION":
-        q = np.asarray(values, dtype=np.float64)
-        norm = np.linalg.norm(q, axis=1)
-        zero = norm < 1e-12
-        q = np.where(zero[:, None], [1.0, 0.0, 0.0, 0.0], q / np.where(zero, 1.0, norm)[:, None])
-        return quat_to_matrix(q)
-    if mode == "AXIS_ANGLE":
-        angle = values[:, 0]
-        axis = values[:, 1:4]
-        norm = np.linalg.norm(axis, axis=1)
-        ok = norm > 1e-12
-        half = np.where(ok, angle, 0.0) * 0.5
-        q = np.empty((n, 4))
-        q[:, 0] = np.cos(half)
-        q[:, 1:] = axis / np.where(ok, norm, 1.0)[:, None] * np.sin(half)[:, None]
-        return quat_to_matrix(q)
-    if mode in EULER_MODES:
-        return quat_to_matrix(euler_to_quat(mode, values))
-    raise ShapeSigError(f"unknown rotation mode {mode!r}")
-
-
 def _mode_from_channels(chans):
     if "rotation_quaternion" in chans:
         return "QUATERNION"
@@ -337,15 +220,6 @@ def _action_frame_range(action, channels, bones):
     if lo == math.inf:
         return None
     return int(math.floor(lo + 1e-6)), int(math.ceil(hi - 1e-6))
-
-
-def still_bones(R, names, tolerance=STILL_TOLERANCE):
-    """Bones whose rotation stays within ``tolerance`` radians of their first frame's (as Clip.still_bones,
-    computed from the chord: ||R_k - R_0||_F = 2 sqrt(2) sin(angle / 2), accurate for small angles)."""
-    chord = np.sqrt(((R - R[:1]) ** 2).sum(axis=(2, 3)))
-    angle = 2.0 * np.arcsin(np.minimum(1.0, chord / (2.0 * math.sqrt(2.0))))
-    still = angle.max(axis=0) <= tolerance
-    return tuple(b for b, m in zip(names, still) if m)
 
 
 def read_action(action, armature=None, bones=None, frame_range=None, exclude_unkeyed=False,
@@ -476,7 +350,7 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
             "fcurve_hash": action_hash(action, co_cache),
         },
     )
-    clip.meta["still_bones"] = still_bones(R, names)
+    clip.meta["still_bones"] = clip.still_bones()
     if armature is not None:
         # armature-space rest orientation of each bone: world-aligned local rotation = B R B^T
         clip.meta["rest_rotations"] = _rest_frames(names, armature)[0]
@@ -491,23 +365,10 @@ def _rest_frames(bones, armature):
     missing = [b for b in bones if b not in armature.data.bones]
     if missing:
         raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
-    B = nearest_rotations(
+    B = nearest_rotation(
         np.array([np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in bones], dtype=np.float64))
     heads = np.array([np.array(armature.data.bones[b].head_local) for b in bones], dtype=np.float64)
     return B, heads
-
-
-def nearest_rotations(M):
-    """The rotation matrices nearest to (n, 3, 3) matrices ``M`` (polar factor by SVD). Blender stores rest
-    matrices in float32, and those of very short bones are orthogonal only to ~1e-5: B P B^T would then not be
-    a rotation."""
-    U, _, Vt = np.linalg.svd(M)
-    R = U @ Vt
-    flip = np.linalg.det(R) < 0
-    if flip.any():
-        U[flip, :, -1] *= -1
-        R = U @ Vt
-    return R
 
 
 def to_armature_space(clip: Clip, armature) -> Clip:
@@ -552,37 +413,6 @@ def to_pose_space(clip: Clip, armature) -> Clip:
 
 
 # ----------------------------------------------------------------------------------------- writing
-
-
-def channels_from_matrices(mode, R):
-    """Blender channel values (frames, 3 or 4) for matrices (frames, 3, 3) in ``mode``: quaternions
-    (w, x, y, z) sign-continuous, Euler (x, y, z) unwrapped, axis-angle (angle, x, y, z) with a continuous axis."""
-    if mode == "QUATERNION":
-        return _quat_continuous(matrix_to_quat(R))
-    if mode == "AXIS_ANGLE":
-        q = matrix_to_quat(R)  # w >= 0: angle in [0, pi]
-        vnorm = np.linalg.norm(q[:, 1:], axis=1)
-        angle = 2.0 * np.arctan2(vnorm, q[:, 0])
-        axis = np.zeros((len(q), 3))
-        ok = vnorm > 1e-12
-        axis[ok] = q[ok, 1:] / vnorm[ok, None]
-        # undefined axes (zero angle) take the nearest earlier defined axis (leading ones the first; +Y if none)
-        if not ok.any():
-            axis[:] = (0.0, 1.0, 0.0)
-        elif not ok.all():
-            idx = np.where(ok, np.arange(len(ok)), -1)
-            idx = np.maximum.accumulate(idx)
-            idx[idx < 0] = np.argmax(ok)
-            axis = axis[idx]
-        if len(axis) > 1:
-            dots = np.einsum("ij,ij->i", axis[1:], axis[:-1])
-            signs = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
-            axis = axis * signs[:, None]
-            angle = np.unwrap(angle * signs)  # (angle + 2 pi k, axis) is the same rotation
-        return np.column_stack([angle, axis])
-    if mode in EULER_MODES:
-        return np.unwrap(matrix_to_euler(mode, R), axis=0)
-    raise ShapeSigError(f"unknown rotation mode {mode!r}")
 
 
 def _write_fcurve(bag, bone, prop, index, frames_f32, values, co_buf, interp):

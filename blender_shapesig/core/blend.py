@@ -30,15 +30,15 @@ displacements expressed in the root's heading frame (see ``blend_clips``).
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from .clip import STILL_TOLERANCE, Clip, shared_bones
+from . import so3
+from .clip import Clip, shared_bones, still_joints
 from .curves import (
     as_curve,
-    exp_rotvec,
     geodesic_interpolate,
     move_to_identity,
     relative_rotvecs,
+    srvt_of_velocity,
     uniform_times,
 )
 from .elastic import check_warp
@@ -111,24 +111,8 @@ def blend_name(name_a, name_b, weight):
 
 def _geodesic_start(S0, S1, w):
     """exp(w log(S1 S0^T)) S0 per joint: the point at w on the geodesic from S0 to S1."""
-    xi = _log_so3(S1 @ np.swapaxes(S0, -1, -2))
-    return _exp_so3(w * xi) @ S0
-
-
-# log and exp of rotations: the scipy-backed functions of curves (one implementation for the package)
-
-
-def _log_so3(M):
-    """Rotation vectors of rotation matrices M (..., 3, 3)."""
-    M = np.asarray(M, dtype=np.float64)
-    lead = M.shape[:-2]
-    return Rotation.from_matrix(M.reshape(-1, 3, 3)).as_rotvec().reshape(lead + (3,))
-
-
-_exp_so3 = exp_rotvec
-
-
-_increments = relative_rotvecs
+    xi = so3.log(S1 @ np.swapaxes(S0, -1, -2))
+    return so3.exp(w * xi) @ S0
 
 
 # ---------------------------------------------------------------------------------------------
@@ -206,13 +190,13 @@ class _Plan:
     def q0_on_grid(self, rel0):
         """SRVT of R0 on the grid from R0's increments rel0 = log(R0[k+1] R0[k]^T) (exact)."""
         dt0 = np.diff(self.times0)
-        return _srvt_of_eta((rel0 / dt0[:, None, None])[self.k0])
+        return srvt_of_velocity((rel0 / dt0[:, None, None])[self.k0], rel0[self.k0])
 
     def q1_on_grid(self, rel1):
         """SRVT of R1 o phi on the grid: q1(phi) sqrt(phi') (eq. 4.6), exact for piecewise-linear phi."""
         dt1 = np.diff(self.times1)
         eta = (rel1 / dt1[:, None, None])[self.k1] * self.slope[:, None, None]
-        return _srvt_of_eta(eta)
+        return srvt_of_velocity(eta, rel1[self.k1])
 
     def r0_on_grid(self, R0):
         return geodesic_interpolate(R0, self.times0, self.grid)
@@ -225,48 +209,15 @@ class _Plan:
         w = self.weight
         q = (1.0 - w) * q0 + w * q1
         steps = q * np.linalg.norm(q, axis=-1, keepdims=True) * self.dg[:, None, None]
-        return _integrate(steps), steps
+        return so3.integrate(steps), steps
 
     def resample(self, Bg, steps):
         """A curve on the grid (with its increments), evaluated at the output frames."""
-        return _eval_piecewise(Bg, steps, self.grid, self.u_out)
+        return geodesic_interpolate(Bg, self.grid, self.u_out, increments=steps)
 
     def r0_out(self, R0, rel0):
         """Clip A's own motion in the blended timing (rel0: R0's increments)."""
-        return _eval_piecewise(R0, rel0, self.times0, self.u_out)
-
-
-def _srvt_of_eta(eta):
-    norm = np.linalg.norm(eta, axis=-1, keepdims=True)
-    out = np.zeros_like(eta)
-    nz = norm[..., 0] > 0.0
-    out[nz] = eta[nz] / np.sqrt(norm[nz])
-    return out
-
-
-def _integrate(steps):
-    """B[0] = I, B[k+1] = exp(steps[k]) B[k]: inverse_srvt with the increments given."""
-    n, j = steps.shape[:2]
-    E = _exp_so3(steps)
-    out = np.empty((n + 1, j, 3, 3))
-    out[0] = np.eye(3)
-    for k in range(n):
-        np.matmul(E[k], out[k], out=out[k + 1])
-    return out
-
-
-def _eval_piecewise(R, rel, t, t_new):
-    """geodesic_interpolate with the increments rel = log(R[k+1] R[k]^T) already known (eq. 5.8)."""
-    f = R.shape[0]
-    k = np.clip(np.searchsorted(t, t_new, side="right") - 1, 0, f - 2)
-    frac = (t_new - t[k]) / (t[k + 1] - t[k])
-    out = R[k].copy()
-    inner = (frac > 0.0) & (frac < 1.0)
-    if np.any(inner):
-        out[inner] = _exp_so3(rel[k[inner]] * frac[inner, None, None]) @ R[k[inner]]
-    at_end = frac >= 1.0
-    out[at_end] = R[k[at_end] + 1]
-    return out
+        return geodesic_interpolate(R0, self.times0, self.u_out, increments=rel0)
 
 
 def compute_warp(R0, R1, align=True, depth=9, penalty=0.0):
@@ -314,8 +265,8 @@ def geodesic_blend(R0, R1, weight, align=True, depth=9, *, frames=None, warp=Non
     else:
         warp, edist = compute_warp(R0, R1, align, depth, penalty)
     plan = _Plan(R0.shape[0], R1.shape[0], w, warp, frames, durations)
-    rel0 = _increments(R0)
-    rel1 = _increments(R1)
+    rel0 = relative_rotvecs(R0)
+    rel1 = relative_rotvecs(R1)
     Bg, steps = plan.blend_q(plan.q0_on_grid(rel0), plan.q1_on_grid(rel1))
     start = _geodesic_start(R0[0], R1[0], w)
     out = plan.resample(Bg, steps) @ start[None]
@@ -384,10 +335,7 @@ def estimate_up_axis(root_rotations, root_translations=()):
     S = np.zeros((3, 3))
     for R in root_rotations:
         R = np.asarray(R, dtype=np.float64).reshape(-1, 3, 3)
-        U, _, Vt = np.linalg.svd(R.sum(axis=0))
-        if np.linalg.det(U @ Vt) < 0:
-            U[:, -1] *= -1
-        r = _log_so3(R @ (U @ Vt).T)
+        r = so3.log(R @ so3.nearest_rotation(R.sum(axis=0)).T)  # about the mean orientation
         S += r.T @ r / max(len(r), 1)
     P = np.eye(3)
     for p in root_translations:
@@ -481,15 +429,6 @@ def _blend_root_path(plan, p0, p1, rot0, rot1, rotb, up):
     return path + np.outer((1.0 - w) * h0 + w * h1, up)
 
 
-def _moving(R):
-    """Joints (mask) whose rotation ever differs from the first frame by more than the still
-    tolerance of core.clip (a fast numpy version of ``~still_joints``)."""
-    if R.shape[0] < 2:
-        return np.zeros(R.shape[1], dtype=bool)
-    ang = np.linalg.norm(_log_so3(R @ np.swapaxes(R[0], -1, -2)[None]), axis=-1)
-    return ang.max(axis=0) > STILL_TOLERANCE
-
-
 def _interp_rows(x_new, x, values):
     return np.stack([np.interp(x_new, x, values[:, i]) for i in range(values.shape[1])], axis=1)
 
@@ -570,7 +509,7 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
     ib = {x: i for i, x in enumerate(b.bones)}
     sa = [ia[x] for x in shared]
     sb = [ib[x] for x in shared]
-    moving = _moving(a.rotations[:, sa]) | _moving(b.rotations[:, sb])
+    moving = ~(still_joints(a.rotations[:, sa]) & still_joints(b.rotations[:, sb]))
     warp_bones = [x for x, m in zip(shared, moving) if m] or list(shared)
     given_warp = warp is not None
     if given_warp:
@@ -587,11 +526,11 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
     plan = _Plan(a.frames, b.frames, w, warp, frames, (d0, d1))
 
     # Every bone of A in the blended timing, then the blended bones replaced.
-    rel_a = _increments(a.rotations)
+    rel_a = relative_rotvecs(a.rotations)
     out = plan.r0_out(a.rotations, rel_a)
     ba = [ia[x] for x in blended]
     bb = [ib[x] for x in blended]
-    rel_b = _increments(b.rotations[:, bb])
+    rel_b = relative_rotvecs(b.rotations[:, bb])
     Bg, steps = plan.blend_q(plan.q0_on_grid(rel_a[:, ba]), plan.q1_on_grid(rel_b))
     start = _geodesic_start(a.rotations[0, ba], b.rotations[0, bb], w)
     out[:, ba] = plan.resample(Bg, steps) @ start[None]

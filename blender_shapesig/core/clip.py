@@ -9,13 +9,11 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .curves import as_curve, relative_rotvecs
+from .curves import as_curve
 from .errors import CurveError
+from .so3 import STILL_TOLERANCE, still_joints  # the one stillness rule (re-exported: callers import it here)
 
-__all__ = ["Clip", "shared_bones", "still_joints", "restrict_to_shared"]
-
-# A joint whose rotation never changes by more than this angle (radians) over the clip is "still".
-STILL_TOLERANCE = 1e-6
+__all__ = ["Clip", "shared_bones", "still_joints", "restrict_to_shared", "STILL_TOLERANCE"]
 
 
 @dataclass
@@ -93,22 +91,10 @@ class Clip:
         return replace(self, rotations=self.rotations[a:b], root_translation=rt, frame_start=first)
 
     def still_bones(self, tolerance: float = STILL_TOLERANCE) -> Tuple[str, ...]:
-        """Bones whose rotation never changes over the clip."""
+        """Bones whose rotation never moves more than ``tolerance`` radians from the first frame
+        (``so3.still_joints``)."""
         mask = still_joints(self.rotations, tolerance)
         return tuple(b for b, m in zip(self.bones, mask) if m)
-
-
-def still_joints(R, tolerance: float = STILL_TOLERANCE) -> np.ndarray:
-    """Boolean mask (joints,): True where the joint's rotation never moves by more than tolerance."""
-    R = as_curve(R)
-    if R.shape[0] < 2:
-        return np.ones(R.shape[1], dtype=bool)
-    # Angle between every frame and the first: exact stillness, not just small steps.
-    rel = R @ np.swapaxes(R[0], -1, -2)[None]
-    cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
-    angle = np.arccos(cos)
-    steps = np.linalg.norm(relative_rotvecs(R), axis=-1)
-    return (angle.max(axis=0) <= tolerance) & (steps.max(axis=0) <= tolerance)
 
 
 def shared_bones(*clips: Clip) -> Tuple[str, ...]:

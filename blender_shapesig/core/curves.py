@@ -7,12 +7,12 @@ times ``t`` (increasing, from 0 to 1; uniform when omitted). Unit quaternions of
 
 Between samples a curve is the geodesic of eq. 5.8, so its right logarithmic derivative and SRVT
 are piecewise constant (eqs. 5.10-5.13): one value per interval, arrays of ``frames - 1`` rows.
-All exponentials and logarithms go through ``scipy.spatial.transform.Rotation``.
+All exponentials, logarithms and quaternion conversions are those of ``core.so3``.
 """
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from . import so3
 from .errors import CurveError
 
 __all__ = [
@@ -24,6 +24,8 @@ __all__ = [
     "exp_rotvec",
     "right_log_derivative",
     "srvt",
+    "srvt_of_velocity",
+    "ZERO_STEP",
     "inverse_srvt",
     "geodesic_interpolate",
     "l2_distance",
@@ -47,8 +49,7 @@ def as_curve(R, name="curve"):
         norms = np.linalg.norm(arr, axis=-1)
         if np.any(norms < 1e-12):
             raise CurveError(f"{name}: a quaternion has zero length")
-        f, j, _ = arr.shape
-        arr = Rotation.from_quat(arr.reshape(-1, 4)).as_matrix().reshape(f, j, 3, 3)
+        arr = so3.matrix_from_quat(arr, scalar_first=False)
     if arr.ndim != 4 or arr.shape[-2:] != (3, 3):
         raise CurveError(
             f"{name}: expected rotation matrices (frames, joints, 3, 3) or quaternions "
@@ -97,19 +98,10 @@ def relative_rotvecs(R):
     These are the increments of the development of the curve in R^(3 joints); they do not depend
     on the time grid and are unchanged by a right translation of the curve.
     """
-    R = as_curve(R)
-    f, j = R.shape[:2]
-    if f < 2:
-        return np.zeros((0, j, 3))
-    rel = R[1:] @ np.swapaxes(R[:-1], -1, -2)
-    return Rotation.from_matrix(rel.reshape(-1, 3, 3)).as_rotvec().reshape(f - 1, j, 3)
+    return so3.relative_rotvecs(as_curve(R))
 
 
-def exp_rotvec(v):
-    """exp of rotation vectors of any leading shape (..., 3) -> matrices (..., 3, 3)."""
-    v = np.asarray(v, dtype=np.float64)
-    lead = v.shape[:-1]
-    return Rotation.from_rotvec(v.reshape(-1, 3)).as_matrix().reshape(lead + (3, 3))
+exp_rotvec = so3.exp  # exp of rotation vectors (..., 3) -> matrices (..., 3, 3); the name callers know
 
 
 def right_log_derivative(R, t=None):
@@ -124,14 +116,14 @@ def right_log_derivative(R, t=None):
 ZERO_STEP = 1e-12
 
 
-def _srvt_from_eta(eta, steps=None):
-    """q = eta / sqrt(|eta|); zero where the step angle |eta| dt is at most ZERO_STEP."""
-    norm = np.linalg.norm(eta, axis=-1, keepdims=True)
-    step_norm = norm if steps is None else np.linalg.norm(steps, axis=-1, keepdims=True)
-    out = np.zeros_like(eta)
-    nz = step_norm[..., 0] > ZERO_STEP
-    out[nz] = eta[nz] / np.sqrt(norm[nz])
-    return out
+def srvt_of_velocity(eta, steps):
+    """q = eta / sqrt(|eta|) (eq. 5.11) from velocities ``eta`` (..., 3) and the rotation ``steps`` they
+    come from (rotation vectors, broadcastable to eta): zero where the step angle is at most ZERO_STEP
+    (rounding noise of a still joint) or eta is 0. The one SRVT zero rule (``srvt``, the blends)."""
+    norm = np.linalg.norm(eta, axis=-1)
+    nz = (np.linalg.norm(steps, axis=-1) > ZERO_STEP) & (norm > 0.0)
+    scale = np.divide(1.0, np.sqrt(norm), out=np.zeros_like(norm), where=nz)
+    return eta * scale[..., None]
 
 
 def srvt(R, t=None):
@@ -142,8 +134,8 @@ def srvt(R, t=None):
     """
     R = as_curve(R)
     t = as_times(t, R.shape[0])
-    steps = relative_rotvecs(R)
-    return _srvt_from_eta(steps / np.diff(t)[:, None, None], steps)
+    steps = so3.relative_rotvecs(R)
+    return srvt_of_velocity(steps / np.diff(t)[:, None, None], steps)
 
 
 def inverse_srvt(q, t=None, start=None):
@@ -159,26 +151,20 @@ def inverse_srvt(q, t=None, start=None):
         raise CurveError("q: contains NaN or infinite values")
     n, j = q.shape[:2]
     t = as_times(t, n + 1)
-    if start is None:
-        R0 = np.broadcast_to(np.eye(3), (j, 3, 3)).copy()
-    else:
+    R0 = None  # the identity
+    if start is not None:
         R0 = as_curve(np.asarray(start)[None], name="start")[0]
         if R0.shape[0] != j:
             raise CurveError(f"start: has {R0.shape[0]} joints, q has {j}")
-    eta = q * np.linalg.norm(q, axis=-1, keepdims=True) * np.diff(t)[:, None, None]
-    steps = exp_rotvec(eta)  # (n, j, 3, 3)
-    out = np.empty((n + 1, j, 3, 3))
-    out[0] = R0
-    for k in range(n):
-        out[k + 1] = steps[k] @ out[k]
-    return out
+    return so3.integrate(q * np.linalg.norm(q, axis=-1, keepdims=True) * np.diff(t)[:, None, None], R0)
 
 
-def geodesic_interpolate(R, t, t_new):
+def geodesic_interpolate(R, t, t_new, *, increments=None):
     """Evaluate the piecewise-geodesic curve through samples R at times t (eqs. 5.8, 5.9).
 
     ``t`` may be None (uniform). ``t_new`` is any array of times in [t[0], t[-1]]; samples that
-    hit a knot exactly return that sample unchanged. Shape (len(t_new), joints, 3, 3).
+    hit a knot exactly return that sample unchanged. ``increments``: ``relative_rotvecs(R)`` when the
+    caller already has them. Shape (len(t_new), joints, 3, 3).
     """
     R = as_curve(R)
     f = R.shape[0]
@@ -197,8 +183,8 @@ def geodesic_interpolate(R, t, t_new):
     out = R[k].copy()
     inner = (frac > 0.0) & (frac < 1.0)
     if np.any(inner):
-        xi = relative_rotvecs(R)[k[inner]] * frac[inner, None, None]
-        out[inner] = exp_rotvec(xi) @ R[k[inner]]
+        rel = relative_rotvecs(R) if increments is None else increments
+        out[inner] = so3.exp(rel[k[inner]] * frac[inner, None, None]) @ R[k[inner]]
     at_end = frac >= 1.0
     out[at_end] = R[k[at_end] + 1]
     return out

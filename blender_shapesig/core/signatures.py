@@ -44,8 +44,8 @@ import math
 import numpy as np
 
 from . import tensor
-from .clip import STILL_TOLERANCE
 from .curves import as_curve, relative_rotvecs
+from .so3 import still_joints
 from .errors import CurveError, ShapeSigError
 
 try:  # optional: the extension must work without it
@@ -391,18 +391,6 @@ def log_signature(R, level, *, joints=None, basis="lyndon", method="auto"):
     return _logsig_flat(dx, level, resolve_method(method, dx.shape[1], log=True), basis)
 
 
-def _still_mask(R, eta):
-    """``clip.still_joints(R)`` computed from already known increments ``eta`` (saves computing the
-    rotation vectors twice): no rotation away from the first frame, and no step, above the tolerance."""
-    if R.shape[0] < 2:
-        return np.ones(R.shape[1], dtype=bool)
-    rel = R @ np.swapaxes(R[0], -1, -2)[None]
-    cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
-    angle = np.arccos(cos)
-    steps = np.linalg.norm(eta, axis=-1)
-    return (angle.max(axis=0) <= STILL_TOLERANCE) & (steps.max(axis=0) <= STILL_TOLERANCE)
-
-
 def _pair_increments(R0, R1, joints, drop_still):
     """Increments of both developments on the same joints; joints still in both are dropped."""
     A = _select(R0, joints, "R0")
@@ -411,7 +399,7 @@ def _pair_increments(R0, R1, joints, drop_still):
         raise CurveError(f"the curves have {A.shape[1]} and {B.shape[1]} joints")
     ea, eb = relative_rotvecs(A), relative_rotvecs(B)
     if drop_still:
-        keep = ~(_still_mask(A, ea) & _still_mask(B, eb))
+        keep = ~(still_joints(A) & still_joints(B))
         if keep.any() and not keep.all():
             ea, eb = ea[:, keep], eb[:, keep]
     return ea.reshape(ea.shape[0], 3 * ea.shape[1]), eb.reshape(eb.shape[0], 3 * eb.shape[1])

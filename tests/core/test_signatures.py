@@ -455,16 +455,21 @@ def test_still_joints_change_nothing():
         assert abs(fn(A3, B3, 3, joints=[0, 1]) - ref) < 1e-15
 
 
-def test_still_mask_equals_clip_still_joints(walk, run):
-    from blender_shapesig.core.clip import still_joints
+def test_still_mask_is_the_one_stillness_rule(walk, run):
+    """The signature measures drop joints by the package's one stillness rule (so3.still_joints, re-exported
+    by clip): the angle from the first frame, checked here against scipy."""
+    from blender_shapesig.core.clip import STILL_TOLERANCE, still_joints
 
+    assert sg.still_joints is still_joints
     for clip in (walk, run):
         R = clip.rotations
-        mask = sg._still_mask(R, curves.relative_rotvecs(R))
-        np.testing.assert_array_equal(mask, still_joints(R))
+        rel = R @ np.swapaxes(R[0], -1, -2)[None]
+        angle = np.linalg.norm(Rotation.from_matrix(rel.reshape(-1, 3, 3)).as_rotvec(), axis=-1)
+        mask = still_joints(R)
+        np.testing.assert_array_equal(mask, angle.reshape(R.shape[:2]).max(axis=0) <= STILL_TOLERANCE)
         assert mask.any() and not mask.all()  # CMU skeletons have still bones (hip joints, clavicles)
     one = np.broadcast_to(np.eye(3), (1, 3, 3, 3))
-    np.testing.assert_array_equal(sg._still_mask(one, np.zeros((0, 3, 3))), still_joints(one))
+    assert still_joints(one).all()
 
 
 def test_still_in_one_curve_only_is_kept():
