@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig.core import search, signatures
+from blender_shapesig.core.index import words
 from blender_shapesig.core.acclaim import load_acclaim
 from blender_shapesig.core.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
@@ -49,7 +50,7 @@ def test_lyndon_letters_follow_iisignature_basis_order():
     iisignature = pytest.importorskip("iisignature")
     for dim, level in [(3, 3), (6, 3), (9, 2), (4, 4)]:
         basis = iisignature.basis(iisignature.prepare(dim, level, "S"))
-        ours = search._local_letters(dim, level)
+        ours = words._local_letters(dim, level)
         assert len(basis) == len(ours)
         for text, row in zip(basis, ours):
             letters = [int(ch) - 1 for ch in text if ch.isdigit()]
@@ -248,7 +249,7 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     # 4) spoiled after the light read (meta + sketch) and before the directions are needed: recomputed
     cache2 = search.SignatureCache(tmp_path)
     item = search.clip_items([c])[0]
-    assert cache2.entries(item)[0].direction is None  # a light read
+    assert search.item_entries(item, search.DEFAULT_LEVEL, cache2)[0].direction is None  # a light read
     with open(fn, "wb") as f:
         f.write(b"spoiled")
     res = search.rank_clips(q, [item], cache=cache2)
