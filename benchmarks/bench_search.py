@@ -4,11 +4,11 @@ memory per clip and recall@10 of compact representations against the exact ranki
     .venv/bin/python benchmarks/bench_search.py [--data DIR] [--limit N] [--synthetic 1000] [--level 3]
                                                 [--json OUT.json]
 
-Clips: every .bvh under ``--data`` (default: the Przestr CMU BVH set in /work/shared, one skeleton, 43
-bones), read with Blender's importer (``core.sources.read``), frame 1 (rest pose) cropped.
+Clips: every .bvh under ``--data`` (default: $SHAPESIG_CMU_DATA, e.g. the Przestr CMU BVH set, one skeleton,
+43 bones; else the test clips), read with Blender's importer (``core.sources.read``), frame 1 (rest pose) cropped.
 
 Reference ranking: sim^n from float64 log-signatures on the moving joints (exact: still joints add only
-zero coordinates, see core/index.py), every clip against every other. Compared by recall@10 (mean over
+zero coordinates, see core/index/entry.py), every clip against every other. Compared by recall@10 (mean over
 queries of |true top 10 ∩ top 10| / 10):
   * float32 directions (what the index stores);
   * count sketches of K buckets (the index's first stage), alone;
