@@ -33,8 +33,8 @@ from .preferences import ADDON_ID, get_preferences
 from .properties import settings_of
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
-           "owner_armature", "action_item", "search_problem", "result_problem", "query_item", "library_items",
-           "index_items", "missing_count", "rank_into_settings", "store_results", "selected_result",
+           "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item", "library_items",
+           "index_items", "missing_count", "rank_into_settings", "store_results", "selected_action",
            "result_action", "start_preview", "stop_preview"]
 
 # The session's stores: (absolute index folder, compact limit) -> SignatureCache (their memory layer survives
@@ -185,6 +185,13 @@ def result_problem(context, settings) -> Optional[str]:
     return None
 
 
+def preview_problem(context, settings) -> Optional[str]:
+    """Why Preview cannot run, or None: while a preview plays, running it again stops it."""
+    if settings is not None and settings.preview_object:
+        return None
+    return result_problem(context, settings)
+
+
 def _check(problem):
     if problem is not None:
         raise ShapeSigError(problem)
@@ -305,10 +312,11 @@ def rank_into_settings(context, settings) -> index.RankList:
     return res
 
 
-def selected_result(context, settings):
-    """(armature, row) of the selected result; ShapeSigError with a clear message otherwise."""
+def selected_action(context, settings):
+    """(armature, action) of the selected result (``result_action``); ShapeSigError with a clear message."""
     _check(result_problem(context, settings))
-    return _armature(context), settings.results[settings.results_index]
+    obj = _armature(context)
+    return obj, result_action(settings, obj, settings.results[settings.results_index])
 
 
 def result_action(settings, obj, row):

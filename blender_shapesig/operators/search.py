@@ -36,12 +36,16 @@ def _tag_redraw(context):
             area.tag_redraw()
 
 
-def _poll(cls, problem):
-    """Poll result for a precondition message (None: ready)."""
-    if problem is None:
-        return True
-    cls.poll_message_set(problem)
-    return False
+def _poll_with(problem):
+    """A ``poll`` classmethod: refused with ``problem(context, settings)``'s one-line reason, if any."""
+
+    def poll(cls, context):
+        reason = problem(context, library.settings_of(context))
+        if reason is not None:
+            cls.poll_message_set(reason)
+        return reason is None
+
+    return classmethod(poll)
 
 
 class SHAPESIG_OT_build_index(bpy.types.Operator):
@@ -56,9 +60,7 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
 
     _timer = None
 
-    @classmethod
-    def poll(cls, context):
-        return _poll(cls, library.search_problem(context, library.settings_of(context)))
+    poll = _poll_with(library.search_problem)
 
     def _prepare(self, context):
         self.settings = library.settings_of(context)
@@ -159,9 +161,7 @@ class SHAPESIG_OT_rank(bpy.types.Operator):
     bl_label = "Find Similar"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        return _poll(cls, library.search_problem(context, library.settings_of(context)))
+    poll = _poll_with(library.search_problem)
 
     def invoke(self, context, event):
         # In the UI, when several clips still need indexing, index them first with the cancellable
@@ -202,15 +202,12 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
     bl_label = "Assign Result"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        return _poll(cls, library.result_problem(context, library.settings_of(context)))
+    poll = _poll_with(library.result_problem)
 
     def execute(self, context):
         settings = library.settings_of(context)
         try:
-            obj, row = library.selected_result(context, settings)
-            action = library.result_action(settings, obj, row)
+            obj, action = library.selected_action(context, settings)
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Assign Result: {exc}")
             return {"CANCELLED"}
@@ -229,12 +226,7 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
     stop: BoolProperty(name="Stop", description="Stop the preview and restore the action", default=False,
                        options={"SKIP_SAVE"})
 
-    @classmethod
-    def poll(cls, context):
-        settings = library.settings_of(context)
-        if settings is not None and settings.preview_object:
-            return True  # running again stops the preview
-        return _poll(cls, library.result_problem(context, settings))
+    poll = _poll_with(library.preview_problem)
 
     def execute(self, context):
         settings = library.settings_of(context)
@@ -243,8 +235,7 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
             self.report({"INFO"}, "preview stopped")
             return {"FINISHED"}
         try:
-            obj, row = library.selected_result(context, settings)
-            action = library.result_action(settings, obj, row)
+            obj, action = library.selected_action(context, settings)
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Preview: {exc}")
             return {"CANCELLED"}
