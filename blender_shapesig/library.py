@@ -33,9 +33,9 @@ from .preferences import ADDON_ID, get_preferences
 from .properties import settings_of
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
-           "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item", "library_items",
-           "index_items", "missing_count", "rank_into_settings", "store_results", "selected_action",
-           "result_action", "start_preview", "stop_preview"]
+           "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
+           "library_items", "index_items", "missing_count", "rank_into_settings", "store_results",
+           "selected_action", "result_action", "start_preview", "stop_preview"]
 
 # The session's stores: (absolute index folder, compact limit) -> SignatureCache (their memory layer survives
 # operators; clearing this dict makes the next operator read the folder afresh).

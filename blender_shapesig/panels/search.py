@@ -61,17 +61,7 @@ def _sentence(text):
     return text[:1].upper() + text[1:] + ("" if text.endswith(".") else ".")
 
 
-def draw_search(layout, context):
-    """Draw the search UI into ``layout`` (shared by the three sidebar panels). What the operators need is
-    their ``poll``'s business (their buttons grey out); the panel shows the same reason
-    (``library.search_problem``)."""
-    s = library.settings_of(context)
-    if s is None:
-        layout.label(text="ShapeSig settings are not registered", icon="ERROR")
-        return
-    obj = getattr(context, "active_object", None)
-
-    # query
+def _draw_query(layout, s, obj):
     col = layout.column(align=True)
     col.label(text="Query", icon="ARMATURE_DATA")
     col.prop_search(s, "query_action", bpy.data, "actions", text="")
@@ -85,7 +75,8 @@ def draw_search(layout, context):
     sub.prop(s, "frame_start", text="")
     sub.prop(s, "frame_end", text="")
 
-    # library
+
+def _draw_library(layout, s):
     col = layout.column(align=True)
     col.label(text="Library", icon="ASSET_MANAGER")
     row = col.row(align=True)
@@ -101,7 +92,8 @@ def draw_search(layout, context):
         col.prop(s, "folders", text="")
     col.prop(s, "crop_start")
 
-    # search
+
+def _draw_search(layout, context, s):
     col = layout.column(align=True)
     row = col.row(align=True)
     row.prop(s, "level")
@@ -126,7 +118,8 @@ def draw_search(layout, context):
     if problem is not None:
         _message(layout, _sentence(problem), "ERROR")
 
-    # results
+
+def _draw_results(layout, s):
     if s.message:
         _message(layout, s.message)
     if not s.results:
@@ -159,6 +152,20 @@ def draw_search(layout, context):
     op.action_b = item.source if item.is_action else ""
     if not item.is_action:
         layout.label(text="Assign a file result to blend it.", icon="INFO")
+
+
+def draw_search(layout, context):
+    """Draw the search UI into ``layout`` (shared by the three sidebar panels): query, library, search and
+    results. What the operators need is their ``poll``'s business (their buttons grey out); the panel shows
+    the same reason (``library.search_problem``)."""
+    s = library.settings_of(context)
+    if s is None:
+        layout.label(text="ShapeSig settings are not registered", icon="ERROR")
+        return
+    _draw_query(layout, s, getattr(context, "active_object", None))
+    _draw_library(layout, s)
+    _draw_search(layout, context, s)
+    _draw_results(layout, s)
 
 
 class _SearchPanel:
