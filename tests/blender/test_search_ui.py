@@ -389,3 +389,25 @@ def test_query_with_only_location_keys_is_a_clear_error(rig):
     with pytest.raises(RuntimeError, match="no rotation channels"):
         bpy.ops.shapesig.rank()
     assert len(s.results) == 0
+
+
+def test_action_items_have_typed_keys_and_poll_owns_preconditions(rig):
+    """An action's cache key is the text of its ActionKey (hash, armature digest, frame range); a result is an
+    action because its item is an ActionItem. Preconditions are refused by poll, with the reason."""
+    from blender_shapesig import library
+
+    s = bpy.context.scene.shapesig
+    _obj, action, q = library.query_item(bpy.context, s)
+    last = int(round(action.frame_range[1]))
+    assert isinstance(q, library.ActionItem) and q.key == q.action_key.text and q.action == "walk1"
+    assert (q.action_key.action_hash, q.action_key.frame_range) == (action_io.action_hash(action), (2, last))
+    assert q.action_key.armature_digest == library.armature_digest(rig)
+    assert bpy.ops.shapesig.rank.poll() and not bpy.ops.shapesig.assign_result.poll()
+    assert library.result_problem(bpy.context, s) == "no results: run Find Similar first"
+    s.use_frame_range, s.frame_start, s.frame_end = True, 10, 10
+    assert not bpy.ops.shapesig.rank.poll() and not bpy.ops.shapesig.build_index.poll()
+    with pytest.raises(RuntimeError, match="needs two frames"):
+        bpy.ops.shapesig.rank()
+    s.use_frame_range = False
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert bpy.ops.shapesig.assign_result.poll() and s.results[0].is_action
