@@ -4,11 +4,11 @@ memory per clip and recall@10 of compact representations against the exact ranki
     .venv/bin/python benchmarks/bench_search.py [--data DIR] [--limit N] [--synthetic 1000] [--level 3]
                                                 [--json OUT.json]
 
-Clips: every .bvh under ``--data`` (default: the Przestr CMU BVH set in /work/shared, one skeleton, 43
-bones), read with Blender's importer (``clips.load_clips``), frame 1 (rest pose) cropped.
+Clips: every .bvh under ``--data`` (default: $SHAPESIG_CMU_DATA, e.g. the Przestr CMU BVH set, one skeleton,
+43 bones; else the test clips), read with Blender's importer (``core.sources.read``), frame 1 (rest pose) cropped.
 
 Reference ranking: sim^n from float64 log-signatures on the moving joints (exact: still joints add only
-zero coordinates, see core/search.py), every clip against every other. Compared by recall@10 (mean over
+zero coordinates, see core/index/entry.py), every clip against every other. Compared by recall@10 (mean over
 queries of |true top 10 ∩ top 10| / 10):
   * float32 directions (what the index stores);
   * count sketches of K buckets (the index's first stage), alone;
@@ -26,6 +26,7 @@ Speed (ratios against a baseline measured in the same run, so they do not depend
 
 import argparse
 import json
+import os
 import pathlib
 import statistics
 import sys
@@ -37,15 +38,14 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.core import search, signatures  # noqa: E402
+from blender_shapesig.core import index, signatures, sources  # noqa: E402
 
-DEFAULT_DATA = "/work/shared/data/cmu/Przestr_motion-capture/data"
+# a folder of CMU .bvh files (``--data`` or $SHAPESIG_CMU_DATA); the test clips by default
+DEFAULT_DATA = os.environ.get("SHAPESIG_CMU_DATA", str(ROOT / "tests" / "data" / "bvh"))
 
 
 def _load(path, asf=None):
-    from blender_shapesig import clips
-
-    return clips.load_clips(path, asf)
+    return sources.read(path, asf=asf)
 
 
 def recall_at(true_order, approx_order, k=10):
@@ -96,7 +96,7 @@ def bench_recall(clips, level, sketch_dims, pools):
     moving = tuple(range(n_moving))
     sk = {}
     for K in sketch_dims:
-        S = np.array([search.sketch(u, n_moving, moving, level, dim=K) for u in U])
+        S = np.array([index.sketch(u, n_moving, moving, level, dim=K) for u in U])
         order = rankings(pairwise(S))
         sk[K] = {"recall@10": mean_recall(ref, order), "bytes_per_clip": 4 * K}
         D_exact = pairwise(U.astype(np.float32))
@@ -120,32 +120,32 @@ def bench_synthetic(n, level, moving_joints, repeat=5):
     bones = tuple(f"b{i}" for i in range(moving_joints))
     moving = tuple(range(moving_joints))
     dim = signatures.log_signature_dim(3 * moving_joints, level)
-    cache = search.SignatureCache()
+    cache = index.SignatureCache()
     items = []
     dirs = []
     for i in range(n + 1):
         u = rng.standard_normal(dim).astype(np.float32)
         u /= np.linalg.norm(u)
         dirs.append(u)
-        e = search.IndexEntry(name=f"c{i}", bones=bones, moving=moving, frames=300, level=level, norm=1.0,
+        e = index.IndexEntry(name=f"c{i}", bones=bones, moving=moving, frames=300, level=level, norm=1.0,
                               direction=u, increments=np.zeros((299, moving_joints, 3), np.float32),
-                              sketch=search.sketch(u, moving_joints, moving, level), key=f"k{i}")
+                              sketch=index.sketch(u, moving_joints, moving, level), key=f"k{i}")
         cache.put(f"k{i}", level, [e])
-        items.append(search.LibraryItem(f"c{i}", f"k{i}", lambda: None))
+        items.append(index.LibraryItem(f"c{i}", f"k{i}", lambda: None))
     q, lib = items[0], items[1:]
     M = np.stack(dirs[1:])
-    search.rank_clips(q, lib, level=level, top=10, cache=cache)  # warm-up
+    index.rank_clips(q, lib, level=level, top=10, cache=cache)  # warm-up
     t_rank, t_base, t_all = [], [], []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        res = search.rank_clips(q, lib, level=level, top=10, cache=cache)
+        res = index.rank_clips(q, lib, level=level, top=10, cache=cache)
         t_rank.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         d = np.sqrt(np.maximum(2.0 - 2.0 * (M @ dirs[0]), 0))
         np.argpartition(d, 10)[:10]
         t_base.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        search.rank_clips(q, lib, level=level, cache=cache)  # no top: every clip exactly
+        index.rank_clips(q, lib, level=level, cache=cache)  # no top: every clip exactly
         t_all.append(time.perf_counter() - t0)
     assert len(res) == 10
     return {"clips": n, "coordinates": dim, "rank_top10_ms": 1e3 * min(t_rank),
@@ -157,9 +157,9 @@ def bench_synthetic(n, level, moving_joints, repeat=5):
 def bench_real(files, level):
     """First (cold) and repeated (warm, new cache object on the same folder) queries over the files."""
     with tempfile.TemporaryDirectory() as tmp:
-        lib = search.folder_library(files, start=2)
+        lib = index.folder_library(files, start=2)
         query = lib[0]
-        cache = search.SignatureCache(tmp)
+        cache = index.SignatureCache(tmp)
         per = []
 
         def progress(i, n, name, last=[time.perf_counter()]):
@@ -169,14 +169,14 @@ def bench_real(files, level):
             last[0] = now
 
         t0 = time.perf_counter()
-        first = search.rank_clips(query, lib[1:], level=level, top=10, cache=cache, progress=progress)
+        first = index.rank_clips(query, lib[1:], level=level, top=10, cache=cache, progress=progress)
         t_first = time.perf_counter() - t0
         t0 = time.perf_counter()
-        second = search.rank_clips(query, search.folder_library(files, start=2)[1:], level=level,
-                                   top=10, cache=search.SignatureCache(tmp))
+        second = index.rank_clips(query, index.folder_library(files, start=2)[1:], level=level,
+                                   top=10, cache=index.SignatureCache(tmp))
         t_second = time.perf_counter() - t0
         t0 = time.perf_counter()
-        third = search.rank_clips(query, lib[1:], level=level, top=10, cache=cache)
+        third = index.rank_clips(query, lib[1:], level=level, top=10, cache=cache)
         t_third = time.perf_counter() - t0
         files_n, size = cache.disk_usage()
         assert [r.name for r in first] == [r.name for r in second] == [r.name for r in third]
@@ -192,13 +192,13 @@ def main(argv=None):
     ap.add_argument("--data", default=DEFAULT_DATA)
     ap.add_argument("--limit", type=int, default=0, help="use the first N files only (0: all)")
     ap.add_argument("--synthetic", type=int, default=1000)
-    ap.add_argument("--level", type=int, default=search.DEFAULT_LEVEL)
+    ap.add_argument("--level", type=int, default=index.DEFAULT_LEVEL)
     ap.add_argument("--sketch-dims", type=int, nargs="+", default=[512, 1024, 2048, 4096, 8192, 16384])
     ap.add_argument("--pools", type=int, nargs="+", default=[20, 30])
     ap.add_argument("--json")
     args = ap.parse_args(argv)
 
-    report = {"level": args.level, "sketch_dim": search.SKETCH_DIM, "exact_pool": search.EXACT_POOL}
+    report = {"level": args.level, "sketch_dim": index.SKETCH_DIM, "exact_pool": index.EXACT_POOL}
     files = sorted(str(p) for p in pathlib.Path(args.data).rglob("*.bvh"))
     if args.limit:
         files = files[: args.limit]

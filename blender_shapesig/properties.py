@@ -10,10 +10,9 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, FloatProperty, IntProperty, PointerProperty,
                        StringProperty)
 
-from .core.search import DEFAULT_LEVEL
+from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
 __all__ = ["ShapeSigResult", "ShapeSigSettings", "classes", "settings_of"]
-
 
 
 # K of the two-stage search the panel uses by default (see docs/evaluation.md, "Winner").
@@ -72,7 +71,7 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     rerank: IntProperty(name="Re-rank", description="Re-order the best K by elastic distance (0: off)",
                         default=RERANK_DEFAULT, min=0, max=100)
     top: IntProperty(name="Show", description="Number of results kept (0: all)", default=25, min=0)
-    depth: IntProperty(name="Depth", description="Elastic DP search depth", default=9, min=1, max=30)
+    depth: IntProperty(name="Depth", description="Elastic DP search depth", default=DEFAULT_DEPTH, min=1, max=30)
     # results
     results: CollectionProperty(type=ShapeSigResult)
     results_index: IntProperty(name="Result", default=0)

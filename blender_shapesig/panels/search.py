@@ -3,11 +3,14 @@
 Query (the active armature's action or a chosen one, optional frame range), library (file actions with a
 name filter / assets only, folders of clips), Build Index (progress bar while it runs), Find Similar, the
 results list (name, sim^n, elastic when re-ranked, frames) and, for the selected result, Assign, Preview
-and Blend (``shapesig.blend_actions`` with the query as A and the result as B). Every problem (no
-armature, no action, empty library, no results) is a label, never an exception.
+and Blend (``shapesig.blend_actions`` with the query as A and the result as B). The operators' ``poll`` owns
+their preconditions (their buttons grey out, with the reason as tooltip); the panel shows the same reason as a
+label (``library.search_problem``), never an exception.
 """
 
 import bpy
+
+from .. import library
 
 __all__ = ["classes", "SHAPESIG_UL_results", "draw_search"]
 
@@ -54,31 +57,17 @@ def _wrap(text, width):
     return lines or [""]
 
 
-def draw_search(layout, context):
-    """Draw the search UI into ``layout`` (shared by the three sidebar panels)."""
-    scene = getattr(context, "scene", None)
-    s = getattr(scene, "shapesig", None) if scene is not None else None
-    if s is None:
-        layout.label(text="ShapeSig settings are not registered", icon="ERROR")
-        return
-    obj = getattr(context, "active_object", None)
+def _sentence(text):
+    return text[:1].upper() + text[1:] + ("" if text.endswith(".") else ".")
 
-    # query
+
+def _draw_query(layout, s, obj):
     col = layout.column(align=True)
     col.label(text="Query", icon="ARMATURE_DATA")
-    if obj is None or obj.type != "ARMATURE":
-        _message(layout, "Select an armature: the query is its action.", "ERROR")
-        return
-    current = obj.animation_data.action if obj.animation_data else None
     col.prop_search(s, "query_action", bpy.data, "actions", text="")
-    if not s.query_action:
-        if current is None:
-            _message(layout, f"{obj.name} has no action: assign one or choose a query action.", "ERROR")
-            return
+    current = getattr(getattr(obj, "animation_data", None), "action", None)
+    if not s.query_action and current is not None and obj.type == "ARMATURE":
         col.label(text=f"Active action: {current.name}")
-    elif bpy.data.actions.get(s.query_action) is None:
-        _message(layout, f"There is no action named {s.query_action!r}.", "ERROR")
-        return
     row = col.row(align=True)
     row.prop(s, "use_frame_range")
     sub = row.row(align=True)
@@ -86,7 +75,8 @@ def draw_search(layout, context):
     sub.prop(s, "frame_start", text="")
     sub.prop(s, "frame_end", text="")
 
-    # library
+
+def _draw_library(layout, s):
     col = layout.column(align=True)
     col.label(text="Library", icon="ASSET_MANAGER")
     row = col.row(align=True)
@@ -101,11 +91,9 @@ def draw_search(layout, context):
     if s.use_folders:
         col.prop(s, "folders", text="")
     col.prop(s, "crop_start")
-    if not s.use_file_actions and not s.use_folders:
-        _message(layout, "The library is empty: search file actions or folders.", "ERROR")
-        return
 
-    # search
+
+def _draw_search(layout, context, s):
     col = layout.column(align=True)
     row = col.row(align=True)
     row.prop(s, "level")
@@ -126,8 +114,12 @@ def draw_search(layout, context):
     row = layout.row()
     row.scale_y = 1.3
     row.operator("shapesig.rank", icon="VIEWZOOM")
+    problem = library.search_problem(context, s)
+    if problem is not None:
+        _message(layout, _sentence(problem), "ERROR")
 
-    # results
+
+def _draw_results(layout, s):
     if s.message:
         _message(layout, s.message)
     if not s.results:
@@ -160,6 +152,20 @@ def draw_search(layout, context):
     op.action_b = item.source if item.is_action else ""
     if not item.is_action:
         layout.label(text="Assign a file result to blend it.", icon="INFO")
+
+
+def draw_search(layout, context):
+    """Draw the search UI into ``layout`` (shared by the three sidebar panels): query, library, search and
+    results. What the operators need is their ``poll``'s business (their buttons grey out); the panel shows
+    the same reason (``library.search_problem``)."""
+    s = library.settings_of(context)
+    if s is None:
+        layout.label(text="ShapeSig settings are not registered", icon="ERROR")
+        return
+    _draw_query(layout, s, getattr(context, "active_object", None))
+    _draw_library(layout, s)
+    _draw_search(layout, context, s)
+    _draw_results(layout, s)
 
 
 class _SearchPanel:

@@ -63,9 +63,9 @@ def rig(empty_file, cache_env):
 
 
 def _cache():
-    from blender_shapesig.operators import search as ops_search
+    from blender_shapesig import library
 
-    return ops_search.get_cache(bpy.context)
+    return library.get_cache(bpy.context)
 
 
 def _read(name, arm):
@@ -88,11 +88,10 @@ def test_registered(addon):
         assert hasattr(bpy.types, cls)
     assert {bpy.types.SHAPESIG_PT_search_view3d.bl_category, bpy.types.SHAPESIG_PT_search_nla.bl_category} == {"ShapeSig"}
     assert hasattr(bpy.types.Scene, "shapesig")
-    from blender_shapesig import preferences
-    from blender_shapesig.operators import search as ops_search
+    from blender_shapesig import library, preferences
 
     # the add-on's module name as imported (bl_ext.<repo>.blender_shapesig when installed as an extension)
-    assert preferences.ShapeSigPreferences.bl_idname == addon.__name__ == ops_search._PACKAGE
+    assert preferences.ShapeSigPreferences.bl_idname == addon.__name__ == library.ADDON_ID
 
 
 def test_file_library_ranks_walks_first_and_caches(rig):
@@ -162,9 +161,9 @@ def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_en
     assert "0 computed" in s.message
     # corrupt one entry file on disk, and forget the session's memory layer: it is detected and rebuilt
     files[0].write_bytes(b"garbage")
-    from blender_shapesig.operators import search as ops_search
+    from blender_shapesig import library
 
-    ops_search._CACHES.clear()
+    library.CACHES.clear()
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
     assert "1 computed" in s.message
     assert _cache().stats["invalid"] == 1
@@ -302,7 +301,7 @@ def test_panel_draws_every_state(rig):
     s.results_index = 99
     assert "Select a result" in _draw().labels()
     s.query_action = "nope"
-    assert "no action named 'nope'" in _draw().labels()
+    assert "no action 'nope'" in _draw().labels()
 
 
 def test_build_index_modal_steps_and_escape(rig):
@@ -335,7 +334,7 @@ def test_build_index_modal_steps_and_escape(rig):
     assert not s.index_running and s.message.startswith("cancelled; index: 2 of 6")
     assert op.reports[-1][0] == {"WARNING"}
     # what was done stays indexed: a second, complete run computes only the other four, then ranks
-    from blender_shapesig.operators.search import missing_count
+    from blender_shapesig.library import missing_count
 
     assert missing_count(ctx, s) == 4
     op = Stand()
@@ -372,10 +371,10 @@ def test_actions_of_another_rig_are_read_with_it_and_rank_after(rig):
     SHAPESIG_UL_results.draw_item(SimpleNamespace(layout_type="DEFAULT"), bpy.context, row, s, s.results[5], 5, s,
                                   "results_index")
     assert f"{amc_action} ({s.results[5].shared} bones)" in row.labels()
-    from blender_shapesig.operators.search import _owner_armature
+    from blender_shapesig.library import owner_armature
 
-    assert _owner_armature(bpy.data.actions[amc_action], rig) == amc_rig
-    assert _owner_armature(bpy.data.actions["walk2"], rig) == rig  # no armature plays it: the query's
+    assert owner_armature(bpy.data.actions[amc_action], rig) == amc_rig
+    assert owner_armature(bpy.data.actions["walk2"], rig) == rig  # no armature plays it: the query's
 
 
 def test_query_with_only_location_keys_is_a_clear_error(rig):
@@ -390,3 +389,25 @@ def test_query_with_only_location_keys_is_a_clear_error(rig):
     with pytest.raises(RuntimeError, match="no rotation channels"):
         bpy.ops.shapesig.rank()
     assert len(s.results) == 0
+
+
+def test_action_items_have_typed_keys_and_poll_owns_preconditions(rig):
+    """An action's cache key is the text of its ActionKey (hash, armature digest, frame range); a result is an
+    action because its item is an ActionItem. Preconditions are refused by poll, with the reason."""
+    from blender_shapesig import library
+
+    s = bpy.context.scene.shapesig
+    _obj, action, q = library.query_item(bpy.context, s)
+    last = int(round(action.frame_range[1]))
+    assert isinstance(q, library.ActionItem) and q.key == q.action_key.text and q.action == "walk1"
+    assert (q.action_key.action_hash, q.action_key.frame_range) == (action_io.action_hash(action), (2, last))
+    assert q.action_key.armature_digest == library.armature_digest(rig)
+    assert bpy.ops.shapesig.rank.poll() and not bpy.ops.shapesig.assign_result.poll()
+    assert library.result_problem(bpy.context, s) == "no results: run Find Similar first"
+    s.use_frame_range, s.frame_start, s.frame_end = True, 10, 10
+    assert not bpy.ops.shapesig.rank.poll() and not bpy.ops.shapesig.build_index.poll()
+    with pytest.raises(RuntimeError, match="needs two frames"):
+        bpy.ops.shapesig.rank()
+    s.use_frame_range = False
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert bpy.ops.shapesig.assign_result.poll() and s.results[0].is_action

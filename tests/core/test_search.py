@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig.core import search, signatures
+from blender_shapesig.core.index import words
 from blender_shapesig.core.acclaim import load_acclaim
 from blender_shapesig.core.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
@@ -49,7 +50,7 @@ def test_lyndon_letters_follow_iisignature_basis_order():
     iisignature = pytest.importorskip("iisignature")
     for dim, level in [(3, 3), (6, 3), (9, 2), (4, 4)]:
         basis = iisignature.basis(iisignature.prepare(dim, level, "S"))
-        ours = search._local_letters(dim, level)
+        ours = words._local_letters(dim, level)
         assert len(basis) == len(ours)
         for text, row in zip(basis, ours):
             letters = [int(ch) - 1 for ch in text if ch.isdigit()]
@@ -248,7 +249,7 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     # 4) spoiled after the light read (meta + sketch) and before the directions are needed: recomputed
     cache2 = search.SignatureCache(tmp_path)
     item = search.clip_items([c])[0]
-    assert cache2.entries(item)[0].direction is None  # a light read
+    assert search.item_entries(item, search.DEFAULT_LEVEL, cache2)[0].direction is None  # a light read
     with open(fn, "wb") as f:
         f.write(b"spoiled")
     res = search.rank_clips(q, [item], cache=cache2)
@@ -393,3 +394,35 @@ def test_clips_sharing_few_moving_bones_rank_after_the_rest(data_dir):
         assert [r.partial for r in res] == [False, False, True]
         assert res[2].distance < res[0].distance  # it would have been first on distance alone
     assert any("head_only: shares only" in w for w in res.warnings)
+
+
+def test_store_is_pure_and_the_index_generator_fills_it(clips, tmp_path):
+    """The store only stores (it never loads a clip); iter_entries computes one item per step, puts it in the
+    store and records an unreadable item as a one-line error."""
+    store = search.SignatureCache(tmp_path)
+    assert not hasattr(store, "entries")
+    items = search.clip_items([clips["07_01"], clips["07_02"]])
+
+    def unreadable():
+        raise ShapeSigError("unreadable")
+
+    bad = search.LibraryItem("bad", "clip:bad", unreadable)
+    errors = []
+    steps = search.iter_entries(items + [bad], 3, store, errors)
+    item, got = next(steps)
+    assert item is items[0] and [e.name for e in got] == ["07_01"] and store.contains(item.key, 3)
+    assert not store.contains(items[1].key, 3)  # lazy: nothing is computed before its step
+    rest = list(steps)
+    assert [(it.name, len(got)) for it, got in rest] == [("07_02", 1), ("bad", 0)]
+    assert errors == ["bad: unreadable"]
+    assert store.stats["misses"] == 3 and store.stats["writes"] == 2
+    with pytest.raises(ShapeSigError, match="unreadable"):
+        list(search.iter_entries([bad], 3, store))
+    fresh = search.SignatureCache(tmp_path)
+    assert [len(got) for _, got in search.iter_entries(items, 3, fresh)] == [1, 1]
+    assert fresh.stats["misses"] == 0 and fresh.stats["disk_hits"] == 2
+    # compact mode is the store's: put drops directions longer than max_direction
+    compact = search.SignatureCache(max_direction=10)
+    e = search.make_entry(clips["07_01"], 3, key="k")
+    compact.put("k", 3, [e])
+    assert e.direction is None and not e.exact and compact.get("k", 3) == [e]

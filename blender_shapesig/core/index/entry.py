@@ -1,0 +1,159 @@
+"""The index entry of one clip, and distances between entries.
+
+An entry (``IndexEntry``) holds the clip's bones, its *moving* joints (still joints are dropped: their letters
+have zero coefficients in every Lyndon word that contains them), the unit log-signature direction a/|a| at
+``level`` on the moving joints only (float32, Lyndon coordinates), |a|, the per-frame increments
+log(R[k+1] R[k]^T) of the moving joints (float32; they rebuild the curve up to a right translation, which none
+of the distances sees) and a count sketch of the direction (``words.sketch``).
+
+Why that is exact. The log-signature of a path that never moves along some coordinates lies in the free Lie
+algebra over the other letters, so in the Lyndon basis every coordinate of a word containing a still letter is
+0, and the coordinates of the other words are those of the log-signature computed on the moving letters alone.
+Two clips of one skeleton (the same bone tuple) therefore compare exactly by matching their words by global code
+(``words.word_codes``): sim = |u - v| with both directions zero outside their own words. This equals
+``signatures.normalized_distance`` on the two curves (tested).
+
+Clips of different skeletons are compared on the bones both have, in the query's bone order
+(``metrics.clip_distance``'s convention), from the stored increments on that subset (``pair_increments``).
+"""
+
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+
+from .. import signatures
+from ..clip import Clip, still_joints
+from ..curves import exp_rotvec, relative_rotvecs
+from ..errors import ShapeSigError
+from ..metrics import DEFAULT_LEVEL
+from .words import word_codes, sketch
+
+__all__ = ["IndexEntry", "make_entry", "entry_distance", "pair_increments", "sim_from_increments",
+           "curve_from_increments"]
+
+
+@dataclass
+class IndexEntry:
+    """The index record of one clip (see the module docstring). ``direction``/``increments`` are the *heavy*
+    arrays: a store may leave them unloaded (None) until ``SignatureCache.heavy`` reads them."""
+
+    name: str
+    bones: Tuple[str, ...]
+    moving: Tuple[int, ...]
+    frames: int
+    level: int
+    norm: float
+    direction: Optional[np.ndarray]   # float32 unit vector, or zeros when norm == 0
+    increments: Optional[np.ndarray]  # float32 (frames-1, len(moving), 3)
+    sketch: np.ndarray                # float32 (SKETCH_DIM,)
+    fps: float = 0.0
+    source: str = ""
+    key: str = ""
+    exact: bool = True                # False: the direction is not stored (compact index), sketch only
+
+    @property
+    def nbytes(self):
+        return sum(a.nbytes for a in (self.direction, self.increments, self.sketch) if a is not None)
+
+    @property
+    def heavy_nbytes(self):
+        """Bytes of the arrays a store may drop from memory (direction and increments)."""
+        return self.nbytes - self.sketch.nbytes
+
+    @property
+    def loaded(self):
+        """True when the arrays the distances need are in memory (no direction is needed when not exact)."""
+        return self.increments is not None and (self.direction is not None or not self.exact)
+
+
+def increments_log_signature(inc, level):
+    """Log-signature at ``level`` of the path in R^(3 joints) whose steps are the rotation-vector increments
+    ``inc`` (steps, joints, 3) (the development of the curve, started at 0)."""
+    dx = np.asarray(inc, np.float64).reshape(inc.shape[0], -1)
+    path = np.vstack([np.zeros((1, dx.shape[1])), np.cumsum(dx, axis=0)])
+    return signatures.path_log_signature(path, level)
+
+
+def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
+    """Compute the index entry of a clip at ``level``."""
+    level = int(level)
+    R = clip.rotations
+    if R.shape[0] < 2:
+        raise ShapeSigError(f"clip {clip.name!r} has {R.shape[0]} frame(s); at least two are needed")
+    moving = tuple(int(j) for j in np.flatnonzero(~still_joints(R)))
+    inc = relative_rotvecs(R[:, list(moving)]) if moving else np.zeros((R.shape[0] - 1, 0, 3))
+    a = increments_log_signature(inc, level) if moving else np.zeros(0)
+    norm = float(np.linalg.norm(a))
+    if norm <= signatures.ZERO_NORM:
+        direction, norm = np.zeros_like(a), 0.0
+    else:
+        direction = a / norm
+    direction = direction.astype(np.float32)
+    return IndexEntry(name=clip.name, bones=tuple(clip.bones), moving=moving, frames=int(R.shape[0]),
+                      level=level, norm=norm, direction=direction, increments=inc.astype(np.float32),
+                      sketch=sketch(direction, len(clip.bones), moving, level), fps=float(clip.fps),
+                      source=clip.source, key=key)
+
+
+def entry_distance(a: IndexEntry, b: IndexEntry) -> float:
+    """Exact sim between two entries of the same skeleton (same bone tuple), from their directions."""
+    if a.bones != b.bones:
+        raise ShapeSigError(f"entries {a.name!r} and {b.name!r} have different skeletons")
+    za, zb = a.norm == 0.0, b.norm == 0.0
+    if za or zb:
+        return 0.0 if (za and zb) else 1.0
+    u, v = a.direction, b.direction
+    if a.moving == b.moving:
+        return float(np.linalg.norm(u - v))  # no cancellation for near-duplicates
+    ca = word_codes(len(a.bones), a.moving, a.level)
+    cb = word_codes(len(b.bones), b.moving, b.level)
+    _, ia, ib = np.intersect1d(ca, cb, assume_unique=True, return_indices=True)
+    u64, v64 = u.astype(np.float64), v.astype(np.float64)
+    common = u64[ia] - v64[ib]
+    only = (u64 @ u64 - u64[ia] @ u64[ia]) + (v64 @ v64 - v64[ib] @ v64[ib])
+    return float(np.sqrt(max(common @ common + only, 0.0)))
+
+
+def sketch_distance(a: IndexEntry, b: IndexEntry) -> float:
+    """The count-sketch estimate of sim (compact index): 1 when exactly one of the two clips is still."""
+    if (a.norm == 0.0) != (b.norm == 0.0):
+        return 1.0
+    return float(np.linalg.norm(a.sketch - b.sketch))
+
+
+def curve_from_increments(inc):
+    """A curve (frames, joints, 3, 3) starting at the identity with the given increments."""
+    inc = np.asarray(inc, dtype=np.float64)
+    n, j = inc.shape[:2]
+    steps = exp_rotvec(inc)
+    out = np.empty((n + 1, j, 3, 3))
+    out[0] = np.eye(3)
+    for k in range(n):
+        out[k + 1] = steps[k] @ out[k]
+    return out
+
+
+def increments_on(entry: IndexEntry, bones: Sequence[str]):
+    """The entry's increments (frames-1, len(bones), 3) on the given bones (zero for still ones)."""
+    pos = {entry.bones[j]: i for i, j in enumerate(entry.moving)}
+    out = np.zeros((entry.frames - 1, len(bones), 3))
+    for k, b in enumerate(bones):
+        i = pos.get(b)
+        if i is not None:
+            out[:, k] = entry.increments[:, i]
+    return out
+
+
+def pair_increments(q: IndexEntry, e: IndexEntry, bones):
+    """Both entries' increments on ``bones``; bones still in both dropped (as clip_distance does)."""
+    a, b = increments_on(q, bones), increments_on(e, bones)
+    keep = (np.abs(a).max(axis=(0, 2), initial=0.0) > 0) | (np.abs(b).max(axis=(0, 2), initial=0.0) > 0)
+    if keep.any():
+        a, b = a[:, keep], b[:, keep]
+    return a, b
+
+
+def sim_from_increments(a, b, level):
+    """sim^level between two curves given by their increments on the same joints."""
+    return signatures.normalized_difference(increments_log_signature(a, level), increments_log_signature(b, level))

@@ -1,0 +1,298 @@
+"""Ranking a library against a query, and the one index generator.
+
+    iter_entries(items, level, store, errors)  # THE index loop: yields (item, entries) per item, computing
+                                               # (make_entry) and storing what the store does not hold
+    build_index(items, level, cache)           # fill the store (the CLI, scripts); the modal operator steps
+                                               # iter_entries itself, one item per timer tick
+    rank_clips(query, library, ...)            # -> RankList of RankResult, best first
+
+Speed. Ranking one query against many clips of one skeleton: the sketches (one matrix product) select the best
+``max(EXACT_POOL, 4 top, rerank)`` candidates, and only those are compared exactly; without ``top``, or when the
+library is no larger than the pool, every clip is compared exactly. With a compact store, clips whose directions
+are not stored are ranked by their sketches alone and their results are flagged ``approximate``. Clips of other
+skeletons are compared on the shared bones, from their increments (slower; see ``entry``).
+See docs/search.md for the measurements (recall of the sketch against the exact ranking, memory).
+"""
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import List, Optional, Sequence
+
+import numpy as np
+
+from ..clip import Clip
+from ..elastic import elastic_distance
+from ..errors import ShapeSigError
+from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, curve_distance, parse_metric
+from ..sources import LibraryItem, as_items, clip_item, library
+from .entry import (IndexEntry, curve_from_increments, entry_distance, make_entry, pair_increments,
+                    sim_from_increments, sketch_distance)
+from .store import SignatureCache
+
+__all__ = ["EXACT_POOL", "FEW_SHARED", "RankResult", "RankList", "clip_items", "folder_library", "item_entries",
+           "iter_entries", "compute_entries", "build_index", "rank_clips"]
+
+# At least this many sketch candidates are compared exactly.
+EXACT_POOL = 64
+# Warn when the shared bones cover less than this fraction of the query's moving bones.
+FEW_SHARED = 0.5
+
+
+# ----------------------------------------------------------------------------------------- results
+
+@dataclass
+class RankResult:
+    """One ranked clip. ``distance``: sim^n (or the chosen metric); ``elastic``: d_S* when re-ranked,
+    else None; ``frames``: the clip's frame count; ``key``: its library item's key; ``shared``: bones
+    compared; ``approximate``: True when ``distance`` is a sketch estimate (only with a compact store);
+    ``partial``: the clip shares fewer than FEW_SHARED of the query's moving bones (ranked after the others)."""
+
+    name: str
+    distance: float
+    elastic: Optional[float] = None
+    frames: int = 0
+    key: str = ""
+    source: str = ""
+    shared: int = 0
+    approximate: bool = False
+    partial: bool = False
+
+    def as_dict(self):
+        return {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
+                "source": self.source}
+
+
+class RankList(list):
+    """``rank_clips``' result: a list of RankResult, best first, plus ``warnings`` (one-line strings),
+    ``skipped`` (names of clips that share no bone with the query) and ``stats`` (cache hits and
+    misses of this call, clips compared exactly, seconds)."""
+
+    def __init__(self, items=(), warnings=(), skipped=(), stats=None):
+        super().__init__(items)
+        self.warnings = list(warnings)
+        self.skipped = list(skipped)
+        self.stats = dict(stats or {})
+
+
+# ----------------------------------------------------------------------------------------- library
+# Library members, keys and clip files are owned by core.sources.
+
+def clip_items(clips: Sequence[Clip]) -> List[LibraryItem]:
+    """Library items for clips already in memory, keyed by their data."""
+    return [clip_item(c) for c in clips]
+
+
+def folder_library(paths, load=None, asf=None, start=None, recursive=True, end=None) -> List[LibraryItem]:
+    """Library items for clip files given directly or found in folders (``sources.library``); ``load(spec)``
+    reads one ClipSpec (default: the reader registry)."""
+    return library(paths, recursive, load=load, asf=asf, start=start, end=end)
+
+
+# -------------------------------------------------------------------------------------------- index
+
+def item_entries(item: LibraryItem, level, store: SignatureCache) -> List[IndexEntry]:
+    """The item's entries: from the store, else computed (its clips loaded) and put in the store."""
+    level = int(level)
+    got = store.get(item.key, level)
+    if got is not None:
+        return got
+    out = []
+    for c in item.clips():
+        e = make_entry(c, level, key=item.key)
+        e.source = e.source or item.source
+        out.append(e)
+    store.put(item.key, level, out)
+    return out
+
+
+def iter_entries(items, level=DEFAULT_LEVEL, store=None, errors=None, progress=None):
+    """The index loop: yield (item, entries) for every item, in order, each computed only when the store does
+    not hold it. A ShapeSigError while loading an item is recorded in ``errors`` (a list of one-line messages;
+    the item then yields no entries) when given, else raised. ``progress(done, total, name)`` is called before
+    each item and may return False to stop early; it is called once more with (total, total, "") at the end."""
+    store = store if store is not None else SignatureCache()
+    items = as_items(items)
+    for i, item in enumerate(items):
+        if progress is not None and progress(i, len(items), item.name) is False:
+            break
+        try:
+            got = item_entries(item, level, store)
+        except ShapeSigError as exc:
+            if errors is None:
+                raise
+            errors.append(f"{item.name}: {exc}")
+            got = []
+        yield item, got
+    if progress is not None:
+        progress(len(items), len(items), "")
+
+
+def compute_entries(items, level=DEFAULT_LEVEL, cache=None, progress=None, errors=None):
+    """[(item, entry)] for every clip of every item, through the store (``iter_entries``)."""
+    return [(item, e) for item, got in iter_entries(items, level, cache, errors, progress) for e in got]
+
+
+def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None):
+    """Fill the store for every item; returns a dict with clips, errors, cache stats and seconds."""
+    t0 = time.perf_counter()
+    errors = []
+    got = compute_entries(items, level, cache, progress, errors)
+    return {"clips": len(got), "errors": errors, "seconds": time.perf_counter() - t0,
+            "stats": dict(cache.stats) if cache is not None else {}}
+
+
+def _loaded(entry: IndexEntry, item: Optional[LibraryItem], store: SignatureCache) -> IndexEntry:
+    """The entry with its direction and increments in memory; when its file has become unreadable meanwhile,
+    its item is computed again (ShapeSigError without an item)."""
+    if store.heavy(entry) is not None:
+        return entry
+    if item is None:
+        raise ShapeSigError(f"the index entry of {entry.name!r} is gone; build the index again")
+    store.forget(entry.key, entry.level)
+    for e in item_entries(item, entry.level, store):
+        if e.name == entry.name and e.bones == entry.bones and e.moving == entry.moving and store.heavy(e):
+            entry.direction, entry.increments, entry.exact = e.direction, e.increments, e.exact
+            return entry
+    raise ShapeSigError(f"the index entry of {entry.name!r} changed; build the index again")
+
+
+# ------------------------------------------------------------------------------------------ ranking
+
+def _query_entry(query, level, store):
+    """A private, loaded copy of the query's entry (the store may drop the arrays of its own object to keep
+    within its memory limit)."""
+    item = None
+    if isinstance(query, Clip):
+        query = clip_item(query)
+    if isinstance(query, LibraryItem):
+        item, entries = query, item_entries(query, level, store)
+        if len(entries) != 1:
+            raise ShapeSigError(f"query {query.name!r} holds {len(entries)} clips; choose one")
+        query = entries[0]
+    if not isinstance(query, IndexEntry):
+        raise ShapeSigError(f"the query must be a Clip, got {type(query).__name__}")
+    return dataclasses.replace(_loaded(query, item, store))
+
+
+def _result(e, d, shared, approximate=False, partial=False):
+    return RankResult(name=e.name, distance=float(d), frames=e.frames, key=e.key, source=e.source,
+                      shared=shared, approximate=approximate, partial=partial)
+
+
+def _sketch_candidates(q, same, store, npool):
+    """The ``npool`` pairs of ``same`` whose sketches are closest to the query's."""
+    S, sq = store.sketch_matrix([e for _, e in same])
+    qs = q.sketch.astype(np.float64)
+    approx = sq + qs @ qs - 2.0 * (S @ q.sketch).astype(np.float64)
+    return [same[i] for i in np.argpartition(approx, npool - 1)[:npool]]
+
+
+def _rank_same_skeleton(q, same, store, npool, use_sketch):
+    """Results for the clips of the query's skeleton by sim, from the directions (exact) or, for entries a
+    compact store keeps no direction of, the sketches (approximate)."""
+    results = []
+    for item, e in (_sketch_candidates(q, same, store, npool) if use_sketch else same):
+        _loaded(e, item, store)
+        if q.exact and e.exact:
+            results.append(_result(e, entry_distance(q, e), len(q.bones)))
+        else:
+            results.append(_result(e, sketch_distance(q, e), len(q.bones), approximate=True))
+    return results
+
+
+def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnings, skipped):
+    """Results for clips compared pairwise on the bones they share with the query (other skeletons, or any
+    metric other than sim), from their increments."""
+    q_moving = {q.bones[j] for j in q.moving}
+    results = []
+    for item, e in pairs:
+        bones = set(e.bones)
+        shared = [b for b in q.bones if b in bones]
+        if not shared:
+            skipped.append(e.name)
+            warnings.append(f"{e.name}: shares no bones with the query {q.name!r}; skipped")
+            continue
+        moving_shared = q_moving & set(shared)
+        partial = bool(q_moving) and len(moving_shared) < FEW_SHARED * len(q_moving)
+        if partial:
+            warnings.append(f"{e.name}: shares only {len(moving_shared)} of the query's {len(q_moving)} moving "
+                            f"bones; ranked after the clips that share most of them")
+        a, b = pair_increments(q, _loaded(e, item, store), shared)
+        if base == "sim":
+            d = sim_from_increments(a, b, sig_level)
+        else:
+            d = curve_distance(curve_from_increments(a), curve_from_increments(b), base, level=level, depth=depth)
+        results.append(_result(e, d, len(shared), partial=partial))
+    return results
+
+
+def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
+    """Re-order the first ``rerank`` results (of the whole-body tier when there is one) by d_S*, filling
+    their ``elastic``."""
+    full = sum(1 for r in results if not r.partial)
+    head = results[:min(rerank, full)] if full else results[:rerank]
+    by_key = {(e.key, e.name): (item, e) for item, e in pairs}
+    for r in head:
+        if base == "elastic":
+            r.elastic = r.distance
+            continue
+        item, e = by_key[(r.key, r.name)]
+        e = _loaded(e, item, store)
+        bones = set(e.bones)
+        a, b = pair_increments(q, e, [x for x in q.bones if x in bones])
+        r.elastic = float(elastic_distance(curve_from_increments(a), curve_from_increments(b), depth=depth))
+    head.sort(key=lambda r: (r.elastic, r.distance, r.name))
+    results[:len(head)] = head
+
+
+def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cache=None, *,
+               depth=DEFAULT_DEPTH, progress=None, exclude=(), pool=None) -> RankList:
+    """Rank ``library`` (Clips or LibraryItems) by their distance to ``query`` (a Clip), best first.
+
+    ``metric``: ``sim`` (sim^n, through the index) or any name of ``metrics.parse_metric`` (computed
+    pairwise from the cached increments). ``level``: the signature level (default DEFAULT_LEVEL, or the
+    digits of e.g. ``sim2``). ``rerank=K``: the first K results are re-ordered by the elastic distance
+    d_S* (depth ``depth``), which fills their ``elastic``. ``top``: keep the first ``top``. ``cache``: a
+    SignatureCache (default: a fresh in-memory one). ``exclude``: item keys or names to leave out (e.g.
+    the query's own action). ``pool``: sketch candidates compared exactly (default max(EXACT_POOL,
+    4 top, rerank)). Clips of other skeletons are compared on the shared bones; clips sharing fewer than
+    FEW_SHARED of the query's moving bones are ``partial``: warned about and ranked after all others (their
+    distances cover a different, smaller part of the body), and never re-ranked above them; clips sharing
+    none are skipped with a warning in ``result.warnings``.
+    """
+    t0 = time.perf_counter()
+    base, lvl = parse_metric(metric, level)
+    sig_level = lvl if base == "sim" else DEFAULT_LEVEL
+    rerank = max(int(rerank or 0), 0)
+    if top is not None:
+        top = int(top)
+        if top < 1:
+            raise ShapeSigError(f"top must be at least 1, got {top}")
+    store = cache if cache is not None else SignatureCache()
+    before = dict(store.stats)
+    q = _query_entry(query, sig_level, store)
+    items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
+    warnings = []
+    pairs = compute_entries(items, sig_level, store, progress, warnings)
+    skipped = []
+
+    results = []
+    if base == "sim":  # the query's skeleton through the index; other skeletons on their shared bones
+        same = [(item, e) for item, e in pairs if e.bones == q.bones]
+        npool = pool if pool is not None else max(EXACT_POOL, 4 * (top or 0), rerank)
+        results = _rank_same_skeleton(q, same, store, npool, use_sketch=top is not None and len(same) > npool)
+    other = [(item, e) for item, e in pairs if base != "sim" or e.bones != q.bones]
+    pairwise = _rank_on_shared_bones(q, other, store, base, sig_level, lvl, depth, warnings, skipped)
+    compared = sum(not r.approximate for r in results) + len(pairwise)
+    results += pairwise
+    # Distances over a small part of the body are not comparable with whole-body ones (a clip that shares
+    # only the head can look close): clips sharing few of the query's moving bones form a second tier.
+    results.sort(key=lambda r: (r.partial, r.distance, r.name))
+    if rerank and results:
+        _rerank_elastic(results, pairs, q, store, base, rerank, depth)
+    if top is not None:
+        results = results[:top]
+    stats = {k: store.stats[k] - before.get(k, 0) for k in store.stats}
+    stats.update(compared=compared, library=len(pairs), seconds=time.perf_counter() - t0)
+    return RankList(results, warnings, skipped, stats)

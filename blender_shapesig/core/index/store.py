@@ -1,0 +1,275 @@
+"""The signature cache: a pure store of index entries keyed by (content key, level).
+
+It stores and returns entries; it never loads clips nor computes entries (``rank.iter_entries`` does, and puts
+what it computes here). On disk: one ``<sha1>.npz`` per library item (all its clips: meta as JSON, then per clip
+its sketch, direction and increments) and a ``manifest.json`` with the format version.
+
+Reads are *light*: the meta and sketches are read when an item is looked up (``get``), the heavy arrays
+(directions and increments) only when a distance needs them (``heavy``). ``memory_limit`` bounds the heavy
+arrays kept in memory (least recently loaded dropped first, re-read from disk when needed).
+"""
+
+import hashlib
+import io
+import json
+import os
+import tempfile
+import threading
+from typing import Optional
+
+import numpy as np
+
+from .. import signatures
+from .entry import IndexEntry
+from .words import SKETCH_DIM
+
+__all__ = ["SignatureCache", "default_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "COMPACT_MAX_DIRECTION"]
+
+# Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
+CACHE_FORMAT = 2  # 2: clips in armature space (Blender axes), see action_io.to_armature_space
+CACHE_ENV = "SHAPESIG_CACHE_DIR"
+# Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
+COMPACT_MAX_DIRECTION = 65_536
+
+_ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact")
+
+
+def default_cache_dir() -> str:
+    """``$SHAPESIG_CACHE_DIR`` if set, else the user's cache folder (XDG_CACHE_HOME or ~/.cache, or the
+    temporary folder) + ``blender_shapesig``. Blender passes the extension's user directory instead."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return env
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    if not os.path.isdir(os.path.dirname(base.rstrip(os.sep)) or base):
+        base = tempfile.gettempdir()
+    return os.path.join(base, "blender_shapesig", "signatures")
+
+
+def _entry_from_meta(m, key, sketch):
+    return IndexEntry(name=m["name"], bones=tuple(m["bones"]), moving=tuple(m["moving"]), frames=int(m["frames"]),
+                      level=int(m["level"]), norm=float(m["norm"]), fps=float(m["fps"]), source=m["source"],
+                      key=key, direction=None, increments=None, sketch=sketch, exact=bool(m["exact"]))
+
+
+def _load_heavy(e: IndexEntry, z, i):
+    """Read clip ``i``'s increments (and direction when stored) from the open file ``z``; ValueError on bad shapes."""
+    e.increments = np.asarray(z[f"i{i}"], np.float32)
+    nm = len(e.moving)
+    if e.increments.shape != (e.frames - 1, nm, 3):
+        raise ValueError("bad shapes")
+    if e.exact:
+        e.direction = np.asarray(z[f"d{i}"], np.float32)
+        if e.direction.shape != (signatures.log_signature_dim(3 * nm, e.level) if nm else 0,):
+            raise ValueError("bad shapes")
+
+
+class SignatureCache:
+    """Index entries keyed by (content key, level), kept in memory and, with a ``path``, on disk.
+
+    An entry file that cannot be read, belongs to another format version, key or level is deleted and counted
+    in ``stats["invalid"]`` (the caller then computes the item again). ``path=None``: memory only.
+    ``stats``: hits (memory or disk), disk_hits, misses (lookups that found nothing), invalid, writes.
+    ``memory_limit``: bytes of directions/increments kept in memory beyond the sketches (least recently
+    used are dropped and re-read from disk when needed; ignored without a path).
+    ``max_direction``: compact index: directions longer than this many coordinates are not stored (``put``
+    drops them), and those clips are ranked by their sketch alone (``RankResult.approximate``; the elastic
+    re-rank stays exact). None (default): every direction is stored and every returned distance is exact.
+    """
+
+    def __init__(self, path=None, memory_limit=512 * 2 ** 20, max_direction=None):
+        self.path = None if path is None else os.fspath(path)
+        self.memory_limit = int(memory_limit)
+        self.max_direction = None if max_direction is None else int(max_direction)
+        self._mem = {}      # (key, level) -> list[IndexEntry]
+        self._heavy = {}    # (key, level, name) -> bytes of loaded heavy arrays, insertion = recency order
+        self._lock = threading.RLock()
+        self._sketch_memo = None
+        self.stats = {"hits": 0, "disk_hits": 0, "misses": 0, "invalid": 0, "writes": 0}
+        if self.path is not None:
+            os.makedirs(self.path, exist_ok=True)
+            self._check_manifest()
+
+    # -- files
+    def _check_manifest(self):
+        manifest = os.path.join(self.path, "manifest.json")
+        ok = False
+        try:
+            with open(manifest, encoding="utf-8") as f:
+                ok = json.load(f).get("format") == CACHE_FORMAT
+        except (OSError, ValueError, AttributeError):
+            ok = False
+        if not ok:
+            if os.path.exists(manifest):
+                self.stats["invalid"] += 1
+            self._remove_entry_files()
+            self._atomic_write(manifest, json.dumps({"format": CACHE_FORMAT, "program": "blender_shapesig",
+                                                     "sketch_dim": SKETCH_DIM}).encode())
+
+    def _remove_entry_files(self):
+        for n in os.listdir(self.path):
+            if n.endswith(".npz"):
+                try:
+                    os.remove(os.path.join(self.path, n))
+                except OSError:
+                    pass
+
+    def _atomic_write(self, target, data: bytes):
+        fd, tmp = tempfile.mkstemp(dir=self.path, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+            os.replace(tmp, target)
+        except BaseException:
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
+            raise
+
+    def file_for(self, key, level):
+        """The entry file of (key, level) (its name also depends on the format, sketch size and compact mode)."""
+        compact = "" if self.max_direction is None else f"|C{self.max_direction}"
+        name = hashlib.sha1(f"{key}|L{level}|F{CACHE_FORMAT}|K{SKETCH_DIM}{compact}".encode()).hexdigest()
+        return os.path.join(self.path, name + ".npz")
+
+    def _read(self, key, level, light=False):
+        """The entries of a file, or None (missing; unreadable or outdated files are deleted). ``light``:
+        meta and sketches only (directions and increments are read by ``heavy`` when needed)."""
+        fn = self.file_for(key, level)
+        if not os.path.exists(fn):
+            return None
+        try:
+            with np.load(fn, allow_pickle=False) as z:
+                meta = json.loads(bytes(z["meta"]).decode("utf-8"))
+                if meta.get("format") != CACHE_FORMAT or meta.get("key") != key or meta.get("level") != level:
+                    raise ValueError("outdated")
+                entries = []
+                for i, m in enumerate(meta["clips"]):
+                    e = _entry_from_meta(m, key, np.asarray(z[f"s{i}"], np.float32))
+                    if e.sketch.shape != (SKETCH_DIM,):
+                        raise ValueError("bad sketch")
+                    if not light:
+                        _load_heavy(e, z, i)
+                    entries.append(e)
+                return entries
+        except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
+            self.stats["invalid"] += 1
+            try:
+                os.remove(fn)
+            except OSError:
+                pass
+            return None
+
+    def _write(self, key, level, entries):
+        meta = {"format": CACHE_FORMAT, "key": key, "level": level, "clips": [
+            {f: (list(getattr(e, f)) if f in ("bones", "moving") else getattr(e, f)) for f in _ENTRY_FIELDS}
+            for e in entries]}
+        arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
+        for i, e in enumerate(entries):
+            d = e.direction if e.exact else np.zeros(0, np.float32)
+            arrays[f"s{i}"], arrays[f"d{i}"], arrays[f"i{i}"] = e.sketch, d, e.increments
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        self._atomic_write(self.file_for(key, level), buf.getvalue())
+        self.stats["writes"] += 1
+
+    # -- memory
+    def _remember(self, key, level, entries):
+        self._mem[(key, level)] = entries
+        if self.path is None:
+            return
+        for e in entries:
+            self._heavy[(key, level, e.name)] = e.heavy_nbytes
+        self._evict(protect=len(entries))
+
+    def _evict(self, protect=1):
+        """Drop the least recently loaded directions/increments beyond ``memory_limit`` (never the last
+        ``protect`` loaded); they are re-read from disk when needed."""
+        total = sum(self._heavy.values())
+        while total > self.memory_limit and len(self._heavy) > protect:
+            (k, lv, name), nb = next(iter(self._heavy.items()))
+            del self._heavy[(k, lv, name)]
+            for e in self._mem.get((k, lv), ()):
+                if e.name == name:
+                    e.direction = e.increments = None
+            total -= nb
+
+    # -- public
+    def get(self, key, level):
+        """The entries stored for (key, level) (light: see ``heavy``), or None (a miss)."""
+        level = int(level)
+        with self._lock:
+            got = self._mem.get((key, level))
+            if got is None and self.path is not None:
+                got = self._read(key, level, light=True)
+                if got is not None:
+                    self.stats["disk_hits"] += 1
+                    self._remember(key, level, got)
+            self.stats["hits" if got is not None else "misses"] += 1
+            return got
+
+    def put(self, key, level, entries):
+        """Store the entries of (key, level). In compact mode, directions longer than ``max_direction`` are
+        dropped first (those entries become sketch-only: ``exact`` False)."""
+        level = int(level)
+        if self.max_direction is not None:
+            for e in entries:
+                if e.direction is not None and e.direction.size > self.max_direction:
+                    e.direction, e.exact = None, False
+        with self._lock:
+            if self.path is not None:
+                self._write(key, level, entries)
+            self._remember(key, level, entries)
+
+    def contains(self, key, level):
+        """True when (key, level) is cached (memory or disk), without reading or counting anything."""
+        return (key, int(level)) in self._mem or (self.path is not None and os.path.exists(self.file_for(key, level)))
+
+    def forget(self, key, level):
+        """Drop (key, level) from the memory layer (its file, if any, stays)."""
+        with self._lock:
+            self._mem.pop((key, int(level)), None)
+
+    def heavy(self, entry: IndexEntry) -> Optional[IndexEntry]:
+        """The entry with its direction and increments loaded (read from its file when needed), or None when
+        its file is gone or has become unreadable (the caller computes it again)."""
+        if entry.loaded:
+            return entry
+        fresh = self._read(entry.key, entry.level) if self.path is not None else None
+        for e in fresh or ():
+            if e.name == entry.name and e.bones == entry.bones and e.moving == entry.moving:
+                entry.direction, entry.increments, entry.exact = e.direction, e.increments, e.exact
+                with self._lock:
+                    self._heavy[(entry.key, entry.level, entry.name)] = entry.heavy_nbytes
+                    self._evict(protect=1)
+                return entry
+        return None
+
+    def sketch_matrix(self, entries):
+        """(S, squared norms) of the entries' sketches stacked, memoized for the last list of entries (a
+        repeated query over the same library does not restack them)."""
+        key = tuple(id(e) for e in entries)
+        memo = self._sketch_memo
+        if memo is not None and memo[0] == key:
+            return memo[2], memo[3]
+        S = np.stack([e.sketch for e in entries]) if entries else np.zeros((0, SKETCH_DIM), np.float32)
+        sq = np.einsum("ij,ij->i", S, S, dtype=np.float64)
+        self._sketch_memo = (key, list(entries), S, sq)
+        return S, sq
+
+    def clear(self):
+        """Forget every entry (and delete the entry files)."""
+        with self._lock:
+            self._mem.clear()
+            self._heavy.clear()
+            self._sketch_memo = None
+            if self.path is not None:
+                self._remove_entry_files()
+
+    def disk_usage(self):
+        """(files, bytes) of the entry files on disk."""
+        if self.path is None:
+            return 0, 0
+        files = [os.path.join(self.path, n) for n in os.listdir(self.path) if n.endswith(".npz")]
+        return len(files), sum(os.path.getsize(f) for f in files)
