@@ -19,7 +19,7 @@ and in the error of a script's call.
 import bpy
 from bpy.props import BoolProperty
 
-from .. import compat, library
+from .. import action_io, library
 from ..core import index
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
@@ -211,7 +211,7 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Assign Result: {exc}")
             return {"CANCELLED"}
-        compat.assign_action(obj, action)
+        action_io.assign_action(obj, action)  # the replaced action is kept (stashed) when nothing else uses it
         self.report({"INFO"}, f"{obj.name}: action {action.name!r}")
         return {"FINISHED"}
 

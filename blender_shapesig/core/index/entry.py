@@ -22,9 +22,9 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .. import signatures
+from .. import signatures, so3
 from ..clip import Clip, still_joints
-from ..curves import exp_rotvec, relative_rotvecs
+from ..curves import relative_rotvecs
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_LEVEL
 from .words import word_codes, sketch
@@ -123,15 +123,8 @@ def sketch_distance(a: IndexEntry, b: IndexEntry) -> float:
 
 
 def curve_from_increments(inc):
-    """A curve (frames, joints, 3, 3) starting at the identity with the given increments."""
-    inc = np.asarray(inc, dtype=np.float64)
-    n, j = inc.shape[:2]
-    steps = exp_rotvec(inc)
-    out = np.empty((n + 1, j, 3, 3))
-    out[0] = np.eye(3)
-    for k in range(n):
-        out[k + 1] = steps[k] @ out[k]
-    return out
+    """A curve (frames, joints, 3, 3) starting at the identity with the given increments (``so3.integrate``)."""
+    return so3.integrate(np.asarray(inc, dtype=np.float64))
 
 
 def increments_on(entry: IndexEntry, bones: Sequence[str]):
