@@ -5,7 +5,7 @@ memory per clip and recall@10 of compact representations against the exact ranki
                                                 [--json OUT.json]
 
 Clips: every .bvh under ``--data`` (default: the Przestr CMU BVH set in /work/shared, one skeleton, 43
-bones), read with Blender's importer (``clips.load_clips``), frame 1 (rest pose) cropped.
+bones), read with Blender's importer (``core.sources.read``), frame 1 (rest pose) cropped.
 
 Reference ranking: sim^n from float64 log-signatures on the moving joints (exact: still joints add only
 zero coordinates, see core/search.py), every clip against every other. Compared by recall@10 (mean over
@@ -43,9 +43,9 @@ DEFAULT_DATA = "/work/shared/data/cmu/Przestr_motion-capture/data"
 
 
 def _load(path, asf=None):
-    from blender_shapesig import clips
+    from blender_shapesig.core.sources import read
 
-    return clips.load_clips(path, asf)
+    return read(path, asf=asf)
 
 
 def recall_at(true_order, approx_order, k=10):

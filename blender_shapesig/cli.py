@@ -146,7 +146,7 @@ def load_clip_spec(spec, asf=None):
         raise CommandError(f"{path}: unsupported file type {ext or '(none)'}; expected .bvh, .amc or .blend")
     if ext == ".amc":
         # Pure Python: no bpy for Acclaim files.
-        from .core.acclaim import load_acclaim
+        from .core.formats.acclaim import load_acclaim
 
         # Blender's armature axes: the space clips.load_clips gives every format (comparable with .bvh/.blend).
         clip = load_acclaim(path, find_asf(path, asf), axes="blender")
