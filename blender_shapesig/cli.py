@@ -447,6 +447,12 @@ def _metric_help(default):
     )
 
 
+def _add_metric(p, depth_help="DP search depth D for elastic (default 9)"):
+    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
+    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
+    p.add_argument("--depth", type=int, default=9, help=depth_help)
+
+
 def build_parser():
     clip_help = "a .bvh, .amc, .blend (every armature action) or FILE.blend#ACTION"
     parser = _Parser(
@@ -458,9 +464,7 @@ def build_parser():
     p = sub.add_parser("distance", help="distance between two clips", description="Distance between two clips.")
     p.add_argument("a", metavar="A", help=clip_help)
     p.add_argument("b", metavar="B", help=clip_help)
-    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
-    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    _add_metric(p)
     _add_common(p)
     p.set_defaults(func=cmd_distance)
 
@@ -472,11 +476,9 @@ def build_parser():
     )
     p.add_argument("query", metavar="QUERY", help=clip_help)
     p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
-    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
-    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
+    _add_metric(p, depth_help="DP search depth D for the elastic re-rank (default 9)")
     p.add_argument("--rerank", type=int, default=0, metavar="K", help="re-order the first K by elastic distance")
     p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for the elastic re-rank (default 9)")
     p.add_argument("--cache", metavar="DIR", help="signature cache folder (default $SHAPESIG_CACHE_DIR)")
     _add_common(p)
     p.set_defaults(func=cmd_rank)
@@ -508,9 +510,7 @@ def build_parser():
         "DIR/matrix.npy with an MDS plot and a dendrogram.",
     )
     p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
-    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
-    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    _add_metric(p)
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--labels", metavar="CSV", help="colour the figures by the 'label' column of an index CSV")
     p.add_argument("--no-figures", action="store_true", help="write only the matrix")

@@ -82,19 +82,8 @@ def check_bvh(path):
     if len(head) < 2:
         raise ParseError("MOTION section without Frames / Frame Time", path, motion_line)
     (n1, frames_line), (n2, time_line) = head
-    frames_line, time_line = " ".join(frames_line.split()), " ".join(time_line.split())
-    try:
-        if not frames_line.lower().startswith("frames"):
-            raise ValueError
-        frames = int(frames_line.split(":", 1)[1])
-    except (IndexError, ValueError):
-        raise ParseError("expected 'Frames: N'", path, n1) from None
-    try:
-        if not time_line.lower().startswith("frame time"):
-            raise ValueError
-        frame_time = float(time_line.split(":", 1)[1])
-    except (IndexError, ValueError):
-        raise ParseError("expected 'Frame Time: seconds'", path, n2) from None
+    frames = _header_value(frames_line, "Frames", int, "N", path, n1)
+    frame_time = _header_value(time_line, "Frame Time", float, "seconds", path, n2)
     if not frame_time > 0 or frame_time != frame_time or frame_time == float("inf"):
         raise ParseError("'Frame Time' must be a positive number", path, n2)
     if frames < 1:
@@ -109,3 +98,14 @@ def check_bvh(path):
         for v in values:
             finite_float(v, path, i, limit=_FLOAT32_MAX)
     return frame_time
+
+
+def _header_value(line, label, convert, what, path, no):
+    """``convert`` of the value of a MOTION header line ``label: value`` (case and spacing free)."""
+    line = " ".join(line.split())
+    try:
+        if not line.lower().startswith(label.lower()):
+            raise ValueError
+        return convert(line.split(":", 1)[1])
+    except (IndexError, ValueError):
+        raise ParseError(f"expected '{label}: {what}'", path, no) from None
