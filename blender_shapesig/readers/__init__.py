@@ -12,10 +12,10 @@ def read_bvh(spec):
 
 
 def read_blend(spec):
-    """The clips of a ``.blend`` ClipSpec: every action, or ``spec.action`` (``blend.read_blend``)."""
-    from .blend import read_blend as read
+    """The clips of a ``.blend`` ClipSpec: every action, or ``spec.action`` (``blend.read_blend_file``)."""
+    from .blend import read_blend_file
 
-    return read(spec.path, spec.action)
+    return read_blend_file(spec.path, spec.action)
 
 
 __all__ = ["read_bvh", "read_blend"]

@@ -1,4 +1,4 @@
-"""Read the actions of a .blend file in a child process (see ``readers.blend.read_blend``).
+"""Read the actions of a .blend file in a child process (see ``readers.blend.read_blend_file``).
 
 Blender trusts the pointers stored in a .blend file; a damaged one crashes it while loading, which would
 end the animator's session (or the command line). So a .blend clip file is read here, in a separate

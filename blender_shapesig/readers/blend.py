@@ -1,7 +1,7 @@
 """``.blend`` clips: the actions of a .blend file, read in a child process.
 
-``read_blend(path, action=None)``: every action in the file that animates pose bones, or the one named. The
-actions (and the file's armature objects, for bone rotation modes and order) are appended with
+``read_blend_file(path, action=None)``: every action in the file that animates pose bones, or the one named.
+The actions (and the file's armature objects, for bone rotation modes and order) are appended with
 ``bpy.data.libraries.load``, read with ``action_io.read_action`` and every data-block the append created is
 removed again (``read_blend_here``). That runs in a child process (``_blend_child``: this Python with the bpy
 module, or the Blender binary in background mode), so a damaged file that crashes Blender's reader is a
@@ -27,7 +27,7 @@ from ..core.formats.blend import check_blend
 from . import _blend_child
 from .scratch import id_snapshot, remove_new_ids
 
-__all__ = ["read_blend", "read_blend_here", "BLEND_IN_PROCESS_ENV"]
+__all__ = ["read_blend_file", "read_blend_here", "BLEND_IN_PROCESS_ENV"]
 
 # "1": read .blend clip files in this process (faster by the start-up of a child; a damaged file can then crash
 # this process). Default: a child process reads them (see readers._blend_child).
@@ -35,7 +35,7 @@ BLEND_IN_PROCESS_ENV = "SHAPESIG_BLEND_IN_PROCESS"
 BLEND_CHILD_TIMEOUT = 600.0
 
 
-def read_blend(path, action_name=None, space="armature"):
+def read_blend_file(path, action_name=None, space="armature"):
     """The clips of a .blend file (every action animating pose bones, or ``action_name``), read in a child
     process."""
     check_blend(path)
@@ -83,7 +83,7 @@ def _read_isolated(path, action_name, space):
 
 
 def read_blend_here(path, action_name=None, space="armature"):
-    """``read_blend`` in this process (what the child process runs)."""
+    """``read_blend_file`` in this process (what the child process runs)."""
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
             available = list(data_from.actions)

@@ -11,7 +11,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io  # noqa: E402
 from blender_shapesig.core.sources import read  # noqa: E402
-from blender_shapesig.readers.blend import read_blend  # noqa: E402
+from blender_shapesig.readers.blend import read_blend_file  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
 from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
@@ -125,7 +125,7 @@ def test_blend_file_and_single_action(empty_file, line_armature, tmp_path, capsy
     _save_blend(path, walk, line_armature)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     before = _all_ids()
-    got = read_blend(path, space="native")
+    got = read_blend_file(path, space="native")
     assert _all_ids() == before
     assert sorted(c.name for c in got) == ["keyed", "walk_a", "walk_b"]
     by_name = {c.name: c for c in got}
