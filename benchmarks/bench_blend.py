@@ -41,7 +41,7 @@ import bpy  # noqa: E402
 
 import blender_shapesig  # noqa: E402
 from blender_shapesig import action_io  # noqa: E402
-from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.blend import blend_clips  # noqa: E402
 from blender_shapesig.core.clip import Clip  # noqa: E402
 from blender_shapesig.core.curves import geodesic_interpolate, uniform_times  # noqa: E402

@@ -4,7 +4,7 @@
                                                     [--ii-methods S X] [--json OUT.json]
 
 The clip: CMU 16_15 (walk, 31 bones, so a path in R^93), its first ``--frames`` frames, read with
-``core.acclaim``. Every timing is the best of ``--repeat`` runs after one warm-up run (the minimum is
+``core.formats.acclaim``. Every timing is the best of ``--repeat`` runs after one warm-up run (the minimum is
 the least disturbed by other processes on a shared machine); one-off preparation (iisignature's
 ``prepare``, the numpy Lyndon projection) is timed separately, cold, once. Ratios
 are against a baseline measured in the same run, ``iisignature.sig`` of the same path at the same level
@@ -32,7 +32,7 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from blender_shapesig.core import signatures as sg, tensor  # noqa: E402
-from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
 
 try:
     import iisignature

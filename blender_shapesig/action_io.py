@@ -378,7 +378,7 @@ def to_armature_space(clip: Clip, armature) -> Clip:
 
     This is the space the package compares and blends clips in: it does not depend on bone rolls, so rigs
     with other roll conventions, BVH and ASF/AMC imports of the same take, and folder clips
-    (``core.acclaim.load_acclaim(..., axes="blender")``) all agree. d_P*, d_S* and tensor-basis signatures
+    (``core.formats.acclaim.load_acclaim(..., axes="blender")``) all agree. d_P*, d_S* and tensor-basis signatures
     of one rig are unchanged by it (a constant rotation per joint); Lyndon coordinates change slightly.
     """
     if clip.meta.get("rotation_space", "pose") != "pose":

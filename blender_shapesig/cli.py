@@ -107,86 +107,38 @@ class _NoBar:
 # Reading clips
 
 
-def split_spec(spec):
-    """'FILE.blend#ACTION' -> ('FILE.blend', 'ACTION'); anything else -> (spec, None)."""
-    spec = str(spec)
-    if "#" in spec:
-        path, _, action = spec.rpartition("#")
-        if path.lower().endswith(".blend"):
-            return path, action
-    return spec, None
-
-
-def find_asf(amc_path, asf=None):
-    """The skeleton for an .amc file: ``asf`` when given, else the only .asf beside the .amc."""
-    if asf:
-        if not os.path.isfile(asf):
-            raise CommandError(f"skeleton file not found: {asf}")
-        return asf
-    folder = os.path.dirname(os.path.abspath(amc_path))
-    found = sorted(f for f in os.listdir(folder) if f.lower().endswith(".asf"))
-    if len(found) == 1:
-        return os.path.join(folder, found[0])
-    if not found:
-        raise CommandError(f"{amc_path}: no .asf skeleton beside it; give one with --asf")
-    raise CommandError(
-        f"{amc_path}: {len(found)} .asf files beside it ({', '.join(found)}); choose one with --asf"
-    )
-
-
-def load_clip_spec(spec, asf=None):
-    """Every clip named by one CLIP argument (a list; .blend files may hold several actions)."""
-    path, action = split_spec(spec)
-    if not os.path.exists(path):
-        raise CommandError(f"file not found: {path}")
-    if os.path.isdir(path):
-        raise CommandError(f"{path} is a folder, expected a .bvh, .amc or .blend file")
-    ext = os.path.splitext(path)[1].lower()
-    if ext not in (".bvh", ".amc", ".blend"):
-        raise CommandError(f"{path}: unsupported file type {ext or '(none)'}; expected .bvh, .amc or .blend")
-    if ext == ".amc":
-        # Pure Python: no bpy for Acclaim files.
-        from .core.acclaim import load_acclaim
-
-        # Blender's armature axes: the space clips.load_clips gives every format (comparable with .bvh/.blend).
-        clip = load_acclaim(path, find_asf(path, asf), axes="blender")
-        return [clip]
-    from .clips import load_clips  # the Blender layer (imports bpy lazily)
-
-    clips = list(load_clips(spec, asf=asf))
-    if not clips:
-        what = f"action {action!r}" if action else "armature actions"
-        raise CommandError(f"{path}: no {what} found")
-    return clips
-
-
-def _crop(clips, crop):
-    if not crop or (crop[0] is None and crop[1] is None):
-        return clips
-    return [c.crop(crop[0], crop[1]) for c in clips]
+# core.sources is the one front door: the command line only turns a CLIP argument and its options into a
+# ClipSpec, so the signature-cache keys of its libraries are ClipSpec.key, those of the panel's folder libraries.
 
 
 def _crop_of(args):
     return (getattr(args, "start", None), getattr(args, "end", None)) if args is not None else None
 
 
+def _spec(text, asf=None, crop=None):
+    """The ClipSpec of one CLIP argument with ``--asf`` and the crop ``(start, end)``."""
+    from .core.sources import ClipSpec
+
+    start, end = crop or (None, None)
+    return ClipSpec.parse(text, asf=asf or None, start=start, end=end)
+
+
 def load_one(spec, asf=None, crop=None):
-    clips = _crop(load_clip_spec(spec, asf), crop)
-    if len(clips) != 1:
-        names = ", ".join(c.name for c in clips[:5])
-        raise CommandError(
-            f"{spec} holds {len(clips)} actions ({names}{', ...' if len(clips) > 5 else ''}); "
-            f"pick one with FILE.blend#ACTION"
-        )
-    return clips[0]
+    """The one clip a CLIP argument names, cropped."""
+    from .core.sources import read_one
+
+    return read_one(_spec(spec, asf, crop))
 
 
 def load_many(specs, asf=None, args=None):
+    """Every clip the CLIP arguments name (a .blend may hold several), cropped by ``args``."""
+    from .core.sources import read
+
     out = []
     bar = _progress(args, len(specs), "loading") if args is not None else _NoBar()
     try:
         for spec in specs:
-            out.extend(_crop(load_clip_spec(spec, asf), _crop_of(args)))
+            out.extend(read(_spec(spec, asf, _crop_of(args))))
             bar.update()
     finally:
         bar.close()
@@ -217,31 +169,11 @@ def cmd_distance(args):
 
 
 def _library_items(specs, args):
-    """Library items for the CLIP arguments: files are keyed by their bytes (and skeleton and crop), so a
-    cached file is not even read again; ``FILE.blend#ACTION`` is loaded now and keyed by its data."""
-    from .core import search
+    """Library items of the CLIP arguments, keyed by ``ClipSpec.key`` (file bytes, skeleton, action, crop): a
+    cached file is not even read again. Missing files and unknown types fail here, at once."""
+    from .core.sources import spec_item
 
-    crop = _crop_of(args)
-    items = []
-    for spec in specs:
-        path, action = split_spec(spec)
-        if action is not None or not os.path.isfile(path):
-            for clip in _crop(load_clip_spec(spec, args.asf), crop):
-                items.extend(search.clip_items([clip]))
-            continue
-        ext = os.path.splitext(path)[1].lower()
-        if ext not in (".bvh", ".amc", ".blend"):
-            load_clip_spec(spec, args.asf)  # raises the one-line error
-        skeleton = find_asf(path, args.asf) if ext == ".amc" else None
-        extra = f"asf={search.file_key(skeleton) if skeleton else ''}|crop={crop}"
-
-        def load(spec=spec):
-            with _stdout_to_stderr():
-                return _crop(load_clip_spec(spec, args.asf), crop)
-
-        items.append(search.LibraryItem(os.path.splitext(os.path.basename(path))[0],
-                                        search.file_key(path, extra), load, path))
-    return items
+    return [spec_item(_spec(s, args.asf, _crop_of(args)).check()) for s in specs]
 
 
 def cmd_rank(args):
@@ -253,7 +185,12 @@ def cmd_rank(args):
         raise CommandError("--rerank must be 0 or more")
     if args.top is not None and args.top < 1:
         raise CommandError("--top must be 1 or more")
-    query = load_one(args.query, args.asf, _crop_of(args))
+    from .core.sources import read_one, spec_item
+
+    spec = _spec(args.query, args.asf, _crop_of(args))
+    query = read_one(spec)
+    # the query is keyed like the library: its signature is a cache hit when it was indexed before
+    query_item = spec_item(spec, load=lambda _spec: query)
     items = _library_items(args.clips, args)
     if not items:
         raise CommandError("no clips to rank")
@@ -270,7 +207,7 @@ def cmd_rank(args):
             done[0] = i
 
     try:
-        results = search.rank_clips(query, items, metric=base, level=level, rerank=args.rerank or 0,
+        results = search.rank_clips(query_item, items, metric=base, level=level, rerank=args.rerank or 0,
                                     top=args.top, cache=cache, depth=args.depth, progress=progress)
     finally:
         bar.close()
@@ -292,58 +229,35 @@ def cmd_rank(args):
     return out, "\n".join(lines)
 
 
-def _new_objects(before):
-    import bpy
-
-    return [o for o in bpy.data.objects if o.as_pointer() not in before and o.type == "ARMATURE"]
-
-
 def _source_armature(spec, asf=None):
     """Make the current Blender file hold clip A's armature; returns the armature object.
 
     .blend: the file itself is opened (the armature that plays the action, else the first one);
-    .bvh: Blender's importer (settings of ``clips.import_bvh``), its imported action removed;
-    .amc: the add-on's Acclaim importer (``bpy.ops.shapesig.import_acclaim``), its action removed.
+    .bvh: Blender's importer (``readers.bvh.import_armature``), its imported action removed;
+    .amc: the Acclaim armature builder (``readers.acclaim.import_acclaim``), its action removed.
     """
     import bpy
 
-    path, action_name = split_spec(spec)
-    ext = os.path.splitext(path)[1].lower()
-    if ext == ".blend":
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
+    spec = _spec(spec, asf)
+    if spec.ext == ".blend":
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(spec.path))
         arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
         for o in arms:
             ad = o.animation_data
-            if action_name and ad is not None and ad.action is not None and ad.action.name == action_name:
+            if spec.action and ad is not None and ad.action is not None and ad.action.name == spec.action:
                 return o
         if not arms:
-            raise CommandError(f"{path}: the file holds no armature to carry the blend")
+            raise CommandError(f"{spec.path}: the file holds no armature to carry the blend")
         return arms[0]
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    before = {o.as_pointer() for o in bpy.data.objects}
-    if ext == ".bvh":
-        from . import clips as clips_module
+    if spec.ext == ".bvh":
+        from .readers.bvh import import_armature
 
-        clips_module._ensure_bvh_importer()
-        bpy.ops.import_anim.bvh(filepath=os.path.abspath(path), rotate_mode="NATIVE", frame_start=1,
-                                use_fps_scale=False, update_scene_fps=False, update_scene_duration=False,
-                                global_scale=1.0)
+        arm, _frame_time = import_armature(spec.path)
     else:
-        skeleton = find_asf(path, asf)
-        try:
-            bpy.ops.shapesig.import_acclaim.get_rna_type()
-        except (AttributeError, KeyError):
-            import blender_shapesig
+        from .readers.acclaim import import_acclaim
 
-            blender_shapesig.register()
-        try:
-            bpy.ops.shapesig.import_acclaim(filepath=os.path.abspath(path), asf_path=os.path.abspath(skeleton))
-        except (AttributeError, KeyError):
-            raise CommandError("writing a blend of .amc clips needs the add-on's Acclaim importer") from None
-    arms = _new_objects(before)
-    if not arms:
-        raise CommandError(f"{path}: importing it created no armature")
-    arm = arms[0]
+        arm, _actions = import_acclaim(bpy.context, spec.skeleton(), [spec.path])
     ad = arm.animation_data
     if ad is not None and ad.action is not None:
         from .compat import remove_action
@@ -533,6 +447,12 @@ def _metric_help(default):
     )
 
 
+def _add_metric(p, depth_help="DP search depth D for elastic (default 9)"):
+    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
+    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
+    p.add_argument("--depth", type=int, default=9, help=depth_help)
+
+
 def build_parser():
     clip_help = "a .bvh, .amc, .blend (every armature action) or FILE.blend#ACTION"
     parser = _Parser(
@@ -544,9 +464,7 @@ def build_parser():
     p = sub.add_parser("distance", help="distance between two clips", description="Distance between two clips.")
     p.add_argument("a", metavar="A", help=clip_help)
     p.add_argument("b", metavar="B", help=clip_help)
-    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
-    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    _add_metric(p)
     _add_common(p)
     p.set_defaults(func=cmd_distance)
 
@@ -558,11 +476,9 @@ def build_parser():
     )
     p.add_argument("query", metavar="QUERY", help=clip_help)
     p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
-    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
-    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
+    _add_metric(p, depth_help="DP search depth D for the elastic re-rank (default 9)")
     p.add_argument("--rerank", type=int, default=0, metavar="K", help="re-order the first K by elastic distance")
     p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for the elastic re-rank (default 9)")
     p.add_argument("--cache", metavar="DIR", help="signature cache folder (default $SHAPESIG_CACHE_DIR)")
     _add_common(p)
     p.set_defaults(func=cmd_rank)
@@ -594,9 +510,7 @@ def build_parser():
         "DIR/matrix.npy with an MDS plot and a dendrogram.",
     )
     p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
-    p.add_argument("--metric", default="sim", help=_metric_help("sim"))
-    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    _add_metric(p)
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--labels", metavar="CSV", help="colour the figures by the 'label' column of an index CSV")
     p.add_argument("--no-figures", action="store_true", help="write only the matrix")

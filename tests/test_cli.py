@@ -14,7 +14,7 @@ import pytest
 
 from blender_shapesig import cli
 from blender_shapesig.core import curves, signatures
-from blender_shapesig.core.acclaim import load_acclaim
+from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.clip import restrict_to_shared
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent

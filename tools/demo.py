@@ -82,8 +82,9 @@ def import_clips(bpy, data, report):
         before_actions = set(bpy.data.actions)
         with quiet_stdout():
             if path.suffix == ".bvh":
-                bpy.ops.import_anim.bvh(filepath=str(path), rotate_mode="NATIVE", update_scene_fps=False,
-                                        update_scene_duration=False)
+                from blender_shapesig.readers.bvh import import_armature
+
+                import_armature(path)  # Blender's importer with the settings every reader uses
             else:
                 bpy.ops.shapesig.import_acclaim(filepath=str(path), asf_path=str(data / row["skeleton"]))
         new_actions = [a for a in bpy.data.actions if a not in before_actions]

@@ -9,9 +9,9 @@ applies one mutation (``KINDS``: truncation, garbage bytes, dropped / repeated /
 value counts, NaN / inf / huge / malformed numbers, missing sections, latin-1 / UTF-16 / BOM encodings,
 CR or CRLF line ends, empty / whitespace / binary files, the wrong format) and reads it:
 
-* ``acclaim``: ``core.acclaim.load_acclaim`` (mutated ASF with its real AMC, or mutated AMC with its real
+* ``acclaim``: ``core.formats.acclaim.load_acclaim`` (mutated ASF with its real AMC, or mutated AMC with its real
   ASF), in this process, with a per-case alarm;
-* ``bvh``: ``clips.import_bvh`` (Blender's importer) and ``blend``: ``clips.load_clips`` on a mutated
+* ``bvh``: ``readers.bvh.import_bvh`` (Blender's importer) and ``blend``: ``core.sources.read`` on a mutated
   .blend, and ``import_op``: the ``shapesig.import_acclaim`` operator on a mutated ASF/AMC - each in worker
   processes (``--batch`` cases each) so that a crash or a hang of Blender is detected and reported with the
   case that caused it (the worker is restarted after it).
@@ -421,7 +421,7 @@ _ORIGINALS = {}
 def original_acclaim(asf, amc):
     key = (asf, amc)
     if key not in _ORIGINALS:
-        from blender_shapesig.core.acclaim import load_acclaim
+        from blender_shapesig.core.formats.acclaim import load_acclaim
 
         _ORIGINALS[key] = load_acclaim(DATA / amc, DATA / asf).rotations
     return _ORIGINALS[key]
@@ -429,7 +429,7 @@ def original_acclaim(asf, amc):
 
 def read_acclaim_case(asf_bytes, amc_bytes, folder, expected=None, timeout=30):
     """Write the two files into ``folder`` and load them with ``load_acclaim``; (outcome, detail)."""
-    from blender_shapesig.core.acclaim import load_acclaim
+    from blender_shapesig.core.formats.acclaim import load_acclaim
 
     asf = os.path.join(folder, "skel.asf")
     amc = os.path.join(folder, "take.amc")
@@ -461,7 +461,8 @@ def _worker(target, cases_path, results_path):
     import bpy
 
     import blender_shapesig
-    from blender_shapesig import clips
+    from blender_shapesig.core.sources import read as read_clips
+    from blender_shapesig.readers.bvh import import_bvh
 
     if target == "import_op":
         blender_shapesig.register()
@@ -471,10 +472,10 @@ def _worker(target, cases_path, results_path):
     for case in cases:
         expected = np.load(case["expected"]) if case.get("expected") else None
         if target == "bvh":
-            outcome, detail = run_case(lambda: clips.import_bvh(case["path"]), expected, case["timeout"])
+            outcome, detail = run_case(lambda: import_bvh(case["path"]), expected, case["timeout"])
         elif target == "blend":
             def read():
-                got = clips.load_clips(case["path"])
+                got = read_clips(case["path"])
                 for c in got[1:]:
                     why = check_clip(c)
                     if why:
@@ -586,8 +587,8 @@ def _blender_expected(target, src, tmp):
     if not os.path.exists(out):
         code = (
             "import sys, numpy as np; sys.path.insert(0, %r)\n"
-            "from blender_shapesig import clips\n"
-            "np.save(%r, clips.load_clips(%r)[0].rotations)\n"
+            "from blender_shapesig.core.sources import read\n"
+            "np.save(%r, read(%r)[0].rotations)\n"
         ) % (str(ROOT), out, src)
         subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.DEVNULL,
                        stderr=subprocess.DEVNULL, cwd=str(ROOT))

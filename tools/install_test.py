@@ -494,7 +494,7 @@ def search_ops(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
 
 
 def blend_file_clips(bpy, ck: Checks, work: Path) -> None:
-    """clips.load_clips on a saved .blend: read in a child process (the installed package imported there by its
+    """core.sources.read on a saved .blend: read in a child process (the installed package imported there by its
     folder, with the extension's wheels), the clips back here."""
     import importlib
 
@@ -502,14 +502,14 @@ def blend_file_clips(bpy, ck: Checks, work: Path) -> None:
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
     t0 = time.monotonic()
     try:
-        got = importlib.import_module(f"{ADDON_MODULE}.clips").load_clips(str(path))
+        got = importlib.import_module(f"{ADDON_MODULE}.core.sources").read(str(path))
         names = sorted(c.name for c in got)
         ok = len(got) >= 2 and all(c.rotations.shape[1] > 0 for c in got)
         detail = f"{names}"
     except Exception as exc:  # noqa: BLE001 - reported as a failed check
         ok, detail = False, f"{type(exc).__name__}: {exc}"
     ck.timings["load_blend"] = time.monotonic() - t0
-    ck.add("clips.load_clips(.blend) in a child process", ok, f"{detail}, in {ck.timings['load_blend']:.1f}s")
+    ck.add("sources.read(.blend) in a child process", ok, f"{detail}, in {ck.timings['load_blend']:.1f}s")
 
 
 def run_uninstall(bpy, ck: Checks, ext_dir: Path) -> None:

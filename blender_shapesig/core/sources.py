@@ -38,11 +38,14 @@ __all__ = [
 
 EXTENSIONS = (".bvh", ".amc", ".blend")
 
+# the package as imported: "blender_shapesig", or e.g. "bl_ext.user_default.blender_shapesig" when installed
+_PACKAGE = __name__.rsplit(".", 2)[0]
+
 # extension -> reader(spec: ClipSpec) -> list[Clip], or "module:function" imported on first use
 _READERS = {
-    ".amc": "blender_shapesig.core.sources:_read_amc",
-    ".bvh": "blender_shapesig.readers:read_bvh",
-    ".blend": "blender_shapesig.readers:read_blend",
+    ".amc": f"{_PACKAGE}.core.sources:_read_amc",
+    ".bvh": f"{_PACKAGE}.readers:read_bvh",
+    ".blend": f"{_PACKAGE}.readers:read_blend",
 }
 
 
@@ -85,14 +88,14 @@ class ClipSpec:
         return self.path if self.action is None else f"{self.path}#{self.action}"
 
     def check(self) -> "ClipSpec":
-        """ParseError when the file is missing, a folder or of an unknown type."""
-        if self.ext not in EXTENSIONS:
-            raise ParseError(f"unknown clip type {self.ext or '(no extension)'!r}; expected .bvh, .amc, .blend "
-                             f"or FILE.blend#ACTION", self.path)
+        """ParseError when the file is missing, a folder or of an unknown type (the command line's messages)."""
+        if not os.path.exists(self.path):
+            raise ParseError("file not found", self.path)
         if os.path.isdir(self.path):
             raise ParseError("is a folder, expected a .bvh, .amc or .blend file", self.path)
-        if not os.path.isfile(self.path):
-            raise ParseError("no such file", self.path)
+        if self.ext not in EXTENSIONS:
+            raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected .bvh, .amc, .blend or "
+                             f"FILE.blend#ACTION", self.path)
         return self
 
     def skeleton(self) -> Optional[str]:
@@ -177,7 +180,7 @@ def reader_for(ext) -> Callable:
 
 
 def _read_amc(spec: ClipSpec) -> List[Clip]:
-    from .acclaim import load_acclaim
+    from .formats.acclaim import load_acclaim
 
     # Blender's armature axes: the space every reader gives (comparable with .bvh and .blend clips)
     return [load_acclaim(spec.path, spec.skeleton(), axes="blender")]

@@ -1,206 +1,20 @@
 """``shapesig.import_acclaim``: File > Import > Acclaim Motion (.asf/.amc).
 
-Builds an armature from the ASF skeleton and one action per AMC take (several AMCs at once give several
-actions on the one armature; the first becomes the active action, all get a fake user).
-
-Geometry. The ASF world is Y up; Blender is Z up. As Blender's BVH importer does (forward -Z, up Y), points
-and frames are mapped by ``A: (x, y, z) -> (x, -z, y)`` and scaled by
-``meters_per_unit * scale`` (CMU ``length 0.45``: one unit is 1/0.45 inch, so scale 1 gives meters).
-Each bone's head is its parent's tail, its tail is ``head + direction * length`` (the root: a short bone
-along the root's ``orientation`` Y axis, i.e. up). Blender's bone Y axis must point along the bone, while the
-ASF ``axis`` frame C generally does not (e.g. CMU femurs: C's Y points up the leg), so each bone's roll is
-chosen to bring the rest frame ``B`` as close as possible to ``A C``: its X axis is ``A C x`` made
-orthogonal to the bone. The pose rotation of bone b is then ``P = B^T A (C M C^-1) A^T B`` (M the AMC
-rotation); when ``B = A C`` (the root, and every bone whose axis frame has Y along the bone) this is
-``P = M``: the AMC rotations apply directly. The root's location is ``B^T (s A T - rest head)``.
-Positions after posing equal core.acclaim.forward_kinematics mapped by ``s A`` (tested).
-
-On any error the operator reports one line and creates nothing.
+A thin operator: the picked files -> ``readers.acclaim.choose_files`` -> ``readers.acclaim.import_acclaim``
+(the armature builder and pose maths) -> one report line. On any error it reports one line and creates
+nothing.
 """
 
 import os
 
 import bpy
-import numpy as np
-from bpy.props import CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty, BoolProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras.io_utils import ImportHelper
 
-from .. import action_io, compat
-from ..core.acclaim import ASF_TO_BLENDER, find_asf, parse_amc, parse_asf, to_blender_axes
-from ..core.clip import Clip
 from ..core.errors import ShapeSigError
+from ..readers.acclaim import choose_files, import_acclaim
 
-__all__ = ["SHAPESIG_OT_import_acclaim", "import_acclaim", "clip_to_pose", "AXIS_CONVERSION", "classes"]
-
-AXIS_CONVERSION = ASF_TO_BLENDER  # ASF Y up -> Blender Z up
-
-
-def _unit(v):
-    n = np.linalg.norm(v)
-    return v / n if n > 1e-12 else None
-
-
-def rest_geometry(skeleton, scale=1.0):
-    """Per bone (skeleton order): Blender rest head, tail (armature space) and the wanted Z axis for the roll.
-
-    Returns (heads, tails, z_axes) arrays (bones, 3)."""
-    A = AXIS_CONVERSION
-    s = skeleton.meters_per_unit * scale
-    heads, tails = skeleton.rest_heads_tails()
-    lengths = [b.length for b in skeleton.bones.values() if b.length > 0]
-    short = (0.25 * float(np.median(lengths)) if lengths else 1.0) * s
-    bh, bt, bz = [], [], []
-    for i, bone in enumerate(skeleton.bones.values()):
-        AC = A @ bone.axis_matrix
-        head = s * (A @ heads[i])
-        y = _unit(A @ bone.direction) if bone.length > 0 else None
-        length = bone.length * s
-        if y is None or length < 1e-6 * max(short, 1e-9):
-            # the root and zero-length bones: along the axis frame's Y
-            y = AC[:, 1]
-            length = short
-        tail = head + y * length
-        x = AC[:, 0] - np.dot(AC[:, 0], y) * y
-        if np.linalg.norm(x) < 1e-6:
-            z = AC[:, 2] - np.dot(AC[:, 2], y) * y
-            z = z / np.linalg.norm(z)
-        else:
-            x = x / np.linalg.norm(x)
-            z = np.cross(x, y)
-        bh.append(head)
-        bt.append(tail)
-        bz.append(z)
-    return np.array(bh), np.array(bt), np.array(bz)
-
-
-def pose_clip(motion, rest_rotations, name, scale=1.0, frame_step=1, fps=120.0, rotation_mode="QUATERNION"):
-    """The motion as a Clip of pose-bone rotations for an armature whose bones (skeleton order) have the
-    armature-space rest rotations ``rest_rotations`` (bones, 3, 3), and the root's location."""
-    sk = motion.skeleton
-    A = AXIS_CONVERSION
-    C = sk.axis_matrices()
-    M = motion.amc_rotations()[::frame_step]
-    B = np.asarray(rest_rotations)
-    # P = B^T A C M C^T A^T B = K M K^T with K = B^T A C
-    K = np.swapaxes(B, -1, -2) @ A[None] @ C
-    P = K[None] @ M @ np.swapaxes(K, -1, -2)[None]
-    s = sk.meters_per_unit * scale
-    T = motion.root_translation()[::frame_step]
-    rest_head = s * (A @ sk.root_position)
-    loc = (s * T @ A.T - rest_head) @ B[0]  # B^T v for row vectors
-    if rotation_mode == "NATIVE":
-        modes = tuple(sk.root_axis if n == "root" else b.rotation_order for n, b in sk.bones.items())
-    else:
-        modes = (rotation_mode,) * len(sk.bones)
-    return Clip(
-        name=name, bones=sk.bone_names, rotations=P, fps=fps / frame_step,
-        frame_start=1, root_translation=loc, root_bone="root", rotation_modes=modes,
-        source=motion.path or "", meta={"format": "acclaim", "asf": sk.path},
-    )
-
-
-def clip_to_pose(clip, armature):
-    """A core Acclaim clip (``core.acclaim.load_acclaim``: ``L = C M C^-1`` in ASF Y-up axes, root translation
-    in ASF units, or the same already in Blender axes), or anything computed from such clips (e.g. a blend),
-    converted to the pose-bone rotations and root location of an armature made by this importer
-    (``P = B^T A L A^T B``, ``loc = B_root^T (s A T - rest head)``). Bones the armature lacks raise
-    ShapeSigError."""
-    props = armature.data.get("shapesig_acclaim") if armature is not None else None
-    if props is None:
-        raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} was not made by the Acclaim importer")
-    if clip.meta.get("rotation_space") == "asf":
-        scale = float(props["units_to_blender"]) / float(clip.meta.get("meters_per_unit", 1.0))
-        clip = to_blender_axes(clip, scale)
-    return action_io.to_pose_space(clip, armature)
-
-
-def _build_armature(context, skeleton, name, scale):
-    """A new armature object linked to the active collection; returns (object, bone name map)."""
-    heads, tails, zs = rest_geometry(skeleton, scale)
-    arm_data = bpy.data.armatures.new(name)
-    obj = bpy.data.objects.new(name, arm_data)
-    context.collection.objects.link(obj)
-    for o in context.view_layer.objects:
-        if o.select_get():
-            o.select_set(False)
-    context.view_layer.objects.active = obj
-    obj.select_set(True)
-    bpy.ops.object.mode_set(mode="EDIT", toggle=False)
-    try:
-        ebs = arm_data.edit_bones
-        names = {}
-        for i, bone in enumerate(skeleton.bones.values()):
-            eb = ebs.new(bone.name)
-            eb.head = heads[i].tolist()
-            eb.tail = tails[i].tolist()
-            eb.align_roll(zs[i].tolist())
-            names[bone.name] = eb.name
-            if bone.parent is not None:
-                eb.parent = ebs[names[bone.parent]]
-                eb.use_connect = False
-    finally:
-        bpy.ops.object.mode_set(mode="OBJECT", toggle=False)
-    # what clip_to_pose needs to map core Acclaim clips onto this armature
-    arm_data["shapesig_acclaim"] = {"asf": skeleton.path or "", "units_to_blender": skeleton.meters_per_unit * scale}
-    return obj, names
-
-
-def import_acclaim(context, asf_path, amc_paths, scale=1.0, frame_step=1, fps=120.0,
-                   rotation_mode="QUATERNION", update_scene=False):
-    """Import an ASF skeleton and AMC takes. Everything is parsed and computed before anything is created;
-    on error whatever was created is removed and the ShapeSigError propagates. Returns (object, [actions])."""
-    if frame_step < 1:
-        raise ShapeSigError("frame step must be at least 1")
-    if not fps > 0:
-        raise ShapeSigError("fps must be positive")
-    if not scale > 0:
-        raise ShapeSigError("scale must be positive")
-    skeleton = parse_asf(asf_path)
-    motions = [parse_amc(p, skeleton) for p in amc_paths]
-    name = os.path.splitext(os.path.basename(asf_path))[0]
-    with np.errstate(all="ignore"):
-        geometry = np.concatenate(rest_geometry(skeleton, scale)[:2])
-    if not (np.all(np.isfinite(geometry)) and np.abs(geometry).max() < 1e30):
-        raise ShapeSigError(f"{asf_path}: the skeleton's bone positions are not finite or too large for Blender "
-                            f"(check its :units length and the bone lengths, or the scale)")
-
-    if context.object is not None and context.object.mode != "OBJECT":
-        bpy.ops.object.mode_set(mode="OBJECT", toggle=False)
-    created_actions = []
-    obj = None
-    try:
-        obj, names = _build_armature(context, skeleton, name, scale)
-        if any(names[n] != n for n in names):
-            renamed = [n for n in names if names[n] != n]
-            raise ShapeSigError(f"bone name(s) too long for Blender: {', '.join(renamed[:3])}")
-        rest = np.array([np.array(obj.data.bones[names[n]].matrix_local.to_3x3()) for n in skeleton.bone_names])
-        for pb in obj.pose.bones:
-            pb.rotation_mode = "QUATERNION" if rotation_mode == "NATIVE" else rotation_mode
-        if rotation_mode == "NATIVE":
-            for n, bone in skeleton.bones.items():
-                obj.pose.bones[names[n]].rotation_mode = skeleton.root_axis if n == "root" else bone.rotation_order
-        for path, motion in zip(amc_paths, motions):
-            clip = pose_clip(motion, rest, os.path.splitext(os.path.basename(path))[0], scale=scale,
-                             frame_step=frame_step, fps=fps, rotation_mode=rotation_mode)
-            created_actions.append(action_io.write_action(clip, armature=obj, fake_user=True))
-        if created_actions:
-            compat.assign_action(obj, created_actions[0])
-            if update_scene:
-                scene = context.scene
-                clip_fps = fps / frame_step
-                scene.render.fps = max(1, int(round(clip_fps)))
-                scene.render.fps_base = scene.render.fps / clip_fps
-                scene.frame_start = 1
-                scene.frame_end = max(m.frames for m in motions) // frame_step + 1
-    except BaseException:
-        for action in created_actions:
-            compat.remove_action(action)
-        if obj is not None:
-            data = obj.data
-            bpy.data.objects.remove(obj, do_unlink=True)
-            bpy.data.armatures.remove(data, do_unlink=True)
-        raise
-    return obj, created_actions
+__all__ = ["SHAPESIG_OT_import_acclaim", "classes"]
 
 
 class SHAPESIG_OT_import_acclaim(bpy.types.Operator, ImportHelper):
@@ -246,29 +60,16 @@ class SHAPESIG_OT_import_acclaim(bpy.types.Operator, ImportHelper):
             paths = [self.filepath]
         return paths
 
+    @classmethod
+    def poll(cls, context):
+        if context.scene is None or context.collection is None:
+            cls.poll_message_set("No active scene collection to add the armature to")
+            return False
+        return True
+
     def execute(self, context):
         try:
-            paths = self._paths()
-            if not paths:
-                raise ShapeSigError("no file given")
-            bad = [p for p in paths if os.path.splitext(p)[1].lower() not in (".asf", ".amc")]
-            if bad:
-                raise ShapeSigError(f"not an .asf or .amc file: {bad[0]}")
-            missing = [p for p in paths if not os.path.isfile(p)]
-            if missing:
-                raise ShapeSigError(f"no such file: {missing[0]}")
-            asfs = [p for p in paths if p.lower().endswith(".asf")]
-            amcs = [p for p in paths if p.lower().endswith(".amc")]
-            if self.asf_path:
-                asf = bpy.path.abspath(self.asf_path)
-                if not os.path.isfile(asf):
-                    raise ShapeSigError(f"no such skeleton file: {asf}")
-            elif len(asfs) == 1:
-                asf = asfs[0]
-            elif len(asfs) > 1:
-                raise ShapeSigError("several .asf files selected; select one skeleton")
-            else:
-                asf = find_asf(amcs[0])
+            asf, amcs = choose_files(self._paths(), bpy.path.abspath(self.asf_path) if self.asf_path else "")
             obj, actions = import_acclaim(context, asf, amcs, scale=self.scale, frame_step=self.frame_step,
                                           fps=self.fps, rotation_mode=self.rotation_mode,
                                           update_scene=self.update_scene)

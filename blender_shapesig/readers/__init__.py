@@ -1,16 +1,21 @@
-"""The Blender half of reading clips: readers that need bpy, registered in ``core.sources`` by module path
-(``.bvh``: Blender's importer; ``.blend``: appended actions, read in a child process)."""
+"""The Blender half of reading clips (needs bpy): ``bvh`` (Blender's BVH importer), ``blend`` (the actions of
+a .blend file, read in a child process), ``acclaim`` (the Acclaim armature builder) and ``scratch`` (removing
+what an import created). ``read_bvh``/``read_blend`` are the readers ``core.sources`` names for ``.bvh`` and
+``.blend`` (imported only when such a file is read); the pure parsers are ``core.formats``."""
+
 
 def read_bvh(spec):
-    from ..clips import import_bvh
+    """The clip of a ``.bvh`` ClipSpec (``bvh.import_bvh``)."""
+    from .bvh import import_bvh
 
     return [import_bvh(spec.path)]
 
 
 def read_blend(spec):
-    from ..clips import _load_blend
+    """The clips of a ``.blend`` ClipSpec: every action, or ``spec.action`` (``blend.read_blend_file``)."""
+    from .blend import read_blend_file
 
-    return _load_blend(spec.path, spec.action)
+    return read_blend_file(spec.path, spec.action)
 
 
 __all__ = ["read_bvh", "read_blend"]

@@ -10,7 +10,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ShapeSigError  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"

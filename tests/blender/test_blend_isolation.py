@@ -11,8 +11,10 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, clips  # noqa: E402
-from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.core.sources import read  # noqa: E402
+from blender_shapesig.readers import blend as blend_reader  # noqa: E402
+from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
 
 ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
@@ -32,9 +34,9 @@ def small_blend(empty_file, line_armature, tmp_path):
 
 def test_child_result_equals_reading_in_process(small_blend, monkeypatch):
     path, walk = small_blend
-    (isolated,) = clips.load_clips(path)
-    monkeypatch.setenv(clips.BLEND_IN_PROCESS_ENV, "1")
-    (here,) = clips.load_clips(path)
+    (isolated,) = read(path)
+    monkeypatch.setenv(blend_reader.BLEND_IN_PROCESS_ENV, "1")
+    (here,) = read(path)
     assert isolated.name == here.name == "walk" and isolated.bones == here.bones
     np.testing.assert_array_equal(isolated.rotations, here.rotations)
     np.testing.assert_array_equal(isolated.root_translation, here.root_translation)
@@ -46,10 +48,10 @@ def test_child_result_equals_reading_in_process(small_blend, monkeypatch):
 def test_a_crashing_reader_is_a_parse_error(small_blend, monkeypatch):
     path, _ = small_blend
     crash = "import os, signal; os.kill(os.getpid(), signal.SIGSEGV)"
-    monkeypatch.setattr(clips, "_child_command", lambda args: [sys.executable, "-c", crash])
+    monkeypatch.setattr(blend_reader, "_child_command", lambda args: [sys.executable, "-c", crash])
     before = {a.name for a in bpy.data.actions}, {o.name for o in bpy.data.objects}
     with pytest.raises(ParseError, match="Blender crashed reading it") as info:
-        clips.load_clips(path)
+        read(path)
     assert "\n" not in str(info.value) and str(path) in str(info.value)
     assert ({a.name for a in bpy.data.actions}, {o.name for o in bpy.data.objects}) == before
 
@@ -88,7 +90,7 @@ def test_damaged_block_addresses_crash_the_reader_not_this_process(small_blend, 
         p = tmp_path / f"damaged{i}.blend"
         p.write_bytes(bytes(damaged))
         try:
-            got = clips.load_clips(p)
+            got = read(p)
             assert all(np.all(np.isfinite(c.rotations)) for c in got)
             outcomes.append("clip")
         except ParseError as exc:

@@ -1,5 +1,6 @@
-"""clips.load_clips: .amc, .bvh (Blender's importer, nothing left behind, rotations checked against an
-independent reading of the BVH channels), .blend and FILE.blend#ACTION, and clear errors."""
+"""Reading clips through ``core.sources.read`` and the Blender readers (``readers.bvh``, ``readers.blend``):
+.amc, .bvh (Blender's importer, nothing left behind, rotations checked against an independent reading of the
+BVH channels), .blend and FILE.blend#ACTION, and clear errors."""
 
 import pathlib
 
@@ -8,8 +9,11 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, clips  # noqa: E402
-from blender_shapesig.core.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.core.sources import read  # noqa: E402
+from blender_shapesig.readers.blend import read_blend_file  # noqa: E402
+from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
+from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
@@ -52,23 +56,21 @@ def _bvh_local_rotations(path):
 
 
 def test_amc_equals_core(empty_file):
-    (native,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf", space="native")
-    core = load_acclaim(ACC / "09_02.amc", ACC / "09-run.asf")
-    np.testing.assert_array_equal(native.rotations, core.rotations)
-    # default: Blender armature axes, A L A^T and s A T
-    (clip,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    core = load_acclaim(ACC / "09_02.amc", ACC / "09-run.asf")  # ASF axes
+    # the front door: Blender armature axes, A L A^T and s A T
+    (clip,) = read(ACC / "09_02.amc", asf=ACC / "09-run.asf")
     assert clip.meta["rotation_space"] == "armature"
     np.testing.assert_allclose(clip.rotations, A[None, None] @ core.rotations @ A.T[None, None], atol=1e-14)
     s = core.meta["meters_per_unit"]
     np.testing.assert_allclose(clip.root_translation, s * core.root_translation @ A.T, atol=1e-12)
-    (c60,) = clips.load_clips(str(ACC / "09_02.amc"), asf=str(ACC / "09-run.asf"), fps=60)
+    (c60,) = read(str(ACC / "09_02.amc"), asf=str(ACC / "09-run.asf"), fps=60)
     assert c60.fps == 60.0
 
 
 def test_bvh_through_blender_importer(empty_file, capsys):
     scene = bpy.context.scene
     before = _all_ids()
-    (clip,) = clips.load_clips(DATA / "bvh" / "09_02.bvh", space="native")
+    clip = import_bvh(DATA / "bvh" / "09_02.bvh", space="native")
     assert _all_ids() == before and bpy.context.scene == scene  # nothing left behind
     assert capsys.readouterr().out == ""  # the importer's progress prints are swallowed (CLI --json)
     assert clip.name == "09_02" and clip.frames == 131 and clip.fps == 120.0 and clip.frame_start == 1
@@ -83,7 +85,7 @@ def test_bvh_through_blender_importer(empty_file, capsys):
     # the first (rest) frame can be cropped off
     assert clip.crop(2).frames == 130
     # the default, armature space, is exactly that aligned form: the file's rotations in Blender axes
-    (arm,) = clips.load_clips(DATA / "bvh" / "09_02.bvh")
+    (arm,) = read(DATA / "bvh" / "09_02.bvh")
     assert arm.meta["rotation_space"] == "armature" and arm.meta["up_axis"] == "Z"
     np.testing.assert_allclose(arm.rotations, aligned, atol=1e-12)
 
@@ -123,7 +125,7 @@ def test_blend_file_and_single_action(empty_file, line_armature, tmp_path, capsy
     _save_blend(path, walk, line_armature)
     bpy.ops.wm.read_factory_settings(use_empty=True)
     before = _all_ids()
-    got = clips.load_clips(path, space="native")
+    got = read_blend_file(path, space="native")
     assert _all_ids() == before
     assert sorted(c.name for c in got) == ["keyed", "walk_a", "walk_b"]
     by_name = {c.name: c for c in got}
@@ -135,7 +137,7 @@ def test_blend_file_and_single_action(empty_file, line_armature, tmp_path, capsy
 
     np.testing.assert_allclose(keyed.rotations[0, 0], Rotation.from_euler("zxy", [0.3, 0.1, 0.2]).as_matrix(),
                                atol=1e-6)
-    (one,) = clips.load_clips(f"{path}#walk_b")
+    (one,) = read(f"{path}#walk_b")
     assert one.name == "walk_b" and one.frames == 50
     # armature space (the default) with the file's armature: B P B^T, back to pose by write_action
     assert one.meta["rotation_space"] == "armature"
@@ -144,21 +146,23 @@ def test_blend_file_and_single_action(empty_file, line_armature, tmp_path, capsy
                                atol=1e-12)
     assert _all_ids() == before
     with pytest.raises(ParseError, match="no action 'nope' in the file"):
-        clips.load_clips(f"{path}#nope")
+        read(f"{path}#nope")
     with pytest.raises(ParseError, match="animates no pose bones"):
-        clips.load_clips(f"{path}#not_armature")
+        read(f"{path}#not_armature")
     assert _all_ids() == before
 
 
 def test_errors(empty_file, tmp_path):
     def err(spec, match, **kw):
         with pytest.raises(ParseError) as info:
-            clips.load_clips(spec, **kw)
+            read(spec, **kw)
         assert match in str(info.value) and "\n" not in str(info.value), str(info.value)
 
-    err(tmp_path / "x.bvh", "no such file")
-    err(tmp_path / "x.fbx", "unknown clip type '.fbx'")
-    err(tmp_path / "x", "unknown clip type")
+    err(tmp_path / "x.bvh", "file not found")
+    (tmp_path / "x.fbx").write_text("")
+    err(tmp_path / "x.fbx", "unsupported file type .fbx")
+    (tmp_path / "x").write_text("")
+    err(tmp_path / "x", "unsupported file type (none)")
     err(ACC / "07_01.amc", "3 .asf files beside the .amc")
     (tmp_path / "junk.blend").write_bytes(b"not a blend file at all")
     err(tmp_path / "junk.blend", ".blend file")  # "cannot read .blend file" or "not a .blend file"
@@ -193,7 +197,7 @@ def test_importer_failure_is_one_line_and_silent(empty_file, tmp_path, capfd):
     before = _all_ids()
     capfd.readouterr()
     with pytest.raises(ParseError) as info:
-        clips.load_clips(tmp_path / "rot.bvh")
+        read(tmp_path / "rot.bvh")
     out, errout = capfd.readouterr()
     msg = str(info.value)
     assert "\n" not in msg and "rot.bvh" in msg and "BVH importer failed" in msg, msg
@@ -202,12 +206,12 @@ def test_importer_failure_is_one_line_and_silent(empty_file, tmp_path, capfd):
 
 
 def test_imported_and_folder_amc_agree_in_armature_space(empty_file):
-    """The same take through the importer (read back from the action) and through load_clips: one space."""
+    """The same take through the importer (read back from the action) and through sources.read: one space."""
     bpy.ops.shapesig.import_acclaim(filepath=str(ACC / "09_02.amc"), asf_path=str(ACC / "09-run.asf"))
     obj = bpy.context.view_layer.objects.active
     action = obj.animation_data.action
     from_file = action_io.read_action(action, armature=obj, space="armature")
-    (from_folder,) = clips.load_clips(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    (from_folder,) = read(ACC / "09_02.amc", asf=ACC / "09-run.asf")
     assert from_file.bones == from_folder.bones
     np.testing.assert_allclose(from_file.rotations, from_folder.rotations, atol=5e-6)  # float32 keys
     np.testing.assert_allclose(from_file.root_translation, from_folder.root_translation, atol=1e-5)

@@ -20,7 +20,9 @@ from hypothesis import strategies as st
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, clips, compat  # noqa: E402
+from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig.core.sources import read  # noqa: E402
+from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
 from blender_shapesig.core.clip import Clip  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
 
@@ -87,7 +89,7 @@ BVH = _short_bvh(DATA / "bvh" / "09_03.bvh", 12)
 def bvh_original(tmp_path_factory):
     path = tmp_path_factory.mktemp("bvh") / "short.bvh"
     path.write_bytes(BVH)
-    return clips.import_bvh(path)
+    return import_bvh(path)
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
@@ -98,7 +100,7 @@ def test_bvh_fuzz_few_cases(empty_file, tmp_path, bvh_original, kind, seed):
     path.write_bytes(fz.mutate(BVH, kind, random.Random(seed), "bvh"))
     before = snapshot()
     expected = bvh_original.rotations if kind in fz.PRESERVING else None
-    outcome, detail = fz.run_case(lambda: clips.import_bvh(path), expected, timeout=60)
+    outcome, detail = fz.run_case(lambda: import_bvh(path), expected, timeout=60)
     assert outcome in ("ok", "error"), f"{kind}: {detail}"
     assert snapshot() == before  # the importer's armature, action and scene are removed either way
 
@@ -107,7 +109,7 @@ def test_bvh_fuzz_few_cases(empty_file, tmp_path, bvh_original, kind, seed):
 def test_bvh_encodings_and_layouts(empty_file, tmp_path, bvh_original, encoding):
     path = tmp_path / "enc.bvh"
     path.write_bytes(fz.mutate(BVH, encoding, random.Random(3), "bvh"))
-    clip = clips.import_bvh(path)
+    clip = import_bvh(path)
     assert clip.source == str(path) and clip.name == "enc"
     np.testing.assert_allclose(clip.rotations, bvh_original.rotations, atol=1e-12)
     if encoding == "latin1_name":
@@ -139,7 +141,7 @@ def test_bvh_structural_errors_are_one_line(empty_file, tmp_path):
     for name, (data, needle) in cases.items():
         path = tmp_path / f"{name}.bvh"
         path.write_bytes(data)
-        outcome, detail = fz.run_case(lambda: clips.import_bvh(path))
+        outcome, detail = fz.run_case(lambda: import_bvh(path))
         assert outcome in ("ok", "error"), f"{name}: {detail}"
         if needle:
             assert outcome == "error" and needle in detail, (name, detail)
@@ -184,7 +186,7 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
     good = tmp_path / "good.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(good), copy=True, compress=False)
     data = good.read_bytes()
-    assert [c.name for c in clips.load_clips(good)] == ["09_02"]
+    assert [c.name for c in read(good)] == ["09_02"]
     compressed = tmp_path / "z.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(compressed), copy=True, compress=True)
     cases = {"truncated": data[: len(data) // 2], "empty": b"", "magic": b"NOTBLEND" + data[8:],
@@ -212,7 +214,7 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
         path = tmp_path / f"{name}.blend"
         path.write_bytes(blob)
         with pytest.raises(ParseError) as info:
-            clips.load_clips(path)
+            read(path)
         assert str(info.value).startswith(str(path)) and "\n" not in str(info.value), name
         assert ".blend" in str(info.value) or "compressed" in str(info.value), (name, str(info.value))
         expected = {"damaged_dna": "damaged DNA block", "bad_utf8_names": "not valid UTF-8",
@@ -220,7 +222,7 @@ def test_corrupt_blend_files_are_parse_errors_not_crashes(rig, tmp_path):
         if name in expected:
             assert expected[name] in str(info.value), (name, str(info.value))
     assert snapshot() == before
-    assert snapshot() == before and [c.name for c in clips.load_clips(compressed)] == ["09_02"]
+    assert snapshot() == before and [c.name for c in read(compressed)] == ["09_02"]
 
 
 def test_damaged_mode_property_is_ignored(rig):
@@ -523,7 +525,7 @@ def test_bvh_tiny_bones_still_give_rotation_matrices(empty_file, tmp_path):
     text = re.sub(rb"(End Site\s*\{\s*OFFSET) [^\n]*", rb"\1 0 0.00001 0.00001", BVH)
     path = tmp_path / "tiny.bvh"
     path.write_bytes(text)
-    clip = clips.import_bvh(path)
+    clip = import_bvh(path)
     R = clip.rotations
     assert np.abs(R @ np.swapaxes(R, -1, -2) - np.eye(3)).max() < 1e-9
     assert np.linalg.det(R).min() > 1 - 1e-9

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig.core import CurveError, ShapeSigError
-from blender_shapesig.core.acclaim import load_acclaim
+from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.blend import (
     blend_clip_series,
     blend_clips,
@@ -417,7 +417,7 @@ def test_clip_blend_keeps_the_rotation_space_and_refuses_mixed_spaces(data_dir):
     a_asf = load_acclaim(acc / "07_01.amc", acc / "07-walk.asf").crop(1, 120)
     b_asf = load_acclaim(acc / "07_02.amc", acc / "07-walk.asf").crop(1, 120)
     out_asf = blend_clips(a_asf, b_asf, 0.5, align=False)
-    from blender_shapesig.core.acclaim import ASF_TO_BLENDER as A
+    from blender_shapesig.core.formats.acclaim import ASF_TO_BLENDER as A
 
     np.testing.assert_allclose(out.rotations, A @ out_asf.rotations @ A.T, atol=1e-10)
     with pytest.raises(ShapeSigError, match="different spaces"):

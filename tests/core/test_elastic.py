@@ -438,7 +438,7 @@ def test_bad_input():
 
 
 def _acclaim_curves(data_dir, names):
-    from blender_shapesig.core.acclaim import load_acclaim
+    from blender_shapesig.core.formats.acclaim import load_acclaim
     from blender_shapesig.core.clip import restrict_to_shared
 
     asf = {"07": "07-walk.asf", "09": "09-run.asf"}

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from blender_shapesig.core import log_signature, signature, srvt
-from blender_shapesig.core.acclaim import decode_text, load_acclaim, parse_amc, parse_asf
+from blender_shapesig.core.formats.acclaim import decode_text, load_acclaim, parse_amc, parse_asf
 from blender_shapesig.core.clip import Clip, restrict_to_shared
 from blender_shapesig.core.errors import CurveError, ParseError, ShapeSigError
 from blender_shapesig.core.metrics import METRICS, clip_distance

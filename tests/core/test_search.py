@@ -11,7 +11,7 @@ import pytest
 
 from blender_shapesig.core import search, signatures
 from blender_shapesig.core.index import words
-from blender_shapesig.core.acclaim import load_acclaim
+from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.metrics import clip_distance

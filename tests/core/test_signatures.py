@@ -109,9 +109,9 @@ def random_curve(rng, frames, joints, scale=0.15):
 
 
 def load_clip(amc, asf):
-    acclaim = pytest.importorskip("blender_shapesig.core.acclaim")
+    acclaim = pytest.importorskip("blender_shapesig.core.formats.acclaim")
     if not hasattr(acclaim, "load_acclaim"):
-        pytest.skip("core.acclaim.load_acclaim is not available yet")
+        pytest.skip("core.formats.acclaim.load_acclaim is not available yet")
     return acclaim.load_acclaim(DATA / "acclaim" / amc, DATA / "acclaim" / asf)
 
 

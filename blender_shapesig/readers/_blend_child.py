@@ -1,4 +1,4 @@
-"""Read the actions of a .blend file in a child process (see ``clips._load_blend``).
+"""Read the actions of a .blend file in a child process (see ``readers.blend.read_blend_file``).
 
 Blender trusts the pointers stored in a .blend file; a damaged one crashes it while loading, which would
 end the animator's session (or the command line). So a .blend clip file is read here, in a separate
@@ -72,10 +72,10 @@ def main(argv):
     for p in [args["package_dir"]] + list(args["sys_path"]):
         if p not in sys.path:
             sys.path.append(p)
-    clips_module = importlib.import_module(f"{args['package']}.clips")
+    reader = importlib.import_module(f"{args['package']}.readers.blend")
     errors = importlib.import_module(f"{args['package']}.core.errors")
     try:
-        clips = clips_module._load_blend_here(args["path"], args["action"], args["space"])
+        clips = reader.read_blend_here(args["path"], args["action"], args["space"])
     except errors.ShapeSigError as exc:
         write_result(args["out"], error=exc)
     else:

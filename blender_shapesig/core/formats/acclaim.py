@@ -1,0 +1,109 @@
+"""Acclaim ASF/AMC motion capture (the CMU database format), without bpy: the one door to the format.
+
+``asf.parse_asf`` reads skeletons, ``amc.parse_amc`` motions; this module gives an AMC take as a Clip
+(``load_acclaim``) in ASF axes or Blender's (``to_blender_axes``) and re-exports the parsers' names.
+
+Conventions (all in the ASF's world: right-handed, Y up):
+
+* ``C`` (a bone's ``axis``) is the orientation of the bone's local frame in the world:
+  ``C = R_3(a_3) R_2(a_2) R_1(a_1)`` for axis order ``"123"`` (the first named axis is applied first).
+* ``M`` (a frame's AMC rotation) is built the same way from the bone's ``dof`` angles in their listed order
+  (the root's from its ``axis`` order), about the bone's local axes.
+* A bone's *local rotation* (relative to its parent, in world-aligned axes) is ``L = C M C^-1``; its world
+  rotation is ``G = G_parent L``; its head is its parent's tail (the root's head is the AMC root
+  translation), and its tail is ``head + G (direction * length)``.
+* Lengths and translations are in the ASF's units. CMU files say ``length 0.45``: one unit is
+  ``1/0.45`` inch, so ``meters = value * 0.0254 / length_unit`` (``Skeleton.meters_per_unit``).
+* Only rotations (``rx``, ``ry``, ``rz``) of non-root bones are animated; ``tx/ty/tz/l`` channels of
+  non-root bones are read (value count checked) and ignored.
+"""
+
+import os
+import pathlib
+from dataclasses import replace
+from typing import Optional
+
+import numpy as np
+
+from ..clip import Clip
+from ..errors import ParseError
+from ..sources import find_asf
+from .amc import Motion, forward_kinematics, parse_amc
+from .asf import Bone, Skeleton, euler_matrices, parse_asf
+from .text import decode_text
+
+__all__ = [
+    "Bone", "Skeleton", "Motion",
+    "parse_asf", "parse_amc", "load_acclaim", "to_blender_axes", "ASF_TO_BLENDER",
+    "euler_matrices", "forward_kinematics", "decode_text",
+]
+
+
+# ASF/AMC worlds are Y up; Blender's is Z up: (x, y, z) -> (x, -z, y), the same map Blender's BVH importer uses.
+ASF_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+def to_blender_axes(clip: Clip, scale: float = 1.0) -> Clip:
+    """An Acclaim clip in ASF axes re-expressed in Blender's armature axes (Z up, meters times ``scale``).
+
+    Rotations become ``A L A^T`` (A = ASF_TO_BLENDER) and the root translation ``s A T`` with
+    ``s = meters_per_unit * scale``. This is exactly what ``action_io.read_action(..., space="armature")``
+    returns for the same take imported with ``shapesig.import_acclaim`` (at the same scale), so clips
+    loaded from files and actions in a .blend are compared in one space.
+    """
+    if clip.meta.get("rotation_space") != "asf":
+        raise ParseError(f"clip {clip.name!r} is not in ASF axes")
+    A = ASF_TO_BLENDER
+    R = A[None, None] @ clip.rotations @ A.T[None, None]
+    rt = None
+    if clip.root_translation is not None:
+        rt = float(clip.meta.get("meters_per_unit", 1.0)) * float(scale) * (clip.root_translation @ A.T)
+    meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
+    return replace(clip, rotations=R, root_translation=rt, meta=meta)
+
+
+def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton] = None, axes: str = "asf",
+                 scale: float = 1.0) -> Clip:
+    """An AMC take as a Clip of local rotations ``L = C M C^-1`` (world-aligned, ASF Y-up axes) for
+    every skeleton bone (root first; bones without dofs are the identity), 120 fps (the CMU rate),
+    ``frame_start`` the first AMC frame number, ``root_translation`` the root position in ASF units.
+
+    ``asf_path`` None: the only .asf beside the .amc (``sources.find_asf``). ``skeleton``: an already parsed ASF (skips parsing).
+    ``axes="blender"``: the clip in Blender's armature axes (see ``to_blender_axes``; ``scale`` applies
+    there), the space every Blender-side reader compares in.
+    """
+    if axes not in ("asf", "blender"):
+        raise ParseError(f"axes must be 'asf' or 'blender', got {axes!r}")
+    amc_path = os.fspath(amc_path)
+    if not os.path.isfile(amc_path):
+        raise ParseError("no such AMC file", amc_path)
+    if skeleton is None:
+        if asf_path is None or os.fspath(asf_path) == "":
+            asf_path = find_asf(amc_path)
+        skeleton = parse_asf(pathlib.Path(asf_path))
+    motion = parse_amc(pathlib.Path(amc_path), skeleton)
+    modes = tuple(
+        skeleton.root_axis if n == "root" else b.rotation_order for n, b in skeleton.bones.items()
+    )
+    clip = Clip(
+        name=name or pathlib.Path(amc_path).stem,
+        bones=skeleton.bone_names,
+        rotations=motion.local_rotations(),
+        fps=120.0,
+        frame_start=int(motion.frame_numbers[0]),
+        root_translation=motion.root_translation(),
+        root_bone="root",
+        rotation_modes=modes,
+        source=amc_path,
+        meta={
+            "format": "acclaim",
+            "asf": skeleton.path,
+            "length_unit": skeleton.length_unit,
+            "meters_per_unit": skeleton.meters_per_unit,
+            "frame_numbers": motion.frame_numbers,
+            # world-aligned local rotations C M C^-1 in the ASF's Y-up axes
+            "rotation_space": "asf",
+            "up_axis": "Y",
+        },
+    )
+    return to_blender_axes(clip, scale) if axes == "blender" else clip

@@ -1,0 +1,155 @@
+"""``.blend`` clips: the actions of a .blend file, read in a child process.
+
+``read_blend_file(path, action=None)``: every action in the file that animates pose bones, or the one named.
+The actions (and the file's armature objects, for bone rotation modes and order) are appended with
+``bpy.data.libraries.load``, read with ``action_io.read_action`` and every data-block the append created is
+removed again (``read_blend_here``). That runs in a child process (``_blend_child``: this Python with the bpy
+module, or the Blender binary in background mode), so a damaged file that crashes Blender's reader is a
+ParseError here, never a crash of the command line or the animator's session; the file's structure is checked
+first (``core.formats.blend.check_blend``). ``SHAPESIG_BLEND_IN_PROCESS=1``: read in this process.
+
+Space: "armature" (default) gives each action in armature axes when an armature with its bones is in the
+file, else pose space (``meta["rotation_space"] == "pose"``); "native" gives pose-bone rotations.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import bpy
+
+from .. import action_io, compat
+from ..core.clip import Clip
+from ..core.errors import ParseError, ShapeSigError
+from ..core.formats.blend import check_blend
+from . import _blend_child
+from .scratch import id_snapshot, remove_new_ids
+
+__all__ = ["read_blend_file", "read_blend_here", "BLEND_IN_PROCESS_ENV"]
+
+# "1": read .blend clip files in this process (faster by the start-up of a child; a damaged file can then crash
+# this process). Default: a child process reads them (see readers._blend_child).
+BLEND_IN_PROCESS_ENV = "SHAPESIG_BLEND_IN_PROCESS"
+BLEND_CHILD_TIMEOUT = 600.0
+
+
+def read_blend_file(path, action_name=None, space="armature"):
+    """The clips of a .blend file (every action animating pose bones, or ``action_name``), read in a child
+    process."""
+    check_blend(path)
+    if os.environ.get(BLEND_IN_PROCESS_ENV) == "1":
+        return read_blend_here(path, action_name, space)
+    return _read_isolated(path, action_name, space)
+
+
+def _child_command(args_json):
+    """The command that runs _blend_child: the Blender binary in background mode inside Blender, else this
+    Python (which has the bpy module)."""
+    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_blend_child.py")
+    binary = getattr(bpy.app, "binary_path", "") or ""
+    if binary and os.path.basename(binary).lower().startswith("blender"):
+        return [binary, "--background", "--factory-startup", "--python-exit-code", "3", "--python", script,
+                "--", args_json]
+    return [sys.executable, script, args_json]
+
+
+def _read_isolated(path, action_name, space):
+    """read_blend_here in a child process: a .blend that crashes Blender gives a ParseError, not a crash."""
+    package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with tempfile.TemporaryDirectory(prefix="shapesig_blend_") as tmp:
+        out = os.path.join(tmp, "clips.npz")
+        args = json.dumps({"path": os.path.abspath(path), "action": action_name, "space": space, "out": out,
+                           "package_dir": os.path.dirname(package_root),
+                           "package": os.path.basename(package_root), "sys_path": [p for p in sys.path if p]})
+        try:
+            proc = subprocess.run(_child_command(args), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                  stderr=subprocess.PIPE, timeout=BLEND_CHILD_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            raise ParseError(f"reading the .blend file took more than {BLEND_CHILD_TIMEOUT:.0f} s", path) from None
+        except OSError as exc:
+            raise ParseError(f"cannot start a process to read the .blend file: {exc}", path) from None
+        if not os.path.isfile(out):
+            if proc.returncode < 0 or proc.returncode > 128:
+                raise ParseError("corrupt .blend file: Blender crashed reading it (damaged data)", path)
+            last = [ln for ln in proc.stderr.decode("utf-8", "replace").splitlines() if ln.strip()]
+            raise ParseError(f"could not read the .blend file ({last[-1] if last else f'exit {proc.returncode}'})",
+                             path)
+        clips, error = _blend_child.read_result(out, Clip)
+    if error is not None:
+        raise ParseError(error)
+    return clips
+
+
+def read_blend_here(path, action_name=None, space="armature"):
+    """``read_blend_file`` in this process (what the child process runs)."""
+    try:
+        with bpy.data.libraries.load(path, link=False) as (data_from, _to):
+            available = list(data_from.actions)
+            objects = list(data_from.objects)
+    except (OSError, RuntimeError) as exc:
+        raise ParseError(f"cannot read .blend file: {str(exc).splitlines()[0] if str(exc) else exc}", path) from None
+    except UnicodeDecodeError:
+        raise ParseError("corrupt .blend file (a name is not valid UTF-8 text)", path) from None
+    if action_name is not None and action_name not in available:
+        shown = ", ".join(available[:8]) + (" ..." if len(available) > 8 else "")
+        raise ParseError(f"no action {action_name!r} in the file (it has: {shown or 'none'})", path)
+    wanted = [action_name] if action_name is not None else available
+    if not wanted:
+        raise ParseError("the file has no actions", path)
+    before = id_snapshot()
+    try:
+        with bpy.data.libraries.load(path, link=False) as (data_from, data_to):
+            data_to.actions = list(wanted)
+            data_to.objects = objects
+        loaded_objects = [o for o in data_to.objects if o is not None]
+        armatures = [o for o in loaded_objects if o.type == "ARMATURE"]
+        clips = []
+        for want, action in zip(wanted, data_to.actions):
+            if action is None:
+                continue
+            if not action_io._bone_channels(compat.all_action_fcurves(action)):
+                if action_name is not None:
+                    raise ParseError(f"action {action_name!r} animates no pose bones", path)
+                continue
+            arm = _best_armature(action, armatures)
+            clip = action_io.read_action(action, armature=arm, name=want,
+                                         bones=None if arm is None else _animated_bones(action, arm),
+                                         space="armature" if (space == "armature" and arm is not None) else "pose")
+            clip.source = f"{path}#{want}"
+            clip.meta["format"] = "blend"
+            clips.append(clip)
+        if not clips:
+            raise ParseError("no action in the file animates pose bones", path)
+        return clips
+    except ShapeSigError as exc:
+        if isinstance(exc, ParseError):
+            raise
+        raise ParseError(str(exc), path) from None
+    except UnicodeDecodeError:
+        raise ParseError("corrupt .blend file (a name is not valid UTF-8 text)", path) from None
+    finally:
+        remove_new_ids(before)
+
+
+def _animated_bones(action, arm):
+    """The armature's bones (armature order) that the action animates."""
+    keyed = set(action_io._bone_channels(compat.all_action_fcurves(action)))
+    return [b.name for b in arm.data.bones if b.name in keyed]
+
+
+def _best_armature(action, armatures):
+    """The armature that uses the action, else the one sharing the most bones with it (or None)."""
+    for arm in armatures:
+        if arm.animation_data is not None and arm.animation_data.action == action:
+            return arm
+    bones = set(action_io._bone_channels(compat.all_action_fcurves(action)))
+    best, score = None, 0
+    for arm in armatures:
+        n = len(bones & {b.name for b in arm.data.bones})
+        if n > score:
+            best, score = arm, n
+    if best is not None and score == len(bones):
+        return best
+    return None

@@ -1,0 +1,130 @@
+"""BVH clips through Blender's own importer (``io_anim_bvh``), leaving the file as it was.
+
+Settings (``import_armature``, the one place that calls ``bpy.ops.import_anim.bvh``): rotate_mode 'NATIVE',
+frame_start 1, no fps scaling, the scene's fps and range untouched, scale 1, default axis conversion (BVH Y up
+/ -Z forward -> Blender Z up). The file is validated first (``core.formats.bvh.check_bvh``: the importer's own
+failures are tracebacks) and handed over as UTF-8 (a BOM / UTF-16 / latin-1 file as a UTF-8 copy).
+
+``import_bvh`` imports into a temporary scene, reads the action with ``action_io.read_action`` (pose-bone
+rotations in each bone's rest frame; rest frames include the Y-up -> Z-up conversion) and removes everything
+the import created. fps = 1 / the file's ``Frame Time``; every frame is kept (the Daz-friendly CMU files'
+first rest-pose frame too: crop it with ``Clip.crop``).
+"""
+
+import contextlib
+import os
+import tempfile
+
+import bpy
+
+from .. import action_io
+from ..core.errors import ParseError, ShapeSigError
+from ..core.formats.bvh import bvh_text, check_bvh
+from .scratch import id_snapshot, quiet_fds, remove_new_ids
+
+__all__ = ["import_bvh", "import_armature"]
+
+SPACES = ("armature", "native")
+
+
+def _ensure_importer():
+    try:
+        bpy.ops.import_anim.bvh.get_rna_type()
+        return
+    except (AttributeError, KeyError):
+        pass
+    import addon_utils
+
+    addon_utils.enable("io_anim_bvh", default_set=False)
+    try:
+        bpy.ops.import_anim.bvh.get_rna_type()
+    except (AttributeError, KeyError):
+        raise ShapeSigError("Blender's BVH importer (io_anim_bvh) is not available") from None
+
+
+@contextlib.contextmanager
+def _utf8(path):
+    """The path of the file as UTF-8 text: the file itself, or a temporary UTF-8 copy with the same name."""
+    text, plain = bvh_text(path)
+    if plain:
+        yield path
+        return
+    with tempfile.TemporaryDirectory(prefix="shapesig_bvh_") as tmp:
+        copy = os.path.join(tmp, os.path.basename(path))
+        with open(copy, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+        yield copy
+
+
+def import_armature(path):
+    """Blender's BVH importer (our settings) on a validated file: ``(armature, frame time)``, the new
+    armature object with its imported action, in the current scene. ParseError (one line) on any failure."""
+    path = os.fspath(path)
+    frame_time = check_bvh(path)
+    _ensure_importer()
+    before = {o.as_pointer() for o in bpy.data.objects}
+    with _utf8(path) as readable:
+        try:
+            with quiet_fds():  # the importer prints progress; Blender prints failures to stderr
+                result = bpy.ops.import_anim.bvh(filepath=os.path.abspath(readable), rotate_mode="NATIVE",
+                                                 frame_start=1, use_fps_scale=False, update_scene_fps=False,
+                                                 update_scene_duration=False, global_scale=1.0)
+        except RuntimeError as exc:
+            lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip() and not ln.startswith("Location")]
+            raise ParseError(f"Blender's BVH importer failed: {lines[-1] if lines else exc}", path) from None
+    if "FINISHED" not in result:
+        raise ParseError("Blender's BVH importer did not finish", path)
+    armatures = [o for o in bpy.data.objects if o.as_pointer() not in before and o.type == "ARMATURE"]
+    if len(armatures) != 1 or armatures[0].animation_data is None or armatures[0].animation_data.action is None:
+        raise ParseError("the BVH importer made no animated armature", path)
+    return armatures[0], frame_time
+
+
+@contextlib.contextmanager
+def _scratch_scene():
+    """Import into a new scene (with a window), else into the current one with its selection and active
+    object restored; every data-block created meanwhile is removed at the end."""
+    before = id_snapshot()
+    window = getattr(bpy.context, "window", None)
+    old_scene = window.scene if window is not None else None
+    old_selected, old_active = None, None
+    if window is None:
+        old_selected = [o for o in bpy.context.scene.objects if o.select_get()]
+        old_active = bpy.context.view_layer.objects.active
+    try:
+        if window is not None:
+            window.scene = bpy.data.scenes.new("shapesig_bvh_import")
+        yield
+    finally:
+        if window is not None:
+            window.scene = old_scene
+        remove_new_ids(before)
+        if old_selected is not None:
+            for o in old_selected:
+                with contextlib.suppress(ReferenceError, RuntimeError):
+                    o.select_set(True)
+            with contextlib.suppress(ReferenceError, RuntimeError):
+                bpy.context.view_layer.objects.active = old_active
+
+
+def import_bvh(path, name=None, space="armature"):
+    """One BVH file as a Clip through Blender's importer, leaving the file as it was.
+
+    ``space``: "armature" (the package's comparison space, ``action_io.to_armature_space``) or "native"
+    (pose-bone rotations)."""
+    if space not in SPACES:
+        raise ShapeSigError(f"space must be one of {', '.join(SPACES)}, got {space!r}")
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ParseError("no such file", path)
+    with _scratch_scene():
+        arm, frame_time = import_armature(path)
+        fps = 1.0 / frame_time
+        if abs(fps - round(fps)) < 1e-3:
+            fps = float(round(fps))  # "Frame Time: 0.00833333" means 120 fps
+        clip = action_io.read_action(arm.animation_data.action, armature=arm, fps=fps,
+                                     name=name or os.path.splitext(os.path.basename(path))[0],
+                                     space="armature" if space == "armature" else "pose")
+    clip.source = path
+    clip.meta["format"] = "bvh"
+    return clip
