@@ -283,7 +283,7 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     """blend of two BVH clips: the .blend holds an armature and the new action, whose keys are the blend
     computed here independently with core.blend (read back with the clip loader)."""
     bpy = pytest.importorskip("bpy")
-    from blender_shapesig.clips import load_clips
+    from blender_shapesig.core.sources import read as load_clips
     from blender_shapesig.core.blend import blend_clips
 
     bvh = ROOT / "tests" / "data" / "bvh"
