@@ -222,13 +222,10 @@ def _action_frame_range(action, channels, bones):
     return int(math.floor(lo + 1e-6)), int(math.ceil(hi - 1e-6))
 
 
-def read_action(action, armature=None, bones=None, frame_range=None, exclude_unkeyed=False,
-                rotation_modes=None, slot=None, fps=None, name=None, space="pose") -> Clip:
-    """The action as a Clip (see the module docstring). ``armature``: an armature object (bone order, rotation
-    modes, root bone); ``bones``: names to read, in that order; ``slot``: the action slot to read (4.4+; default:
-    the armature's slot when it uses this action, else the first slot with F-curves); ``fps``: default the
-    scene's. ``space``: "pose" (Blender's pose-bone rotations) or "armature" (the same rotations in the
-    armature's axes, ``B R B^T``; needs the armature; see ``to_armature_space``)."""
+_ROT_PROPS = ("rotation_quaternion", "rotation_euler", "rotation_axis_angle")
+
+
+def _check_read(action, armature, space):
     if action is None:
         raise ShapeSigError("no action given")
     if space not in SPACES:
@@ -237,11 +234,10 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         raise ShapeSigError(f"reading action {action.name!r} in armature space needs its armature")
     if armature is not None and getattr(armature, "type", None) != "ARMATURE":
         raise ShapeSigError(f"{getattr(armature, 'name', armature)!r} is not an armature object")
-    if slot is None and armature is not None and getattr(armature.animation_data, "action", None) == action:
-        slot = compat.object_action_slot(armature)
-    fcurves = compat.action_fcurves(action, slot)
-    channels = _bone_channels(fcurves)
 
+
+def _read_bones(action, armature, bones, channels, exclude_unkeyed):
+    """(bone names to read, names among them the action keys no rotation for)."""
     if bones is not None:
         names = list(bones)
     elif armature is not None:
@@ -254,50 +250,60 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
             raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
     if not names:
         raise ShapeSigError(f"action {action.name!r} animates no pose bones")
-
-    rot_props = ("rotation_quaternion", "rotation_euler", "rotation_axis_angle")
-    unkeyed = [b for b in names if not any(p in channels.get(b, {}) for p in rot_props)]
+    unkeyed = [b for b in names if not any(p in channels.get(b, {}) for p in _ROT_PROPS)]
     if exclude_unkeyed:
         names = [b for b in names if b not in unkeyed]
         if not names:
             raise ShapeSigError(f"action {action.name!r} has no rotation channels for the bones asked for")
+    return names, unkeyed
 
+
+def _read_range(action, channels, names, frame_range):
+    """(first, last) frame to sample: ``frame_range``, else the action's (manual or keyed) range."""
     if frame_range is not None:
         start, end = int(frame_range[0]), int(frame_range[1])
         if end < start:
             raise ShapeSigError(f"empty frame range {start}..{end}")
-    else:
-        rng = _action_frame_range(action, channels, names)
-        if rng is None:
-            rng = _action_frame_range(action, channels, list(channels))
-        if rng is None:
-            raise ShapeSigError(f"action {action.name!r} has no keyframes")
-        start, end = rng
-    frames = np.arange(start, end + 1, dtype=np.float64)
-    nf = len(frames)
+        return start, end
+    rng = _action_frame_range(action, channels, names)
+    if rng is None:
+        rng = _action_frame_range(action, channels, list(channels))
+    if rng is None:
+        raise ShapeSigError(f"action {action.name!r} has no keyframes")
+    return rng
 
-    override = _modes_lookup(rotation_modes, names)
+
+def _stored_modes(action):
+    """The rotation modes ``write_action`` recorded on the action ({} when none or damaged)."""
     try:
         stored = action.get("shapesig_rotation_modes")
-        stored = {b: m for b, m in stored.items() if m in ROTATION_MODES} if stored is not None else {}
+        return {b: m for b, m in stored.items() if m in ROTATION_MODES} if stored is not None else {}
     except (ValueError, TypeError, AttributeError):
-        stored = {}  # a damaged custom property (e.g. a corrupt .blend): infer the modes from the channels
-    co_cache = {}
+        return {}  # a damaged custom property (e.g. a corrupt .blend): infer the modes from the channels
+
+
+def _bone_mode(bone, chans, armature, override, stored):
+    """The rotation mode a bone's channels are read in."""
+    if bone in override:
+        return override[bone]
+    mode = armature.pose.bones[bone].rotation_mode if armature is not None else None
+    if mode is None or (_prop_for_mode(mode) not in chans and any(p in chans for p in _ROT_PROPS)):
+        # no armature, or the action keys another kind of rotation than the pose bone's mode
+        mode = stored.get(bone)
+        if mode is None or _prop_for_mode(mode) not in chans:
+            mode = _mode_from_channels(chans)
+    return mode
+
+
+def _read_rotations(action, channels, names, frames, start, modes_override, armature, co_cache):
+    """(rotations (frames, bones, 3, 3), modes): a bone without curves of its mode is the identity."""
+    override = _modes_lookup(modes_override, names)
+    stored = _stored_modes(action)
     modes = []
-    R = np.empty((nf, len(names), 3, 3))
+    R = np.empty((len(frames), len(names), 3, 3))
     for j, b in enumerate(names):
         chans = channels.get(b, {})
-        if b in override:
-            mode = override[b]
-        else:
-            mode = None
-            if armature is not None:
-                mode = armature.pose.bones[b].rotation_mode
-            if mode is None or (_prop_for_mode(mode) not in chans and any(p in chans for p in rot_props)):
-                # no armature, or the action keys another kind of rotation than the pose bone's mode
-                mode = stored.get(b)
-                if mode is None or _prop_for_mode(mode) not in chans:
-                    mode = _mode_from_channels(chans)
+        mode = _bone_mode(b, chans, armature, override, stored)
         modes.append(mode)
         prop = _prop_for_mode(mode)
         if prop not in chans:
@@ -309,27 +315,46 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
             raise ShapeSigError(f"action {action.name!r}: bone {b!r} has NaN or infinite {prop} values "
                                 f"(first at frame {bad})")
         R[:, j] = matrices_from_channels(mode, values)
+    return R, modes
 
-    root = None
+
+def _root_bone(armature, names, channels):
+    """The armature's first parentless bone, else (no armature) the first read bone with location curves."""
     if armature is not None:
-        for b in armature.data.bones:
-            if b.parent is None:
-                root = b.name
-                break
-    else:
-        for b in names:
-            if "location" in channels.get(b, {}):
-                root = b
-                break
-    root_translation = None
-    if root is not None and "location" in channels.get(root, {}):
-        root_translation = _sample_prop(channels[root], "location", frames, start, co_cache)
+        return next((b.name for b in armature.data.bones if b.parent is None), None)
+    return next((b for b in names if "location" in channels.get(b, {})), None)
 
+
+def _action_fps(action, fps):
+    """``fps``, else the rate ``write_action`` recorded, else the scene's (24 without a scene)."""
     if fps is None and isinstance(action.get("shapesig_fps"), (int, float)) and action["shapesig_fps"] > 0:
         fps = action["shapesig_fps"]
     if fps is None:
         scene = getattr(bpy.context, "scene", None)
         fps = scene.render.fps / scene.render.fps_base if scene is not None else 24.0
+    return float(fps)
+
+
+def read_action(action, armature=None, bones=None, frame_range=None, exclude_unkeyed=False,
+                rotation_modes=None, slot=None, fps=None, name=None, space="pose") -> Clip:
+    """The action as a Clip (see the module docstring). ``armature``: an armature object (bone order, rotation
+    modes, root bone); ``bones``: names to read, in that order; ``slot``: the action slot to read (4.4+; default:
+    the armature's slot when it uses this action, else the first slot with F-curves); ``fps``: default the
+    scene's. ``space``: "pose" (Blender's pose-bone rotations) or "armature" (the same rotations in the
+    armature's axes, ``B R B^T``; needs the armature; see ``to_armature_space``)."""
+    _check_read(action, armature, space)
+    if slot is None and armature is not None and getattr(armature.animation_data, "action", None) == action:
+        slot = compat.object_action_slot(armature)
+    channels = _bone_channels(compat.action_fcurves(action, slot))
+    names, unkeyed = _read_bones(action, armature, bones, channels, exclude_unkeyed)
+    start, end = _read_range(action, channels, names, frame_range)
+    frames = np.arange(start, end + 1, dtype=np.float64)
+    co_cache = {}
+    R, modes = _read_rotations(action, channels, names, frames, start, rotation_modes, armature, co_cache)
+    root = _root_bone(armature, names, channels)
+    root_translation = None
+    if root is not None and "location" in channels.get(root, {}):
+        root_translation = _sample_prop(channels[root], "location", frames, start, co_cache)
     source = action.name_full
     if getattr(action, "library", None) is not None:
         source = f"{action.library.filepath}#{action.name}"
@@ -337,7 +362,7 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         name=name or action.name,
         bones=tuple(names),
         rotations=R,
-        fps=float(fps),
+        fps=_action_fps(action, fps),
         frame_start=start,
         root_translation=root_translation,
         root_bone=root,
