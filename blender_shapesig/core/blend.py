@@ -478,39 +478,12 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
     ``warp``, ``warp_bones``, ``elastic_distance`` (None without align), ``root_mode`` and
     ``up_axis``.
     """
-    space_a, space_b = a.meta.get("rotation_space"), b.meta.get("rotation_space")
-    if space_a is not None and space_b is not None and space_a != space_b:
-        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} have rotations in different spaces "
-                            f"({space_a} and {space_b}); read both in the same space")
-    if not isinstance(a, Clip) or not isinstance(b, Clip):
-        raise ShapeSigError("blend_clips: expected two Clip objects")
-    w = _check_weight(weight)
-    if root not in ("blend", "a"):
-        raise ShapeSigError(f"root: expected 'blend' or 'a', got {root!r}")
+    w = _check_blend_inputs(a, b, weight, root)
     frames = _check_frames(frames)
-    for c in (a, b):
-        if c.frames < 2:
-            raise ShapeSigError(f"clip {c.name!r}: needs at least two frames, has {c.frames}")
-    shared = shared_bones(a, b)
-    if not shared:
-        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share no bones")
-    subset = _bone_list(bones)
-    if subset is None:
-        blended = list(shared)
-    else:
-        missing = [x for x in subset if x not in shared]
-        if missing:
-            raise ShapeSigError(
-                f"bone(s) {', '.join(missing)} not in both clips {a.name!r} and {b.name!r}")
-        blended = [x for x in a.bones if x in subset]
-
-    # Alignment on every shared bone that moves in at least one clip.
+    shared, blended = _blended_bones(a, b, bones)
     ia = {x: i for i, x in enumerate(a.bones)}
     ib = {x: i for i, x in enumerate(b.bones)}
-    sa = [ia[x] for x in shared]
-    sb = [ib[x] for x in shared]
-    moving = ~(still_joints(a.rotations[:, sa]) & still_joints(b.rotations[:, sb]))
-    warp_bones = [x for x, m in zip(shared, moving) if m] or list(shared)
+    warp_bones = _warp_bones(a, b, shared, ia, ib)
     given_warp = warp is not None
     if given_warp:
         warp, edist = check_warp(warp, strict=True), None
@@ -534,27 +507,7 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
     Bg, steps = plan.blend_q(plan.q0_on_grid(rel_a[:, ba]), plan.q1_on_grid(rel_b))
     start = _geodesic_start(a.rotations[0, ba], b.rotations[0, bb], w)
     out[:, ba] = plan.resample(Bg, steps) @ start[None]
-
-    # Root translation.
-    root_mode = "a"
-    up = None
-    translation = None
-    if a.root_translation is not None:
-        translation = _interp_rows(plan.u_out, plan.times0, a.root_translation)
-    root_a = a.root_bone if a.root_bone in ia else None
-    root_b = b.root_bone if b.root_bone in ib else None
-    if (root == "blend" and a.root_translation is not None and b.root_translation is not None
-            and root_a is not None and root_b is not None):
-        rot0 = plan.r0_on_grid(a.rotations[:, [ia[root_a]]])[:, 0]
-        rot1 = plan.r1_on_grid(b.rotations[:, [ib[root_b]]])[:, 0]
-        if root_a in blended:
-            rotb = (Bg[:, blended.index(root_a)] @ start[blended.index(root_a)])
-        else:
-            rotb = rot0
-        up = _resolve_up(up_axis, a, b, root_a, root_b)
-        path = _blend_root_path(plan, a.root_translation, b.root_translation, rot0, rot1, rotb, up)
-        translation = _interp_rows(plan.u_out, plan.grid, path)
-        root_mode = "blend"
+    translation, root_mode, up = _blend_translation(plan, a, b, ia, ib, blended, Bg, start, root, up_axis)
 
     only_a = [x for x in a.bones if x not in ib]
     only_b = [x for x in b.bones if x not in ia]
@@ -588,6 +541,68 @@ def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root
         source=f"blend of {a.name} and {b.name}",
         meta=meta,
     )
+
+
+def _check_blend_inputs(a, b, weight, root):
+    """The checked weight; ShapeSigError for clips of different rotation spaces, a bad root mode or a clip of
+    fewer than two frames."""
+    if not isinstance(a, Clip) or not isinstance(b, Clip):
+        raise ShapeSigError("blend_clips: expected two Clip objects")
+    space_a, space_b = a.meta.get("rotation_space"), b.meta.get("rotation_space")
+    if space_a is not None and space_b is not None and space_a != space_b:
+        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} have rotations in different spaces "
+                            f"({space_a} and {space_b}); read both in the same space")
+    w = _check_weight(weight)
+    if root not in ("blend", "a"):
+        raise ShapeSigError(f"root: expected 'blend' or 'a', got {root!r}")
+    for c in (a, b):
+        if c.frames < 2:
+            raise ShapeSigError(f"clip {c.name!r}: needs at least two frames, has {c.frames}")
+    return w
+
+
+def _blended_bones(a, b, bones):
+    """(shared bones, the bones to blend: all shared or the subset, in A's order)."""
+    shared = shared_bones(a, b)
+    if not shared:
+        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share no bones")
+    subset = _bone_list(bones)
+    if subset is None:
+        return shared, list(shared)
+    missing = [x for x in subset if x not in shared]
+    if missing:
+        raise ShapeSigError(f"bone(s) {', '.join(missing)} not in both clips {a.name!r} and {b.name!r}")
+    return shared, [x for x in a.bones if x in subset]
+
+
+def _warp_bones(a, b, shared, ia, ib):
+    """The bones the alignment is computed on: every shared bone that moves in at least one clip."""
+    sa = [ia[x] for x in shared]
+    sb = [ib[x] for x in shared]
+    moving = ~(still_joints(a.rotations[:, sa]) & still_joints(b.rotations[:, sb]))
+    return [x for x, m in zip(shared, moving) if m] or list(shared)
+
+
+def _blend_translation(plan, a, b, ia, ib, blended, Bg, start, root, up_axis):
+    """(root translation of the blend, root mode used, up axis or None): A's path in the blended timing, or with
+    ``root="blend"`` (both clips move their shared root) the blended path of ``_blend_root_path``."""
+    translation = None
+    if a.root_translation is not None:
+        translation = _interp_rows(plan.u_out, plan.times0, a.root_translation)
+    root_a = a.root_bone if a.root_bone in ia else None
+    root_b = b.root_bone if b.root_bone in ib else None
+    if not (root == "blend" and a.root_translation is not None and b.root_translation is not None
+            and root_a is not None and root_b is not None):
+        return translation, "a", None
+    rot0 = plan.r0_on_grid(a.rotations[:, [ia[root_a]]])[:, 0]
+    rot1 = plan.r1_on_grid(b.rotations[:, [ib[root_b]]])[:, 0]
+    if root_a in blended:
+        rotb = Bg[:, blended.index(root_a)] @ start[blended.index(root_a)]
+    else:
+        rotb = rot0
+    up = _resolve_up(up_axis, a, b, root_a, root_b)
+    path = _blend_root_path(plan, a.root_translation, b.root_translation, rot0, rot1, rotb, up)
+    return _interp_rows(plan.u_out, plan.grid, path), "blend", up
 
 
 def blend_clip_series(a, b, weights, align=True, depth=9, frames=None, bones=None, root="blend", *,
