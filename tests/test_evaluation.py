@@ -52,6 +52,25 @@ def test_two_stage_spec_first_stage():
     assert spec.rerank == 4 and spec.first_stage.name == "sim2_tensor" and spec.first_stage.level == 2
 
 
+def test_plain_metric_view_of_the_grammar():
+    assert metrics.parse_metric("sim") == ("sim", metrics.DEFAULT_LEVEL)
+    assert metrics.parse_metric("SIM", level=2) == ("sim", 2)
+    assert metrics.parse_metric("l2", level=5) == ("l2", None)
+    assert metrics.metric_label("group", 4) == "group4"
+    # variants of the grammar exist for matrices only: the one-pair view refuses them instead of dropping them
+    for name in ("sim3_tensor", "elastic_numpy", "sim3+elastic5", "sim2_levelnorm"):
+        metrics.check_metric(name)
+        with pytest.raises(ShapeSigError, match="only available for matrices"):
+            metrics.parse_metric(name)
+
+
+def test_spec_properties():
+    spec = metrics.parse_metric_spec("sim2_tensor")
+    assert spec.basis == "tensor" and not spec.plain and spec.first_stage is spec
+    assert metrics.parse_metric_spec("linear").basis == "lyndon" and metrics.parse_metric_spec("linear").plain
+    assert metrics.parse_metric_spec(spec) == spec
+
+
 # --- 1-NN and confusion ---------------------------------------------------------------------------
 
 
@@ -270,6 +289,30 @@ def test_levelnorm_weighs_every_level_equally(small_curves):
     D = pairwise.distance_matrix(small_curves, "sim3_levelnorm", workers=1)
     assert np.all(D[~np.eye(len(small_curves), dtype=bool)] > 0)
     assert np.all(D <= 2 + 1e-12)
+
+
+def test_sim_matrix_uses_the_one_zero_rule(small_curves):
+    # A still curve and one whose log-signature is below signatures.ZERO_NORM have no direction: the matrix
+    # gives what signatures.normalized_distance gives (1 against a moving curve, 0 between the two).
+    still = np.repeat(np.eye(3)[None, None], 12, axis=0).repeat(3, axis=1)
+    tiny = _random_curve(np.random.default_rng(3), 12, scale=1e-15)
+    assert 0 < np.linalg.norm(signatures.log_signature(tiny, 2)) <= signatures.ZERO_NORM
+    group = [still, tiny] + list(small_curves[:2])
+    D = pairwise.distance_matrix(group, "sim2", workers=1)
+    for i in range(len(group)):
+        for j in range(len(group)):
+            if i != j:
+                assert D[i, j] == signatures.normalized_distance(group[i], group[j], 2)
+    assert D[0, 1] == 0.0 and D[0, 2] == 1.0 and D[1, 3] == 1.0
+
+
+def test_core_pairwise_needs_no_plotting():
+    import subprocess
+    import sys
+
+    code = ("import sys, blender_shapesig.core.pairwise, blender_shapesig.core.metrics; "
+            "assert 'matplotlib' not in sys.modules and 'blender_shapesig.evaluation' not in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True)
 
 
 def test_two_stage_metric_refused_as_matrix(small_curves):
