@@ -24,7 +24,6 @@ import re
 from dataclasses import dataclass
 from typing import Optional
 
-from . import curves, elastic, signatures
 from .clip import Clip, restrict_to_shared
 from .errors import CurveError, ShapeSigError
 
@@ -139,6 +138,10 @@ def parse_metric(name, level=None):
 
 def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
     """Distance between two curves (same joints, same order) by plain metric name."""
+    # imported here, not at the top: the maths modules (elastic, blend, search) may import the named
+    # defaults from this module without an import cycle
+    from . import curves, elastic, signatures
+
     base, lvl = parse_metric(metric, level)
     if base == "l2":
         return curves.l2_distance(R0, R1)

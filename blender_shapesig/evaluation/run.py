@@ -27,7 +27,7 @@ EXTRA_METRICS = (
 )
 
 
-class _NoBar:
+class _CountBar:
     def __init__(self, progress=None):
         self.progress = progress if callable(progress) else None
 
@@ -48,7 +48,7 @@ def _make_bar(progress, total, desc):
             return tqdm(total=total, desc=desc, file=sys.stderr, leave=False, dynamic_ncols=True)
         except ImportError:  # pragma: no cover - tqdm is a dev requirement
             pass
-    return _NoBar(progress)
+    return _CountBar(progress)
 
 
 class _Matrices:
