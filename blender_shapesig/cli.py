@@ -343,9 +343,11 @@ def cmd_blend(args):
 
 
 def cmd_matrix(args):
-    from .core import evaluation
+    from . import evaluation
+    from .core.metrics import check_metric
+    from .core.pairwise import clip_distance_matrix
 
-    label = evaluation.check_metric(args.metric, args.level)
+    label = check_metric(args.metric, args.level)
     clips = load_many(args.clips, args.asf, args)
     if len(clips) < 2:
         raise CommandError("matrix needs at least two clips")
@@ -355,9 +357,7 @@ def cmd_matrix(args):
         labels = evaluation.labels_from_csv(args.labels, names)
     bar = _progress(args, len(clips) * (len(clips) - 1) // 2, f"{label} matrix")
     try:
-        D, seconds = evaluation.clip_distance_matrix(
-            clips, label, depth=args.depth, workers=args.workers, progress=bar.update
-        )
+        D, seconds = clip_distance_matrix(clips, label, depth=args.depth, workers=args.workers, progress=bar.update)
     finally:
         bar.close()
     # the output folder is made only once there is something to write into it
@@ -388,7 +388,8 @@ def cmd_matrix(args):
 
 
 def cmd_evaluate(args):
-    from .core import evaluation
+    from . import evaluation
+    from .core.metrics import check_metric
 
     if not os.path.isfile(args.index):
         raise CommandError(f"index file not found: {args.index}")
@@ -398,17 +399,11 @@ def cmd_evaluate(args):
         m.strip() for m in args.metrics.split(",") if m.strip()
     )
     for m in metrics:
-        evaluation.check_metric(m)
+        check_metric(m)
     entries = evaluation.read_index(args.index)
-
-    def loader(entry):
-        path = os.path.join(args.data, entry.file)
-        skeleton = os.path.join(args.data, entry.skeleton) if entry.skeleton else args.asf
-        return load_one(path, skeleton)
-
     summary = evaluation.evaluate(
         entries,
-        loader,
+        evaluation.entry_loader(args.data, args.asf),
         metrics,
         args.out,
         depth=args.depth,

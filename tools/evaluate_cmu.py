@@ -12,8 +12,9 @@
    geodesic blend c(s) of a walk and a run and the run, for s in [0, 1];
 3. with ``--docs DIR``: copies the figures used by docs/evaluation.md to DIR/eval_*.png.
 
-Everything goes through the library (``blender_shapesig.core.evaluation``) and the command line's
-clip loader, so the numbers are those of ``python -m blender_shapesig evaluate``.
+Everything goes through the library (``blender_shapesig.evaluation``, ``core.pairwise``) and reads clips
+through the one clip front door (``core.sources``), as ``python -m blender_shapesig evaluate`` does, so the
+numbers are that command's.
 """
 
 import argparse
@@ -29,8 +30,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from blender_shapesig import cli  # noqa: E402
-from blender_shapesig.core import evaluation as ev  # noqa: E402
+from blender_shapesig import evaluation as ev  # noqa: E402
+from blender_shapesig.core import tensor  # noqa: E402
+from blender_shapesig.core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, parse_metric_spec  # noqa: E402
 
 SETS = {
     "cmu27": os.path.join(ROOT, "tools", "eval_sets", "cmu27.csv"),
@@ -56,20 +58,11 @@ METRICS = {
     "cmu27_start2": ("l2", "elastic") + _SIGNATURE + ("sim3+elastic10",),
 }
 
-_CACHE = {}
+_CACHE = {}  # clips read once for all sets (ClipSpec -> Clip, uncropped)
 
 
 def make_loader(data):
-    def loader(entry):
-        path = os.path.join(data, entry.file)
-        key = (path, entry.skeleton)
-        if key not in _CACHE:
-            skeleton = os.path.join(data, entry.skeleton) if entry.skeleton else None
-            with cli._stdout_to_stderr():
-                _CACHE[key] = cli.load_one(path, skeleton)
-        return _CACHE[key]
-
-    return loader
+    return ev.entry_loader(data, cache=_CACHE)
 
 
 def run_set(name, data, out, metrics, depth, workers, repeat=1):
@@ -90,8 +83,8 @@ def relabelled(summary, out_dir, mapping, path):
     rows = {}
     elastic = os.path.join(out_dir, "matrices", "elastic.npy")
     for name in summary["metrics"]:
-        spec = ev.parse_metric_spec(name)
-        first = os.path.join(out_dir, "matrices", ev._safe(spec.first_stage.name) + ".npy")
+        spec = parse_metric_spec(name)
+        first = os.path.join(out_dir, "matrices", ev.safe_name(spec.first_stage.name) + ".npy")
         if not os.path.exists(first):
             continue
         D = np.load(first)
@@ -107,7 +100,7 @@ def relabelled(summary, out_dir, mapping, path):
     return rows
 
 
-def signature_scale(data, out, set_name="cmu27", level=3):
+def signature_scale(data, out, set_name="cmu27", level=DEFAULT_LEVEL):
     """Per clip: length of the development (total rotation, radians), duration and the norm of every
     level of the log-signature: what the unnormalized measures (rho, sigma_L, sigma_*) are dominated by."""
     from blender_shapesig.core import signatures
@@ -117,7 +110,7 @@ def signature_scale(data, out, set_name="cmu27", level=3):
     load = make_loader(data)
     clips = restrict_to_shared(*[load(e).crop(e.start, e.end) for e in entries])
     d = 3 * len(clips[0].bones)
-    sizes = ev.lyndon_level_sizes(d, level)
+    sizes = tensor.lyndon_level_sizes(d, level)
     rows = []
     for e, c in zip(entries, clips):
         inc = signatures.development_increments(c.rotations)
@@ -174,7 +167,7 @@ def interpolation(data, out, walk, run, align, steps=21, levels=(1, 2, 3)):
 
 
 def plot_interpolation(rows, out, tag):
-    plt = ev._pyplot()
+    plt = ev.pyplot()
     s = np.array(rows["s"])
     m = rows["measures"]
 
@@ -261,7 +254,7 @@ def main(argv=None):
     p.add_argument("--sets", default="cmu27,cmu_large,cmu_amc,cmu27_start2",
                    help="comma-separated: cmu27, cmu_large, cmu_amc, cmu27_start2 (default: all)")
     p.add_argument("--metrics", help="override the metric list (comma-separated) for every set")
-    p.add_argument("--depth", type=int, default=9)
+    p.add_argument("--depth", type=int, default=DEFAULT_DEPTH)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--repeat", type=int, default=3, help="time every matrix N times, keep the shortest (default 3)")
     p.add_argument("--no-interpolation", action="store_true")

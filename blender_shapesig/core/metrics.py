@@ -1,56 +1,147 @@
-"""Distances between clips by name: the one place that maps a metric name to the maths.
+"""Distances between clips by name: the one metric grammar and the one place that maps a name to the maths.
 
-Names (command line ``--metric``): ``l2`` (d_P*), ``elastic`` (d_S*), ``group`` (rho^n), ``concat``
-(sigma_*^n), ``linear`` (sigma_L^n), ``sim`` (sim^n, eq. 9.1). A level may be appended to the
-signature names (``group3``, ``sim2``) as in the evaluation tables.
+Grammar (``parse_metric_spec``): ``BASE[LEVEL][_OPTION...][+elasticK]``, case-insensitive.
+
+* ``BASE``: ``l2`` (d_P*), ``elastic`` (d_S*), ``group`` (rho^n), ``concat`` (sigma_*^n), ``linear``
+  (sigma_L^n), ``sim`` (sim^n, eq. 9.1). The signature bases take a level (``group3``, ``sim2``;
+  ``DEFAULT_LEVEL`` when none is written, an explicit ``level`` argument wins); ``l2`` and ``elastic``
+  take none.
+* options: ``_numpy`` (elastic only: the plain numpy DP, the timing baseline); ``_tensor`` (linear and sim:
+  the log-signature expanded in tensor space instead of Lyndon coordinates); ``_levelnorm`` (sim only:
+  every level of the log-signature scaled to unit length, then divided by sqrt(n), so each level weighs
+  the same).
+* ``+elasticK`` (e.g. ``sim3+elastic5``): a two-stage search, only for 1-NN evaluation: the K nearest
+  clips by the first stage are re-ranked by d_S*.
+
+Canonical names put the options in the order numpy, levelnorm, tensor (``sim3_tensor_levelnorm`` ->
+``sim3_levelnorm_tensor``). ``parse_metric`` is the plain view used for one pair of clips (``distance``,
+``rank``): a base and a level, no options.
 
 Clips are compared on the bones they share; bones still in both are dropped.
 """
 
 import re
+from dataclasses import dataclass
+from typing import Optional
 
-from . import curves, elastic, signatures
 from .clip import Clip, restrict_to_shared
 from .errors import CurveError, ShapeSigError
 
 __all__ = [
-    "METRICS", "SIGNATURE_METRICS", "parse_metric", "metric_label", "clip_distance", "curve_distance",
+    "METRICS", "SIGNATURE_METRICS", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
+    "parse_metric_spec", "check_metric", "parse_metric", "metric_label", "clip_distance", "curve_distance",
 ]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
 METRICS = ("l2", "elastic") + SIGNATURE_METRICS
+# The named defaults of the whole package: the log-signature level n and the elastic DP search depth D.
 DEFAULT_LEVEL = 3
 DEFAULT_DEPTH = 9
+MAX_LEVEL = 8
+
+_OPTIONS = ("numpy", "levelnorm", "tensor")  # canonical order
+_OPTION_BASES = {"numpy": ("elastic",), "tensor": ("linear", "sim"), "levelnorm": ("sim",)}
+_SPEC_RE = re.compile(
+    r"(?P<base>l2|elastic|group|concat|linear|sim)(?P<level>\d*)"
+    r"(?P<opts>(?:_(?:numpy|tensor|levelnorm))*)"
+    r"(?:\+elastic(?P<k>\d+))?"
+)
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    """A parsed metric name (see the module docstring); ``name`` is the canonical form."""
+
+    name: str
+    base: str
+    level: Optional[int] = None
+    tensor: bool = False
+    levelnorm: bool = False
+    numpy_dp: bool = False
+    rerank: int = 0
+
+    @property
+    def basis(self) -> str:
+        """The log-signature coordinates: 'tensor' or 'lyndon'."""
+        return "tensor" if self.tensor else "lyndon"
+
+    @property
+    def plain(self) -> bool:
+        """A base with its level only (what ``distance`` and ``rank`` compute)."""
+        return not (self.tensor or self.levelnorm or self.numpy_dp or self.rerank)
+
+    @property
+    def first_stage(self) -> "MetricSpec":
+        """The shortlist metric of a two-stage spec (the spec itself otherwise)."""
+        if not self.rerank:
+            return self
+        return parse_metric_spec(self.name.split("+", 1)[0])
+
+
+def _check_level(level):
+    level = int(level)
+    if not 1 <= level <= MAX_LEVEL:
+        raise ShapeSigError(f"signature level must be between 1 and {MAX_LEVEL}, got {level}")
+    return level
+
+
+def parse_metric_spec(name, level=None) -> MetricSpec:
+    """Parse a metric name; ``level`` (when given) overrides the level in the name. ShapeSigError when the
+    name is not in the grammar."""
+    if isinstance(name, MetricSpec):
+        name = name.name
+    text = str(name).strip().lower()
+    m = _SPEC_RE.fullmatch(text)
+    if not m:
+        raise ShapeSigError(
+            f"unknown metric {name!r}: choose one of {', '.join(METRICS)} (with a level, e.g. sim3), "
+            f"optionally _tensor / _levelnorm / _numpy or +elasticK"
+        )
+    base, digits = m.group("base"), m.group("level")
+    opts = set(filter(None, m.group("opts").split("_")))
+    k = int(m.group("k")) if m.group("k") else 0
+    for opt in opts:
+        if base not in _OPTION_BASES[opt]:
+            raise ShapeSigError(f"metric {name!r}: _{opt} only applies to {' and '.join(_OPTION_BASES[opt])}")
+    if base in SIGNATURE_METRICS:
+        lvl = _check_level(level if level is not None else (digits or DEFAULT_LEVEL))
+    elif digits:
+        raise ShapeSigError(f"metric {base!r} takes no level")
+    else:
+        lvl = None
+    if k and base == "elastic":
+        raise ShapeSigError(f"metric {name!r}: the first stage cannot be elastic")
+    canon = base + ("" if lvl is None else str(lvl)) + "".join(f"_{o}" for o in _OPTIONS if o in opts)
+    if k:
+        canon += f"+elastic{k}"
+    return MetricSpec(name=canon, base=base, level=lvl, tensor="tensor" in opts, levelnorm="levelnorm" in opts,
+                      numpy_dp="numpy" in opts, rerank=k)
+
+
+def metric_label(name, level=None) -> str:
+    """The canonical name of a metric: ('sim', 3) or 'SIM3' -> 'sim3', 'elastic' -> 'elastic'."""
+    return parse_metric_spec(name, level).name
+
+
+check_metric = metric_label  # the name the evaluation commands validate with
 
 
 def parse_metric(name, level=None):
-    """Split a metric name like 'sim3' into ('sim', 3); the level argument wins when given."""
-    text = str(name).strip().lower()
-    if text in METRICS:  # 'l2' is a name, not 'l' at level 2
-        base, digits = text, ""
-    else:
-        m = re.fullmatch(r"([a-z_]+)(\d*)", text)
-        base, digits = (m.group(1), m.group(2)) if m else (str(name), "")
-    if base not in METRICS:
-        raise ShapeSigError(f"unknown metric {name!r}: choose one of {', '.join(METRICS)}")
-    if base in SIGNATURE_METRICS:
-        lvl = level if level is not None else (int(digits) if digits else DEFAULT_LEVEL)
-        if not 1 <= int(lvl) <= 8:
-            raise ShapeSigError(f"signature level must be between 1 and 8, got {lvl}")
-        return base, int(lvl)
-    if digits:
-        raise ShapeSigError(f"metric {base!r} takes no level")
-    return base, None
-
-
-def metric_label(name, level=None):
-    """The canonical name of a metric with its level: ('sim', 3) or 'sim3' -> 'sim3', 'elastic' -> 'elastic'."""
-    base, lvl = parse_metric(name, level)
-    return base if lvl is None else f"{base}{lvl}"
+    """A plain metric name as ``(base, level)``: 'sim3' -> ('sim', 3), 'l2' -> ('l2', None); the level
+    argument wins when given. Variants (options, two-stage) are refused: they exist for matrices only."""
+    spec = parse_metric_spec(name, level)
+    if not spec.plain:
+        raise ShapeSigError(f"metric {spec.name!r} is only available for matrices (matrix, evaluate); "
+                            f"here choose one of {', '.join(METRICS)}")
+    return spec.base, spec.level
 
 
 def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
-    """Distance between two curves (same joints, same order) by metric name."""
+    """Distance between two curves (same joints, same order) by plain metric name."""
+    # imported here, not at the top: the maths modules (elastic, blend, search) may import the named
+    # defaults from this module without an import cycle
+    from . import curves, elastic, signatures
+
     base, lvl = parse_metric(metric, level)
     if base == "l2":
         return curves.l2_distance(R0, R1)

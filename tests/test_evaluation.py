@@ -1,4 +1,5 @@
-"""Evaluation helpers against hand-computed truth: 1-NN, two-stage 1-NN, confusion tables, MDS,
+"""The evaluation harness (``blender_shapesig.evaluation``) and the matrices of ``core.pairwise`` against
+hand-computed truth: 1-NN, two-stage 1-NN, confusion tables, MDS,
 index parsing, metric names, and matrices that agree with the pairwise distance functions."""
 
 import json
@@ -8,7 +9,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import curves, evaluation as ev, signatures
+from blender_shapesig import evaluation as ev
+from blender_shapesig.core import curves, metrics, pairwise, signatures, tensor
 from blender_shapesig.core.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
 
@@ -35,19 +37,38 @@ def _random_curve(rng, frames, joints=3, scale=0.15):
     ],
 )
 def test_metric_names(name, canon):
-    assert ev.check_metric(name) == canon
+    assert metrics.check_metric(name) == canon
 
 
 @pytest.mark.parametrize("bad", ["l3", "elastic2", "foo", "sim9", "group3_tensor", "l2_numpy", "elastic+elastic3",
                                  "sim3_levelnorm+", "concat3_levelnorm"])
 def test_bad_metric_names(bad):
     with pytest.raises(ShapeSigError):
-        ev.check_metric(bad)
+        metrics.check_metric(bad)
 
 
 def test_two_stage_spec_first_stage():
-    spec = ev.parse_metric_spec("sim2_tensor+elastic4")
+    spec = metrics.parse_metric_spec("sim2_tensor+elastic4")
     assert spec.rerank == 4 and spec.first_stage.name == "sim2_tensor" and spec.first_stage.level == 2
+
+
+def test_plain_metric_view_of_the_grammar():
+    assert metrics.parse_metric("sim") == ("sim", metrics.DEFAULT_LEVEL)
+    assert metrics.parse_metric("SIM", level=2) == ("sim", 2)
+    assert metrics.parse_metric("l2", level=5) == ("l2", None)
+    assert metrics.metric_label("group", 4) == "group4"
+    # variants of the grammar exist for matrices only: the one-pair view refuses them instead of dropping them
+    for name in ("sim3_tensor", "elastic_numpy", "sim3+elastic5", "sim2_levelnorm"):
+        metrics.check_metric(name)
+        with pytest.raises(ShapeSigError, match="only available for matrices"):
+            metrics.parse_metric(name)
+
+
+def test_spec_properties():
+    spec = metrics.parse_metric_spec("sim2_tensor")
+    assert spec.basis == "tensor" and not spec.plain and spec.first_stage is spec
+    assert metrics.parse_metric_spec("linear").basis == "lyndon" and metrics.parse_metric_spec("linear").plain
+    assert metrics.parse_metric_spec(spec) == spec
 
 
 # --- 1-NN and confusion ---------------------------------------------------------------------------
@@ -212,9 +233,9 @@ def test_repository_labels_csv_parses(data_dir):
 
 
 def test_lyndon_level_sizes_match_witt_formula():
-    assert ev.lyndon_level_sizes(2, 5) == [2, 1, 2, 3, 6]
-    assert ev.lyndon_level_sizes(3, 3) == [3, 3, 8]
-    assert sum(ev.lyndon_level_sizes(60, 3)) == signatures.log_signature_dim(60, 3)
+    assert tensor.lyndon_level_sizes(2, 5) == [2, 1, 2, 3, 6]
+    assert tensor.lyndon_level_sizes(3, 3) == [3, 3, 8]
+    assert sum(tensor.lyndon_level_sizes(60, 3)) == signatures.log_signature_dim(60, 3)
 
 
 # --- matrices agree with the pairwise functions ---------------------------------------------------
@@ -249,7 +270,7 @@ def test_matrix_matches_pairwise(small_curves, metric, fn):
                 ref[i, j] = fn(small_curves[i], small_curves[j])
     # the parallel path is the same code for every feature metric: check it on three of them
     for workers in (1, 2) if metric in ("group3", "concat3", "sim3") else (1,):
-        D = ev.distance_matrix(small_curves, metric, workers=workers)
+        D = pairwise.distance_matrix(small_curves, metric, workers=workers)
         np.testing.assert_allclose(D, ref, rtol=1e-10, atol=1e-12, err_msg=f"workers={workers}")
 
 
@@ -258,21 +279,45 @@ def test_levelnorm_weighs_every_level_equally(small_curves):
     R = small_curves[0]
     ls = signatures.log_signature(R, 3)
     d = 3 * R.shape[1]
-    sizes = ev.lyndon_level_sizes(d, 3)
+    sizes = tensor.lyndon_level_sizes(d, 3)
     blocks = np.split(ls, np.cumsum(sizes)[:-1])
     expect = np.concatenate([b / np.linalg.norm(b) for b in blocks]) / math.sqrt(3)
-    got = ev._feature(R, "levelnorm", 3)
+    got = pairwise.log_signature_feature(R, 3, levelnorm=True)
     np.testing.assert_allclose(got, expect, rtol=1e-12)
     assert np.linalg.norm(got) == pytest.approx(1.0)
     # Distances between unit vectors with non-zero differences lie in (0, 2].
-    D = ev.distance_matrix(small_curves, "sim3_levelnorm", workers=1)
+    D = pairwise.distance_matrix(small_curves, "sim3_levelnorm", workers=1)
     assert np.all(D[~np.eye(len(small_curves), dtype=bool)] > 0)
     assert np.all(D <= 2 + 1e-12)
 
 
+def test_sim_matrix_uses_the_one_zero_rule(small_curves):
+    # A still curve and one whose log-signature is below signatures.ZERO_NORM have no direction: the matrix
+    # gives what signatures.normalized_distance gives (1 against a moving curve, 0 between the two).
+    still = np.repeat(np.eye(3)[None, None], 12, axis=0).repeat(3, axis=1)
+    tiny = _random_curve(np.random.default_rng(3), 12, scale=1e-15)
+    assert 0 < np.linalg.norm(signatures.log_signature(tiny, 2)) <= signatures.ZERO_NORM
+    group = [still, tiny] + list(small_curves[:2])
+    D = pairwise.distance_matrix(group, "sim2", workers=1)
+    for i in range(len(group)):
+        for j in range(len(group)):
+            if i != j:
+                assert D[i, j] == signatures.normalized_distance(group[i], group[j], 2)
+    assert D[0, 1] == 0.0 and D[0, 2] == 1.0 and D[1, 3] == 1.0
+
+
+def test_core_pairwise_needs_no_plotting():
+    import subprocess
+    import sys
+
+    code = ("import sys, blender_shapesig.core.pairwise, blender_shapesig.core.metrics; "
+            "assert 'matplotlib' not in sys.modules and 'blender_shapesig.evaluation' not in sys.modules")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
 def test_two_stage_metric_refused_as_matrix(small_curves):
     with pytest.raises(ShapeSigError):
-        ev.distance_matrix(small_curves, "sim3+elastic3")
+        pairwise.distance_matrix(small_curves, "sim3+elastic3")
 
 
 # --- the whole evaluation on synthetic labelled clips -----------------------------------------------

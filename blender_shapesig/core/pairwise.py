@@ -1,0 +1,216 @@
+"""Distance matrices of many curves by metric name (the grammar of ``metrics``), in worker processes.
+
+Every measure is computed once per clip where the maths allows it, then cheaply per pair:
+
+* ``l2`` (d_P*): each clip's SRVT once, ``curves.srvt_l2_squared`` per pair;
+* ``elastic`` (d_S*): ``elastic.elastic_distance_matrix`` (SRVTs once, the DP per pair in threads);
+* ``linear`` / ``sim`` (sigma_L^n, sim^n): each clip's log-signature once (``log_signature_feature``), then
+  the Euclidean distance (sigma_L^n, eq. 8.6) or ``signatures.normalized_difference`` (sim^n, eq. 9.1, with
+  its zero rule ``signatures.ZERO_NORM``) per pair;
+* ``group`` / ``concat`` (rho^n, sigma_*^n): each clip's signature once, then
+  ``signatures.group_distance_from_signatures`` / ``concat_distance_from_signatures`` per pair (a tensor
+  product per pair, so these run in worker processes).
+
+Worker processes are forked (children inherit the curves or signatures; nothing is pickled but indices
+and results). Pure numpy: no plotting here (``blender_shapesig.evaluation`` draws).
+"""
+
+import math
+import multiprocessing
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+from . import elastic, signatures, tensor
+from .clip import restrict_to_shared
+from .curves import srvt, srvt_l2_squared, uniform_times
+from .errors import ShapeSigError
+from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec
+
+__all__ = [
+    "prepare_curves", "distance_matrix", "clip_distance_matrix", "level_blocks", "log_signature_feature",
+    "signature_features", "feature_matrix", "srvt_matrix", "elastic_matrix", "tensor_pair_matrix",
+]
+
+
+def prepare_curves(clips):
+    """``(curves, bones)``: the clips' curves on the bones shared by all of them (bones still in every
+    clip dropped)."""
+    restricted = restrict_to_shared(*clips)
+    return [c.rotations for c in restricted], restricted[0].bones
+
+
+# ----------------------------------------------------------------------------------------- worker pools
+
+_SHARED = None  # what forked workers read: the curves or the per-clip signatures
+
+
+def _call_shared(job):
+    fn, args = job
+    return fn(_SHARED, *args)
+
+
+def _shared_map(fn, jobs, shared, workers):
+    """``[fn(shared, *args) for args in jobs]``, in ``workers`` forked processes when there is more than
+    one job and more than one worker (children inherit ``shared``); results arrive in order."""
+    global _SHARED
+    jobs = list(jobs)
+    _SHARED = shared
+    try:
+        if workers and workers > 1 and len(jobs) > 1:
+            ctx = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
+                yield from ex.map(_call_shared, [(fn, args) for args in jobs])
+        else:
+            for args in jobs:
+                yield fn(shared, *args)
+    finally:
+        _SHARED = None
+
+
+# ----------------------------------------------------------------------------------------- features
+
+def level_blocks(vec, dim, level, basis="lyndon"):
+    """Split a flat log-signature into its levels 1..level (Witt's sizes for Lyndon coordinates, d^k for
+    the tensor form)."""
+    if basis == "tensor":
+        sizes = [dim ** k for k in range(1, level + 1)]
+    else:
+        sizes = tensor.lyndon_level_sizes(dim, level)
+    vec = np.asarray(vec, dtype=np.float64).reshape(-1)
+    if sum(sizes) != vec.shape[-1]:
+        raise ShapeSigError(f"log-signature has {vec.shape[-1]} coordinates, expected {sum(sizes)} for "
+                            f"dimension {dim}, level {level}")
+    return np.split(vec, np.cumsum(sizes)[:-1])
+
+
+def log_signature_feature(R, level, basis="lyndon", levelnorm=False):
+    """One curve's log-signature (``signatures.log_signature``); with ``levelnorm`` every level is scaled to
+    unit length (a level with norm <= ``signatures.ZERO_NORM`` has no direction and becomes zero) and the
+    whole divided by sqrt(level), so each level weighs the same and a moving curve has norm 1."""
+    ls = np.asarray(signatures.log_signature(R, level, basis=basis), dtype=np.float64).reshape(-1)
+    if not levelnorm:
+        return ls
+    blocks = []
+    for b in level_blocks(ls, 3 * np.asarray(R).shape[1], level, basis):
+        n = float(np.linalg.norm(b))
+        blocks.append(b / n if n > signatures.ZERO_NORM else np.zeros_like(b))
+    return np.concatenate(blocks) / math.sqrt(level)
+
+
+def _feature_job(curves, i, level, basis, levelnorm):
+    return log_signature_feature(curves[i], level, basis, levelnorm)
+
+
+def signature_features(curves, level, basis="lyndon", levelnorm=False, workers=1, progress=None):
+    """``(n, k)`` array of every curve's ``log_signature_feature``. ``progress(m)`` counts pairs: clip i
+    reports the n - 1 - i pairs it starts."""
+    n = len(curves)
+    feats = []
+    jobs = [(i, level, basis, levelnorm) for i in range(n)]
+    for i, f in enumerate(_shared_map(_feature_job, jobs, curves, workers)):
+        feats.append(f)
+        if progress:
+            progress(n - 1 - i)
+    return np.stack(feats)
+
+
+def feature_matrix(F, normalized=False):
+    """Pairwise distances of feature rows: Euclidean (sigma_L^n), or with ``normalized`` the normalized
+    difference of eq. 9.1 (``signatures.normalized_difference``, sim^n)."""
+    F = np.asarray(F, dtype=np.float64)
+    n = len(F)
+    D = np.zeros((n, n))
+    for i in range(n):
+        if normalized:
+            row = [signatures.normalized_difference(F[i], F[j]) for j in range(i + 1, n)]
+        else:
+            row = np.linalg.norm(F[i + 1:] - F[i], axis=1)
+        D[i, i + 1:] = row
+        D[i + 1:, i] = row
+    return D
+
+
+# ----------------------------------------------------------------------------------------- matrices
+
+def srvt_matrix(curves, progress=None):
+    """d_P* of every pair (uniform grids): each SRVT once, then the L2 norm of the difference."""
+    qs = [srvt(R) for R in curves]
+    ts = [uniform_times(R.shape[0]) for R in curves]
+    n = len(curves)
+    D = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1, n):
+            D[i, j] = D[j, i] = math.sqrt(max(srvt_l2_squared(qs[i], ts[i], qs[j], ts[j]), 0.0))
+            if progress:
+                progress(1)
+    return D
+
+
+def elastic_matrix(curves, depth=DEFAULT_DEPTH, workers=2, numpy_dp=False, progress=None):
+    """d_S* of every pair: ``elastic.elastic_distance_matrix`` (``numpy_dp``: the plain numpy DP)."""
+    return np.asarray(elastic.elastic_distance_matrix(curves, depth=depth, workers=max(1, int(workers or 1)),
+                                                      method="numpy" if numpy_dp else "auto", progress=progress),
+                      dtype=np.float64)
+
+
+def _signature_job(curves, i, level):
+    return signatures.signature(curves[i], level)
+
+
+def _pair_job(sigs, pairs, base, level, dim):
+    fn = (signatures.group_distance_from_signatures if base == "group"
+          else signatures.concat_distance_from_signatures)
+    return [(i, j, fn(sigs[i], sigs[j], dim, level)) for i, j in pairs]
+
+
+def tensor_pair_matrix(curves, base, level, workers=2, progress=None):
+    """rho^n (``base='group'``) or sigma_*^n (``'concat'``) of every pair: every curve's signature once,
+    then tensor products per pair, in chunks spread over the workers."""
+    if base not in ("group", "concat"):
+        raise ShapeSigError(f"tensor_pair_matrix computes group or concat, not {base!r}")
+    n = len(curves)
+    dim = 3 * curves[0].shape[1]
+    if base == "concat":
+        tensor.lyndon_projection(dim, level)  # build the projection once, before forking
+    sigs = list(_shared_map(_signature_job, [(i, level) for i in range(n)], curves, workers))
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+    chunk = max(1, len(pairs) // (8 * max(1, workers or 1)))
+    jobs = [(pairs[k:k + chunk], base, level, dim) for k in range(0, len(pairs), chunk)]
+    D = np.zeros((n, n))
+    for res in _shared_map(_pair_job, jobs, sigs, workers):
+        for i, j, d in res:
+            D[i, j] = D[j, i] = d
+        if progress:
+            progress(len(res))
+    return D
+
+
+def distance_matrix(curves, metric, depth=DEFAULT_DEPTH, workers=2, progress=None):
+    """Symmetric matrix of distances between curves (same joints) by metric name or MetricSpec.
+
+    ``progress(n)`` is called with the number of pairs done. Two-stage names are refused here.
+    """
+    spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
+    if spec.rerank:
+        raise ShapeSigError(f"{spec.name} is a two-stage search, not a distance: use it in 'evaluate'")
+    curves = [np.asarray(R, dtype=np.float64) for R in curves]
+    if not curves:
+        return np.zeros((0, 0))
+    if spec.base == "l2":
+        return srvt_matrix(curves, progress)
+    if spec.base == "elastic":
+        return elastic_matrix(curves, depth, workers, spec.numpy_dp, progress)
+    if spec.base in ("linear", "sim"):
+        F = signature_features(curves, spec.level, spec.basis, spec.levelnorm, workers, progress)
+        return feature_matrix(F, normalized=spec.base == "sim")
+    return tensor_pair_matrix(curves, spec.base, spec.level, workers, progress)
+
+
+def clip_distance_matrix(clips, metric, depth=DEFAULT_DEPTH, workers=2, progress=None):
+    """``(D, seconds)``: the distance matrix of clips (on their shared moving bones) and its wall time."""
+    curves, _ = prepare_curves(clips)
+    t0 = time.perf_counter()
+    D = distance_matrix(curves, metric, depth=depth, workers=workers, progress=progress)
+    return D, time.perf_counter() - t0

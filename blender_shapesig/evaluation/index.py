@@ -1,0 +1,107 @@
+"""Labelled clip sets: the index CSV (``file,label[,skeleton][,start][,end]``), display names, labels, and
+reading an entry's clip through the one clip front door (``core.sources``)."""
+
+import csv
+import os
+from dataclasses import dataclass
+from typing import Optional
+
+from ..core import sources
+from ..core.errors import ShapeSigError
+
+__all__ = ["IndexEntry", "read_index", "unique_names", "labels_from_csv", "entry_spec", "entry_loader"]
+
+
+@dataclass(frozen=True)
+class IndexEntry:
+    """One row of an index CSV: ``file`` (relative to the data folder), ``label``, optional ``skeleton``
+    (an .asf, relative to the data folder) and ``start``/``end`` (crop, inclusive frame numbers)."""
+
+    file: str
+    label: str
+    skeleton: str = ""
+    start: Optional[int] = None
+    end: Optional[int] = None
+
+
+def _opt_int(value, where):
+    value = (value or "").strip()
+    if not value:
+        return None
+    try:
+        return int(float(value))
+    except ValueError:
+        raise ShapeSigError(f"{where}: {value!r} is not a frame number") from None
+
+
+def read_index(path):
+    """Read an index CSV with columns file,label[,skeleton][,start][,end] (header required); rows whose
+    file starts with '#' are skipped."""
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+    except OSError as exc:
+        raise ShapeSigError(f"cannot read index {path}: {exc.strerror or exc}") from None
+    if not rows:
+        raise ShapeSigError(f"{path}: no clips listed")
+    missing = {"file", "label"} - set(rows[0].keys())
+    if missing:
+        raise ShapeSigError(f"{path}: missing column(s) {', '.join(sorted(missing))} (need file,label)")
+    entries = []
+    for i, row in enumerate(rows, start=2):
+        f = (row.get("file") or "").strip()
+        if not f or f.startswith("#"):
+            continue
+        label = (row.get("label") or "").strip()
+        if not label:
+            raise ShapeSigError(f"{path}:{i}: empty label")
+        entries.append(IndexEntry(file=f, label=label, skeleton=(row.get("skeleton") or "").strip(),
+                                  start=_opt_int(row.get("start"), f"{path}:{i}"),
+                                  end=_opt_int(row.get("end"), f"{path}:{i}")))
+    if not entries:
+        raise ShapeSigError(f"{path}: no clips listed")
+    return entries
+
+
+def unique_names(names):
+    """Make names unique by appending #2, #3 to repeats."""
+    seen = {}
+    out = []
+    for n in names:
+        if n in seen:
+            seen[n] += 1
+            out.append(f"{n}#{seen[n]}")
+        else:
+            seen[n] = 1
+            out.append(n)
+    return out
+
+
+def labels_from_csv(path, names):
+    """Labels for clip names from an index CSV (matched on the file stem); 'unknown' when absent."""
+    by_stem = {}
+    for e in read_index(path):
+        by_stem[os.path.splitext(os.path.basename(e.file))[0]] = e.label
+    return [by_stem.get(n.split("#")[0], by_stem.get(os.path.splitext(n)[0], "unknown")) for n in names]
+
+
+def entry_spec(entry: IndexEntry, data, asf=None) -> sources.ClipSpec:
+    """The ClipSpec of an entry's file (uncropped: ``evaluate`` crops): paths relative to ``data``; the
+    skeleton is the entry's, else ``asf``, else the only .asf beside the .amc."""
+    skeleton = os.path.join(data, entry.skeleton) if entry.skeleton else asf
+    return sources.ClipSpec.parse(os.path.join(data, entry.file), asf=skeleton)
+
+
+def entry_loader(data, asf=None, cache=None):
+    """``loader(entry) -> Clip`` for ``evaluate``: ``sources.read_one`` of ``entry_spec``. ``cache`` (a dict)
+    keeps the clips read, keyed by the spec, for runs that share files."""
+
+    def loader(entry):
+        spec = entry_spec(entry, data, asf)
+        if cache is None:
+            return sources.read_one(spec)
+        if spec not in cache:
+            cache[spec] = sources.read_one(spec)
+        return cache[spec]
+
+    return loader
