@@ -156,7 +156,8 @@ def elastic_matrix(curves, depth=DEFAULT_DEPTH, workers=2, numpy_dp=False, progr
 
 
 def _signature_job(curves, i, level):
-    return signatures.signature(curves[i], level)
+    """The curve's signature as (tensor, inverse): each clip is inverted once, not once per pair."""
+    return signatures.prepare_signature(signatures.signature(curves[i], level), 3 * curves[i].shape[1], level)
 
 
 def _pair_job(sigs, pairs, base, level, dim):

@@ -244,35 +244,50 @@ def _group_distance_dx(dx, dy, level, method):
     return _group_from_tensors(_sig_tensor_numpy(dx, level), _sig_tensor_numpy(dy, level), d, level)
 
 
-def _group_from_tensors(sx, sy, d, level):
-    g = tensor.mul(tensor.antipode(sy, d), sx, level)  # S(y)^-1 ⊗ S(x)
-    h = tensor.mul(tensor.antipode(sx, d), sy, level)  # its inverse S(x)^-1 ⊗ S(y)
+def _group_from_tensors(sx, sy, d, level, ix=None, iy=None):
+    """rho^n from signature tensors; ``ix``/``iy``: their inverses when already known (``prepare_signature``)."""
+    ix = tensor.antipode(sx, d) if ix is None else ix
+    iy = tensor.antipode(sy, d) if iy is None else iy
+    g = tensor.mul(iy, sx, level)  # S(y)^-1 ⊗ S(x)
+    h = tensor.mul(ix, sy, level)  # its inverse S(x)^-1 ⊗ S(y)
     return _half_group_norm(g) + _half_group_norm(h)
 
 
-def _concat_from_tensors(sx, sy, d, level, basis):
-    a = _logsig_numpy_from_sig(tensor.mul(sx, tensor.antipode(sy, d), level), d, basis)  # log S(x * rev y)
-    b = _logsig_numpy_from_sig(tensor.mul(sy, tensor.antipode(sx, d), level), d, basis)  # log S(y * rev x)
+def _concat_from_tensors(sx, sy, d, level, basis, ix=None, iy=None):
+    ix = tensor.antipode(sx, d) if ix is None else ix
+    iy = tensor.antipode(sy, d) if iy is None else iy
+    a = _logsig_numpy_from_sig(tensor.mul(sx, iy, level), d, basis)  # log S(x * rev y)
+    b = _logsig_numpy_from_sig(tensor.mul(sy, ix, level), d, basis)  # log S(y * rev x)
     return float(np.linalg.norm(a) + np.linalg.norm(b))
 
 
+def prepare_signature(s, dim, level):
+    """A stored signature (``signature``'s output for a path in R^dim) as (tensor, inverse tensor): the form
+    ``group_distance_from_signatures`` and ``concat_distance_from_signatures`` accept to skip the per-pair
+    unflattening and inversion (a distance matrix prepares each clip once)."""
+    t = tensor.unflatten(s, int(dim), _check_level(level))
+    return t, tensor.antipode(t, int(dim))
+
+
 def _sig_pair(sx, sy, dim, level):
+    """(tx, ix, ty, iy, level): tensors and inverses of two stored or prepared signatures."""
     level = _check_level(level)
-    tx = tensor.unflatten(sx, int(dim), level)
-    ty = tensor.unflatten(sy, int(dim), level)
-    return tx, ty, level
+    tx, ix = sx if isinstance(sx, tuple) else (tensor.unflatten(sx, int(dim), level), None)
+    ty, iy = sy if isinstance(sy, tuple) else (tensor.unflatten(sy, int(dim), level), None)
+    return tx, ix, ty, iy, level
 
 
 def group_distance_from_signatures(sx, sy, dim, level):
-    """rho^n from two stored signatures (``signature``'s output for paths in R^dim, same level)."""
-    tx, ty, level = _sig_pair(sx, sy, dim, level)
-    return _group_from_tensors(tx, ty, int(dim), level)
+    """rho^n from two stored signatures (``signature``'s output for paths in R^dim, same level, or
+    ``prepare_signature``'s pairs)."""
+    tx, ix, ty, iy, level = _sig_pair(sx, sy, dim, level)
+    return _group_from_tensors(tx, ty, int(dim), level, ix, iy)
 
 
 def concat_distance_from_signatures(sx, sy, dim, level, *, basis="lyndon"):
-    """sigma_*^n from two stored signatures: S(x * reversed y) = S(x) ⊗ S(y)^-1 (Chen)."""
-    tx, ty, level = _sig_pair(sx, sy, dim, level)
-    return _concat_from_tensors(tx, ty, int(dim), level, _check_basis(basis))
+    """sigma_*^n from two stored (or prepared) signatures: S(x * reversed y) = S(x) ⊗ S(y)^-1 (Chen)."""
+    tx, ix, ty, iy, level = _sig_pair(sx, sy, dim, level)
+    return _concat_from_tensors(tx, ty, int(dim), level, _check_basis(basis), ix, iy)
 
 
 def _concat_distance_dx(dx, dy, level, method, basis):
