@@ -16,6 +16,7 @@ import numpy as np
 from . import action_io, compat
 from .core.blend import blend_clip_series
 from .core.errors import ShapeSigError
+from .core.metrics import DEFAULT_DEPTH
 
 __all__ = ["BlendResult", "blend_actions", "armature_up_axis", "unique_action_name", "selected_bone_names"]
 
@@ -60,7 +61,7 @@ def selected_bone_names(armature):
     return [pb.name for pb in armature.pose.bones if compat.pose_bone_selected(pb)]
 
 
-def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=9, frames=None,
+def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DEFAULT_DEPTH, frames=None,
                   bones: Optional[Sequence[str]] = None, root="blend", progress=None) -> BlendResult:
     """Blend ``action_a`` towards ``action_b`` at each weight into new actions on ``armature``.
 

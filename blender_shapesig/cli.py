@@ -17,6 +17,8 @@ import os
 import sys
 import traceback
 
+from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
+
 PROG = "blender_shapesig"
 EXIT_ERROR = 2
 
@@ -442,10 +444,10 @@ def _metric_help(default):
     )
 
 
-def _add_metric(p, depth_help="DP search depth D for elastic (default 9)"):
+def _add_metric(p, depth_help=f"DP search depth D for elastic (default {DEFAULT_DEPTH})"):
     p.add_argument("--metric", default="sim", help=_metric_help("sim"))
-    p.add_argument("--level", type=int, help="signature truncation level (default 3)")
-    p.add_argument("--depth", type=int, default=9, help=depth_help)
+    p.add_argument("--level", type=int, help=f"signature truncation level (default {DEFAULT_LEVEL})")
+    p.add_argument("--depth", type=int, default=DEFAULT_DEPTH, help=depth_help)
 
 
 def build_parser():
@@ -471,7 +473,7 @@ def build_parser():
     )
     p.add_argument("query", metavar="QUERY", help=clip_help)
     p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
-    _add_metric(p, depth_help="DP search depth D for the elastic re-rank (default 9)")
+    _add_metric(p, depth_help=f"DP search depth D for the elastic re-rank (default {DEFAULT_DEPTH})")
     p.add_argument("--rerank", type=int, default=0, metavar="K", help="re-order the first K by elastic distance")
     p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
     p.add_argument("--cache", metavar="DIR", help="signature cache folder (default $SHAPESIG_CACHE_DIR)")
@@ -488,7 +490,7 @@ def build_parser():
     p.add_argument("b", metavar="B", help=clip_help)
     p.add_argument("--weight", type=float, help="blend weight s in [0, 1]; 0 gives A, 1 gives B")
     p.add_argument("--align", action="store_true", help="time-align B to A (elastic DP) before blending")
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for --align (default 9)")
+    p.add_argument("--depth", type=int, default=DEFAULT_DEPTH, help=f"DP search depth D for --align (default {DEFAULT_DEPTH})")
     p.add_argument("--frames", type=int, help="frames of the result (default: A's frame count)")
     p.add_argument(
         "--inbetweens", type=int, metavar="K", help="write K blends at weights 1/(K+1) .. K/(K+1) instead of --weight"
@@ -528,7 +530,7 @@ def build_parser():
         help="comma-separated metric names (default: l2,elastic,group3,concat3,linear3,sim2,sim3); "
         "also sim3_levelnorm, sim3_tensor, linear3_tensor, elastic_numpy, sim3+elastic5, ...",
     )
-    p.add_argument("--depth", type=int, default=9, help="DP search depth D for elastic (default 9)")
+    p.add_argument("--depth", type=int, default=DEFAULT_DEPTH, help=f"DP search depth D for elastic (default {DEFAULT_DEPTH})")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--no-figures", action="store_true", help="write only the numbers")
     p.add_argument("--repeat", type=int, default=1, metavar="N",

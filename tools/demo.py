@@ -141,7 +141,7 @@ def blend(bpy, imported, name_a, name_b, report):
     before = set(bpy.data.actions)
     with quiet_stdout():
         result = bpy.ops.shapesig.blend_actions(action_a=name_a, action_b=name_b, weight=0.5, align=True,
-                                                depth=9, assign=True)
+                                                assign=True)  # the operator's default depth
     new = [a for a in bpy.data.actions if a not in before]
     if result != {"FINISHED"} or not new:
         raise RuntimeError(f"shapesig.blend_actions returned {result}")
@@ -149,7 +149,9 @@ def blend(bpy, imported, name_a, name_b, report):
     first, last = (int(round(v)) for v in action.frame_range)
     frames = {int(round(a.frame_range[1] - a.frame_range[0])) + 1 for a in (bpy.data.actions[name_a],
                                                                                bpy.data.actions[name_b])}
-    report(f"- blended {name_a!r} with {name_b!r} at weight 0.5, time-aligned (D = 9; source lengths "
+    from blender_shapesig.core.metrics import DEFAULT_DEPTH
+
+    report(f"- blended {name_a!r} with {name_b!r} at weight 0.5, time-aligned (D = {DEFAULT_DEPTH}; source lengths "
            f"{sorted(frames)} frames): new action {action.name!r}, frames {first}..{last}, assigned to "
            f"{arm.name!r} (shapesig.blend_actions)")
     return action

@@ -43,6 +43,7 @@ from .curves import (
 )
 from .elastic import check_warp
 from .errors import CurveError, ShapeSigError, check_integer, check_number
+from .metrics import DEFAULT_DEPTH
 
 __all__ = [
     "geodesic_blend",
@@ -220,7 +221,7 @@ class _Plan:
         return geodesic_interpolate(R0, self.times0, self.u_out, increments=rel0)
 
 
-def compute_warp(R0, R1, align=True, depth=9, penalty=0.0):
+def compute_warp(R0, R1, align=True, depth=DEFAULT_DEPTH, penalty=0.0):
     """(warp, elastic distance or None): the DP warp of R1 onto R0, or the identity without align."""
     if not align:
         return identity_warp(), None
@@ -234,7 +235,7 @@ def compute_warp(R0, R1, align=True, depth=9, penalty=0.0):
 # curves
 
 
-def geodesic_blend(R0, R1, weight, align=True, depth=9, *, frames=None, warp=None, durations=None,
+def geodesic_blend(R0, R1, weight, align=True, depth=DEFAULT_DEPTH, *, frames=None, warp=None, durations=None,
                    penalty=0.0, return_info=False):
     """The SRVT geodesic blend (eq. 5.14) of R0 and R1 at ``weight`` (0 gives R0, 1 gives R1).
 
@@ -452,7 +453,7 @@ def _bone_list(bones):
     return out
 
 
-def blend_clips(a, b, weight, align=True, depth=9, frames=None, bones=None, root="blend", *,
+def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
                 warp=None, up_axis=None, penalty=0.0, name=None):
     """Blend clip ``a`` (weight 0) with clip ``b`` (weight 1) into a new Clip.
 
@@ -605,7 +606,7 @@ def _blend_translation(plan, a, b, ia, ib, blended, Bg, start, root, up_axis):
     return _interp_rows(plan.u_out, plan.grid, path), "blend", up
 
 
-def blend_clip_series(a, b, weights, align=True, depth=9, frames=None, bones=None, root="blend", *,
+def blend_clip_series(a, b, weights, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
                       up_axis=None, penalty=0.0, progress=None):
     """``blend_clips`` at several weights with one warp (computed once). ``progress(i, n)`` is called
     after each blend. Returns a list of Clips."""

@@ -58,6 +58,7 @@ import numpy as np
 from . import _dp_kernels
 from .curves import as_curve, as_times, move_to_identity, geodesic_interpolate, srvt
 from .errors import CurveError, ShapeSigError, check_integer, check_number
+from .metrics import DEFAULT_DEPTH
 
 __all__ = [
     "check_warp",
@@ -289,7 +290,7 @@ def _align(R0, R1, depth, penalty, method, prune, want_path):
     return prob, value, nodes
 
 
-def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, return_info=False):
+def elastic_align(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", prune=True, return_info=False):
     """The DP reparametrization of R1 onto R0 (sec. 4.3) and the elastic distance d_S*.
 
     ``R0``, ``R1``: curves (frames, joints, 3, 3) or quaternions (frames, joints, 4) on uniform
@@ -317,13 +318,13 @@ def elastic_align(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True, re
     return warp, dist
 
 
-def elastic_distance(R0, R1, depth=9, penalty=0.0, *, method="auto", prune=True):
+def elastic_distance(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", prune=True):
     """d_S*(R0, R1): the square root of the DP minimum of ``elastic_align`` (no backtracking)."""
     _, value, _ = _align(R0, R1, depth, penalty, method, prune, False)
     return float(np.sqrt(max(value, 0.0)))
 
 
-def elastic_distance_matrix(curves, depth=9, penalty=0.0, workers=2, *, method="auto", progress=None):
+def elastic_distance_matrix(curves, depth=DEFAULT_DEPTH, penalty=0.0, workers=2, *, method="auto", progress=None):
     """All-pairs d_S* of a list of curves: a symmetric (n, n) array with a zero diagonal.
 
     Entry [a, b] for a < b is ``elastic_distance(curves[a], curves[b])`` and is mirrored to

@@ -10,6 +10,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 
 from ..core.blend import blend_weights
 from ..core.errors import ShapeSigError
+from ..core.metrics import DEFAULT_DEPTH
 
 __all__ = ["SHAPESIG_OT_blend_actions", "classes"]
 
@@ -30,7 +31,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         name="Align", description="Time-align B to A by the elastic (dynamic programming) warp first",
         default=True)
     depth: IntProperty(
-        name="Depth", description="Largest step of the alignment's dynamic programming", default=9,
+        name="Depth", description="Largest step of the alignment's dynamic programming", default=DEFAULT_DEPTH,
         min=1, max=30)
     inbetweens: IntProperty(
         name="In-betweens",
