@@ -53,12 +53,7 @@ def cache_dir(context) -> str:
     env = os.environ.get(index.CACHE_ENV)
     if env:
         return env
-    if ADDON_ID.startswith("bl_ext.") and hasattr(bpy.utils, "extension_path_user"):
-        try:
-            return bpy.utils.extension_path_user(ADDON_ID, path="cache", create=True)
-        except (ValueError, RuntimeError, OSError):
-            pass
-    return index.default_cache_dir()
+    return compat.extension_user_path(ADDON_ID, "cache") or index.default_cache_dir()
 
 
 def get_cache(context) -> index.SignatureCache:
