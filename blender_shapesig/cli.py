@@ -215,10 +215,20 @@ def cmd_rank(args):
         bar.close()
     for w in getattr(results, "warnings", []):
         sys.stderr.write(f"{PROG}: warning: {w}\n")
-    rows = [
-        {"clip": r.name, "distance": _finite(r.distance), "elastic": _finite(r.elastic)}
-        for r in results
-    ]
+    # each result maps back to the argument it came from: "path" as given, "action" for a .blend (a whole
+    # .blend item holds several actions: the clip's name is the action's)
+    by_key, seen = {}, {}
+    for it in items:
+        by_key.setdefault(it.key, []).append(it)  # byte-identical copies (same key) are told apart in order
+    rows = []
+    for r in results:
+        group = by_key.get(r.key) or [None]
+        item = group[min(seen.get(r.key, 0), len(group) - 1)]
+        seen[r.key] = seen.get(r.key, 0) + (len(group) > 1)
+        path = item.path if item is not None else None
+        action = (item.action or r.name) if path and path.lower().endswith(".blend") else None
+        rows.append({"clip": r.name, "distance": _finite(r.distance), "elastic": _finite(r.elastic),
+                     "path": path, "action": action})
     label = metric_label(base, level)
     stats = dict(getattr(results, "stats", {}) or {})
     out = {"query": query.name, "metric": label, "results": rows,
@@ -289,10 +299,10 @@ def write_blend_file(spec_a, blended, out_path, asf=None):
 
 
 def _parse_weights(args):
+    from .core.errors import check_inbetweens
+
     if args.inbetweens is not None:
-        if args.inbetweens < 1:
-            raise CommandError("--inbetweens must be 1 or more")
-        k = args.inbetweens
+        k = check_inbetweens(args.inbetweens, "--inbetweens")  # 1..MAX_INBETWEENS, as the operator
         return [i / (k + 1) for i in range(1, k + 1)]
     if args.weight is None:
         raise CommandError("blend: give --weight s (0..1) or --inbetweens K")

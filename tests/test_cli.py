@@ -253,6 +253,34 @@ def test_rank_rerank_and_top(capsys, amc):
     assert first["elastic"] == pytest.approx(elastic_distance(a.rotations, b.rotations), rel=1e-4)
 
 
+def test_rank_results_carry_path_and_action(capsys, tmp_path):
+    """Issue 17: two files with the same display name (two copies of 16_15.bvh) are told apart by "path", the
+    argument as given; "action" is null for files that are not .blend."""
+    _need_search()
+    paths = []
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+        shutil.copy(ACC / "16_15.bvh", tmp_path / sub / "16_15.bvh")
+        paths.append(str(tmp_path / sub / "16_15.bvh"))
+        os.utime(paths[-1], ns=(10 ** 18 + len(paths), 10 ** 18 + len(paths)))
+    walk = str(ACC / "07_02.amc")
+    out, _ = run_json(capsys, ["rank", str(ACC / "07_01.amc"), walk, *paths, "--asf", str(ACC / "07-walk.asf")])
+    rows = out["results"]
+    assert sorted(r["clip"] for r in rows) == ["07_02", "16_15", "16_15"]
+    assert sorted(r["path"] for r in rows) == sorted([walk] + paths)
+    assert all(r["action"] is None for r in rows)
+    assert next(r for r in rows if r["clip"] == "07_02")["path"] == walk
+
+
+def test_blend_inbetweens_above_the_maximum_is_refused(capsys, amc, tmp_path):
+    from blender_shapesig.core.errors import MAX_INBETWEENS
+
+    line = run_error(capsys, ["blend", amc["w1"], amc["w2"], "--inbetweens", str(MAX_INBETWEENS + 1),
+                              "--out", str(tmp_path / "x.blend")])
+    assert "--inbetweens" in line and f"at most {MAX_INBETWEENS}" in line
+    assert not (tmp_path / "x.blend").exists()
+
+
 # --- subprocess: the real entry point, stdout hygiene --------------------------------------------
 
 

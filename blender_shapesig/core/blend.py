@@ -42,7 +42,7 @@ from .curves import (
     uniform_times,
 )
 from .elastic import check_warp
-from .errors import CurveError, ShapeSigError, check_integer, check_number
+from .errors import CurveError, ShapeSigError, check_inbetweens, check_integer, check_number
 from .metrics import DEFAULT_DEPTH
 
 __all__ = [
@@ -94,12 +94,7 @@ def default_frames(frames0, frames1, weight, duration0=None, duration1=None, fps
 
 def blend_weights(count, weight=0.5):
     """Weights of ``count`` in-betweens: ``[weight]`` for one, else i / (count + 1), i = 1..count."""
-    try:
-        k = int(count)
-    except (TypeError, ValueError):
-        raise ShapeSigError(f"in-betweens: expected an integer >= 1, got {count!r}") from None
-    if k != count or k < 1:
-        raise ShapeSigError(f"in-betweens: expected an integer >= 1, got {count!r}")
+    k = check_inbetweens(count)  # 1..MAX_INBETWEENS, the same check as the operator and the CLI
     if k == 1:
         return [_check_weight(weight)]
     return [i / (k + 1) for i in range(1, k + 1)]

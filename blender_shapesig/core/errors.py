@@ -54,3 +54,36 @@ def check_number(value, name, low=0.0, high=float("inf")):
     if not math.isfinite(x) or x < low or x > high:
         raise ShapeSigError(f"{name}: expected a finite number {span}, got {value!r}")
     return x
+
+
+# ------------------------------------------------------------------ the value checks of every front end
+# Operators, scene properties and the command line refuse the same values with the same one-line messages
+# (issue 17): a script's weight=5 or in-betweens=500 is an error, never silently clamped.
+
+MAX_INBETWEENS = 99  # the most blends one Blend Actions call writes
+
+
+def check_weight(value, name="weight"):
+    """A blend weight: a finite number in [0, 1] (0 gives A, 1 gives B)."""
+    return check_number(value, name, 0.0, 1.0)
+
+
+def check_inbetweens(value, name="in-betweens"):
+    """A count of in-betweens: an integer in [1, MAX_INBETWEENS]."""
+    n = check_integer(value, name, minimum=1)
+    if n > MAX_INBETWEENS:
+        raise ShapeSigError(f"{name}: expected at most {MAX_INBETWEENS}, got {value!r}")
+    return n
+
+
+def check_frame_range(start, end, first, last, what="the clip"):
+    """(start, end) as ints when start < end both lie in ``what``'s frames first..last (inclusive);
+    ShapeSigError naming the range otherwise (frames outside a clip would compare held poses, not motion)."""
+    s, e = check_integer(start, "frame start", minimum=-(2 ** 31)), check_integer(end, "frame end",
+                                                                                   minimum=-(2 ** 31))
+    first, last = int(round(first)), int(round(last))
+    if e <= s:
+        raise ShapeSigError(f"the frame range {s}..{e} needs two frames (end after start)")
+    if s < first or e > last:
+        raise ShapeSigError(f"the frame range {s}..{e} is outside {what}'s frames {first}..{last}")
+    return s, e

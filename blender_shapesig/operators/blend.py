@@ -9,7 +9,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..core.blend import blend_weights
-from ..core.errors import ShapeSigError
+from ..core.errors import MAX_INBETWEENS, ShapeSigError, check_integer, check_weight
 from ..core.metrics import DEFAULT_DEPTH
 
 __all__ = ["SHAPESIG_OT_blend_actions", "classes"]
@@ -25,21 +25,22 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
     action_a: StringProperty(name="Action A", description="The action at weight 0")
     action_b: StringProperty(name="Action B", description="The action at weight 1")
     weight: FloatProperty(
-        name="Weight", description="0 gives A, 1 gives B (used when In-betweens is 1)",
-        default=0.5, min=0.0, max=1.0, subtype="FACTOR")
+        name="Weight", description="0 gives A, 1 gives B (used when In-betweens is 1); a value outside [0, 1] "
+        "is refused", default=0.5, soft_min=0.0, soft_max=1.0, subtype="FACTOR")
     align: BoolProperty(
         name="Align", description="Time-align B to A by the elastic (dynamic programming) warp first",
         default=True)
     depth: IntProperty(
         name="Depth", description="Largest step of the alignment's dynamic programming", default=DEFAULT_DEPTH,
-        min=1, max=30)
+        soft_min=1, soft_max=30)
     inbetweens: IntProperty(
         name="In-betweens",
-        description="Number of blended actions; more than 1 gives evenly spaced weights i/(K+1)",
-        default=1, min=1, max=99)
+        description=f"Number of blended actions; more than 1 gives evenly spaced weights i/(K+1) (at most "
+                    f"{MAX_INBETWEENS}; more is refused)",
+        default=1, soft_min=1, soft_max=MAX_INBETWEENS)
     frames: IntProperty(
         name="Length", description="Frames of each blend; 0: automatic ((1-w) A + w B frames)",
-        default=0, min=0, max=1_000_000)
+        default=0, soft_min=0, soft_max=100_000)
     bone_subset: EnumProperty(
         name="Bones",
         description="Which bones to blend; the others keep A's motion (in the blended timing)",
@@ -126,6 +127,15 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
             return bones
         return None
 
+    def _weights(self):
+        """The blend weights; the values a script may set outside the sliders' soft limits are refused here
+        (the properties have no hard limits: those would clamp weight=5 to 1 silently)."""
+        check_weight(self.weight)
+        check_integer(self.depth, "depth", minimum=1)
+        if self.frames != 0:
+            check_integer(self.frames, "length", minimum=2)
+        return blend_weights(self.inbetweens, self.weight)  # in-betweens within 1..MAX_INBETWEENS
+
     def execute(self, context):
         from .. import action_io
         from ..blend_actions import blend_actions
@@ -139,7 +149,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
             for name, act in zip((self.action_a, self.action_b), acts):
                 if act is None:
                     raise ShapeSigError(f"no action named {name!r}")
-            weights = blend_weights(self.inbetweens, self.weight)
+            weights = self._weights()
             show = wm is not None and len(weights) > 1
             if show:
                 wm.progress_begin(0, 2 * len(weights))
