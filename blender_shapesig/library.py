@@ -18,7 +18,9 @@ Source actions are only read, never modified.
 
 import fnmatch
 import hashlib
+import json
 import os
+import time
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
@@ -28,14 +30,15 @@ import bpy
 
 from . import action_io, compat
 from .core import index, sources
-from .core.errors import ShapeSigError
+from .core.errors import ShapeSigError, check_frame_range
 from .preferences import ADDON_ID, get_preferences
-from .properties import settings_of
+from .properties import results_of, settings_of
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
            "library_items", "index_items", "missing_count", "rank_into_settings", "store_results",
-           "selected_action", "result_action", "start_preview", "stop_preview"]
+           "selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result",
+           "RankJob", "unique_labels", "index_cost", "cost_text", "COSTLY_LEVEL"]
 
 # The session's stores: (absolute index folder, compact limit) -> SignatureCache (their memory layer survives
 # operators; clearing this dict makes the next operator read the folder afresh).
@@ -160,8 +163,11 @@ def search_problem(context, settings) -> Optional[str]:
         if settings.query_action:
             return f"there is no action {settings.query_action!r}"
         return f"armature {obj.name!r} has no action: assign one or choose a query action"
-    if settings.use_frame_range and settings.frame_end <= settings.frame_start:
-        return f"the frame range {settings.frame_start}..{settings.frame_end} needs two frames"
+    if settings.use_frame_range:
+        try:
+            _query_range(_query_action(obj, settings), settings)
+        except ShapeSigError as exc:
+            return str(exc)
     if not settings.use_file_actions and not settings.use_folders:
         return "the library is empty: search file actions or folders"
     return None
@@ -204,13 +210,20 @@ def _cropped_range(action, crop_start):
     return (int(crop_start), last)
 
 
+def _query_range(action, settings):
+    """The query's frame range: inside the action's own frames (``check_frame_range``: 2000..2100 on a
+    317-frame action would compare held poses, every sim 1.0)."""
+    return check_frame_range(settings.frame_start, settings.frame_end, *action.frame_range,
+                             what=f"action {action.name!r}")
+
+
 def query_item(context, settings):
     """(armature, action, ActionItem) of the query; ShapeSigError with a clear message otherwise."""
     _check(search_problem(context, settings))
     obj = _armature(context)
     action = _query_action(obj, settings)
     if settings.use_frame_range:
-        frame_range = (settings.frame_start, settings.frame_end)
+        frame_range = _query_range(action, settings)
     else:
         frame_range = _cropped_range(action, settings.crop_start)
     return obj, action, action_item(action, obj, frame_range)
@@ -249,7 +262,10 @@ def library_items(context, settings, obj) -> List[sources.LibraryItem]:
         folders = _folders(context, settings)
         if not folders:
             raise ShapeSigError("no library folders: add some in the panel or the add-on preferences")
-        items += sources.library(folders, start=settings.crop_start or None)
+        asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
+        if asf is not None and not os.path.isfile(asf):
+            raise ShapeSigError(f"the skeleton file {asf} does not exist")
+        items += sources.library(folders, start=settings.crop_start or None, asf=asf)
     return items
 
 
@@ -271,40 +287,223 @@ def missing_count(context, settings) -> int:
     return sum(not cache.contains(it.key, settings.level) for it in index_items(context, settings))
 
 
+# Cost of an index (issue 17: level 4 must not start unannounced). Measured: 110 CMU clips with 17 moving joints
+# took 277.9 s and 750 MB at level 4. An entry is dominated by its log-signature direction (float32, Witt's
+# dimension of R^(3 x moving joints) at the level), and computing it scales with that dimension too.
+COST_REFERENCE = {"clips": 110, "moving": 17, "level": 4, "seconds": 277.9, "bytes": 750e6}
+COSTLY_LEVEL = 4
+
+
+def index_cost(context, settings):
+    """(clips not indexed yet, estimated seconds, estimated bytes) of indexing the library at the settings'
+    level, each clip assumed to move as many joints as the query (read once here)."""
+    from .core.signatures import log_signature_dim
+
+    cache = get_cache(context)
+    todo = [it for it in index_items(context, settings) if not cache.contains(it.key, settings.level)]
+    if not todo:
+        return 0, 0.0, 0.0
+    _obj, _action, q = query_item(context, settings)
+    clip = q.clips()[0]
+    moving = max(len(clip.bones) - len(clip.still_bones()), 1)
+    ref = COST_REFERENCE
+    ref_dim = ref["clips"] * log_signature_dim(3 * ref["moving"], ref["level"])
+    dim = len(todo) * log_signature_dim(3 * moving, settings.level)
+    return len(todo), ref["seconds"] * dim / ref_dim, ref["bytes"] * dim / ref_dim
+
+
+def cost_text(clips, seconds, nbytes):
+    """One line: '110 clips to index at level 4: about 4.6 min and 750 MB of index'."""
+    span = f"{seconds / 60:.1f} min" if seconds >= 90 else f"{seconds:.0f} s"
+    size = f"{nbytes / 1e9:.1f} GB" if nbytes >= 1e9 else f"{nbytes / 1e6:.0f} MB"
+    return f"{clips} clips to index: about {span} and {size} of index"
+
+
 # ------------------------------------------------------------------------------------------ results
 
-def store_results(settings, results, items, query_name):
-    """Write a RankList into ``settings.results`` (``items``: the library ranked, to tell actions from files)."""
-    kinds = {it.key: isinstance(it, ActionItem) for it in items}
-    settings.results.clear()
+def unique_labels(specs):
+    """Display labels of clip files that tell any two apart: the file name (with ``#ACTION`` for a .blend
+    action), with as many parent folders as needed when two files share a name (two ``16_15.bvh``)."""
+    parts = [os.path.normpath(sources.ClipSpec.parse(t).path).split(os.sep) for t in specs]
+    tails = [sources.ClipSpec.parse(t).action for t in specs]
+    depth = [1] * len(specs)
+    while True:
+        labels = ["/".join(p[-d:]) + (f"#{a}" if a else "") for p, d, a in zip(parts, depth, tails)]
+        clash = {lb for lb in labels if labels.count(lb) > 1}
+        grow = [i for i, lb in enumerate(labels) if lb in clash and depth[i] < len(parts[i])]
+        if not grow:
+            return labels
+        for i in grow:
+            depth[i] += 1
+
+
+def _row_sources(results, items):
+    """(is_action, clip file spec) per result, through the library item each came from (by key)."""
+    by_key = {it.key: it for it in items}
+    out = []
     for r in results:
-        row = settings.results.add()
-        row.name = r.name
+        item = by_key.get(r.key)
+        if isinstance(item, ActionItem):
+            out.append((True, ""))
+            continue
+        spec = item.source if item is not None else r.source
+        if spec.lower().endswith(".blend") and r.name:
+            spec = f"{spec}#{r.name}"  # a whole .blend holds several actions: the clip's name is its action
+        out.append((False, spec))
+    return out
+
+
+def store_results(settings, results, items, query_name, order_by="sim", query_bones=0, seconds=0.0):
+    """Write ranked rows into the window manager's results (``properties.results_of``), in ``results``' order,
+    which is ascending in ``order_by`` ("sim" or "elastic") within each tier (whole-body, then partial)."""
+    out = results_of()
+    kinds = _row_sources(results, items)
+    labels = unique_labels([spec for is_action, spec in kinds if not is_action])[::-1]
+    out.results.clear()
+    for r, (is_action, spec) in zip(results, kinds):
+        row = out.results.add()
+        row.name = row.clip_name = r.name
+        row.label = r.name if is_action else labels.pop()
         row.distance = r.distance
         row.has_elastic = r.elastic is not None
-        row.approximate = r.approximate
         row.elastic = r.elastic if r.elastic is not None else 0.0
-        row.frames = r.frames
-        row.shared = r.shared
-        row.partial = r.partial
-        row.is_action = kinds.get(r.key, False)
-        row.source = r.name if row.is_action else r.source
-        row.clip_name = r.name
-    settings.results_index = 0
-    settings.query_name = query_name
+        row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
+        row.is_action = is_action
+        row.source = r.name if is_action else spec
+        row.spec = spec
+        row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
+        # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
+        row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
+    out.results_index = 0
+    out.query_name = query_name
+    out.order_by = order_by
+    out.query_bones = query_bones
+    out.seconds = seconds
+
+
+class RankJob:
+    """One Find Similar click in small steps, so that the UI can show progress and Esc can cancel it (the
+    operator steps it from a timer; headless it runs the steps in a loop):
+
+    1. index the query and library clips the store does not hold, one clip per step (``index.iter_entries``;
+       what is done stays cached when the click is cancelled; clips that fail are counted apart);
+    2. rank every readable clip by sim^n (``index.rank_clips``; fast: everything is in the store);
+    3. with Re-rank K, the d_S* of the first K rows, one per step (``rank_clips`` with the elastic metric on
+       the one clip: the same pair increments and DP as its re-rank).
+
+    The rows are then in the order of ONE column: sim^n, or d_S* when re-ranking (only the K re-ranked rows
+    are listed then; the message says how many more were ranked). Whole-body matches come before partial ones
+    (few shared bones), each tier ascending in that column. ``seconds`` is the whole click, from the start."""
+
+    def __init__(self, context, settings, started=None):
+        self.t0 = time.perf_counter() if started is None else started
+        self.settings = settings
+        self.action, self.query, self.items = _search_items(context, settings)
+        if not self.items:
+            raise ShapeSigError("the library is empty: no other action animates this armature"
+                                + (" or matches the filter" if settings.name_filter else "")
+                                + ("" if settings.use_folders else "; add folders of clips"))
+        self.cache, self.level = get_cache(context), settings.level
+        self.rerank, self.top = max(int(settings.rerank), 0), max(int(settings.top), 0)
+        todo = [it for it in [self.query] + self.items if not self.cache.contains(it.key, self.level)]
+        self.errors, self.failed, self.indexed = [], set(), 0
+        self._entries = index.iter_entries(todo, self.level, self.cache, self.errors)
+        self.total = len(todo) + 1 + self.rerank
+        self.done = 0
+        self.ranked = self.rows = None
+        self._head = []
+
+    @property
+    def progress(self) -> float:
+        return min(self.done / max(self.total, 1), 1.0)
+
+    @property
+    def finished(self) -> bool:
+        return self.rows is not None
+
+    def step(self) -> bool:
+        """Do one step; True when the rows are ready."""
+        self.done += 1
+        if self.ranked is None:
+            got = next(self._entries, None)
+            if got is not None:
+                item, entries = got
+                if entries:
+                    self.indexed += 1
+                else:
+                    self.failed.add(item.key)
+                return False
+            self._rank()
+            return self.finished
+        self._elastic(self._head.pop(0))
+        if not self._head:
+            self._order()
+        return self.finished
+
+    def run(self):
+        """All steps (the synchronous path); returns the rows."""
+        while not self.step():
+            pass
+        return self.rows
+
+    def _rank(self):
+        if self.query.key in self.failed:
+            raise ShapeSigError(f"the query {self.query.name!r} could not be read: {self.errors[0]}")
+        items = [it for it in self.items if it.key not in self.failed]
+        if not items:
+            raise ShapeSigError(f"no library clip could be read ({self.errors[0]})")
+        cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
+        self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
+                                       cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
+        self.warnings = self.ranked.warnings + self.errors
+        self.by_key = {it.key: it for it in items}
+        self._head = list(self.ranked[:cut]) if self.rerank else []
+        self.total = self.done + len(self._head)
+        if not self._head:
+            self._order()
+
+    def _elastic(self, r):
+        """d_S* of one row: rank_clips' elastic metric on that one clip (its shared bones, the same depth)."""
+        one = index.rank_clips(self.query, [self.by_key[r.key]], metric="elastic", cache=self.cache,
+                               depth=self.settings.depth)
+        r.elastic = next((x.distance for x in one if x.name == r.name), float("nan"))
+
+    def _order(self):
+        if self.rerank:
+            head = [r for r in self.ranked if r.elastic is not None]
+            self.rows = sorted(head, key=lambda r: (r.partial, r.elastic, r.distance, r.name))
+            self.order_by, self.not_listed = "elastic", len(self.ranked) - len(head)
+        else:
+            self.rows, self.order_by, self.not_listed = list(self.ranked), "sim", 0
+        self.seconds = time.perf_counter() - self.t0
+
+    def store(self):
+        """Write the rows and the status message; returns the message."""
+        entries = self.cache.get(self.query.key, self.level) or []
+        q_bones = len(entries[0].bones) if entries else 0
+        store_results(self.settings, self.rows, self.items, self.action.name, self.order_by, q_bones,
+                      time.perf_counter() - self.t0)
+        out = results_of()
+        column = {"sim": f"sim^{self.level}", "elastic": "d_S*"}[self.order_by]
+        msg = (f"{len(self.rows)} results from {len(self.items)} clips, sorted by {column}; "
+               f"{self.indexed} newly indexed")
+        if self.failed:
+            msg += f", {len(self.failed)} could not be read"
+        msg += f"; {out.seconds:.2f} s"
+        if self.not_listed:
+            msg += f"; the best {len(self.rows)} by sim^{self.level} were re-ranked (raise Re-rank to list more)"
+        if self.warnings:
+            msg += f"; {len(self.warnings)} warning(s): {self.warnings[0]}"
+        out.message = msg
+        return msg
 
 
 def rank_into_settings(context, settings) -> index.RankList:
-    """Run the search with the panel's settings and store the results; returns the RankList."""
-    action, q, items = _search_items(context, settings)
-    if not items:
-        raise ShapeSigError("the library is empty: no other action animates this armature"
-                            + (" or matches the filter" if settings.name_filter else "")
-                            + ("" if settings.use_folders else "; add folders of clips"))
-    res = index.rank_clips(q, items, metric="sim", level=settings.level, rerank=settings.rerank,
-                           top=settings.top or None, cache=get_cache(context), depth=settings.depth)
-    store_results(settings, res, items, action.name)
-    return res
+    """Run a whole Find Similar click synchronously and store its rows; returns them as a RankList."""
+    job = RankJob(context, settings)
+    job.run()
+    job.store()
+    return index.RankList(job.rows, job.warnings, job.ranked.skipped, dict(job.ranked.stats, seconds=job.seconds))
 
 
 def selected_action(context, settings):
@@ -316,13 +515,14 @@ def selected_action(context, settings):
 
 def result_action(settings, obj, row):
     """The bpy action of a result row; a folder clip is first read (``core.sources``) and written as a new
-    action on ``obj`` (the row then names that action)."""
+    action on ``obj`` (the row then names that action; ``row.spec`` keeps the file)."""
     if row.is_action:
         action = bpy.data.actions.get(row.source)
         if action is None:
             raise ShapeSigError(f"the action {row.source!r} no longer exists")
         return action
-    loaded = sources.read(row.source)
+    asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
+    loaded = sources.read(sources.ClipSpec.parse(row.spec or row.source, asf=asf))
     clip = next((c for c in loaded if c.name == row.clip_name), loaded[0])
     if settings.crop_start and clip.frame_end >= settings.crop_start:
         clip = clip.crop(start=settings.crop_start)
@@ -330,27 +530,98 @@ def result_action(settings, obj, row):
     row.is_action = True
     row.source = action.name
     return action
-
-
-def start_preview(context, settings, obj, action):
-    """Assign ``action`` to ``obj`` until ``stop_preview`` (the current action is remembered) and play it."""
-    current = obj.animation_data.action if obj.animation_data else None
+def start_preview(context, settings, obj, action, written=""):
+    """Play ``action`` on ``obj`` until ``stop_preview``, which restores exactly what is here now: the active
+    action and its slot, the pose bones' rotation modes, the scene frame, whether the armature had animation
+    data. The previous action is kept alive meanwhile (a fake user when nothing else uses it, taken back at Stop)
+    so that saving during a preview loses nothing. ``written``: the action was written for the preview (a folder
+    result) and is removed at Stop unless assigned."""
+    ad = obj.animation_data
+    current = ad.action if ad is not None else None
+    slot = compat.object_action_slot(obj) if current is not None else None
     settings.preview_object = obj.name
     settings.preview_action = current.name if current is not None else ""
-    compat.assign_action(obj, action)
+    settings.preview_slot = getattr(slot, "identifier", "") if slot is not None else ""
+    settings.preview_modes = json.dumps({pb.name: pb.rotation_mode for pb in obj.pose.bones})
+    settings.preview_frame = context.scene.frame_current
+    settings.preview_animdata = ad is not None
+    settings.preview_written = written
+    settings.preview_fake_user = bool(current is not None and not current.use_fake_user and current.users <= 1)
+    if settings.preview_fake_user:
+        current.use_fake_user = True
+    action_io.assign_action(obj, action, keep_previous=False)  # bones switch to the modes it has curves for
     context.scene.frame_set(int(action.frame_range[0]))
     screen = getattr(context, "screen", None)
     if screen is not None and context.window is not None and not screen.is_animation_playing:
         bpy.ops.screen.animation_play()
 
 
-def stop_preview(context, settings):
-    """Give the previewed armature its action back and stop playing."""
-    obj = bpy.data.objects.get(settings.preview_object)
-    if obj is not None:
-        compat.assign_action(obj, bpy.data.actions.get(settings.preview_action) if settings.preview_action else None)
-    settings.preview_object = ""
-    settings.preview_action = ""
+def _restore_slot(obj, identifier):
+    ad = obj.animation_data
+    if not identifier or ad is None or ad.action is None or not hasattr(ad, "action_slot"):
+        return
+    slot = next((sl for sl in ad.action.slots if sl.identifier == identifier), None)
+    if slot is not None and ad.action_slot != slot:
+        ad.action_slot = slot
+
+
+def stop_preview(context, settings, keep=""):
+    """End the preview: the armature gets back its action, slot, rotation modes and frame; the previous action
+    its fake-user state; the action written for the preview is removed unless it is ``keep`` (being assigned)."""
     screen = getattr(context, "screen", None)
     if screen is not None and screen.is_animation_playing:
-        bpy.ops.screen.animation_cancel(restore_frame=True)
+        bpy.ops.screen.animation_cancel(restore_frame=False)
+    obj = bpy.data.objects.get(settings.preview_object)
+    previous = bpy.data.actions.get(settings.preview_action) if settings.preview_action else None
+    if obj is not None:
+        if settings.preview_animdata or previous is not None:
+            compat.assign_action(obj, previous)
+            _restore_slot(obj, settings.preview_slot)
+        elif obj.animation_data is not None:
+            obj.animation_data_clear()
+        modes = json.loads(settings.preview_modes) if settings.preview_modes else {}
+        for pb in obj.pose.bones:
+            if pb.name in modes and pb.rotation_mode != modes[pb.name]:
+                pb.rotation_mode = modes[pb.name]
+    if previous is not None and settings.preview_fake_user:
+        previous.use_fake_user = False
+    written = bpy.data.actions.get(settings.preview_written) if settings.preview_written else None
+    if written is not None and settings.preview_written != keep:
+        _forget_written(settings.preview_written)
+        compat.remove_action(written)
+    context.scene.frame_set(settings.preview_frame)
+    settings.preview_object = settings.preview_action = settings.preview_slot = ""
+    settings.preview_modes = settings.preview_written = ""
+    settings.preview_fake_user, settings.preview_animdata = False, True
+
+
+def _forget_written(name):
+    """Result rows that named an action written for a preview point back at their file."""
+    for row in results_of().results:
+        if row.is_action and row.source == name and row.spec:
+            row.is_action, row.source = False, row.spec
+
+
+def preview_result(context, settings):
+    """Start previewing the selected result (a folder clip is written as an action for the preview); returns
+    the action."""
+    obj, row = _armature(context), None
+    _check(result_problem(context, settings))
+    row = settings.results[settings.results_index]
+    was_file = not row.is_action
+    obj, action = selected_action(context, settings)
+    start_preview(context, settings, obj, action, written=action.name if was_file else "")
+    return action
+
+
+def assign_result(context, settings):
+    """Make the selected result the armature's action (a running preview is stopped first, keeping the result
+    when it was written for the preview); the replaced action is stashed when nothing else uses it. Returns
+    (armature, action)."""
+    _check(result_problem(context, settings))
+    if settings.preview_object:
+        row = settings.results[settings.results_index]
+        stop_preview(context, settings, keep=row.source if row.is_action else "")
+    obj, action = selected_action(context, settings)
+    action_io.assign_action(obj, action)
+    return obj, action

@@ -1,9 +1,15 @@
-"""Scene settings and results of the signature search (``scene.shapesig``).
+"""Scene settings of the signature search (``scene.shapesig``) and its transient results
+(``window_manager.shapesig_results``).
 
-``ShapeSigSettings``: the query (action, optional frame range), the library (the file's actions filtered
-by a name pattern / asset flag, plus folders of clip files), the level, the re-rank count, and the
-results of the last ranking (``results``, a collection of ``ShapeSigResult`` sorted by sim^n, shown by
-the sidebar's UI list) with a status ``message``.
+``ShapeSigSettings``: the query (action, optional frame range: by default the action's own), the library (the
+file's actions filtered by a name pattern / asset flag, plus folders of clip files with an optional .asf
+skeleton for AMC files), the level, the re-rank count, and the state of a running preview (what Stop restores).
+
+``ShapeSigResults`` on the window manager: the rows of the last Find Similar click (``ShapeSigResult``, in the
+order of one sort column, ``order_by``), the status ``message`` and the click's measured time. The window
+manager is not in the undo memory file, so a click pushes no whole-file undo step; results are transient UI
+state (not saved with the file). ``settings.results``, ``results_index``, ``query_name`` and ``message`` stay
+readable and writable on the scene settings for scripts: they are views onto the window manager's group.
 """
 
 import bpy
@@ -12,11 +18,23 @@ from bpy.props import (BoolProperty, CollectionProperty, FloatProperty, IntPrope
 
 from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
-__all__ = ["ShapeSigResult", "ShapeSigSettings", "classes", "settings_of"]
+__all__ = ["ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of"]
 
 
 # K of the two-stage search the panel uses by default (see docs/evaluation.md, "Winner").
 RERANK_DEFAULT = 10
+
+
+def _frame_range_from_action(settings, context):
+    """Switching the frame range on starts from the query action's own frames (never a default 1..250 that
+    would reach past a short action or cut a long one)."""
+    if not settings.use_frame_range:
+        return
+    obj = getattr(context, "active_object", None)
+    action = bpy.data.actions.get(settings.query_action) if settings.query_action else \
+        getattr(getattr(obj, "animation_data", None), "action", None)
+    if action is not None:
+        settings.frame_start, settings.frame_end = (int(round(v)) for v in action.frame_range)
 
 
 class ShapeSigResult(bpy.types.PropertyGroup):
@@ -37,16 +55,42 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                             default=True)
     source: StringProperty(name="Source", description="Action name, or the clip file (FILE.blend#ACTION)")
     clip_name: StringProperty(name="Clip", description="The clip's name inside its source")
+    # issue 17: readable rows
+    label: StringProperty(name="Label", description="Unique display label: the action, or the file (with its "
+                          "action for a .blend, and as many parent folders as tell two files apart)")
+    spec: StringProperty(name="File", description="The clip file as discovered (FILE.blend#ACTION); empty for "
+                         "an action of this file")
+    coverage: FloatProperty(name="Coverage", description="Bones compared / the query's bones",
+                            precision=2)
+    frame_first: IntProperty(name="First Frame", description="First frame of the matched clip or window")
+    frame_last: IntProperty(name="Last Frame", description="Last frame of the matched clip or window")
+
+
+class ShapeSigResults(bpy.types.PropertyGroup):
+    """The last Find Similar click (on the window manager: not in undo steps, not saved)."""
+
+    results: CollectionProperty(type=ShapeSigResult)
+    results_index: IntProperty(name="Result", default=0)
+    query_name: StringProperty(name="Query")
+    message: StringProperty(name="Message", description="Status of the last index build or ranking")
+    order_by: StringProperty(name="Sorted By", description="The one column the rows are sorted by (ascending)")
+    seconds: FloatProperty(name="Seconds", description="Measured time of the last click, start to results")
+    query_bones: IntProperty(name="Query Bones", description="Bones of the query")
+    running: BoolProperty(default=False, description="A Find Similar click is running (Esc cancels)")
+    progress: FloatProperty(default=0.0, min=0.0, max=1.0, subtype="FACTOR")
 
 
 class ShapeSigSettings(bpy.types.PropertyGroup):
     # query
     query_action: StringProperty(
         name="Query Action", description="Action to search with; empty: the active armature's action")
-    use_frame_range: BoolProperty(name="Frame Range", description="Search with a part of the query action",
-                                  default=False)
-    frame_start: IntProperty(name="Start", default=1)
-    frame_end: IntProperty(name="End", default=250)
+    use_frame_range: BoolProperty(name="Frame Range", description="Search with a part of the query action "
+                                  "(switching it on starts from the action's own range)", default=False,
+                                  update=_frame_range_from_action)
+    frame_start: IntProperty(name="Start", description="First frame of the query (inside the action's frames)",
+                             default=1)
+    frame_end: IntProperty(name="End", description="Last frame of the query (inside the action's frames)",
+                           default=250)
     # library
     use_file_actions: BoolProperty(name="File Actions", description="Search the actions of this file",
                                    default=True)
@@ -58,6 +102,8 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     use_folders: BoolProperty(name="Folders", description="Also search clip files in folders", default=False)
     folders: StringProperty(name="Folders", description="Folders of .bvh/.amc/.blend clips, separated by ';' "
                             "(empty: the add-on preferences' library folders)", default="")
+    asf: StringProperty(name="Skeleton", description="The .asf skeleton of the folders' AMC files (empty: the "
+                        "only .asf beside each .amc)", default="", subtype="FILE_PATH")
     crop_start: IntProperty(name="Crop Start", description="Ignore the frames before this one in every clip "
                             "(library actions, folder clips and the query unless it has a frame range): 7 for "
                             "CMU 'Daz-friendly' BVH files (frame 1 is a rest pose, frames 2-6 a ramp from it); "
@@ -72,19 +118,32 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                         default=RERANK_DEFAULT, min=0, max=100)
     top: IntProperty(name="Show", description="Number of results kept (0: all)", default=25, min=0)
     depth: IntProperty(name="Depth", description="Elastic DP search depth", default=DEFAULT_DEPTH, min=1, max=30)
-    # results
-    results: CollectionProperty(type=ShapeSigResult)
-    results_index: IntProperty(name="Result", default=0)
-    query_name: StringProperty(name="Query")
-    message: StringProperty(name="Message", description="Status of the last index build or ranking")
-    # index build / preview state
+    # index build / preview state (the preview's is what Stop restores exactly; saved with the file, so a file
+    # saved while previewing still restores on Stop)
     index_running: BoolProperty(default=False, options={"SKIP_SAVE"})
     index_progress: FloatProperty(default=0.0, min=0.0, max=1.0, subtype="FACTOR", options={"SKIP_SAVE"})
     preview_action: StringProperty(description="Action to restore when the preview stops", default="")
     preview_object: StringProperty(description="Armature being previewed", default="")
+    preview_slot: StringProperty(description="Identifier of the action slot to restore", default="")
+    preview_modes: StringProperty(description="Pose bones' rotation modes to restore (JSON)", default="")
+    preview_frame: IntProperty(description="Scene frame to restore", default=0)
+    preview_fake_user: BoolProperty(description="The preview gave the previous action a fake user (to keep it "
+                                    "through a save); Stop takes it back", default=False)
+    preview_animdata: BoolProperty(description="The armature had animation data before the preview",
+                                   default=True)
+    preview_written: StringProperty(description="Action written for the preview (a folder result); removed at "
+                                    "Stop unless it was assigned", default="")
+
+    # the results live on the window manager (not in undo steps): these views keep scripts working
+    results = property(lambda self: results_of().results)
+    query_name = property(lambda self: results_of().query_name,
+                          lambda self, v: setattr(results_of(), "query_name", v))
+    message = property(lambda self: results_of().message, lambda self, v: setattr(results_of(), "message", v))
+    results_index = property(lambda self: results_of().results_index,
+                             lambda self, v: setattr(results_of(), "results_index", v))
 
 
-classes = (ShapeSigResult, ShapeSigSettings)
+classes = (ShapeSigResult, ShapeSigResults, ShapeSigSettings)
 
 
 def settings_of(context):
@@ -93,15 +152,25 @@ def settings_of(context):
     return getattr(scene, "shapesig", None) if scene is not None else None
 
 
+def results_of(context=None):
+    """``window_manager.shapesig_results``: the last click's rows and status (transient UI state)."""
+    context = context or bpy.context
+    wm = getattr(context, "window_manager", None) or bpy.data.window_managers[0]
+    return wm.shapesig_results
+
+
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
 
 
 def register():
     _register_classes()
     bpy.types.Scene.shapesig = PointerProperty(type=ShapeSigSettings)
+    bpy.types.WindowManager.shapesig_results = PointerProperty(type=ShapeSigResults)
 
 
 def unregister():
+    if hasattr(bpy.types.WindowManager, "shapesig_results"):
+        del bpy.types.WindowManager.shapesig_results
     if hasattr(bpy.types.Scene, "shapesig"):
         del bpy.types.Scene.shapesig
     _unregister_classes()

@@ -9,17 +9,22 @@ and in the error of a script's call.
   (``core.index.iter_entries``): with a window modally, one clip per timer tick, with a progress bar (Esc
   cancels; what is done stays cached); without one (background, the bpy module, scripts) synchronously.
 * ``shapesig.rank``: rank the library by sim^n against the query, optionally re-rank the best K by elastic
-  distance; fills ``scene.shapesig.results``. Clips not in the index are computed on the way (and cached).
+  distance (``library.RankJob``); fills ``window_manager.shapesig_results`` (transient: not an UNDO operator,
+  so a click pushes no whole-file undo step). Clips not in the index are computed on the way (and cached); in
+  the UI the click runs modally with a progress bar (Esc cancels), headless synchronously. Before a level-4
+  index, Build Index and Find Similar ask for confirmation with the estimated time and disk.
 * ``shapesig.assign_result``: make the selected result the active armature's action (a folder clip is first
   written as a new action).
 * ``shapesig.preview_result``: assign the result temporarily and play; run again to stop and restore.
 * ``shapesig.clear_index``: delete the cache files.
 """
 
+import time
+
 import bpy
 from bpy.props import BoolProperty
 
-from .. import action_io, library
+from .. import library
 from ..core import index
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
@@ -48,6 +53,32 @@ def _poll_with(problem):
     return classmethod(poll)
 
 
+def _confirm_cost(op, context, event, settings):
+    """Before a costly (level-4) index in the UI: a confirmation with the estimated time and disk (issue 17).
+    None to go on, else the invoke's return value (the dialog; OK runs the operator again, confirmed)."""
+    if op.confirmed or settings is None or settings.level < library.COSTLY_LEVEL or context.window is None \
+            or bpy.app.background:
+        return None
+    try:
+        clips, seconds, nbytes = library.index_cost(context, settings)
+    except ShapeSigError:
+        return None  # execute reports the problem
+    if clips == 0:
+        return None
+    text = f"Level {settings.level}: {library.cost_text(clips, seconds, nbytes)}"
+    op.confirmed = True
+    return context.window_manager.invoke_confirm(op, event, title=op.bl_label, message=text,
+                                                 confirm_text="Index", icon="WARNING")
+
+
+def _after_confirm(op, context, name, **props):
+    """The dialog's OK calls ``execute``: in the UI, start the operator again with its progress bar (modal)."""
+    if not op.confirmed or context.window is None or bpy.app.background:
+        return False
+    getattr(bpy.ops.shapesig, name)("INVOKE_DEFAULT", confirmed=True, **props)
+    return True
+
+
 class SHAPESIG_OT_build_index(bpy.types.Operator):
     """Compute the signature index of every library clip not indexed yet (Esc cancels)"""
 
@@ -57,6 +88,7 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
 
     then_rank: BoolProperty(name="Then Rank", description="Run Find Similar when the index is complete",
                             default=False, options={"SKIP_SAVE", "HIDDEN"})
+    confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
 
     _timer = None
 
@@ -96,6 +128,8 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
                 pass  # rank reported its error already
 
     def execute(self, context):
+        if _after_confirm(self, context, "build_index", then_rank=self.then_rank):
+            return {"FINISHED"}
         try:
             self._prepare(context)
             while self.done < len(self.items):
@@ -107,6 +141,9 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
         return {"FINISHED"}
 
     def invoke(self, context, event):
+        asked = _confirm_cost(self, context, event, library.settings_of(context))
+        if asked is not None:
+            return asked
         if context.window is None or bpy.app.background:
             return self.execute(context)
         try:
@@ -155,48 +192,105 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
 
 
 class SHAPESIG_OT_rank(bpy.types.Operator):
-    """Rank the library by similarity (sim^n) to the query action"""
+    """Rank the library by similarity (sim^n) to the query action (Esc cancels a long ranking)"""
 
     bl_idname = "shapesig.rank"
     bl_label = "Find Similar"
-    bl_options = {"REGISTER", "UNDO"}
+    # no UNDO: the click writes only transient UI state (window_manager.shapesig_results), never the file, so it
+    # pushes no whole-file undo step
+    bl_options = {"REGISTER"}
 
+    confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
+
+    _timer = None
     poll = _poll_with(library.search_problem)
 
-    def invoke(self, context, event):
-        # In the UI, when several clips still need indexing, index them first with the cancellable
-        # progress bar (build_index ranks when it is done); otherwise rank at once.
-        if context.window is not None and not bpy.app.background:
-            try:
-                missing = missing_count(context, library.settings_of(context))
-            except ShapeSigError:
-                missing = 0  # execute reports the problem
-            if missing >= 2:
-                bpy.ops.shapesig.build_index("INVOKE_DEFAULT", then_rank=True)
-                return {"CANCELLED"}
-        return self.execute(context)
+    def _start(self, context):
+        self.job = library.RankJob(context, library.settings_of(context), started=getattr(self, "t0", None))
 
-    def execute(self, context):
-        settings = library.settings_of(context)
-        try:
-            res = rank_into_settings(context, settings)
-        except ShapeSigError as exc:
-            self.report({"ERROR"}, f"Rank: {exc}")
-            settings.message = str(exc)
-            return {"CANCELLED"}
-        st = res.stats
-        msg = (f"{len(res)} results from {st.get('library', 0)} clips ({st.get('misses', 0)} newly indexed, "
-               f"{st.get('seconds', 0.0):.2f} s)")
-        if res.warnings:
-            msg += f"; {len(res.warnings)} warning(s): {res.warnings[0]}"
-        self.report({"WARNING"} if res.warnings else {"INFO"}, msg)
-        settings.message = msg
+    def _done(self, context):
+        msg = self.job.store()
+        out = library.results_of(context)
+        out.running = False
+        self.report({"WARNING"} if self.job.warnings or self.job.failed else {"INFO"}, msg)
         _tag_redraw(context)
         return {"FINISHED"}
 
+    def _fail(self, context, exc):
+        out = library.results_of(context)
+        out.running = False
+        out.message = str(exc)
+        self.report({"ERROR"}, f"Find Similar: {exc}")
+        return {"CANCELLED"}
+
+    def execute(self, context):
+        if _after_confirm(self, context, "rank"):
+            return {"FINISHED"}
+        self.t0 = getattr(self, "t0", None) or time.perf_counter()
+        try:
+            self._start(context)
+            self.job.run()
+        except ShapeSigError as exc:
+            return self._fail(context, exc)
+        return self._done(context)
+
+    def invoke(self, context, event):
+        self.t0 = time.perf_counter()  # the click: the panel reports its whole time
+        settings = library.settings_of(context)
+        asked = _confirm_cost(self, context, event, settings)
+        if asked is not None:
+            return asked
+        if context.window is None or bpy.app.background:
+            return self.execute(context)
+        try:
+            self._start(context)
+        except ShapeSigError as exc:
+            return self._fail(context, exc)
+        out = library.results_of(context)
+        out.running, out.progress = True, 0.0
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end_modal(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+
+    def modal(self, context, event):
+        out = library.results_of(context)
+        if event.type == "ESC":
+            self._end_modal(context)
+            out.running = False
+            out.message = (f"Find Similar cancelled after {time.perf_counter() - self.job.t0:.2f} s "
+                           f"({self.job.indexed} clips newly indexed stay in the index)")
+            self.report({"WARNING"}, out.message)
+            _tag_redraw(context)
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            t_end = time.perf_counter() + 0.05  # several quick steps per tick, one slow one at most
+            while not self.job.step() and time.perf_counter() < t_end:
+                pass
+        except Exception as exc:  # noqa: BLE001 - never leave a modal operator running after an error
+            self._end_modal(context)
+            return self._fail(context, exc)
+        out.progress = self.job.progress
+        context.window_manager.progress_update(int(1000 * self.job.progress))
+        _tag_redraw(context)
+        if self.job.finished:
+            self._end_modal(context)
+            return self._done(context)
+        return {"RUNNING_MODAL"}
+
 
 class SHAPESIG_OT_assign_result(bpy.types.Operator):
-    """Make the selected result the active armature's action"""
+    """Make the selected result the active armature's action (the replaced one is kept in the NLA)"""
 
     bl_idname = "shapesig.assign_result"
     bl_label = "Assign Result"
@@ -205,19 +299,17 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
     poll = _poll_with(library.result_problem)
 
     def execute(self, context):
-        settings = library.settings_of(context)
         try:
-            obj, action = library.selected_action(context, settings)
+            obj, action = library.assign_result(context, library.settings_of(context))
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Assign Result: {exc}")
             return {"CANCELLED"}
-        action_io.assign_action(obj, action)  # the replaced action is kept (stashed) when nothing else uses it
         self.report({"INFO"}, f"{obj.name}: action {action.name!r}")
         return {"FINISHED"}
 
 
 class SHAPESIG_OT_preview_result(bpy.types.Operator):
-    """Play the selected result on the armature; run again to stop and restore its action"""
+    """Play the selected result on the armature; run again to stop and restore exactly what was there"""
 
     bl_idname = "shapesig.preview_result"
     bl_label = "Preview Result"
@@ -235,11 +327,10 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
             self.report({"INFO"}, "preview stopped")
             return {"FINISHED"}
         try:
-            obj, action = library.selected_action(context, settings)
+            action = library.preview_result(context, settings)
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Preview: {exc}")
             return {"CANCELLED"}
-        library.start_preview(context, settings, obj, action)
         start, end = (int(v) for v in action.frame_range)
         self.report({"INFO"}, f"previewing {action.name!r} (frames {start}-{end}); run again to stop")
         return {"FINISHED"}
