@@ -353,9 +353,13 @@ def _row_sources(results, items):
     return out
 
 
-def store_results(settings, results, items, query_name, order_by="sim", query_bones=0, seconds=0.0):
+ELASTIC_COLUMN = "d_S*"
+
+
+def store_results(settings, results, items, query_name, order_by="sim^3", query_bones=0, seconds=0.0):
     """Write ranked rows into the window manager's results (``properties.results_of``), in ``results``' order,
-    which is ascending in ``order_by`` ("sim" or "elastic") within each tier (whole-body, then partial)."""
+    which is ascending in the column ``order_by`` ("sim^n" or ELASTIC_COLUMN) within each tier (whole-body
+    matches, then partial ones)."""
     out = results_of()
     kinds = _row_sources(results, items)
     labels = unique_labels([spec for is_action, spec in kinds if not is_action])[::-1]
@@ -455,7 +459,8 @@ class RankJob:
         cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
         self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
                                        cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
-        self.warnings = self.ranked.warnings + self.errors
+        self.warnings = self.errors + self.ranked.warnings
+        self.compared = len(items)
         self.by_key = {it.key: it for it in items}
         self._head = list(self.ranked[:cut]) if self.rerank else []
         self.total = self.done + len(self._head)
@@ -472,26 +477,29 @@ class RankJob:
         if self.rerank:
             head = [r for r in self.ranked if r.elastic is not None]
             self.rows = sorted(head, key=lambda r: (r.partial, r.elastic, r.distance, r.name))
-            self.order_by, self.not_listed = "elastic", len(self.ranked) - len(head)
+            self.order_by = "elastic"
         else:
-            self.rows, self.order_by, self.not_listed = list(self.ranked), "sim", 0
+            self.rows, self.order_by = list(self.ranked), "sim"
+        self.not_listed = max(self.compared - len(self.rows) - len(self.ranked.skipped), 0)
         self.seconds = time.perf_counter() - self.t0
 
     def store(self):
         """Write the rows and the status message; returns the message."""
         entries = self.cache.get(self.query.key, self.level) or []
         q_bones = len(entries[0].bones) if entries else 0
-        store_results(self.settings, self.rows, self.items, self.action.name, self.order_by, q_bones,
+        column = {"sim": f"sim^{self.level}", "elastic": ELASTIC_COLUMN}[self.order_by]
+        store_results(self.settings, self.rows, self.items, self.action.name, column, q_bones,
                       time.perf_counter() - self.t0)
         out = results_of()
-        column = {"sim": f"sim^{self.level}", "elastic": "d_S*"}[self.order_by]
         msg = (f"{len(self.rows)} results from {len(self.items)} clips, sorted by {column}; "
                f"{self.indexed} newly indexed")
         if self.failed:
             msg += f", {len(self.failed)} could not be read"
         msg += f"; {out.seconds:.2f} s"
+        if self.rerank:
+            msg += f"; the best {len(self.rows)} by sim^{self.level} re-ranked"
         if self.not_listed:
-            msg += f"; the best {len(self.rows)} by sim^{self.level} were re-ranked (raise Re-rank to list more)"
+            msg += f"; {self.not_listed} more not listed (raise {'Re-rank' if self.rerank else 'Show'})"
         if self.warnings:
             msg += f"; {len(self.warnings)} warning(s): {self.warnings[0]}"
         out.message = msg

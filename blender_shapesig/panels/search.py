@@ -1,8 +1,10 @@
 """Sidebar tab "ShapeSig": signature search (3D Viewport, Dope Sheet and NLA sidebars).
 
-Query (the active armature's action or a chosen one, optional frame range), library (file actions with a
-name filter / assets only, folders of clips), Build Index (progress bar while it runs), Find Similar, the
-results list (name, sim^n, elastic when re-ranked, frames) and, for the selected result, Assign, Preview
+Query (the active armature's action or a chosen one, optional frame range inside it), library (file actions
+with a name filter / assets only, folders of clips with an optional .asf skeleton), a cost note at level 4, Build
+Index and Find Similar (progress bars while they run, Esc cancels), the results list (window manager: transient)
+with a header naming its one sort column (d_S* when re-ranked, else sim^n) and the measured time of the click,
+unique labels, the matched frames and the bones compared, and, for the selected result, Assign, Preview
 and Blend (``shapesig.blend_actions`` with the query as A and the result as B). The operators' ``poll`` owns
 their preconditions (their buttons grey out, with the reason as tooltip); the panel shows the same reason as a
 label (``library.search_problem``), never an exception.
@@ -16,7 +18,8 @@ __all__ = ["classes", "SHAPESIG_UL_results", "draw_search"]
 
 
 class SHAPESIG_UL_results(bpy.types.UIList):
-    """Ranked results: name, sim^n distance, elastic distance (when re-ranked) and frame count."""
+    """Ranked results: unique label, the sort column first (d_S* when re-ranked, else sim^n), the other
+    distance, and the clip's frames / matched window; partial matches greyed with their bones compared."""
 
     bl_idname = "SHAPESIG_UL_results"
 
@@ -24,18 +27,34 @@ class SHAPESIG_UL_results(bpy.types.UIList):
         icon = "ACTION" if item.is_action else "FILE"
         if self.layout_type in {"DEFAULT", "COMPACT"}:
             row = layout.row(align=True)
-            split = row.split(factor=0.5)
+            split = row.split(factor=0.45)
             # a partial match (few shared bones) is greyed out, with the number of bones it was compared on
             split.active = not item.partial
-            split.label(text=item.name + (f" ({item.shared} bones)" if item.partial else ""), icon=icon)
+            split.label(text=(item.label or item.name) + (f" ({item.shared} bones)" if item.partial else ""),
+                        icon=icon)
             nums = split.row(align=True)
-            nums.label(text=("~" if item.approximate else "") + f"{item.distance:.4f}")
-            if item.has_elastic:
-                nums.label(text=f"e {item.elastic:.3f}")
-            nums.label(text=f"{item.frames} f")
+            sim = ("~" if item.approximate else "") + f"{item.distance:.4f}"
+            if library.results_of(context).order_by == library.ELASTIC_COLUMN and item.has_elastic:
+                nums.label(text=f"{item.elastic:.3f}")
+                nums.label(text=sim)
+            else:
+                nums.label(text=sim)
+                nums.label(text=f"{item.elastic:.3f}" if item.has_elastic else "")
+            nums.label(text=f"{item.frame_first}-{item.frame_last}" if item.frame_last else f"{item.frames} f")
         else:
             layout.alignment = "CENTER"
             layout.label(text="", icon=icon)
+
+
+def _header(layout, results):
+    """Column names over the list, the sort column first and marked with an arrow."""
+    row = layout.row(align=True)
+    split = row.split(factor=0.45)
+    split.label(text="Clip")
+    nums = split.row(align=True)
+    nums.label(text=f"{results.order_by} \u25b2")
+    nums.label(text="sim" if results.order_by == library.ELASTIC_COLUMN else "d_S*")
+    nums.label(text="Frames")
 
 
 def _message(layout, text, icon="INFO"):
@@ -90,6 +109,7 @@ def _draw_library(layout, s):
             col.prop(s, "catalog", text="", icon="OUTLINER_COLLECTION")
     if s.use_folders:
         col.prop(s, "folders", text="")
+        col.prop(s, "asf", text="Skeleton (.asf)")
     col.prop(s, "crop_start")
 
 
@@ -103,7 +123,18 @@ def _draw_search(layout, context, s):
     sub = row.row(align=True)
     sub.active = s.rerank > 0
     sub.prop(s, "depth")
+    if s.level >= library.COSTLY_LEVEL:
+        ref = library.COST_REFERENCE
+        _message(layout, f"Level {s.level} is costly: {ref['clips']} clips took {ref['seconds']:.0f} s and "
+                         f"{ref['bytes'] / 1e6:.0f} MB of index; indexing asks first with an estimate.", "ERROR")
+    results = library.results_of(context)
     row = layout.row(align=True)
+    if results.running:
+        if hasattr(row, "progress"):
+            row.progress(factor=results.progress, type="BAR", text=f"Ranking {results.progress:.0%} (Esc cancels)")
+        else:
+            row.label(text=f"Ranking {results.progress:.0%} (Esc cancels)")
+        row = layout.row(align=True)
     if s.index_running:
         if hasattr(row, "progress"):
             row.progress(factor=s.index_progress, type="BAR", text=f"Indexing {s.index_progress:.0%} (Esc cancels)")
@@ -119,24 +150,28 @@ def _draw_search(layout, context, s):
         _message(layout, _sentence(problem), "ERROR")
 
 
-def _draw_results(layout, s):
-    if s.message:
-        _message(layout, s.message)
-    if not s.results:
+def _draw_results(layout, s, res):
+    if res.message:
+        _message(layout, res.message)
+    if not res.results:
         layout.label(text="No results yet.", icon="INFO")
         return
-    layout.label(text=f"Similar to {s.query_name}:")
-    layout.template_list("SHAPESIG_UL_results", "", s, "results", s, "results_index", rows=6)
-    if not 0 <= s.results_index < len(s.results):
+    layout.label(text=f"Similar to {res.query_name}, sorted by {res.order_by} (best first); "
+                      f"click took {res.seconds:.2f} s")
+    _header(layout, res)
+    layout.template_list("SHAPESIG_UL_results", "", res, "results", res, "results_index", rows=6)
+    if not 0 <= res.results_index < len(res.results):
         layout.label(text="Select a result.", icon="INFO")
         return
-    item = s.results[s.results_index]
+    item = res.results[res.results_index]
     info = layout.column(align=True)
-    info.label(text=f"sim^{s.level} = {item.distance:.4f}" + (f", elastic = {item.elastic:.4f}" if item.has_elastic
+    info.label(text=f"sim^{s.level} = {item.distance:.4f}" + (f", d_S* = {item.elastic:.4f}" if item.has_elastic
                                                               else ""))
-    info.label(text=f"{item.frames} frames, {item.shared} shared bones")
-    if not item.is_action:
-        info.label(text=item.source, icon="FILE")
+    window = f"frames {item.frame_first}-{item.frame_last}" if item.frame_last else f"{item.frames} frames"
+    cover = f" of {res.query_bones} ({item.coverage:.0%})" if res.query_bones else ""
+    info.label(text=f"{window}, compared on {item.shared} bones{cover}")
+    if item.spec:
+        info.label(text=item.spec, icon="FILE")
     row = layout.row(align=True)
     row.operator("shapesig.assign_result", icon="CHECKMARK", text="Assign")
     if s.preview_object:
@@ -144,7 +179,7 @@ def _draw_results(layout, s):
         op.stop = True
     else:
         row.operator("shapesig.preview_result", icon="PLAY", text="Preview")
-    query = s.query_name
+    query = res.query_name
     sub = row.row(align=True)
     sub.enabled = item.is_action and bool(query)
     op = sub.operator("shapesig.blend_actions", icon="MOD_DATA_TRANSFER", text="Blend")
@@ -165,7 +200,7 @@ def draw_search(layout, context):
     _draw_query(layout, s, getattr(context, "active_object", None))
     _draw_library(layout, s)
     _draw_search(layout, context, s)
-    _draw_results(layout, s)
+    _draw_results(layout, s, library.results_of(context))
 
 
 class _SearchPanel:
