@@ -79,7 +79,27 @@ def _after_confirm(op, context, name, **props):
     return True
 
 
-class SHAPESIG_OT_build_index(bpy.types.Operator):
+class _ModalSteps:
+    """A timer-driven modal operator with Blender's progress cursor: ``_begin_modal`` / ``_end_modal``."""
+
+    _timer = None
+
+    def _begin_modal(self, context, total):
+        wm = context.window_manager
+        wm.progress_begin(0, total)
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end_modal(self, context):
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+
+
+class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
     """Compute the signature index of every library clip not indexed yet (Esc cancels)"""
 
     bl_idname = "shapesig.build_index"
@@ -89,8 +109,6 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
     then_rank: BoolProperty(name="Then Rank", description="Run Find Similar when the index is complete",
                             default=False, options={"SKIP_SAVE", "HIDDEN"})
     confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
-
-    _timer = None
 
     poll = _poll_with(library.search_problem)
 
@@ -111,13 +129,15 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
         s = self.settings
         s.index_running = False
         s.index_progress = 1.0 if not cancelled else s.index_progress
-        computed = self.cache.stats["misses"] - self.before.get("misses", 0)
+        # a clip that fails to read was a miss too: it is counted apart, never as computed
+        failed = len(self.errors)
+        computed = self.cache.stats["misses"] - self.before.get("misses", 0) - failed
         msg = (f"index: {self.done} of {len(self.items)} clips, {computed} computed, "
-               f"{self.done - computed} already indexed")
+               f"{self.done - computed - failed} already indexed")
         if cancelled:
             msg = "cancelled; " + msg
         if self.errors:
-            msg += f"; {len(self.errors)} could not be read ({self.errors[0]})"
+            msg += f"; {failed} could not be read ({self.errors[0]})"
         s.message = msg
         self.report({"WARNING"} if (self.errors or cancelled) else {"INFO"}, msg)
         _tag_redraw(context)
@@ -153,18 +173,7 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
             return {"CANCELLED"}
         self.settings.index_running = True
         self.settings.index_progress = 0.0
-        wm = context.window_manager
-        wm.progress_begin(0, len(self.items))
-        self._timer = wm.event_timer_add(0.01, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
-
-    def _end_modal(self, context):
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
+        return self._begin_modal(context, len(self.items))
 
     def modal(self, context, event):
         if event.type == "ESC":
@@ -191,7 +200,7 @@ class SHAPESIG_OT_build_index(bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
 
-class SHAPESIG_OT_rank(bpy.types.Operator):
+class SHAPESIG_OT_rank(_ModalSteps, bpy.types.Operator):
     """Rank the library by similarity (sim^n) to the query action (Esc cancels a long ranking)"""
 
     bl_idname = "shapesig.rank"
@@ -202,7 +211,6 @@ class SHAPESIG_OT_rank(bpy.types.Operator):
 
     confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
 
-    _timer = None
     poll = _poll_with(library.search_problem)
 
     def _start(self, context):
@@ -248,18 +256,7 @@ class SHAPESIG_OT_rank(bpy.types.Operator):
             return self._fail(context, exc)
         out = library.results_of(context)
         out.running, out.progress = True, 0.0
-        wm = context.window_manager
-        wm.progress_begin(0, 1000)
-        self._timer = wm.event_timer_add(0.01, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
-
-    def _end_modal(self, context):
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
+        return self._begin_modal(context, 1000)
 
     def modal(self, context, event):
         out = library.results_of(context)

@@ -234,6 +234,10 @@ def test_labels_are_unique_and_counts_honest(empty_file, cache_env, tmp_path):
     assert row.coverage == pytest.approx(1.0) and row.shared == library.results_of().query_bones
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     assert "0 newly indexed, 1 could not be read" in library.results_of().message
+    library.CACHES.clear()
+    shutil.rmtree(cache_env)
+    assert bpy.ops.shapesig.build_index() == {"FINISHED"}
+    assert "index: 5 of 5 clips, 4 computed, 0 already indexed; 1 could not be read" in s.message
     assert library.unique_labels(["/x/a/w.blend#run", "/x/b/w.blend#run", "/x/c.bvh"]) == \
         ["a/w.blend#run", "b/w.blend#run", "c.bvh"]
 
@@ -262,21 +266,18 @@ def test_rank_modal_progress_escape_and_measured_time(rig):
     of the whole click (from its start, not only the ranking)."""
     from blender_shapesig.operators.search import SHAPESIG_OT_rank as Op
 
-    class Stand:
-        _timer = None
+    def stand():
+        """An object with the operator's modal methods and a report log."""
+        methods = {n: getattr(Op, n) for n in ("_start", "_done", "_fail", "_begin_modal", "_end_modal", "modal")}
+        obj = type("Stand", (), dict(methods, _timer=None))()
+        obj.reports = []
+        obj.report = lambda kind, msg: obj.reports.append((set(kind), msg))
+        return obj
 
-        def __init__(self):
-            self.reports = []
-
-        def report(self, kind, msg):
-            self.reports.append((set(kind), msg))
-
-    for name in ("_start", "_done", "_fail", "_end_modal", "modal"):
-        setattr(Stand, name, getattr(Op, name))
     ctx = bpy.context
     res = library.results_of(ctx)
     timer = SimpleNamespace(type="TIMER")
-    op = Stand()
+    op = stand()
     op.t0 = time.perf_counter()
     op._start(ctx)
     assert op.job.total == 4 + 1 + 10 - 0 and op.modal(ctx, SimpleNamespace(type="MOUSEMOVE")) == {"PASS_THROUGH"}
@@ -286,7 +287,7 @@ def test_rank_modal_progress_escape_and_measured_time(rig):
     assert "cancelled" in res.message and op.reports[-1][0] == {"WARNING"}
     assert len(res.results) == 0  # nothing ranked
     assert library.missing_count(ctx, ctx.scene.shapesig) == 3  # the one indexed clip stays indexed
-    op = Stand()
+    op = stand()
     op.t0 = time.perf_counter() - 5.0  # a click that started 5 s ago
     op._start(ctx)
     seen = []
