@@ -351,3 +351,23 @@ def test_subprocess_blend_amc_inbetweens(amc, tmp_path):
     assert report["actions"] == ["07_01_x_07_02_0.33", "07_01_x_07_02_0.67"]
     assert report["frames"] == [320, 325]
     assert out.exists()
+
+
+def test_subprocess_rank_blend_results_name_their_action(amc, tmp_path):
+    """Issue 17: a .blend in the library yields one result per action, each with "path" (the file as given)
+    and "action" (the action's name), so a script can load exactly that action again."""
+    pytest.importorskip("bpy")
+    out = tmp_path / "two.blend"
+    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "blend", amc["w1"], amc["r1"], "--inbetweens", "2",
+                        "--out", str(out), "--json", "--no-progress"], capture_output=True, text=True, env=_env(),
+                       cwd=str(ROOT), timeout=600)
+    assert p.returncode == 0, p.stderr
+    actions = json.loads(p.stdout)["actions"]
+    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "rank", amc["w2"], str(out), amc["w1"],
+                        f"{out}#{actions[1]}", "--json", "--no-progress", "--metric", "sim2"],
+                       capture_output=True, text=True, env=_env(), cwd=str(ROOT), timeout=600)
+    assert p.returncode == 0, p.stderr
+    rows = json.loads(p.stdout)["results"]
+    got = sorted((r["path"], r["action"]) for r in rows)
+    assert got == sorted([(str(out), actions[0]), (str(out), actions[1]), (str(out), actions[1]),
+                          (amc["w1"], None)])
