@@ -30,9 +30,9 @@ import bpy
 
 from . import action_io, compat
 from .core import index, sources
-from .core.errors import ShapeSigError, check_frame_range
+from .core.errors import ShapeSigError, check_frame_range, check_integer
 from .preferences import ADDON_ID, get_preferences
-from .properties import results_of, settings_of
+from .properties import PANEL_MAX_LEVEL, results_of, settings_of
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
@@ -163,14 +163,24 @@ def search_problem(context, settings) -> Optional[str]:
         if settings.query_action:
             return f"there is no action {settings.query_action!r}"
         return f"armature {obj.name!r} has no action: assign one or choose a query action"
-    if settings.use_frame_range:
-        try:
+    try:
+        _check_values(settings)
+        if settings.use_frame_range:
             _query_range(_query_action(obj, settings), settings)
-        except ShapeSigError as exc:
-            return str(exc)
+    except ShapeSigError as exc:
+        return str(exc)
     if not settings.use_file_actions and not settings.use_folders:
         return "the library is empty: search file actions or folders"
     return None
+
+
+def _check_values(settings):
+    """The search settings' integers, refused out of range (they have soft limits only: no silent clamping)."""
+    check_integer(settings.level, "level", 1, maximum=PANEL_MAX_LEVEL)
+    check_integer(settings.rerank, "re-rank", 0)
+    check_integer(settings.top, "show", 0)
+    check_integer(settings.depth, "depth", 1)
+    check_integer(settings.crop_start, "crop start", 0)
 
 
 def result_problem(context, settings) -> Optional[str]:

@@ -23,6 +23,9 @@ __all__ = ["ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "
 
 # K of the two-stage search the panel uses by default (see docs/evaluation.md, "Winner").
 RERANK_DEFAULT = 10
+# The panel's highest level (level 4 already costs ~2.5 s and ~7 MB per clip); the integer settings have soft
+# limits only: a script's value out of range is refused by ``library.search_problem``, never clamped.
+PANEL_MAX_LEVEL = 4
 
 
 def _frame_range_from_action(settings, context):
@@ -108,16 +111,17 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                             "(library actions, folder clips and the query unless it has a frame range): 7 for "
                             "CMU 'Daz-friendly' BVH files (frame 1 is a rest pose, frames 2-6 a ramp from it); "
                             "0 keeps all",
-                            default=0, min=0)
+                            default=0, soft_min=0)
     # search
     level: IntProperty(name="Level", description="Log-signature level n of sim^n", default=DEFAULT_LEVEL,
-                       min=1, max=4)
+                       soft_min=1, soft_max=PANEL_MAX_LEVEL)
     # default 10: the evaluation's winner (docs/evaluation.md): a sim^3 shortlist re-ranked by d_S* over the top
     # 10 matched d_S*'s leave-one-out accuracy on every CMU set at a fraction of its cost
     rerank: IntProperty(name="Re-rank", description="Re-order the best K by elastic distance (0: off)",
-                        default=RERANK_DEFAULT, min=0, max=100)
-    top: IntProperty(name="Show", description="Number of results kept (0: all)", default=25, min=0)
-    depth: IntProperty(name="Depth", description="Elastic DP search depth", default=DEFAULT_DEPTH, min=1, max=30)
+                        default=RERANK_DEFAULT, soft_min=0, soft_max=100)
+    top: IntProperty(name="Show", description="Number of results kept (0: all)", default=25, soft_min=0)
+    depth: IntProperty(name="Depth", description="Elastic DP search depth", default=DEFAULT_DEPTH,
+                       soft_min=1, soft_max=30)
     # index build / preview state (the preview's is what Stop restores exactly; saved with the file, so a file
     # saved while previewing still restores on Stop)
     index_running: BoolProperty(default=False, options={"SKIP_SAVE"})

@@ -30,16 +30,18 @@ class ParseError(ShapeSigError):
         self.line = line
 
 
-def check_integer(value, name, minimum=1, allow_none=False):
-    """``value`` as an int >= minimum (an integral float is fine); ShapeSigError naming ``name`` otherwise."""
+def check_integer(value, name, minimum=1, allow_none=False, maximum=None):
+    """``value`` as an int >= minimum (and <= maximum when given; an integral float is fine); ShapeSigError
+    naming ``name`` otherwise."""
     if value is None and allow_none:
         return None
-    expected = f"an integer >= {minimum}" + (" or None" if allow_none else "")
+    span = f">= {minimum}" if maximum is None else f"in {minimum}..{maximum}"
+    expected = f"an integer {span}" + (" or None" if allow_none else "")
     try:
         n = int(value)
     except (TypeError, ValueError, OverflowError):
         raise ShapeSigError(f"{name}: expected {expected}, got {value!r}") from None
-    if n != value or n < minimum:
+    if n != value or n < minimum or (maximum is not None and n > maximum):
         raise ShapeSigError(f"{name}: expected {expected}, got {value!r}")
     return n
 
@@ -70,10 +72,7 @@ def check_weight(value, name="weight"):
 
 def check_inbetweens(value, name="in-betweens"):
     """A count of in-betweens: an integer in [1, MAX_INBETWEENS]."""
-    n = check_integer(value, name, minimum=1)
-    if n > MAX_INBETWEENS:
-        raise ShapeSigError(f"{name}: expected at most {MAX_INBETWEENS}, got {value!r}")
-    return n
+    return check_integer(value, name, minimum=1, maximum=MAX_INBETWEENS)
 
 
 def check_frame_range(start, end, first, last, what="the clip"):

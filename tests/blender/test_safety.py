@@ -146,7 +146,8 @@ def test_assign_preview_stop_and_blends_survive_save_and_reopen(rig, tmp_path):
 @pytest.mark.parametrize("kw, needle", [
     ({"weight": 5.0}, "weight"), ({"weight": -3.0}, "weight"), ({"weight": 1e30}, "weight"),
     ({"weight": math.inf}, "weight"), ({"weight": math.nan}, "weight"),
-    ({"inbetweens": 500}, f"at most {MAX_INBETWEENS}"), ({"inbetweens": MAX_INBETWEENS + 1}, "at most"),
+    ({"inbetweens": 500}, f"in-betweens: expected an integer in 1..{MAX_INBETWEENS}, got 500"),
+    ({"inbetweens": MAX_INBETWEENS + 1}, f"1..{MAX_INBETWEENS}"),
     ({"inbetweens": 0}, "in-betweens"), ({"depth": 0}, "depth"), ({"frames": 1}, "length"),
 ])
 def test_blend_refuses_out_of_range_values_and_changes_nothing(rig, kw, needle):
@@ -161,6 +162,20 @@ def test_blend_properties_have_soft_not_hard_limits(addon):
     w, k = props["weight"], props["inbetweens"]
     assert (w.soft_min, w.soft_max) == (0.0, 1.0) and w.hard_max > 1e30 and w.hard_min < -1e30
     assert k.soft_max == MAX_INBETWEENS and k.hard_max > 10 ** 6
+
+
+@pytest.mark.parametrize("prop, value, needle", [
+    ("level", 7, "level: expected an integer in 1..4, got 7"), ("level", 0, "level"),
+    ("rerank", -5, "re-rank: expected an integer >= 0"), ("top", -1, "show"), ("depth", 0, "depth"),
+    ("crop_start", -2, "crop start"),
+])
+def test_search_settings_out_of_range_are_refused_not_clamped(rig, prop, value, needle):
+    s = bpy.context.scene.shapesig
+    setattr(s, prop, value)
+    assert getattr(s, prop) == value  # soft limits: the value is kept as given ...
+    assert not bpy.ops.shapesig.rank.poll()  # ... and refused, with the reason
+    assert needle in _error(bpy.ops.shapesig.rank) and needle in _error(bpy.ops.shapesig.build_index)
+    assert len(s.results) == 0
 
 
 def test_frame_range_is_checked_inside_the_action(rig):
