@@ -149,6 +149,8 @@ def _armature(context):
 def _query_action(obj, settings):
     if settings.query_action:
         return bpy.data.actions.get(settings.query_action)
+    if settings.preview_object == obj.name and settings.preview_action:
+        return bpy.data.actions.get(settings.preview_action)  # while previewing: the action Stop gives back
     return obj.animation_data.action if obj.animation_data else None
 
 
@@ -536,9 +538,11 @@ def result_action(settings, obj, row):
     action on ``obj`` (the row then names that action; ``row.spec`` keeps the file)."""
     if row.is_action:
         action = bpy.data.actions.get(row.source)
-        if action is None:
+        if action is not None:
+            return action
+        if not row.spec:
             raise ShapeSigError(f"the action {row.source!r} no longer exists")
-        return action
+        row.is_action, row.source = False, row.spec  # its written action was undone or removed: read it again
     asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
     loaded = sources.read(sources.ClipSpec.parse(row.spec or row.source, asf=asf))
     clip = next((c for c in loaded if c.name == row.clip_name), loaded[0])

@@ -85,6 +85,7 @@ def test_preview_and_stop_of_a_file_action_restore_exactly(rig):
     before, hashes = _state(rig), _hashes()
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
     assert rig.animation_data.action.name == "jump" and s.preview_object == rig.name
+    assert library.query_item(bpy.context, s)[1].name == "walk"  # the query stays the previewed-over action
     # the previous action is kept alive while previewing (a save now would keep it)
     assert bpy.data.actions["walk"].use_fake_user and bpy.data.actions["walk"].users >= 1
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}  # Stop
@@ -106,6 +107,11 @@ def test_preview_of_a_folder_result_leaves_nothing_after_stop(rig):
     assert _state(rig) == before  # no leftover action, same action, slot, modes, frame
     row = s.results[i]
     assert not row.is_action and row.source == row.spec and row.spec.endswith("09_03.bvh")
+    # a row whose written action disappeared (e.g. undone) reads its file again
+    row.is_action, row.source = True, "gone"
+    assert library.result_action(s, rig, row).name.startswith("09_03")
+    compat.remove_action(bpy.data.actions[row.source])
+    row.is_action, row.source = False, row.spec
     # preview, then Assign the previewed folder result: it is kept (assigned), the walk is stashed
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
     written = s.preview_written
