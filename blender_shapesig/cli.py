@@ -299,16 +299,14 @@ def write_blend_file(spec_a, blended, out_path, asf=None):
 
 
 def _parse_weights(args):
-    from .core.errors import check_inbetweens
+    from .core.errors import check_inbetweens, check_weight
 
     if args.inbetweens is not None:
         k = check_inbetweens(args.inbetweens, "--inbetweens")  # 1..MAX_INBETWEENS, as the operator
         return [i / (k + 1) for i in range(1, k + 1)]
     if args.weight is None:
         raise CommandError("blend: give --weight s (0..1) or --inbetweens K")
-    if not 0.0 <= args.weight <= 1.0:
-        raise CommandError(f"--weight must lie in [0, 1], got {args.weight}")
-    return [args.weight]
+    return [check_weight(args.weight, "--weight")]  # a finite number in [0, 1], as the operator
 
 
 def cmd_blend(args):

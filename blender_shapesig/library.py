@@ -472,7 +472,7 @@ class RankJob:
         self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
                                        cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
         self.warnings = self.errors + self.ranked.warnings
-        self.compared = len(items)
+        self.compared = self.ranked.stats.get("library", len(items))  # clips (a .blend item may hold several)
         self.by_key = {it.key: it for it in items}
         self._head = list(self.ranked[:cut]) if self.rerank else []
         self.total = self.done + len(self._head)
@@ -503,7 +503,7 @@ class RankJob:
         store_results(self.settings, self.rows, self.items, self.action.name, column, q_bones,
                       time.perf_counter() - self.t0)
         out = results_of()
-        msg = (f"{len(self.rows)} results from {len(self.items)} clips, sorted by {column}; "
+        msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column}; "
                f"{self.indexed} newly indexed")
         if self.failed:
             msg += f", {len(self.failed)} could not be read"

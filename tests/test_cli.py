@@ -126,6 +126,8 @@ def test_explicit_asf(capsys, amc):
     ([], "no command"),
     (["rank", "W1", "W2", "--top", "0"], "--top"),
     (["blend", "W1", "W2", "--weight", "1.5", "--out", "x.blend"], "--weight"),
+    (["blend", "W1", "W2", "--weight", "inf", "--out", "x.blend"], "--weight: expected a finite number in [0, 1]"),
+    (["blend", "W1", "W2", "--weight", "nan", "--out", "x.blend"], "--weight: expected a finite number in [0, 1]"),
     (["blend", "W1", "W2", "--weight", "0.5", "--out", "x.txt"], ".blend"),
     (["matrix", "W1", "--out", "OUT"], "at least two"),
     (["evaluate", "--index", "missing.csv", "--data", ".", "--out", "OUT"], "index file not found"),
