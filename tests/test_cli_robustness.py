@@ -187,7 +187,7 @@ def test_blend_errors_write_nothing(capsys, clips, tmp_path):
     out = tmp_path / "out.blend"
     cases = [
         (["blend", clips["one"], clips["run"], "--weight", "0.5", "--align"], "two frames"),
-        (["blend", clips["run"], clips["two"], "--weight", "1.5"], "--weight must lie in [0, 1]"),
+        (["blend", clips["run"], clips["two"], "--weight", "1.5"], "--weight: expected a finite number in [0, 1], got 1.5"),
         (["blend", clips["run"], clips["two"]], "give --weight"),
         (["blend", clips["run"], str(tmp_path / "missing.amc"), "--weight", "0.5"], "not found"),
     ]
