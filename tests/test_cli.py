@@ -355,21 +355,21 @@ def test_subprocess_blend_amc_inbetweens(amc, tmp_path):
     assert out.exists()
 
 
+def _cli_json(*args):
+    """Run the command line in a fresh process with --json --no-progress; its JSON report."""
+    p = subprocess.run([sys.executable, "-m", "blender_shapesig", *map(str, args), "--json", "--no-progress"],
+                       capture_output=True, text=True, env=_env(), cwd=str(ROOT), timeout=600)
+    assert p.returncode == 0, p.stderr
+    return json.loads(p.stdout)
+
+
 def test_subprocess_rank_blend_results_name_their_action(amc, tmp_path):
     """Issue 17: a .blend in the library yields one result per action, each with "path" (the file as given)
     and "action" (the action's name), so a script can load exactly that action again."""
     pytest.importorskip("bpy")
     out = tmp_path / "two.blend"
-    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "blend", amc["w1"], amc["r1"], "--inbetweens", "2",
-                        "--out", str(out), "--json", "--no-progress"], capture_output=True, text=True, env=_env(),
-                       cwd=str(ROOT), timeout=600)
-    assert p.returncode == 0, p.stderr
-    actions = json.loads(p.stdout)["actions"]
-    p = subprocess.run([sys.executable, "-m", "blender_shapesig", "rank", amc["w2"], str(out), amc["w1"],
-                        f"{out}#{actions[1]}", "--json", "--no-progress", "--metric", "sim2"],
-                       capture_output=True, text=True, env=_env(), cwd=str(ROOT), timeout=600)
-    assert p.returncode == 0, p.stderr
-    rows = json.loads(p.stdout)["results"]
+    actions = _cli_json("blend", amc["w1"], amc["r1"], "--inbetweens", "2", "--out", out)["actions"]
+    rows = _cli_json("rank", amc["w2"], out, amc["w1"], f"{out}#{actions[1]}", "--metric", "sim2")["results"]
     got = sorted((r["path"], r["action"]) for r in rows)
     assert got == sorted([(str(out), actions[0]), (str(out), actions[1]), (str(out), actions[1]),
                           (amc["w1"], None)])
