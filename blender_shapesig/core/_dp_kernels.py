@@ -256,11 +256,40 @@ if HAVE_NUMBA:
 
     @_numba.njit(cache=True, nogil=True)
     def _gram_numba(Q0, Q1T):
+        """G = Q0 Q1^T, each entry summed as ((x0 q0 + x1 q1) + (x2 q2 + x3 q3)) per group of four columns, then
+        the rest one by one. Two rows of G per pass, so that each row of Q1^T loaded serves both."""
         n0, c = Q0.shape
         n1 = Q1T.shape[1]
         G = np.zeros((n0, n1))
         c4 = c - c % 4
-        for a in range(n0):
+        for a in range(0, n0 - 1, 2):
+            g = G[a]
+            h = G[a + 1]
+            for r in range(0, c4, 4):
+                x0 = Q0[a, r]
+                x1 = Q0[a, r + 1]
+                x2 = Q0[a, r + 2]
+                x3 = Q0[a, r + 3]
+                y0 = Q0[a + 1, r]
+                y1 = Q0[a + 1, r + 1]
+                y2 = Q0[a + 1, r + 2]
+                y3 = Q0[a + 1, r + 3]
+                q0 = Q1T[r]
+                q1 = Q1T[r + 1]
+                q2 = Q1T[r + 2]
+                q3 = Q1T[r + 3]
+                for b in range(n1):
+                    g[b] += (x0 * q0[b] + x1 * q1[b]) + (x2 * q2[b] + x3 * q3[b])
+                    h[b] += (y0 * q0[b] + y1 * q1[b]) + (y2 * q2[b] + y3 * q3[b])
+            for r in range(c4, c):
+                x = Q0[a, r]
+                y = Q0[a + 1, r]
+                q = Q1T[r]
+                for b in range(n1):
+                    g[b] += x * q[b]
+                    h[b] += y * q[b]
+        if n0 % 2:
+            a = n0 - 1
             g = G[a]
             for r in range(0, c4, 4):
                 x0 = Q0[a, r]
