@@ -361,7 +361,7 @@ def test_file_items_for_command_line_specs(data_dir, tmp_path):
     assert (clip.frame_start, clip.frames) == (10, 51)
     with pytest.raises(ShapeSigError, match="does not exist"):
         search.folder_library([str(tmp_path / "x.blend#walk")])
-    # .bvh and .blend readers live in the Blender layer, imported when first needed: without bpy, one line
+    # a reader named by module path (.blend's lives in the Blender layer) is imported when first needed: without it, one line
     from blender_shapesig.core import sources
 
     saved = dict(sources._READERS)
