@@ -22,7 +22,6 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from ..clip import Clip
-from ..elastic import elastic_distance
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, curve_distance, parse_metric
 from ..sources import LibraryItem, as_items, clip_item, library
@@ -230,6 +229,8 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
 def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
     """Re-order the first ``rerank`` results (of the whole-body tier when there is one) by d_S*, filling
     their ``elastic``."""
+    from ..elastic import elastic_distance  # numba is imported only when a re-rank needs the DP
+
     full = sum(1 for r in results if not r.partial)
     head = results[:min(rerank, full)] if full else results[:rerank]
     by_key = {(e.key, e.name): (item, e) for item, e in pairs}
