@@ -128,7 +128,10 @@ def action_hash(action, _co_cache=None) -> str:
 
 def armature_actions(obj=None):
     """Actions in bpy.data that animate pose bones; with an armature object, only those that animate at
-    least one of its bones. In bpy.data order."""
+    least one of its bones. In bpy.data order. (The bones an action animates are remembered with its
+    fingerprint: see ``action_changes``.)"""
+    from .action_changes import action_bones  # remembered per session with the action's fingerprint
+
     names = None
     if obj is not None:
         if getattr(obj, "type", None) != "ARMATURE":
@@ -136,10 +139,10 @@ def armature_actions(obj=None):
         names = {b.name for b in obj.data.bones}
     out = []
     for action in bpy.data.actions:
-        bones = _bone_channels(compat.all_action_fcurves(action))
+        bones = action_bones(action)
         if not bones:
             continue
-        if names is not None and not (names & set(bones)):
+        if names is not None and names.isdisjoint(bones):
             continue
         out.append(action)
     return out
