@@ -4,8 +4,8 @@ ranking with the built index; the one-off index build; the index's memory.
     .venv/bin/python benchmarks/bench_find_similar.py [--actions 1000] [--blend FILE] [--repeat 5] [--json OUT]
 
 1. The file: an armature imported from tests/data/bvh/07_01.bvh (43 bones, Blender's importer) and ``--actions``
-   actions written with ``action_io.write_action`` from the six test BVH clips (read by ``core.formats.bvh``),
-   each cropped differently (131-337 frames at 120 fps, ~130 F-curves each). Saved to ``--blend`` (built once,
+   actions written with ``action_io.write_action`` from the six test BVH clips (read by ``core.formats.bvh``,
+   every 4th frame: 30 fps as in the issue's file), each cropped differently (31-84 frames, 132 F-curves each). Saved to ``--blend`` (built once,
    reused when it exists).
 2. Index build (the one-off cost): ``library.library_items`` + ``core.index.build_index`` into a fresh folder:
    actions per second.
@@ -32,7 +32,9 @@ sys.path.insert(0, str(ROOT))
 import bpy  # noqa: E402
 
 import blender_shapesig  # noqa: E402
-from blender_shapesig import action_io, library  # noqa: E402
+import dataclasses  # noqa: E402
+
+from blender_shapesig import action_changes, action_io, library  # noqa: E402
 from blender_shapesig.core import index  # noqa: E402
 from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
@@ -40,16 +42,22 @@ from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 BVH = ROOT / "tests" / "data" / "bvh"
 
 
+def _at_30fps(clip):
+    """Every 4th frame of a 120 fps clip (the issue's file holds 30 fps CMU clips)."""
+    return dataclasses.replace(clip, rotations=clip.rotations[::4], root_translation=clip.root_translation[::4],
+                               fps=30.0)
+
+
 def build_file(path, n_actions):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     arm, _ = import_armature(str(BVH / "07_01.bvh"))
     arm.name = "Rig"
     bpy.data.actions.remove(arm.animation_data.action)
-    clips = [load_bvh(p) for p in sorted(BVH.glob("*.bvh"))]
+    clips = [_at_30fps(load_bvh(p)) for p in sorted(BVH.glob("*.bvh"))]
     t0 = time.perf_counter()
     for n in range(n_actions):
         clip = clips[n % len(clips)]
-        start = 2 + (n // len(clips)) % 40
+        start = 2 + (n // len(clips)) % 10
         a = action_io.write_action(clip.crop(start, None), armature=arm, name=f"{clip.name}_{n:04d}")
         if n == 0:
             action_io.assign_action(arm, a)
@@ -103,10 +111,18 @@ def main(argv=None):
     for a in bpy.data.actions:
         action_io.action_hash(a)
     out["baseline_action_hash_all_ms"] = round((time.perf_counter() - t0) * 1e3, 1)
+    t0 = time.perf_counter()
+    for a in bpy.data.actions:
+        action_changes.action_fingerprint(a)
+    t1 = time.perf_counter()
+    for a in bpy.data.actions:
+        action_changes.action_fingerprint(a)
+    out["fingerprints_all_ms"] = {"first": round((t1 - t0) * 1e3, 1),
+                                  "remembered": round((time.perf_counter() - t1) * 1e3, 1)}
 
     with tempfile.TemporaryDirectory() as folder:
         cache = index.SignatureCache(folder)
-        action_io.forget_fingerprints()
+        action_changes.forget_fingerprints()
         t0 = time.perf_counter()
         obj, action, q = library.query_item(context, settings)
         items = [q] + [it for it in library.library_items(context, settings, obj) if it.key != q.key]
@@ -123,7 +139,7 @@ def main(argv=None):
         out["index_memory"] = {"bytes_per_clip": int(mem / len(items)),
                                "mb_for_2600": round(mem / len(items) * 2600 / 2**20, 1)}
 
-        action_io.forget_fingerprints()
+        action_changes.forget_fingerprints()
         out["click_cold"] = click(context, settings, cache)
         warm = [click(context, settings, cache) for _ in range(args.repeat)]
         out["click_warm_best"] = min(warm, key=lambda r: r["wall_ms"])

@@ -21,6 +21,7 @@ floats) first, naming the line, so the importer only ever sees a file it reads. 
 """
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from typing import List, Optional
 
@@ -33,6 +34,9 @@ __all__ = ["bvh_text", "check_bvh", "load_bvh", "parse_bvh", "BvhJoint", "BVH_TO
 
 # The axis conversion of Blender's importer (axis_forward '-Z', axis_up 'Y' -> Blender's Y forward, Z up).
 BVH_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+# A E A^T by indexing (batched 3x3 products are slow in numpy): A[i] = _SIGN[i] e_{_PERM[i]}.
+_PERM = np.argmax(np.abs(BVH_TO_BLENDER), axis=1)
+_SIGNS = np.outer(BVH_TO_BLENDER[np.arange(3), _PERM], BVH_TO_BLENDER[np.arange(3), _PERM])
 # Blender's bone names hold at most 63 bytes.
 _MAX_NAME_BYTES = 63
 
@@ -219,11 +223,10 @@ def _motion(lines, start, columns, path):
     rows = body[2:]
     if len(rows) < max(frames, 1):
         raise ParseError(f"{len(rows)} frames of motion data for 'Frames: {frames}' (truncated file?)", path)
-    try:
-        values = np.array(" ".join(rows).split(), dtype=np.float64)
-    except ValueError:
-        values = None
-    if (values is None or values.size != len(rows) * columns or not np.all(np.abs(values) < _FLOAT32_MAX)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a bad token ends the C parser early: the size check below catches it
+        values = np.fromstring(" ".join(rows), dtype=np.float64, sep=" ")
+    if (values.size != len(rows) * columns or not np.all(np.abs(values) < _FLOAT32_MAX)
             or any(len(r.split()) != columns for r in rows)):
         raise ParseError(f"every frame needs {columns} finite numbers", path)
     if not frame_time > 0 or frame_time == float("inf"):
@@ -260,19 +263,24 @@ def load_bvh(path, name: Optional[str] = None):
     path = os.fspath(path)
     joints, frame_time, values = parse_bvh(path)
     frames = values.shape[0]
-    A = BVH_TO_BLENDER
     R = np.empty((frames, len(joints), 3, 3))
-    modes, missing = [], []
+    R[:] = np.eye(3)
+    modes, missing, groups = [], [], {}
     for j, joint in enumerate(joints):
         rot = joint.columns("rotation")
         order = "".join(rot).upper()  # channel order: E = R_c1 R_c2 R_c3
         modes.append(order or "XYZ")
         if not rot:
-            R[:, j] = np.eye(3)
             missing.append(joint.name)
             continue
-        angles = np.radians(values[:, [rot[c] for c in reversed(list(rot))]])
-        R[:, j] = A @ matrix_from_euler(angles, order[::-1]) @ A.T
+        group = groups.setdefault(order, ([], []))
+        group[0].append(j)
+        group[1].extend(rot[c] for c in reversed(list(rot)))  # Blender's Euler mode: the last channel first
+    for order, (idx, cols) in groups.items():  # one Euler conversion per channel order
+        angles = np.radians(values[:, cols]).reshape(frames, len(idx), 3)
+        E = matrix_from_euler(angles, order[::-1])
+        R[:, idx] = E[..., _PERM, :][..., _PERM] * _SIGNS  # A E A^T: A is a signed permutation
+    A = BVH_TO_BLENDER
     root_translation = None
     pos = joints[0].columns("position")
     if pos:
@@ -288,5 +296,4 @@ def load_bvh(path, name: Optional[str] = None):
                 rotation_modes=tuple(modes), source=path,
                 meta={"missing_rotation_bones": tuple(missing), "rotation_space": "armature", "up_axis": "Z",
                       "format": "bvh"})
-    clip.meta["still_bones"] = clip.still_bones()
     return clip
