@@ -256,8 +256,9 @@ if HAVE_NUMBA:
 
     @_numba.njit(cache=True, nogil=True)
     def _gram_numba(Q0, Q1T):
-        """G = Q0 Q1^T, each entry summed as ((x0 q0 + x1 q1) + (x2 q2 + x3 q3)) per group of four columns, then
-        the rest one by one. Two rows of G per pass, so that each row of Q1^T loaded serves both."""
+        """G = Q0 Q1^T (Q0 with an even number of rows), each entry summed as ((x0 q0 + x1 q1) + (x2 q2 + x3 q3))
+        per group of four columns, then the rest one by one. Two rows of G per pass, so that each row of Q1^T
+        loaded serves both."""
         n0, c = Q0.shape
         n1 = Q1T.shape[1]
         G = np.zeros((n0, n1))
@@ -288,25 +289,6 @@ if HAVE_NUMBA:
                 for b in range(n1):
                     g[b] += x * q[b]
                     h[b] += y * q[b]
-        if n0 % 2:
-            a = n0 - 1
-            g = G[a]
-            for r in range(0, c4, 4):
-                x0 = Q0[a, r]
-                x1 = Q0[a, r + 1]
-                x2 = Q0[a, r + 2]
-                x3 = Q0[a, r + 3]
-                q0 = Q1T[r]
-                q1 = Q1T[r + 1]
-                q2 = Q1T[r + 2]
-                q3 = Q1T[r + 3]
-                for b in range(n1):
-                    g[b] += (x0 * q0[b] + x1 * q1[b]) + (x2 * q2[b] + x3 * q3[b])
-            for r in range(c4, c):
-                x = Q0[a, r]
-                q = Q1T[r]
-                for b in range(n1):
-                    g[b] += x * q[b]
         return G
 
     @_numba.njit(cache=True, nogil=True)
@@ -388,8 +370,11 @@ def gram(Q0, Q1):
     inside every worker thread of elastic_distance_matrix); without it: numpy's matmul.
     """
     if HAVE_NUMBA:
-        return _gram_numba(np.ascontiguousarray(Q0, dtype=np.float64),
-                           np.ascontiguousarray(Q1.T, dtype=np.float64))
+        n0 = Q0.shape[0]
+        Q0 = np.ascontiguousarray(Q0, dtype=np.float64)
+        if n0 % 2:  # a zero row to pair the last one with (rows are computed independently)
+            Q0 = np.concatenate([Q0, np.zeros((1, Q0.shape[1]))])
+        return _gram_numba(Q0, np.ascontiguousarray(Q1.T, dtype=np.float64))[:n0]
     return Q0 @ Q1.T
 
 
