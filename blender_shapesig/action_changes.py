@@ -22,19 +22,23 @@ from . import compat
 from .action_io import _bone_channels, action_hash
 
 __all__ = ["action_fingerprint", "action_bones", "forget_fingerprints", "refresh_fingerprints",
-           "stop_change_detection"]
+           "remembered_hash", "stop_change_detection"]
 
 _FINGERPRINTS = {}  # action session id -> _Fingerprint
 _HANDLERS = []  # the (handler list, function) pairs installed by _watch()
 
 
+_GENERATION = [0]  # advanced by refresh_fingerprints: a stamp is read once per generation (once per click)
+
+
 class _Fingerprint:
-    __slots__ = ("stamp", "hash", "bone_set")
+    __slots__ = ("stamp", "hash", "bone_set", "generation")
 
     def __init__(self, stamp):
         self.stamp = stamp
         self.hash = None
         self.bone_set = None
+        self.generation = _GENERATION[0]
 
     def bones(self, action):
         if self.bone_set is None:
@@ -70,11 +74,20 @@ def _stamp(action):
 def _record(action) -> _Fingerprint:
     _watch()
     uid = _uid(action)
-    stamp = _stamp(action)
     rec = _FINGERPRINTS.get(uid)
+    if rec is not None and rec.generation == _GENERATION[0]:
+        return rec
+    stamp = _stamp(action)
     if rec is None or rec.stamp != stamp:
         rec = _FINGERPRINTS[uid] = _Fingerprint(stamp)
+    rec.generation = _GENERATION[0]
     return rec
+
+
+def remembered_hash(action):
+    """The action's fingerprint when it is remembered and current, else None (never computes one)."""
+    rec = _FINGERPRINTS.get(_uid(action)) if _HANDLERS else None
+    return rec.hash if rec is not None and rec.generation == _GENERATION[0] else None
 
 
 def action_bones(action) -> frozenset:
@@ -99,9 +112,11 @@ def forget_fingerprints(action=None):
 
 
 def refresh_fingerprints(context=None):
-    """Evaluate the depsgraph, so that edits not yet evaluated reach the update handler (call it before
-    reading fingerprints; in the UI the depsgraph is always evaluated already, and this costs nothing)."""
+    """Start a new look at the file (once per click, before reading fingerprints): evaluate the depsgraph, so
+    that edits not yet evaluated reach the update handler (in the UI it is evaluated already: this costs
+    nothing), and read each action's stamp again on its next use (within one look, once)."""
     _watch()
+    _GENERATION[0] += 1
     context = context or bpy.context
     if getattr(context, "view_layer", None) is not None:
         context.evaluated_depsgraph_get()

@@ -126,6 +126,13 @@ def action_hash(action, _co_cache=None) -> str:
     return h.hexdigest()
 
 
+def _content_hash(action, co_cache):
+    """``action_hash``, or the session's remembered fingerprint of it (``action_changes``) when current."""
+    from .action_changes import remembered_hash
+
+    return remembered_hash(action) or action_hash(action, co_cache)
+
+
 def armature_actions(obj=None):
     """Actions in bpy.data that animate pose bones; with an armature object, only those that animate at
     least one of its bones. In bpy.data order. (The bones an action animates are remembered with its
@@ -375,7 +382,7 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
             "action": action.name,
             "slot": getattr(slot, "identifier", None),
             "missing_rotation_bones": tuple(unkeyed),
-            "fcurve_hash": action_hash(action, co_cache),
+            "fcurve_hash": _content_hash(action, co_cache),
         },
     )
     clip.meta["still_bones"] = clip.still_bones()
