@@ -14,7 +14,9 @@ ranking with the built index; the one-off index build; the index's memory.
    ``core.index.rank_clips`` with the built index (re-rank off). Cold: the first click of a session (every
    action's fingerprint computed: the baseline ``action_io.action_hash`` of every action, as every click paid
    before); warm: later clicks (best of ``--repeat``) and a click after one action was edited.
-4. Memory: the index's entries in memory (numpy arrays and Python objects), per clip and scaled to 2,600.
+4. Memory: the index in memory (numpy arrays and Python objects; tracemalloc) after loading every entry from the
+   folder and ranking with every clip compared exactly, per clip and scaled to 2,600 (the store also caps the
+   directions it holds at its ``memory_limit``).
 """
 
 import argparse
@@ -134,6 +136,8 @@ def main(argv=None):
         tracemalloc.start()
         fresh = index.SignatureCache(folder)
         index.build_index(items, cache=fresh)  # every entry loaded from the folder into memory
+        # ranked with every clip compared exactly: every direction held (within the store's memory limit)
+        index.rank_clips(items[0], items[1:], metric="sim", level=settings.level, cache=fresh)
         mem = tracemalloc.get_traced_memory()[0]
         tracemalloc.stop()
         out["index_memory"] = {"bytes_per_clip": int(mem / len(items)),

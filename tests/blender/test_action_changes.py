@@ -67,20 +67,20 @@ def test_every_edit_of_a_played_action_is_seen(rig, monkeypatch, edit):
     assert "played" in [a.name for a in action_io.armature_actions(obj)] or edit == "rename bone path"
 
 
-@pytest.mark.parametrize("edit", ["new F-curve", "mute"])
-def test_structural_edits_of_an_action_no_object_plays(rig, edit):
+def test_new_fcurve_in_an_action_no_object_plays(rig):
     _obj, _played, free = rig
     before = action_changes.action_fingerprint(free)
-    EDITS[edit](free)
+    EDITS["new F-curve"](free)
     action_changes.refresh_fingerprints()  # a new click
     now = action_changes.action_fingerprint(free)
     assert now != before and now == action_io.action_hash(free)
 
 
-def test_value_edits_of_unplayed_actions_need_forget(rig):
+@pytest.mark.parametrize("edit", ["keyframe value", "mute", "insert key"])
+def test_other_edits_of_unplayed_actions_need_forget(rig, edit):
     _obj, _played, free = rig
     before = action_changes.action_fingerprint(free)
-    EDITS["keyframe value"](free)  # Blender reports this nowhere: scripts call forget_fingerprints
+    EDITS[edit](free)  # Blender reports this nowhere: scripts call forget_fingerprints
     action_changes.forget_fingerprints(free)
     assert action_changes.action_fingerprint(free) == action_io.action_hash(free) != before
 
