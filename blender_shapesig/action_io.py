@@ -309,7 +309,7 @@ def _read_rotations(action, channels, names, frames, start, modes_override, arma
     """(rotations (frames, bones, 3, 3), modes): a bone without curves of its mode is the identity."""
     override = _modes_lookup(modes_override, names)
     stored = _stored_modes(action)
-    modes = []
+    modes, by_mode = [], {}
     R = np.empty((len(frames), len(names), 3, 3))
     for j, b in enumerate(names):
         chans = channels.get(b, {})
@@ -324,7 +324,12 @@ def _read_rotations(action, channels, names, frames, start, modes_override, arma
             bad = int(frames[np.argmax(~np.all(np.isfinite(values), axis=1))])
             raise ShapeSigError(f"action {action.name!r}: bone {b!r} has NaN or infinite {prop} values "
                                 f"(first at frame {bad})")
-        R[:, j] = matrices_from_channels(mode, values)
+        by_mode.setdefault(mode, ([], []))
+        by_mode[mode][0].append(j)
+        by_mode[mode][1].append(values)
+    for mode, (idx, values) in by_mode.items():  # one conversion per rotation mode (row by row: same result)
+        M = matrices_from_channels(mode, np.concatenate(values))
+        R[:, idx] = np.swapaxes(M.reshape(len(idx), len(frames), 3, 3), 0, 1)
     return R, modes
 
 
