@@ -137,6 +137,8 @@ def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None):
     t0 = time.perf_counter()
     errors = []
     got = compute_entries(items, level, cache, progress, errors)
+    if cache is not None:
+        cache.save_pack()
     return {"clips": len(got), "errors": errors, "seconds": time.perf_counter() - t0,
             "stats": dict(cache.stats) if cache is not None else {}}
 
@@ -276,6 +278,7 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
     warnings = []
     pairs = compute_entries(items, sig_level, store, progress, warnings)
+    store.save_pack()  # the next process looks the library up in one read
     skipped = []
 
     results = []
