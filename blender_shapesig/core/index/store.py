@@ -7,6 +7,10 @@ its sketch, direction and increments) and a ``manifest.json`` with the format ve
 Reads are *light*: the meta and sketches are read when an item is looked up (``get``), the heavy arrays
 (directions and increments) only when a distance needs them (``heavy``). ``memory_limit`` bounds the heavy
 arrays kept in memory (least recently loaded dropped first, re-read from disk when needed).
+
+The *light pack* (``light_pack.bin``, written by ``save_pack`` at the end of ``rank_clips`` / ``build_index``)
+holds every entry file's meta and sketches, so a new process looks a library up with one read; a packed entry
+is used only while its entry file keeps the size and mtime it had, and a damaged pack is ignored.
 """
 
 import hashlib
