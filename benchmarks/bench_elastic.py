@@ -10,6 +10,8 @@ Usage (from the repository root):
    whole ``elastic_distance`` / ``elastic_align`` calls. Times are the minimum over repeats of
    the thread's CPU time (``time.thread_time``, robust when other processes share the cores)
    and, for reference, of the wall time.
+   Also the parts of the whole call (SRVT of both curves, Gram matrix) and the whole call's speed-up over the
+   numpy DP alone (the target of issue 16: >= 10x), and the first call in a fresh process (cache warm / cold).
 2. The all-pairs matrix of 27 clips (9 walks of subject 07, 8 walks of subject 08, 10 runs of
    subject 09; ASF/AMC from ``--data``/uscresl_humanoid-gail, 128-417 frames, 31 bones) with
    ``elastic_distance_matrix`` at workers=1 and workers=2 (wall time). Without ``--data`` (or
@@ -86,8 +88,16 @@ def pair_benchmark(repeat):
         lambda: elastic._Problem(elastic._srvt_matrix(R0, "R0")[0], elastic._srvt_matrix(R1, "R1")[0], 9, 0.0),
         repeat,
     )
+    # the parts of a whole call: validation + SRVT of both curves, the Gram matrix, the tables (band, sums)
+    results["srvt_both"] = best_of(lambda: (elastic._srvt_matrix(R0, "R0"), elastic._srvt_matrix(R1, "R1")), repeat)
+    results["gram"] = best_of(lambda: _dp_kernels.gram(Q0, Q1), repeat)
     out["load_average_1min"] = os.getloadavg()[0]
     out["times_ms"] = {k: {"cpu": round(v[0] * 1e3, 3), "wall": round(v[1] * 1e3, 3)} for k, v in results.items()}
+    if "elastic_distance" in results:
+        # the target of issue 16: the whole call against the numpy DP alone, same run (CPU and wall)
+        out["speedup_whole_call_vs_numpy_dp"] = {
+            "cpu": round(results["numpy_dp"][0] / results["elastic_distance"][0], 1),
+            "wall": round(results["numpy_dp"][1] / results["elastic_distance"][1], 1)}
     if _dp_kernels.HAVE_NUMBA:
         by_depth = {}
         for depth in (3, 6, 9, 12):
@@ -103,6 +113,41 @@ def pair_benchmark(repeat):
         vn = prob.solve("numba")[0]
         vp = prob.solve("numpy")[0]
         out["kernels_identical"] = bool(vn == vp)
+    return out
+
+
+FIRST_CALL = """
+import time
+t0 = time.perf_counter()
+import numpy as np
+from blender_shapesig.core import elastic, so3
+rng = np.random.default_rng(0)
+R0 = so3.integrate(rng.normal(size=(299, 31, 3)) * 0.05)
+R1 = so3.integrate(rng.normal(size=(299, 31, 3)) * 0.05)
+t1 = time.perf_counter()
+elastic.elastic_distance(R0, R1)
+t2 = time.perf_counter()
+print(t1 - t0, t2 - t1)
+"""
+
+
+def first_call_benchmark():
+    """The first ``elastic_distance`` (300 x 300 x 31) in a fresh process, numba's on-disk cache warm (the
+    usual case: ``_dp_kernels.warm_up`` or any earlier call wrote it) and cold (an empty cache folder: the JIT
+    compiles). Wall seconds of the imports and of the call, each in its own subprocess."""
+    import subprocess
+    import tempfile
+
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    subprocess.run([sys.executable, "-c", "from blender_shapesig.core import _dp_kernels; _dp_kernels.warm_up()"],
+                   env=env, check=True)
+    out = {}
+    with tempfile.TemporaryDirectory() as empty:
+        for label, extra in (("warm_cache", {}), ("cold_cache", {"NUMBA_CACHE_DIR": empty})):
+            p = subprocess.run([sys.executable, "-c", FIRST_CALL], env=dict(env, **extra), capture_output=True,
+                               text=True, check=True)
+            imports, call = (float(x) for x in p.stdout.split())
+            out[label] = {"imports_s": round(imports, 3), "first_call_s": round(call, 3)}
     return out
 
 
@@ -172,6 +217,8 @@ def main(argv=None):
                     "numba": _dp_kernels.HAVE_NUMBA and __import__("numba").__version__},
         "pair": pair_benchmark(args.repeat),
     }
+    if _dp_kernels.HAVE_NUMBA:
+        res["first_call_fresh_process"] = first_call_benchmark()
     if not args.skip_matrix:
         res["matrix"] = matrix_benchmark(args.data, args.repeat)
     print(json.dumps(res, indent=2))

@@ -126,9 +126,19 @@ def action_hash(action, _co_cache=None) -> str:
     return h.hexdigest()
 
 
+def _content_hash(action, co_cache):
+    """``action_hash``, or the session's remembered fingerprint of it (``action_changes``) when current."""
+    from .action_changes import remembered_hash
+
+    return remembered_hash(action) or action_hash(action, co_cache)
+
+
 def armature_actions(obj=None):
     """Actions in bpy.data that animate pose bones; with an armature object, only those that animate at
-    least one of its bones. In bpy.data order."""
+    least one of its bones. In bpy.data order. (The bones an action animates are remembered with its
+    fingerprint: see ``action_changes``.)"""
+    from .action_changes import action_bones  # remembered per session with the action's fingerprint
+
     names = None
     if obj is not None:
         if getattr(obj, "type", None) != "ARMATURE":
@@ -136,10 +146,10 @@ def armature_actions(obj=None):
         names = {b.name for b in obj.data.bones}
     out = []
     for action in bpy.data.actions:
-        bones = _bone_channels(compat.all_action_fcurves(action))
+        bones = action_bones(action)
         if not bones:
             continue
-        if names is not None and not (names & set(bones)):
+        if names is not None and names.isdisjoint(bones):
             continue
         out.append(action)
     return out
@@ -299,7 +309,7 @@ def _read_rotations(action, channels, names, frames, start, modes_override, arma
     """(rotations (frames, bones, 3, 3), modes): a bone without curves of its mode is the identity."""
     override = _modes_lookup(modes_override, names)
     stored = _stored_modes(action)
-    modes = []
+    modes, by_mode = [], {}
     R = np.empty((len(frames), len(names), 3, 3))
     for j, b in enumerate(names):
         chans = channels.get(b, {})
@@ -314,7 +324,12 @@ def _read_rotations(action, channels, names, frames, start, modes_override, arma
             bad = int(frames[np.argmax(~np.all(np.isfinite(values), axis=1))])
             raise ShapeSigError(f"action {action.name!r}: bone {b!r} has NaN or infinite {prop} values "
                                 f"(first at frame {bad})")
-        R[:, j] = matrices_from_channels(mode, values)
+        by_mode.setdefault(mode, ([], []))
+        by_mode[mode][0].append(j)
+        by_mode[mode][1].append(values)
+    for mode, (idx, values) in by_mode.items():  # one conversion per rotation mode (row by row: same result)
+        M = matrices_from_channels(mode, np.concatenate(values))
+        R[:, idx] = np.swapaxes(M.reshape(len(idx), len(frames), 3, 3), 0, 1)
     return R, modes
 
 
@@ -372,7 +387,7 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
             "action": action.name,
             "slot": getattr(slot, "identifier", None),
             "missing_rotation_bones": tuple(unkeyed),
-            "fcurve_hash": action_hash(action, co_cache),
+            "fcurve_hash": _content_hash(action, co_cache),
         },
     )
     clip.meta["still_bones"] = clip.still_bones()

@@ -4,7 +4,7 @@ Commands (see ``docs/cli.md`` and ``interfaces.md``): ``distance``, ``rank``, ``
 ``evaluate``. Every command takes ``--json`` (one JSON object on stdout, nothing else there) and
 ``--debug`` (full traceback on errors). Errors exit with code 2 and one line on stderr.
 
-bpy is imported lazily: only when a .bvh or .blend file is read or a .blend file is written. Blender's
+bpy is imported lazily: only when a .blend file is read or written (.bvh and .amc are read without it). Blender's
 C code writes to file descriptor 1, so all work runs with fd 1 pointed at stderr; stdout only receives
 the final report.
 """
@@ -178,6 +178,24 @@ def _library_items(specs, args):
     return [spec_item(_spec(s, args.asf, _crop_of(args)).check()) for s in specs]
 
 
+def _cache_dir(args, search):
+    """The signature cache folder of ``rank``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the per-user cache
+    (``core.index.default_cache_dir``); None (memory only) with --no-cache or when the folder cannot be made."""
+    if args.no_cache:
+        if args.cache:
+            raise CommandError("--cache and --no-cache contradict each other")
+        return None
+    cache_dir = args.cache or search.default_cache_dir()
+    try:
+        os.makedirs(cache_dir, exist_ok=True)
+    except OSError as exc:
+        if args.cache:
+            raise CommandError(f"cannot make the cache folder {cache_dir!r}: {exc.strerror or exc}") from None
+        sys.stderr.write(f"{PROG}: warning: no signature cache ({cache_dir}: {exc.strerror or exc})\n")
+        return None
+    return cache_dir
+
+
 def cmd_rank(args):
     from .core import search
     from .core.metrics import metric_label, parse_metric
@@ -196,10 +214,7 @@ def cmd_rank(args):
     items = _library_items(args.clips, args)
     if not items:
         raise CommandError("no clips to rank")
-    cache_dir = args.cache or os.environ.get(search.CACHE_ENV) or None
-    if cache_dir:
-        os.makedirs(cache_dir, exist_ok=True)
-    cache = search.SignatureCache(cache_dir)
+    cache = search.SignatureCache(_cache_dir(args, search))
     bar = _progress(args, len(items), "signatures")
     done = [0]
 
@@ -476,15 +491,18 @@ def build_parser():
     p = sub.add_parser(
         "rank",
         help="rank clips by similarity to a query",
-        description="Rank clips by their distance to QUERY, best first. Signatures are cached "
-        "(--cache DIR or $SHAPESIG_CACHE_DIR).",
+        description="Rank clips by their distance to QUERY, best first. Signatures are cached in --cache DIR, "
+        "else $SHAPESIG_CACHE_DIR, else the per-user cache folder (~/.cache/blender_shapesig/signatures); "
+        "--no-cache keeps them in memory only.",
     )
     p.add_argument("query", metavar="QUERY", help=clip_help)
     p.add_argument("clips", metavar="CLIP", nargs="+", help=clip_help)
     _add_metric(p, depth_help=f"DP search depth D for the elastic re-rank (default {DEFAULT_DEPTH})")
     p.add_argument("--rerank", type=int, default=0, metavar="K", help="re-order the first K by elastic distance")
     p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
-    p.add_argument("--cache", metavar="DIR", help="signature cache folder (default $SHAPESIG_CACHE_DIR)")
+    p.add_argument("--cache", metavar="DIR",
+                   help="signature cache folder (default $SHAPESIG_CACHE_DIR, else the per-user cache folder)")
+    p.add_argument("--no-cache", action="store_true", help="do not read or write a signature cache")
     _add_common(p)
     p.set_defaults(func=cmd_rank)
 

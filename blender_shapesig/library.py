@@ -28,7 +28,7 @@ import numpy as np
 
 import bpy
 
-from . import action_io, compat
+from . import action_changes, action_io, compat
 from .core import index, sources
 from .core.errors import ShapeSigError, check_frame_range, check_integer
 from .preferences import ADDON_ID, get_preferences
@@ -124,10 +124,16 @@ def owner_armature(action, default):
     return default
 
 
-def action_item(action, obj, frame_range=None) -> ActionItem:
-    """The library item of an action, read with the armature that plays it (else ``obj``)."""
+def action_item(action, obj, frame_range=None, digests=None) -> ActionItem:
+    """The library item of an action, read with the armature that plays it (else ``obj``). Its content hash is
+    the session's fingerprint (``action_changes``: re-read only when the action changed); ``digests``: a dict
+    remembering ``armature_digest`` per armature for one library."""
     arm = owner_armature(action, obj)
-    key = ActionKey(action_io.action_hash(action), armature_digest(arm),
+    digests = {} if digests is None else digests
+    digest = digests.get(arm.as_pointer())
+    if digest is None:
+        digest = digests[arm.as_pointer()] = armature_digest(arm)
+    key = ActionKey(action_changes.action_fingerprint(action), digest,
                     None if frame_range is None else (int(frame_range[0]), int(frame_range[1])))
 
     def load(action=action, arm=arm, frame_range=key.frame_range, name=action.name):
@@ -232,6 +238,7 @@ def _query_range(action, settings):
 def query_item(context, settings):
     """(armature, action, ActionItem) of the query; ShapeSigError with a clear message otherwise."""
     _check(search_problem(context, settings))
+    action_changes.refresh_fingerprints(context)
     obj = _armature(context)
     action = _query_action(obj, settings)
     if settings.use_frame_range:
@@ -269,7 +276,10 @@ def library_items(context, settings, obj) -> List[sources.LibraryItem]:
     """The library as LibraryItems: the file's actions (filtered), then the folders' clip files."""
     items = []
     if settings.use_file_actions:
-        items += [action_item(a, obj, _cropped_range(a, settings.crop_start)) for a in _file_actions(settings, obj)]
+        action_changes.refresh_fingerprints(context)
+        digests = {}
+        items += [action_item(a, obj, _cropped_range(a, settings.crop_start), digests)
+                  for a in _file_actions(settings, obj)]
     if settings.use_folders:
         folders = _folders(context, settings)
         if not folders:

@@ -14,3 +14,9 @@ if str(ROOT) not in sys.path:
 @pytest.fixture(scope="session")
 def data_dir():
     return DATA
+
+
+@pytest.fixture(autouse=True)
+def _private_signature_cache(tmp_path_factory, monkeypatch):
+    """``rank`` caches signatures per user by default: tests use a fresh folder, never the user's."""
+    monkeypatch.setenv("SHAPESIG_CACHE_DIR", str(tmp_path_factory.mktemp("signature_cache")))

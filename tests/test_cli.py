@@ -240,6 +240,29 @@ def test_rank_json_and_cache(capsys, amc, tmp_path):
     assert again["cache"]["misses"] == 0 and again["cache"]["hits"] >= 3
 
 
+def test_rank_default_cache_env_and_no_cache(capsys, amc, tmp_path, monkeypatch):
+    """Without --cache, rank caches in $SHAPESIG_CACHE_DIR (else the per-user folder, core.index.default_cache_dir);
+    --no-cache reads and writes no cache; both options at once are an error."""
+    _need_search()
+    env_dir = tmp_path / "user_cache"
+    monkeypatch.setenv("SHAPESIG_CACHE_DIR", str(env_dir))
+    args = ["rank", amc["w1"], amc["w2"], amc["r1"], "--metric", "sim2"]
+    first, _ = run_json(capsys, args)
+    assert first["cache"]["misses"] >= 2 and any(env_dir.iterdir())
+    again, _ = run_json(capsys, args)
+    assert again["cache"]["misses"] == 0 and again["results"] == first["results"]
+    files = sorted(p.name for p in env_dir.iterdir())
+    off, _ = run_json(capsys, args + ["--no-cache"])
+    assert off["cache"]["misses"] >= 2 and off["results"] == first["results"]
+    assert sorted(p.name for p in env_dir.iterdir()) == files
+    monkeypatch.delenv("SHAPESIG_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    run_json(capsys, args)
+    assert any((tmp_path / "xdg" / "blender_shapesig" / "signatures").iterdir())
+    assert cli.main(args + ["--no-cache", "--cache", str(tmp_path / "c")]) == 2
+    assert "contradict" in capsys.readouterr().err
+
+
 def test_rank_rerank_and_top(capsys, amc):
     _need_search()
     out, _ = run_json(capsys, ["rank", amc["r1"], amc["w1"], amc["w2"], amc["r2"], "--rerank", "2", "--top", "2"])

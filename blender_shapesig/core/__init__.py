@@ -5,25 +5,33 @@ Blender. The public names are fixed by interfaces.md; see docs/ for the maths.
 """
 
 from .errors import CurveError, ParseError, ShapeSigError
-from .curves import (
-    as_curve,
-    geodesic_interpolate,
-    inverse_srvt,
-    l2_distance,
-    move_to_identity,
-    right_log_derivative,
-    srvt,
-)
-from .elastic import elastic_align, elastic_distance, reparametrize
-from .signatures import (
-    concat_distance,
-    group_distance,
-    linear_distance,
-    log_signature,
-    normalized_distance,
-    signature,
-)
-from .blend import geodesic_blend
+
+# The maths modules are imported on first use of one of their names (PEP 562), so that importing a core
+# submodule (the command line, the readers) does not pay for numba, scipy.sparse or iisignature.
+_LAZY = {
+    "as_curve": "curves", "geodesic_interpolate": "curves", "inverse_srvt": "curves", "l2_distance": "curves",
+    "move_to_identity": "curves", "right_log_derivative": "curves", "srvt": "curves",
+    "elastic_align": "elastic", "elastic_distance": "elastic", "reparametrize": "elastic",
+    "concat_distance": "signatures", "group_distance": "signatures", "linear_distance": "signatures",
+    "log_signature": "signatures", "normalized_distance": "signatures", "signature": "signatures",
+    "geodesic_blend": "blend",
+}
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_LAZY))
+
 
 __all__ = [
     "ShapeSigError", "CurveError", "ParseError",

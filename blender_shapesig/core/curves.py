@@ -120,8 +120,9 @@ def srvt_of_velocity(eta, steps):
     """q = eta / sqrt(|eta|) (eq. 5.11) from velocities ``eta`` (..., 3) and the rotation ``steps`` they
     come from (rotation vectors, broadcastable to eta): zero where the step angle is at most ZERO_STEP
     (rounding noise of a still joint) or eta is 0. The one SRVT zero rule (``srvt``, the blends)."""
-    norm = np.linalg.norm(eta, axis=-1)
-    nz = (np.linalg.norm(steps, axis=-1) > ZERO_STEP) & (norm > 0.0)
+    norm = np.sqrt(np.einsum("...i,...i->...", eta, eta))
+    steps = np.asarray(steps)
+    nz = (np.einsum("...i,...i->...", steps, steps) > ZERO_STEP * ZERO_STEP) & (norm > 0.0)
     scale = np.divide(1.0, np.sqrt(norm), out=np.zeros_like(norm), where=nz)
     return eta * scale[..., None]
 

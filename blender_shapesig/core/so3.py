@@ -283,19 +283,18 @@ def matrix_from_euler(angles, order):
     if angles.shape[-1:] != (len(axes),):
         raise ShapeSigError(f"Euler order {order!r} needs {len(axes)} angles per rotation, got shape {angles.shape}")
     lead = angles.shape[:-1]
-    out = None
+    # Rows of R as (3, 3, n) arrays: applying the rotation about axis ``ax`` to R changes only rows i, j
+    # (R <- e R with e the elementary rotation), which avoids numpy's slow batched 3x3 products.
+    flat = angles.reshape(-1, len(axes))
+    rows = np.zeros((3, 3, flat.shape[0]))
+    rows[0, 0] = rows[1, 1] = rows[2, 2] = 1.0
     for n, ax in enumerate(axes):
-        t = angles[..., n]
-        c, s = np.cos(t), np.sin(t)
-        e = np.zeros(lead + (3, 3))
+        c, s = np.cos(flat[:, n]), np.sin(flat[:, n])
         i, j = (ax + 1) % 3, (ax + 2) % 3
-        e[..., ax, ax] = 1.0
-        e[..., i, i] = c
-        e[..., j, j] = c
-        e[..., j, i] = s
-        e[..., i, j] = -s
-        out = e if out is None else e @ out
-    return out
+        ri, rj = rows[i].copy(), rows[j]
+        rows[i] = c * ri - s * rj
+        rows[j] = s * ri + c * rj
+    return np.ascontiguousarray(np.moveaxis(rows, -1, 0)).reshape(lead + (3, 3))
 
 
 def euler_from_matrix(R, order):

@@ -85,9 +85,13 @@ def test_bvh_through_blender_importer(empty_file, capsys):
     # the first (rest) frame can be cropped off
     assert clip.crop(2).frames == 130
     # the default, armature space, is exactly that aligned form: the file's rotations in Blender axes
-    (arm,) = read(DATA / "bvh" / "09_02.bvh")
+    arm = import_bvh(DATA / "bvh" / "09_02.bvh")
     assert arm.meta["rotation_space"] == "armature" and arm.meta["up_axis"] == "Z"
     np.testing.assert_allclose(arm.rotations, aligned, atol=1e-12)
+    # the front door reads .bvh with our bpy-free reader: the same clip (the importer keys 32-bit floats)
+    (ours,) = read(DATA / "bvh" / "09_02.bvh")
+    assert ours.meta["rotation_space"] == "armature" and ours.meta["up_axis"] == "Z"
+    np.testing.assert_allclose(ours.rotations, aligned, atol=1e-6)
 
 
 def _save_blend(path, walk, line_armature):
@@ -197,7 +201,7 @@ def test_importer_failure_is_one_line_and_silent(empty_file, tmp_path, capfd):
     before = _all_ids()
     capfd.readouterr()
     with pytest.raises(ParseError) as info:
-        read(tmp_path / "rot.bvh")
+        import_bvh(tmp_path / "rot.bvh")  # the Blender path (read() uses our reader, which reads this file)
     out, errout = capfd.readouterr()
     msg = str(info.value)
     assert "\n" not in msg and "rot.bvh" in msg and "BVH importer failed" in msg, msg

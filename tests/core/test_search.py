@@ -361,7 +361,7 @@ def test_file_items_for_command_line_specs(data_dir, tmp_path):
     assert (clip.frame_start, clip.frames) == (10, 51)
     with pytest.raises(ShapeSigError, match="does not exist"):
         search.folder_library([str(tmp_path / "x.blend#walk")])
-    # .bvh and .blend readers live in the Blender layer, imported when first needed: without bpy, one line
+    # a reader named by module path (.blend's lives in the Blender layer) is imported when first needed: without it, one line
     from blender_shapesig.core import sources
 
     saved = dict(sources._READERS)
@@ -426,3 +426,44 @@ def test_store_is_pure_and_the_index_generator_fills_it(clips, tmp_path):
     e = search.make_entry(clips["07_01"], 3, key="k")
     compact.put("k", 3, [e])
     assert e.direction is None and not e.exact and compact.get("k", 3) == [e]
+
+
+def test_light_pack_answers_lookups_of_a_new_process_in_one_read(clips, tmp_path, monkeypatch):
+    """rank_clips saves a light pack (meta + sketches of every entry file); a new SignatureCache looks items up
+    from it without opening their entry files, but not an entry whose file changed since, nor from a bad pack."""
+    from blender_shapesig.core.index import store as store_mod
+
+    q = clips["07_01"]
+    lib = [clips[k] for k in ("07_02", "09_02", "16_15")]
+    first = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
+    assert (tmp_path / store_mod._PACK).exists()
+    opened = []
+    real_load = store_mod.np.load
+
+    def counting_load(fn, *a, **k):
+        opened.append(os.path.basename(fn))
+        return real_load(fn, *a, **k)
+
+    monkeypatch.setattr(store_mod.np, "load", counting_load)
+    cache = search.SignatureCache(tmp_path)
+    items = search.clip_items([q] + lib)
+    for it in items:
+        assert cache.get(it.key, 3) is not None
+    assert opened == [store_mod._PACK]  # one read for the four lookups
+    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
+    assert [(r.name, r.distance) for r in again] == [(r.name, r.distance) for r in first]
+    # an entry file rewritten since the pack was saved is read from its file
+    target = cache.file_for(items[1].key, 3)
+    data = open(target, "rb").read()
+    os.remove(target)
+    with open(target, "wb") as fh:
+        fh.write(data + b"")
+    os.utime(target, ns=(1, 1))
+    opened.clear()
+    assert search.SignatureCache(tmp_path).get(items[1].key, 3) is not None
+    assert opened == [store_mod._PACK, os.path.basename(target)]
+    # a damaged pack is ignored: every entry is read from its own file
+    (tmp_path / store_mod._PACK).write_bytes(b"not a pack")
+    opened.clear()
+    fresh = search.SignatureCache(tmp_path)
+    assert all(fresh.get(it.key, 3) is not None for it in items) and len(opened) == 1 + len(items)

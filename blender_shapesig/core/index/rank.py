@@ -22,7 +22,6 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from ..clip import Clip
-from ..elastic import elastic_distance
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, curve_distance, parse_metric
 from ..sources import LibraryItem, as_items, clip_item, library
@@ -138,6 +137,8 @@ def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None):
     t0 = time.perf_counter()
     errors = []
     got = compute_entries(items, level, cache, progress, errors)
+    if cache is not None:
+        cache.save_pack()
     return {"clips": len(got), "errors": errors, "seconds": time.perf_counter() - t0,
             "stats": dict(cache.stats) if cache is not None else {}}
 
@@ -230,6 +231,8 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
 def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
     """Re-order the first ``rerank`` results (of the whole-body tier when there is one) by d_S*, filling
     their ``elastic``."""
+    from ..elastic import elastic_distance  # numba is imported only when a re-rank needs the DP
+
     full = sum(1 for r in results if not r.partial)
     head = results[:min(rerank, full)] if full else results[:rerank]
     by_key = {(e.key, e.name): (item, e) for item, e in pairs}
@@ -275,6 +278,7 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
     warnings = []
     pairs = compute_entries(items, sig_level, store, progress, warnings)
+    store.save_pack()  # the next process looks the library up in one read
     skipped = []
 
     results = []

@@ -7,6 +7,10 @@ its sketch, direction and increments) and a ``manifest.json`` with the format ve
 Reads are *light*: the meta and sketches are read when an item is looked up (``get``), the heavy arrays
 (directions and increments) only when a distance needs them (``heavy``). ``memory_limit`` bounds the heavy
 arrays kept in memory (least recently loaded dropped first, re-read from disk when needed).
+
+The *light pack* (``light_pack.bin``, written by ``save_pack`` at the end of ``rank_clips`` / ``build_index``)
+holds every entry file's meta and sketches, so a new process looks a library up with one read; a packed entry
+is used only while its entry file keeps the size and mtime it had, and a damaged pack is ignored.
 """
 
 import hashlib
@@ -31,6 +35,7 @@ CACHE_ENV = "SHAPESIG_CACHE_DIR"
 # Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
 COMPACT_MAX_DIRECTION = 65_536
 
+_PACK = "light_pack.bin"  # the light pack's file name (see SignatureCache.save_pack)
 _ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact")
 
 
@@ -85,6 +90,8 @@ class SignatureCache:
         self._heavy = {}    # (key, level, name) -> bytes of loaded heavy arrays, insertion = recency order
         self._lock = threading.RLock()
         self._sketch_memo = None
+        self._pack = None   # entry file name -> (size, mtime_ns, meta, sketches): the light pack (see save_pack)
+        self._pack_dirty = False
         self.stats = {"hits": 0, "disk_hits": 0, "misses": 0, "invalid": 0, "writes": 0}
         if self.path is not None:
             os.makedirs(self.path, exist_ok=True)
@@ -107,8 +114,9 @@ class SignatureCache:
                                                      "sketch_dim": SKETCH_DIM}).encode())
 
     def _remove_entry_files(self):
+        self._pack, self._pack_dirty = {}, False
         for n in os.listdir(self.path):
-            if n.endswith(".npz"):
+            if n.endswith(".npz") or n == _PACK:
                 try:
                     os.remove(os.path.join(self.path, n))
                 except OSError:
@@ -137,8 +145,14 @@ class SignatureCache:
         """The entries of a file, or None (missing; unreadable or outdated files are deleted). ``light``:
         meta and sketches only (directions and increments are read by ``heavy`` when needed)."""
         fn = self.file_for(key, level)
-        if not os.path.exists(fn):
+        try:
+            st = os.stat(fn)
+        except OSError:
             return None
+        if light:
+            packed = self._packed(fn, st, key, level)
+            if packed is not None:
+                return packed
         try:
             with np.load(fn, allow_pickle=False) as z:
                 meta = json.loads(bytes(z["meta"]).decode("utf-8"))
@@ -152,6 +166,7 @@ class SignatureCache:
                     if not light:
                         _load_heavy(e, z, i)
                     entries.append(e)
+                self._add_to_pack(fn, st, meta, [e.sketch for e in entries])
                 return entries
         except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
             self.stats["invalid"] += 1
@@ -171,8 +186,67 @@ class SignatureCache:
             arrays[f"s{i}"], arrays[f"d{i}"], arrays[f"i{i}"] = e.sketch, d, e.increments
         buf = io.BytesIO()
         np.savez(buf, **arrays)
-        self._atomic_write(self.file_for(key, level), buf.getvalue())
+        fn = self.file_for(key, level)
+        self._atomic_write(fn, buf.getvalue())
         self.stats["writes"] += 1
+        self._add_to_pack(fn, os.stat(fn), meta, [e.sketch for e in entries])
+
+    # -- the light pack: every entry file's meta and sketches in one file, so that a new process (a command-line
+    # query) looks 1,000 items up with one read instead of opening 1,000 zip files. A packed entry is used only
+    # while its entry file has the same size and mtime; the pack is rewritten by ``save_pack`` when it changed.
+    def _load_pack(self):
+        self._pack = {}
+        try:
+            with np.load(os.path.join(self.path, _PACK), allow_pickle=False) as z:
+                index = json.loads(bytes(z["index"]).decode("utf-8"))
+                sketches = np.asarray(z["sketches"], np.float32)
+            if index.get("format") != CACHE_FORMAT or sketches.shape[1:] != (SKETCH_DIM,):
+                return
+            for name, size, mtime, meta, first in index["files"]:
+                n = len(meta["clips"])
+                self._pack[name] = (size, mtime, meta, sketches[first:first + n])
+        except Exception:  # noqa: BLE001 - no pack, or an unreadable one: entry files are read one by one
+            self._pack = {}
+
+    def _packed(self, fn, st, key, level):
+        if self._pack is None:
+            self._load_pack()
+        got = self._pack.get(os.path.basename(fn))
+        if got is None or got[0] != st.st_size or got[1] != st.st_mtime_ns:
+            return None
+        meta = got[2]
+        if meta.get("key") != key or meta.get("level") != level:
+            return None
+        return [_entry_from_meta(m, key, got[3][i]) for i, m in enumerate(meta["clips"])]
+
+    def _add_to_pack(self, fn, st, meta, sketches):
+        if self._pack is None:
+            self._load_pack()
+        self._pack[os.path.basename(fn)] = (st.st_size, st.st_mtime_ns, meta, np.asarray(sketches, np.float32))
+        self._pack_dirty = True
+
+    def save_pack(self):
+        """Write the light pack when entries were read or written since it was loaded (``rank_clips`` and
+        ``build_index`` call it at the end). Entries whose files are gone are left out."""
+        if self.path is None or not self._pack_dirty:
+            return
+        with self._lock:
+            files, blocks, first = [], [], 0
+            for name, (size, mtime, meta, sk) in self._pack.items():
+                if not os.path.exists(os.path.join(self.path, name)):
+                    continue
+                files.append([name, size, mtime, meta, first])
+                blocks.append(sk.reshape(-1, SKETCH_DIM))
+                first += len(meta["clips"])
+            index = json.dumps({"format": CACHE_FORMAT, "files": files}).encode("utf-8")
+            sketches = np.concatenate(blocks) if blocks else np.zeros((0, SKETCH_DIM), np.float32)
+            buf = io.BytesIO()
+            np.savez(buf, index=np.frombuffer(index, dtype=np.uint8), sketches=sketches)
+            try:
+                self._atomic_write(os.path.join(self.path, _PACK), buf.getvalue())
+            except OSError:
+                return  # a read-only folder: entries are read one by one
+            self._pack_dirty = False
 
     # -- memory
     def _remember(self, key, level, entries):

@@ -1,0 +1,77 @@
+"""The command line at library scale: indexing BVH clips (our bpy-free reader) and a query over 1,000 cached clips,
+wall time of whole ``python -m blender_shapesig rank`` processes (start-up included).
+
+    .venv/bin/python benchmarks/bench_cli.py [--clips 1000] [--json OUT]
+
+The library: ``--clips`` copies of the six tests/data BVH clips (131-337 frames, 43 bones), each made a distinct
+file (trailing blank lines: a new SHA-1, the same motion). Runs, each a fresh process with ``--cache`` a new folder:
+1. cold: every clip read and signed (indexing rate = clips / wall seconds, start-up included);
+2. warm: the same query again, every signature a cache hit (the target: < 1 s);
+3. for reference, ``python -c "import numpy"`` (the floor of any start-up) and the CLI's ``--help``.
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+BVH = ROOT / "tests" / "data" / "bvh"
+
+
+def run(args, env):
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True, cwd=str(ROOT))
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise SystemExit(p.stderr)
+    return wall, p.stdout
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--clips", type=int, default=1000)
+    ap.add_argument("--json", type=pathlib.Path)
+    args = ap.parse_args(argv)
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    env.pop("SHAPESIG_CACHE_DIR", None)
+    sources = sorted(BVH.glob("*.bvh"))
+    out = {"clips": args.clips, "load_average_1min": os.getloadavg()[0]}
+    with tempfile.TemporaryDirectory() as tmp:
+        lib = pathlib.Path(tmp) / "lib"
+        lib.mkdir()
+        paths = []
+        for n in range(args.clips):
+            src = sources[n % len(sources)]
+            dst = lib / f"{src.stem}_{n:04d}.bvh"
+            shutil.copyfile(src, dst)
+            with open(dst, "a") as fh:
+                fh.write("\n" * (1 + n // len(sources)))
+            paths.append(str(dst))
+        cache = str(pathlib.Path(tmp) / "cache")
+        query = str(BVH / "07_01.bvh")
+        rank = ["-m", "blender_shapesig", "rank", query, *paths, "--cache", cache, "--top", "10", "--json",
+                "--no-progress"]
+        cold, _ = run(rank, env)
+        warm = [run(rank, env)[0] for _ in range(3)]
+        _, text = run(rank, env)
+        res = json.loads(text)
+        out["cold_index_wall_s"] = round(cold, 2)
+        out["indexing_clips_per_s"] = round(args.clips / cold, 1)
+        out["warm_query_wall_s"] = round(min(warm), 3)
+        out["warm_cache"] = res["cache"]
+        out["top3"] = [r["clip"] for r in res["results"][:3]]
+    out["python_import_numpy_s"] = round(min(run(["-c", "import numpy"], env)[0] for _ in range(3)), 3)
+    out["cli_help_s"] = round(min(run(["-m", "blender_shapesig", "--help"], env)[0] for _ in range(3)), 3)
+    print(json.dumps(out, indent=2))
+    if args.json:
+        args.json.write_text(json.dumps(out, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()

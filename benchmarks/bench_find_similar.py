@@ -1,0 +1,167 @@
+"""Find Similar in a .blend with many actions (the bpy module, headless): change detection, library items,
+ranking with the built index; the one-off index build; the index's memory.
+
+    .venv/bin/python benchmarks/bench_find_similar.py [--actions 1000] [--blend FILE] [--repeat 5] [--json OUT]
+
+1. The file: an armature imported from tests/data/bvh/07_01.bvh (43 bones, Blender's importer) and ``--actions``
+   actions written with ``action_io.write_action`` from the six test BVH clips (read by ``core.formats.bvh``,
+   every 4th frame: 30 fps as in the issue's file), each cropped differently (16-84 frames, 132 F-curves each,
+   1,000 distinct contents). Saved to ``--blend`` (built once,
+   reused when it exists).
+2. Index build (the one-off cost): ``library.library_items`` + ``core.index.build_index`` into a fresh folder:
+   actions per second.
+3. A click (what the search operator does, without writing the UI results, which is issue 17's): the query item,
+   ``library.library_items`` (change detection through ``action_io.action_fingerprint``) and
+   ``core.index.rank_clips`` with the built index (re-rank off). Cold: the first click of a session (every
+   action's fingerprint computed: the baseline ``action_io.action_hash`` of every action, as every click paid
+   before); warm: later clicks (best of ``--repeat``) and a click after one action was edited.
+4. Memory: the index in memory (numpy arrays and Python objects; tracemalloc) after loading every entry from the
+   folder and ranking with every clip compared exactly, per clip and scaled to 2,600 (the store also caps the
+   directions it holds at its ``memory_limit``).
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import sys
+import tempfile
+import time
+import tracemalloc
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+import bpy  # noqa: E402
+
+import blender_shapesig  # noqa: E402
+import dataclasses  # noqa: E402
+
+from blender_shapesig import action_changes, action_io, library  # noqa: E402
+from blender_shapesig.core import index  # noqa: E402
+from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
+from blender_shapesig.readers.bvh import import_armature  # noqa: E402
+
+BVH = ROOT / "tests" / "data" / "bvh"
+
+
+def _at_30fps(clip):
+    """Every 4th frame of a 120 fps clip (the issue's file holds 30 fps CMU clips)."""
+    return dataclasses.replace(clip, rotations=clip.rotations[::4], root_translation=clip.root_translation[::4],
+                               fps=30.0)
+
+
+def build_file(path, n_actions):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    arm, _ = import_armature(str(BVH / "07_01.bvh"))
+    arm.name = "Rig"
+    bpy.data.actions.remove(arm.animation_data.action)
+    clips = [_at_30fps(load_bvh(p)) for p in sorted(BVH.glob("*.bvh"))]
+    t0 = time.perf_counter()
+    for n in range(n_actions):
+        clip = clips[n % len(clips)]
+        k = n // len(clips)  # every action a different crop: 1,000 distinct contents (and index entries)
+        start, end = 2 + k % 10, clip.frame_end - k // 10
+        a = action_io.write_action(clip.crop(start, end), armature=arm, name=f"{clip.name}_{n:04d}")
+        if n == 0:
+            action_io.assign_action(arm, a)
+    build_s = time.perf_counter() - t0
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return build_s
+
+
+def settings_for(context):
+    s = library.settings_of(context)
+    s.use_file_actions = True
+    s.use_folders = False
+    s.rerank = 0
+    s.top = 10
+    return s
+
+
+def click(context, settings, cache):
+    t0, c0 = time.perf_counter(), time.process_time()
+    obj, action, q = library.query_item(context, settings)
+    items = [it for it in library.library_items(context, settings, obj) if it.key != q.key]
+    t1 = time.perf_counter()
+    res = index.rank_clips(q, items, metric="sim", level=settings.level, rerank=0, top=10, cache=cache)
+    t2, c2 = time.perf_counter(), time.process_time()
+    return {"wall_ms": (t2 - t0) * 1e3, "cpu_ms": (c2 - c0) * 1e3, "items_ms": (t1 - t0) * 1e3,
+            "rank_ms": (t2 - t1) * 1e3, "results": len(res)}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--actions", type=int, default=1000)
+    ap.add_argument("--blend", type=pathlib.Path,
+                    default=pathlib.Path(tempfile.gettempdir()) / "shapesig_bench_actions.blend")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--json", type=pathlib.Path)
+    args = ap.parse_args(argv)
+    out = {"actions": args.actions, "load_average_1min": os.getloadavg()[0]}
+    blender_shapesig.register()
+    if not args.blend.exists():
+        out["file_build_s"] = round(build_file(args.blend, args.actions), 1)
+    bpy.ops.wm.open_mainfile(filepath=str(args.blend))
+    context = bpy.context
+    arm = bpy.data.objects["Rig"]
+    context.view_layer.objects.active = arm
+    settings = settings_for(context)
+    out["actions_in_file"] = len(bpy.data.actions)
+    out["fcurves_per_action"] = len(next(iter(bpy.data.actions)).layers[0].strips[0].channelbags[0].fcurves)
+
+    # the baseline every click paid before: action_hash of every action
+    t0 = time.perf_counter()
+    for a in bpy.data.actions:
+        action_io.action_hash(a)
+    out["baseline_action_hash_all_ms"] = round((time.perf_counter() - t0) * 1e3, 1)
+    t0 = time.perf_counter()
+    for a in bpy.data.actions:
+        action_changes.action_fingerprint(a)
+    t1 = time.perf_counter()
+    for a in bpy.data.actions:
+        action_changes.action_fingerprint(a)
+    out["fingerprints_all_ms"] = {"first": round((t1 - t0) * 1e3, 1),
+                                  "remembered": round((time.perf_counter() - t1) * 1e3, 1)}
+
+    with tempfile.TemporaryDirectory() as folder:
+        cache = index.SignatureCache(folder)
+        action_changes.forget_fingerprints()
+        t0 = time.perf_counter()
+        obj, action, q = library.query_item(context, settings)
+        items = [q] + [it for it in library.library_items(context, settings, obj) if it.key != q.key]
+        t1 = time.perf_counter()
+        index.build_index(items, cache=cache)
+        t2 = time.perf_counter()
+        out["index_build"] = {"items": len(items), "items_s": round(t1 - t0, 2), "build_s": round(t2 - t1, 2),
+                              "entries_computed": cache.stats["misses"],
+                              "actions_per_s": round(len(items) / (t2 - t0), 1)}
+        tracemalloc.start()
+        fresh = index.SignatureCache(folder)
+        index.build_index(items, cache=fresh)  # every entry loaded from the folder into memory
+        # ranked with every clip compared exactly: every direction held (within the store's memory limit)
+        index.rank_clips(items[0], items[1:], metric="sim", level=settings.level, cache=fresh)
+        mem = tracemalloc.get_traced_memory()[0]
+        tracemalloc.stop()
+        out["index_memory"] = {"bytes_per_clip": int(mem / len(items)),
+                               "mb_for_2600": round(mem / len(items) * 2600 / 2**20, 1)}
+
+        action_changes.forget_fingerprints()
+        out["click_cold"] = click(context, settings, cache)
+        warm = [click(context, settings, cache) for _ in range(args.repeat)]
+        out["click_warm_best"] = min(warm, key=lambda r: r["wall_ms"])
+        edited = bpy.data.actions[5]
+        fc = edited.layers[0].strips[0].channelbags[0].fcurves[3]
+        fc.keyframe_points[10].co.y += 0.1
+        context.view_layer.update()
+        out["click_after_one_edit"] = click(context, settings, cache)
+    for k, v in list(out.items()):
+        if isinstance(v, dict):
+            out[k] = {kk: (round(vv, 2) if isinstance(vv, float) else vv) for kk, vv in v.items()}
+    print(json.dumps(out, indent=2))
+    if args.json:
+        args.json.write_text(json.dumps(out, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
