@@ -317,11 +317,15 @@ def cmd_blend(args):
         raise CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
     if args.frames is not None and args.frames < 2:
         raise CommandError("--frames must be 2 or more")
-    a = load_one(args.a, args.asf, _crop_of(args), args.bone_map)
-    b = load_one(args.b, args.asf, _crop_of(args), args.bone_map)
     from .core.blend import blend_clip_series, blend_name
     from .core.metrics import check_coverage
+    from .core.rigs import apply_bone_map, onto_rig
 
+    # one rig: its own bones, as before; two rigs: through the bone map, written back onto A's rig
+    a = a_rig = load_one(args.a, args.asf, _crop_of(args), "none")
+    b = load_one(args.b, args.asf, _crop_of(args), "none")
+    if args.bone_map != "none" and a.bones != b.bones:
+        a, b = apply_bone_map(a, args.bone_map), apply_bone_map(b, args.bone_map)
     check_coverage(a, b, args.allow_partial)
 
     bar = _progress(args, len(weights), "blending")
@@ -333,9 +337,6 @@ def cmd_blend(args):
     finally:
         bar.close()
     if a.meta.get("rotation_space") == "comparison":  # across rigs: back onto A's rig through its bone map
-        from .core.rigs import onto_rig
-
-        a_rig = load_one(args.a, args.asf, _crop_of(args), "none")
         blended = [onto_rig(c, a_rig, a) for c in blended]
         kept = blended[0].meta.get("kept_bones", ())
         if kept:

@@ -26,8 +26,8 @@ import numpy as np
 
 import bpy
 
-from . import action_io, compat
-from .core import index, sources
+from . import action_io, compat, rigmap
+from .core import index, rigs, sources
 from .core.errors import ShapeSigError
 from .preferences import ADDON_ID, get_preferences
 from .properties import settings_of
@@ -82,7 +82,7 @@ class ActionKey:
     def text(self) -> str:
         """The cache key."""
         return (f"action:{self.action_hash}|arm:{self.armature_digest}|range:{self.frame_range}"
-                f"|space:armature|keyed")
+                f"|space:armature|keyed|bone_map=auto{rigs.TABLES_VERSION}")
 
 
 @dataclass
@@ -100,6 +100,7 @@ def armature_digest(obj) -> str:
         h.update(f"{pb.name}\x1f{pb.rotation_mode}\x1e".encode())
         rest = np.array(pb.bone.matrix_local.to_3x3(), dtype=np.float64)
         h.update(np.round(rest, 9).tobytes())
+    h.update(rigmap.map_digest(obj).encode())  # the bone map stored on the armature (rigmap)
     return h.hexdigest()[:16]
 
 
@@ -130,8 +131,10 @@ def action_item(action, obj, frame_range=None) -> ActionItem:
     def load(action=action, arm=arm, frame_range=key.frame_range, name=action.name):
         # armature space: comparable with folder clips and with actions of rigs with other bone rolls;
         # only the bones the action keys (a bone it does not animate is unknown, not the rest pose)
-        return action_io.read_action(action, armature=arm, frame_range=frame_range, name=name,
+        clip = action_io.read_action(action, armature=arm, frame_range=frame_range, name=name,
                                      space="armature", exclude_unkeyed=True)
+        # the comparison space across rigs, as folder clips get it at the front door (core.sources.read)
+        return rigs.apply_bone_map(clip, rigmap.stored_map(arm) or "auto")
 
     return ActionItem(action.name, key.text, load, source=action.name, action=action.name, action_key=key)
 

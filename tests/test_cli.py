@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import curves, signatures
+from blender_shapesig.core import curves, signatures, sources
 from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.clip import restrict_to_shared
 
@@ -40,10 +40,14 @@ def amc(tmp_path_factory):
     }
 
 
-def _clip(path):
+def _clip(path, bone_map="auto"):
+    """The clip as the command line reads it by default: the front door, through the automatic bone map
+    (the comparison space across rigs, core.rigs); ``bone_map="none"``: Blender's armature axes as before."""
     folder = os.path.dirname(path)
     asf = [f for f in os.listdir(folder) if f.endswith(".asf")][0]
-    return load_acclaim(path, os.path.join(folder, asf), axes="blender")
+    if bone_map == "none":
+        return load_acclaim(path, os.path.join(folder, asf), axes="blender")
+    return sources.read_one(sources.ClipSpec(path, asf=os.path.join(folder, asf), bone_map=bone_map))
 
 
 def run_json(capsys, args):
@@ -72,6 +76,13 @@ def test_distance_l2_matches_core(capsys, amc):
     assert set(out) >= {"distance", "metric"} and out["metric"] == "l2"
     a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["r1"]))
     assert out["distance"] == pytest.approx(curves.l2_distance(a.rotations, b.rotations), rel=1e-12)
+
+
+def test_distance_bone_map_none_is_the_armature_space(capsys, amc):
+    out, _ = run_json(capsys, ["distance", amc["w1"], amc["r1"], "--metric", "l2", "--bone-map", "none"])
+    a, b = restrict_to_shared(_clip(amc["w1"], "none"), _clip(amc["r1"], "none"))
+    assert out["distance"] == pytest.approx(curves.l2_distance(a.rotations, b.rotations), rel=1e-12)
+    assert out["bones"] == len(a.bones) and out["coverage"] == 1.0
 
 
 @pytest.mark.parametrize("args, label, fn", [

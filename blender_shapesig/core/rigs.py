@@ -12,8 +12,8 @@ HumanIK, iClone / Character Creator, Mixamo, Rigify, SMPL) shares almost no bone
 * reads and writes saved maps (``load_map`` / ``save_map``: ``{"bone": "joint", ...}``, JSON);
 * maps a clip into the **comparison space** (``to_comparison_space``): every mapped bone's rotation relative to
   its rest pose in the armature's world axes, ``W_b(t) = W_parent(t) X_b(t)`` (``X``: the clip's local rotations
-  in armature axes), with the clip's initial heading removed, ``H^T W_b(t)``, ``H`` the rotation about the
-  vertical that the hips turn by at the first frame... see ``heading``. Bones are renamed to their joints.
+  in armature axes), with the clip's heading removed, ``H^T W_b(t)``, ``H`` a rotation about the vertical
+  (the direction of travel, else the mean facing: ``heading``). Bones are renamed to their joints.
 
 Why this space (measured in docs/model.md, "Comparison space across rigs"): for the same physical motion on two
 rigs, ``W`` differs only by a constant right factor per bone (the other rest pose / roll, ``W' = W K_b``), which
@@ -54,7 +54,7 @@ CANONICAL_PARENTS = {
 }
 BONE_MAP_MODES = ("auto", "none")
 # bump when the tables or the comparison space change (it is part of every clip's cache key)
-TABLES_VERSION = 1
+TABLES_VERSION = 2
 # below this coverage (compared / moving joints of the smaller clip) comparisons and blends refuse
 MIN_COVERAGE = 0.5
 
@@ -248,20 +248,18 @@ def load_map(path) -> Dict[str, str]:
 
 
 def resolve_map(bone_map, clip: Clip) -> Optional[Dict[str, str]]:
-    """The map to apply to ``clip`` for a ``bone_map`` option: "none" -> None (names as they are); "auto" ->
-    ``detect_map`` (None when no family is recognised); a path -> the saved map (every bone it names must
-    exist in the clip, ShapeSigError naming the missing ones); a dict -> itself."""
+    """The map to apply to ``clip`` for a ``bone_map`` option: "none" -> None (names as they are); a saved map
+    (a path) or a dict -> its entries for the clip's bones, when it names any (a saved map is for the rig it
+    names: clips of other rigs fall back to "auto"); "auto" -> ``detect_map`` (None when no family is
+    recognised)."""
     if bone_map is None or bone_map == "none":
         return None
-    if bone_map == "auto":
-        return detect_map(clip.bones, clip.meta.get("parents")) or None
-    mapping = check_map(bone_map) if isinstance(bone_map, Mapping) else load_map(bone_map)
-    present = [b for b in mapping if b in clip.bones]
-    if not present:
-        missing = ", ".join(sorted(mapping)[:8])
-        raise ShapeSigError(f"clip {clip.name!r}: none of the bone map's bones exist ({missing}); "
-                            f"unmapped bones: {', '.join(clip.bones[:12])}")
-    return {b: mapping[b] for b in clip.bones if b in mapping}
+    if bone_map != "auto":
+        mapping = check_map(bone_map) if isinstance(bone_map, Mapping) else load_map(bone_map)
+        present = {b: mapping[b] for b in clip.bones if b in mapping}
+        if present:
+            return present
+    return detect_map(clip.bones, clip.meta.get("parents")) or None
 
 
 # ----------------------------------------------------------------------------------------- the space
@@ -295,16 +293,33 @@ def world_rotations(clip: Clip) -> np.ndarray:
     return W
 
 
-def heading(W_root: np.ndarray) -> np.ndarray:
-    """The rotation about the vertical (Z) by the circular mean of the root's yaw over the clip: the direction
-    the actor faces relative to the rig's rest, removed by ``to_comparison_space``. The yaw of a rotation is
-    its twist about Z (from its quaternion, ``2 atan2(z, w)``), so a left Z-rotation adds to it exactly; the
-    mean over all frames barely moves when a rest frame or a few frames are cropped."""
-    yaw = np.arctan2(W_root[:, 1, 0] - W_root[:, 0, 1], W_root[:, 0, 0] + W_root[:, 1, 1] + W_root[:, 2, 2] + 1.0)
-    yaw = 2.0 * yaw
-    mean = np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean())
-    c, s = np.cos(mean), np.sin(mean)
+# a clip travels when its net horizontal displacement is at least this fraction of its horizontal path
+TRAVEL_RATIO = 0.5
+
+
+def _yaw_matrix(yaw):
+    c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def heading(W_root: np.ndarray, root_translation: Optional[np.ndarray] = None) -> np.ndarray:
+    """The rotation about the vertical (Z) that ``to_comparison_space`` removes: where the take goes.
+
+    * A clip that travels (net horizontal displacement of the root >= ``TRAVEL_RATIO`` of its horizontal path):
+      the direction of travel, turned so that it becomes Blender's forward (-Y). Positions do not depend on
+      rest poses or bone axes, so this heading is the same for the take on any rig.
+    * Otherwise: the circular mean over the frames of the root's yaw (its twist about Z, ``2 atan2(z, w)`` of
+      its quaternion), i.e. the facing relative to the rig's rest pose (rigs whose rests face the same way
+      agree; a left Z-rotation adds to it exactly)."""
+    if root_translation is not None and len(root_translation) > 1:
+        flat = np.asarray(root_translation, dtype=np.float64)[:, :2]
+        net = flat[-1] - flat[0]
+        path = np.linalg.norm(np.diff(flat, axis=0), axis=1).sum()
+        if path > 0 and np.linalg.norm(net) >= TRAVEL_RATIO * path:
+            return _yaw_matrix(np.arctan2(net[1], net[0]) + np.pi / 2)
+    yaw = 2.0 * np.arctan2(W_root[:, 1, 0] - W_root[:, 0, 1],
+                           W_root[:, 0, 0] + W_root[:, 1, 1] + W_root[:, 2, 2] + 1.0)
+    return _yaw_matrix(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()))
 
 
 def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
@@ -319,7 +334,7 @@ def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
     by_joint = {j: b for b, j in mapping.items()}
     joints = [j for j in JOINTS if j in by_joint]
     root = by_joint.get("hips", by_joint[joints[0]])
-    H = heading(W[:, index[root]])
+    H = heading(W[:, index[root]], clip.root_translation)
     R = H.T[None, None] @ W[:, [index[by_joint[j]] for j in joints]]
     rt = None if clip.root_translation is None else clip.root_translation @ H
     meta = dict(clip.meta, bone_map={j: by_joint[j] for j in joints}, rotation_space="comparison",
@@ -337,9 +352,7 @@ def apply_bone_map(clip: Clip, bone_map="auto") -> Clip:
         return clip
     mapping = resolve_map(bone_map, clip)
     if mapping is None:
-        if bone_map == "auto":
-            return replace(clip, meta=dict(clip.meta, unmapped=True))
-        return clip
+        return clip if bone_map in (None, "none") else replace(clip, meta=dict(clip.meta, unmapped=True))
     return to_comparison_space(clip, mapping)
 
 
@@ -385,10 +398,11 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
     from .curves import geodesic_interpolate, uniform_times
 
     bone_map = mapped.meta.get("bone_map") or {}
-    joint_of = {b: j for j, b in bone_map.items() if j in clip.bones}
+    unblended = set(clip.meta.get("unmatched_a", ()))  # joints a blend copied from A: A's local motion stays
+    joint_of = {b: j for j, b in bone_map.items() if j in clip.bones and j not in unblended}
     parents = rig.meta.get("parents") or {}
     W0 = world_rotations(rig)
-    H = heading(W0[:, rig.bones.index(bone_map.get("hips", next(iter(bone_map.values()))))])
+    H = heading(W0[:, rig.bones.index(bone_map.get("hips", next(iter(bone_map.values()))))], rig.root_translation)
     X_rig = geodesic_interpolate(rig.rotations, uniform_times(rig.frames), uniform_times(clip.frames))
     index = {b: i for i, b in enumerate(rig.bones)}
     W = np.empty_like(X_rig)
