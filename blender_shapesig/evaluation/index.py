@@ -86,10 +86,12 @@ def labels_from_csv(path, names):
 
 
 def entry_spec(entry: IndexEntry, data, asf=None, bone_map="auto") -> sources.ClipSpec:
-    """The ClipSpec of an entry's file (uncropped: ``evaluate`` crops): paths relative to ``data``; the
+    """The ClipSpec of an entry's file, cropped to its start..end: paths relative to ``data``; the
     skeleton is the entry's, else ``asf``, else the only .asf beside the .amc."""
     skeleton = os.path.join(data, entry.skeleton) if entry.skeleton else asf
-    return sources.ClipSpec.parse(os.path.join(data, entry.file), asf=skeleton, bone_map=bone_map)
+    # the crop is part of the spec: the comparison space (core.rigs: the heading) is computed on the cropped clip
+    return sources.ClipSpec.parse(os.path.join(data, entry.file), asf=skeleton, start=entry.start, end=entry.end,
+                                  bone_map=bone_map)
 
 
 def entry_loader(data, asf=None, cache=None, bone_map="auto"):
