@@ -307,9 +307,10 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     assert report["out"] == str(out) and report["frames"] == [120]
     assert report["actions"] == ["07_01_x_09_02_0.25"]
     assert out.exists()
-    got = load_clips(f"{out}#{report['actions'][0]}")[0]
-    a = load_clips(str(bvh / "07_01.bvh"))[0].crop(2, None)
-    b = load_clips(str(bvh / "09_02.bvh"))[0].crop(2, None)
+    # clips of one rig blend in the rig's own space (armature axes; core.rigs only maps across rigs)
+    got = load_clips(f"{out}#{report['actions'][0]}", bone_map="none")[0]
+    a = load_clips(str(bvh / "07_01.bvh"), bone_map="none")[0].crop(2, None)
+    b = load_clips(str(bvh / "09_02.bvh"), bone_map="none")[0].crop(2, None)
     want = blend_clips(a, b, 0.25, align=False, frames=120)
     assert got.frames == 120
     idx = [want.bones.index(n) for n in got.bones]
