@@ -59,8 +59,8 @@ TABLES_VERSION = 2
 MIN_COVERAGE = 0.5
 
 # Family tables: joint -> bone name after strip_prefix, compared case-insensitively. "{s}" is the side as the
-# family writes it; SIDE_WORDS gives the (left, right) spelling per family. A list tries names in order.
-_SIDED = "{s}"
+# family writes it ("sides": the left and right spelling; "alt_sides": a second spelling), "{h}" the lower-case
+# side letter. A list tries names in order.
 FAMILIES = {
     "cmu_asf": {  # CMU ASF/AMC and BVH conversions that keep its names (MotionBuilder 16_15)
         "sides": ("l", "r"),
@@ -92,7 +92,7 @@ FAMILIES = {
                    "forearm": "{s}Forearm", "hand": "{s}Hand", "thigh": "{s}Thigh", "shin": "{s}Calf",
                    "foot": "{s}Foot", "toe": "{s}ToeBase"}},
     "rigify": {  # Rigify deform / metarig bones (after DEF- / ORG-)
-        "sides": (".L", ".R"), "suffix": True,
+        "sides": (".L", ".R"),
         "joints": {"hips": "spine", "spine": "spine.001", "spine_mid": "spine.002", "chest": "spine.003",
                    "neck": "spine.004", "head": "spine.006", "clavicle": "shoulder{s}", "upper_arm": "upper_arm{s}",
                    "forearm": "forearm{s}", "hand": "hand{s}", "thigh": "thigh{s}", "shin": "shin{s}",
@@ -176,14 +176,15 @@ def _hierarchy_order(names, parents):
 
 
 def detect_family(bones: Iterable[str]) -> Tuple[Optional[str], Dict[str, str]]:
-    """(family name, {bone: joint}) of the table that maps most bones (None, {} when none maps three)."""
+    """(family name, {bone: joint}) of the table that maps most bones; (None, {}) when the best maps fewer than
+    three bones, unless it maps every bone (a clip of one or two bones, e.g. only ``root``)."""
     bones = list(bones)
     best, best_map = None, {}
     for name, table in _TABLES.items():
         m = _match(bones, table)
         if len(m) > len(best_map):
             best, best_map = name, m
-    if len(best_map) < 3:
+    if len(best_map) < min(3, len(bones)):
         return None, {}
     return best, best_map
 
@@ -368,8 +369,9 @@ def check_comparable(*clips: Clip) -> None:
         return
     for c in clips:
         if c.meta.get("rotation_space") != "comparison" and not set(c.bones) & set(mapped[0].bones):
-            raise ShapeSigError(f"clip {c.name!r}: no bone maps to a canonical joint (unmapped bones: "
-                                f"{_names(list(c.bones))}); give a bone map (--bone-map FILE.json)")
+            raise ShapeSigError(f"clips {mapped[0].name!r} and {c.name!r} share no bones: no bone of {c.name!r} "
+                                f"maps to a canonical joint (unmapped bones: {_names(list(c.bones))}); give a bone "
+                                f"map (--bone-map FILE.json)")
 
 
 def moving_count(clip: Clip) -> int:

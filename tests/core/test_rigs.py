@@ -34,7 +34,7 @@ def test_cmu_asf_daz_and_iclone_files_map_every_limb(data_dir):
     assert rigs.detect_family(daz)[0] == "daz"
     assert m["rShldr"] == "upper_arm.R" and m["lShin"] == "shin.L" and m["abdomen"] == "spine"
     assert set(rigs.JOINTS) - set(m.values()) == {"spine_mid", "toe.L", "toe.R"}  # the Daz rig has none
-    cc = _bvh_names(data_dir / "iclone" / "002_03.bvh")
+    cc = _bvh_names(data_dir / "cross_rig" / "002_03.bvh")
     m = rigs.detect_map(cc)
     assert rigs.detect_family(cc)[0] == "cc"
     assert set(m.values()) == set(rigs.JOINTS)
@@ -74,7 +74,8 @@ def test_longer_spine_chain_spreads_over_spine_mid_and_chest():
     m = rigs.detect_map(names, parents)
     assert m["Spine"] == "spine" and m["Spine1"] == "spine_mid" and m["Spine2"] == "chest"
     assert "Spine4" not in m  # the table's chest wins; the extra bones stay unmapped
-    assert rigs.detect_map(["a", "b", "c"]) == {}
+    assert rigs.detect_map(["a", "b", "c"]) == {} and rigs.detect_map(["Hips", "b", "c"]) == {}
+    assert rigs.detect_map(["root"]) == {"root": "hips"}  # every bone of a one-bone clip maps
 
 
 # --- saved maps ------------------------------------------------------------------------------------------
@@ -170,6 +171,6 @@ def test_coverage_and_refusal(walk):
     # a clip whose bones map to no canonical joint against a mapped one: one line naming the unmapped bones
     custom = Clip(name="custom", bones=["a_" + b for b in raw.bones], rotations=raw.rotations,
                   meta={"unmapped": True})
-    with pytest.raises(ShapeSigError, match=r"^clip 'custom': no bone maps to a canonical joint \(unmapped bones: "
-                                            r"a_root, a_lhipjoint"):
+    with pytest.raises(ShapeSigError, match=r"^clips '07_01' and 'custom' share no bones: no bone of 'custom' maps "
+                                            r"to a canonical joint \(unmapped bones: a_root, a_lhipjoint"):
         compare_clips(mapped, custom)
