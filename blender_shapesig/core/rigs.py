@@ -37,7 +37,8 @@ from .errors import ParseError, ShapeSigError
 __all__ = [
     "JOINTS", "BODY", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
     "check_map", "load_map", "save_map", "map_json", "resolve_map", "world_rotations", "heading",
-    "to_comparison_space", "apply_bone_map", "check_comparable", "coverage", "MIN_COVERAGE", "TABLES_VERSION",
+    "to_comparison_space", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
+    "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
 ]
 
 BODY = ("hips", "spine", "spine_mid", "chest", "neck", "head")
