@@ -394,6 +394,8 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     if armature is not None:
         # armature-space rest orientation of each bone: world-aligned local rotation = B R B^T
         clip.meta["rest_rotations"] = _rest_frames(names, armature)[0]
+        # the hierarchy (every bone of the armature): core.rigs builds world rotations and bone maps from it
+        clip.meta["parents"] = {b.name: (b.parent.name if b.parent else None) for b in armature.data.bones}
     clip.meta["rotation_space"] = "pose"
     if space == "armature":
         clip = to_armature_space(clip, armature)

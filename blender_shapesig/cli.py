@@ -117,19 +117,23 @@ def _crop_of(args):
     return (getattr(args, "start", None), getattr(args, "end", None)) if args is not None else None
 
 
-def _spec(text, asf=None, crop=None):
-    """The ClipSpec of one CLIP argument with ``--asf`` and the crop ``(start, end)``."""
+def _spec(text, asf=None, crop=None, bone_map="auto"):
+    """The ClipSpec of one CLIP argument with ``--asf``, the crop ``(start, end)`` and ``--bone-map``."""
     from .core.sources import ClipSpec
 
     start, end = crop or (None, None)
-    return ClipSpec.parse(text, asf=asf or None, start=start, end=end)
+    return ClipSpec.parse(text, asf=asf or None, start=start, end=end, bone_map=bone_map)
 
 
-def load_one(spec, asf=None, crop=None):
-    """The one clip a CLIP argument names, cropped."""
+def _bone_map_of(args):
+    return getattr(args, "bone_map", "auto") if args is not None else "auto"
+
+
+def load_one(spec, asf=None, crop=None, bone_map="auto"):
+    """The one clip a CLIP argument names, cropped, through ``--bone-map``."""
     from .core.sources import read_one
 
-    return read_one(_spec(spec, asf, crop))
+    return read_one(_spec(spec, asf, crop, bone_map))
 
 
 def load_many(specs, asf=None, args=None):
@@ -140,7 +144,7 @@ def load_many(specs, asf=None, args=None):
     bar = _progress(args, len(specs), "loading") if args is not None else _NoBar()
     try:
         for spec in specs:
-            out.extend(read(_spec(spec, asf, _crop_of(args))))
+            out.extend(read(_spec(spec, asf, _crop_of(args), _bone_map_of(args))))
             bar.update()
     finally:
         bar.close()
@@ -156,14 +160,16 @@ def _display_name(clip):
 
 
 def cmd_distance(args):
-    from .core.metrics import clip_distance, metric_label, parse_metric
+    from .core.metrics import compare_clips, metric_label, parse_metric
 
     base, level = parse_metric(args.metric, args.level)
-    a = load_one(args.a, args.asf, _crop_of(args))
-    b = load_one(args.b, args.asf, _crop_of(args))
-    d = clip_distance(a, b, base, level=level, depth=args.depth)
+    a = load_one(args.a, args.asf, _crop_of(args), args.bone_map)
+    b = load_one(args.b, args.asf, _crop_of(args), args.bone_map)
+    got = compare_clips(a, b, base, level=level, depth=args.depth, allow_partial=args.allow_partial)
+    d = got["distance"]
     label = metric_label(base, level)
-    out = {"distance": _finite(d), "metric": label, "a": _display_name(a), "b": _display_name(b)}
+    out = {"distance": _finite(d), "metric": label, "a": _display_name(a), "b": _display_name(b),
+           "bones": got["bones"], "coverage": got["coverage"]}
     if base == "elastic":
         out["depth"] = args.depth
     text = f"{label}({a.name}, {b.name}) = {d:.6g}"
@@ -175,7 +181,7 @@ def _library_items(specs, args):
     cached file is not even read again. Missing files and unknown types fail here, at once."""
     from .core.sources import spec_item
 
-    return [spec_item(_spec(s, args.asf, _crop_of(args)).check()) for s in specs]
+    return [spec_item(_spec(s, args.asf, _crop_of(args), args.bone_map).check()) for s in specs]
 
 
 def _cache_dir(args, search):
@@ -207,7 +213,7 @@ def cmd_rank(args):
         raise CommandError("--top must be 1 or more")
     from .core.sources import read_one, spec_item
 
-    spec = _spec(args.query, args.asf, _crop_of(args))
+    spec = _spec(args.query, args.asf, _crop_of(args), args.bone_map)
     query = read_one(spec)
     # the query is keyed like the library: its signature is a cache hit when it was indexed before
     query_item = spec_item(spec, load=lambda _spec: query)
@@ -225,7 +231,8 @@ def cmd_rank(args):
 
     try:
         results = search.rank_clips(query_item, items, metric=base, level=level, rerank=args.rerank or 0,
-                                    top=args.top, cache=cache, depth=args.depth, progress=progress)
+                                    top=args.top, cache=cache, depth=args.depth, progress=progress,
+                                    allow_partial=args.allow_partial)
     finally:
         bar.close()
     for w in getattr(results, "warnings", []):
@@ -243,7 +250,7 @@ def cmd_rank(args):
         path = item.path if item is not None else None
         action = (item.action or r.name) if path and path.lower().endswith(".blend") else None
         rows.append({"clip": r.name, "distance": _finite(r.distance), "elastic": _finite(r.elastic),
-                     "path": path, "action": action})
+                     "path": path, "action": action, "coverage": r.coverage})
     label = metric_label(base, level)
     stats = dict(getattr(results, "stats", {}) or {})
     out = {"query": query.name, "metric": label, "results": rows,
@@ -333,9 +340,16 @@ def cmd_blend(args):
         raise CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
     if args.frames is not None and args.frames < 2:
         raise CommandError("--frames must be 2 or more")
-    a = load_one(args.a, args.asf, _crop_of(args))
-    b = load_one(args.b, args.asf, _crop_of(args))
     from .core.blend import blend_clip_series, blend_name
+    from .core.metrics import check_coverage
+    from .core.rigs import apply_bone_map, onto_rig
+
+    # one rig: its own bones, as before; two rigs: through the bone map, written back onto A's rig
+    a = a_rig = load_one(args.a, args.asf, _crop_of(args), "none")
+    b = load_one(args.b, args.asf, _crop_of(args), "none")
+    if args.bone_map != "none" and a.bones != b.bones:
+        a, b = apply_bone_map(a, args.bone_map), apply_bone_map(b, args.bone_map)
+    check_coverage(a, b, args.allow_partial)
 
     bar = _progress(args, len(weights), "blending")
     try:
@@ -345,6 +359,11 @@ def cmd_blend(args):
         )
     finally:
         bar.close()
+    if a.meta.get("rotation_space") == "comparison":  # across rigs: back onto A's rig through its bone map
+        blended = [onto_rig(c, a_rig, a) for c in blended]
+        kept = blended[0].meta.get("kept_bones", ())
+        if kept:
+            sys.stderr.write(f"{PROG}: note: bones without a counterpart keep A's motion: {', '.join(kept)}\n")
     for clip, w in zip(blended, weights):
         # The blend lives in A's rotation space (pose or armature axes); write_action converts by it.
         if "rotation_space" in a.meta:
@@ -361,6 +380,8 @@ def cmd_blend(args):
         "weights": weights,
         "align": bool(args.align),
     }
+    if a.meta.get("rotation_space") == "comparison":
+        out["kept_bones"] = list(blended[0].meta.get("kept_bones", ()))
     text = "\n".join(
         [f"wrote {out_path}"] + [f"  {n}: {c.frames} frames (weight {w:g})" for n, c, w in zip(names, blended, weights)]
     )
@@ -428,7 +449,7 @@ def cmd_evaluate(args):
     entries = evaluation.read_index(args.index)
     summary = evaluation.evaluate(
         entries,
-        evaluation.entry_loader(args.data, args.asf),
+        evaluation.entry_loader(args.data, args.asf, bone_map=args.bone_map),
         metrics,
         args.out,
         depth=args.depth,
@@ -453,6 +474,12 @@ def _add_common(p, asf=True, crop=True):
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     if asf:
         p.add_argument("--asf", help="skeleton (.asf) for .amc clips (default: the only .asf beside each .amc)")
+    if asf:  # every clip-reading command
+        p.add_argument("--bone-map", default="auto", metavar="auto|none|FILE.json",
+                       help="match bones of different rigs through the canonical joints: auto (built-in name "
+                            "tables, default), none (exact bone names), or a saved map {\"bone\": \"joint\"}")
+        p.add_argument("--allow-partial", action="store_true",
+                       help="compare / blend even when under half of the moving joints are shared")
     if crop:
         p.add_argument("--start", type=int, metavar="FRAME",
                        help="crop every clip to start at this frame (inclusive; e.g. 2 drops the rest pose "

@@ -28,8 +28,8 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_io, compat
-from .core import index, sources
+from . import action_changes, action_io, compat, rigmap
+from .core import index, rigs, sources
 from .core.errors import ShapeSigError, check_frame_range, check_integer
 from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, results_of, settings_of
@@ -85,7 +85,7 @@ class ActionKey:
     def text(self) -> str:
         """The cache key."""
         return (f"action:{self.action_hash}|arm:{self.armature_digest}|range:{self.frame_range}"
-                f"|space:armature|keyed")
+                f"|space:armature|keyed|bone_map=auto{rigs.TABLES_VERSION}")
 
 
 @dataclass
@@ -103,6 +103,7 @@ def armature_digest(obj) -> str:
         h.update(f"{pb.name}\x1f{pb.rotation_mode}\x1e".encode())
         rest = np.array(pb.bone.matrix_local.to_3x3(), dtype=np.float64)
         h.update(np.round(rest, 9).tobytes())
+    h.update(rigmap.map_digest(obj).encode())  # the bone map stored on the armature (rigmap)
     return h.hexdigest()[:16]
 
 
@@ -139,8 +140,10 @@ def action_item(action, obj, frame_range=None, digests=None) -> ActionItem:
     def load(action=action, arm=arm, frame_range=key.frame_range, name=action.name):
         # armature space: comparable with folder clips and with actions of rigs with other bone rolls;
         # only the bones the action keys (a bone it does not animate is unknown, not the rest pose)
-        return action_io.read_action(action, armature=arm, frame_range=frame_range, name=name,
+        clip = action_io.read_action(action, armature=arm, frame_range=frame_range, name=name,
                                      space="armature", exclude_unkeyed=True)
+        # the comparison space across rigs, as folder clips get it at the front door (core.sources.read)
+        return rigs.apply_bone_map(clip, rigmap.stored_map(arm) or "auto")
 
     return ActionItem(action.name, key.text, load, source=action.name, action=action.name, action_key=key)
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import curves, signatures
+from blender_shapesig.core import curves, signatures, sources
 from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.clip import restrict_to_shared
 
@@ -40,10 +40,15 @@ def amc(tmp_path_factory):
     }
 
 
-def _clip(path):
+def _clip(path, bone_map="auto", start=None, end=None):
+    """The clip as the command line reads it by default: the front door, through the automatic bone map
+    (the comparison space across rigs, core.rigs); ``bone_map="none"``: Blender's armature axes as before."""
     folder = os.path.dirname(path)
     asf = [f for f in os.listdir(folder) if f.endswith(".asf")][0]
-    return load_acclaim(path, os.path.join(folder, asf), axes="blender")
+    if bone_map == "none":
+        return load_acclaim(path, os.path.join(folder, asf), axes="blender")
+    return sources.read_one(sources.ClipSpec(path, asf=os.path.join(folder, asf), start=start, end=end,
+                                             bone_map=bone_map))
 
 
 def run_json(capsys, args):
@@ -72,6 +77,13 @@ def test_distance_l2_matches_core(capsys, amc):
     assert set(out) >= {"distance", "metric"} and out["metric"] == "l2"
     a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["r1"]))
     assert out["distance"] == pytest.approx(curves.l2_distance(a.rotations, b.rotations), rel=1e-12)
+
+
+def test_distance_bone_map_none_is_the_armature_space(capsys, amc):
+    out, _ = run_json(capsys, ["distance", amc["w1"], amc["r1"], "--metric", "l2", "--bone-map", "none"])
+    a, b = restrict_to_shared(_clip(amc["w1"], "none"), _clip(amc["r1"], "none"))
+    assert out["distance"] == pytest.approx(curves.l2_distance(a.rotations, b.rotations), rel=1e-12)
+    assert out["bones"] == len(a.bones) and out["coverage"] == 1.0
 
 
 @pytest.mark.parametrize("args, label, fn", [
@@ -200,8 +212,9 @@ def test_evaluate_amc(capsys, amc, tmp_path):
         assert 0.0 <= row["accuracy"] <= 1.0 and row["seconds"] >= 0.0
     # The crop (frames 1..200 of 07_01, 10.. of 09_03) is applied before the distances.
     M = np.load(out_dir / "matrices" / "l2.npy")
-    a = _clip(amc["w1"]).crop(1, 200)
-    d = _clip(amc["r2"]).crop(10, None)
+    # cropped before the comparison space (whose heading depends on the frames kept), as the front door does
+    a = _clip(amc["w1"], start=1, end=200)
+    d = _clip(amc["r2"], start=10)
     a, d = restrict_to_shared(a, d)
     assert a.frames == 200
     assert M[0, 3] == pytest.approx(curves.l2_distance(a.rotations, d.rotations), rel=1e-9)
@@ -349,9 +362,10 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     assert report["out"] == str(out) and report["frames"] == [120]
     assert report["actions"] == ["07_01_x_09_02_0.25"]
     assert out.exists()
-    got = load_clips(f"{out}#{report['actions'][0]}")[0]
-    a = load_clips(str(bvh / "07_01.bvh"))[0].crop(2, None)
-    b = load_clips(str(bvh / "09_02.bvh"))[0].crop(2, None)
+    # clips of one rig blend in the rig's own space (armature axes; core.rigs only maps across rigs)
+    got = load_clips(f"{out}#{report['actions'][0]}", bone_map="none")[0]
+    a = load_clips(str(bvh / "07_01.bvh"), bone_map="none")[0].crop(2, None)
+    b = load_clips(str(bvh / "09_02.bvh"), bone_map="none")[0].crop(2, None)
     want = blend_clips(a, b, 0.25, align=False, frames=120)
     assert got.frames == 120
     idx = [want.bones.index(n) for n in got.bones]

@@ -40,6 +40,8 @@ SETS = {
     "cmu_amc": os.path.join(ROOT, "tools", "eval_sets", "cmu_amc.csv"),
     # The 27 clips cropped only by the rest-pose frame: frames 2..6 still hold the converter's ramp.
     "cmu27_start2": os.path.join(ROOT, "tools", "eval_sets", "cmu27_start2.csv"),
+    # The 27-clip set across formats (docs/rigs.md): walks from ASF/AMC, runs and jumps from the Daz BVH.
+    "cmu27_mixed": os.path.join(ROOT, "tools", "eval_sets", "cmu27_mixed.csv"),
 }
 _SIGNATURE = (
     "group3", "concat3", "linear3", "sim2", "sim3",
@@ -56,6 +58,7 @@ METRICS = {
     "cmu_large": ("l2", "elastic", "elastic_numpy") + _SIGNATURE + _TWO_STAGE,
     "cmu_amc": ("l2", "elastic") + _SIGNATURE + _TWO_STAGE,
     "cmu27_start2": ("l2", "elastic") + _SIGNATURE + ("sim3+elastic10",),
+    "cmu27_mixed": ("l2", "elastic") + _SIGNATURE + ("sim3+elastic10",),
 }
 
 _CACHE = {}  # clips read once for all sets (ClipSpec -> Clip, uncropped)

@@ -30,6 +30,7 @@ from .errors import CurveError, ShapeSigError
 __all__ = [
     "METRICS", "SIGNATURE_METRICS", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
     "parse_metric_spec", "check_metric", "parse_metric", "metric_label", "clip_distance", "curve_distance",
+    "check_coverage", "compare_clips",
 ]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
@@ -154,6 +155,27 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
         "sim": signatures.normalized_distance,
     }[base]
     return fn(R0, R1, lvl)
+
+
+def check_coverage(a: Clip, b: Clip, allow_partial=False):
+    """(joints compared, coverage) of two clips (``rigs.coverage``: compared / moving joints of the smaller
+    clip). ShapeSigError (one line) when a clip's bones could not be mapped while the other's were
+    (``rigs.check_comparable``), or when the coverage is below ``rigs.MIN_COVERAGE`` and not ``allow_partial``."""
+    from .rigs import MIN_COVERAGE, check_comparable, coverage
+
+    check_comparable(a, b)
+    bones, cov = coverage(a, b)
+    if cov < MIN_COVERAGE and not allow_partial:
+        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share {bones} moving joints, coverage {cov:.2f} "
+                            f"< {MIN_COVERAGE} of the smaller clip's moving joints; map the bones "
+                            f"(--bone-map FILE.json) or allow it (--allow-partial)")
+    return bones, cov
+
+
+def compare_clips(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, allow_partial=False) -> dict:
+    """``{"distance", "bones", "coverage"}`` of two clips: ``clip_distance`` after ``check_coverage``."""
+    bones, cov = check_coverage(a, b, allow_partial)
+    return {"distance": clip_distance(a, b, metric, level, depth), "bones": bones, "coverage": cov}
 
 
 def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH):

@@ -64,6 +64,8 @@ class ClipSpec:
     start: Optional[int] = None
     end: Optional[int] = None
     fps: Optional[float] = None
+    # "auto" | "none" | a saved map's path: the comparison space across rigs (core.rigs.apply_bone_map)
+    bone_map: str = "auto"
 
     @classmethod
     def parse(cls, text, **options) -> "ClipSpec":
@@ -109,7 +111,19 @@ class ClipSpec:
         skeleton = self.skeleton()
         extra = (f"asf={file_key(skeleton) if skeleton else ''}|action={self.action}|start={self.start}"
                  f"|end={self.end}|fps={self.fps}")
+        extra += f"|bone_map={_bone_map_key(self.bone_map)}"
         return file_key(self.path, extra)
+
+
+def _bone_map_key(bone_map) -> str:
+    """The key part of a ``bone_map`` option: the tables' version for "auto", a saved map's content."""
+    from .rigs import TABLES_VERSION
+
+    if bone_map in (None, "none"):
+        return "none"
+    if bone_map == "auto":
+        return f"auto{TABLES_VERSION}"
+    return f"{TABLES_VERSION}:" + file_key(bone_map) if os.path.isfile(bone_map) else f"missing:{bone_map}"
 
 
 def find_asf(amc_path, asf=None) -> str:
@@ -208,6 +222,10 @@ def read(spec, **options) -> List[Clip]:
         clips = [dataclasses.replace(c, fps=float(spec.fps)) for c in clips]
     if spec.start is not None or spec.end is not None:
         clips = [c.crop(spec.start, spec.end) for c in clips]
+    if spec.bone_map not in (None, "none"):
+        from .rigs import apply_bone_map
+
+        clips = [apply_bone_map(c, spec.bone_map) for c in clips]
     return clips
 
 

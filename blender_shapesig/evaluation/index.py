@@ -85,19 +85,21 @@ def labels_from_csv(path, names):
     return [by_stem.get(n.split("#")[0], by_stem.get(os.path.splitext(n)[0], "unknown")) for n in names]
 
 
-def entry_spec(entry: IndexEntry, data, asf=None) -> sources.ClipSpec:
-    """The ClipSpec of an entry's file (uncropped: ``evaluate`` crops): paths relative to ``data``; the
+def entry_spec(entry: IndexEntry, data, asf=None, bone_map="auto") -> sources.ClipSpec:
+    """The ClipSpec of an entry's file, cropped to its start..end: paths relative to ``data``; the
     skeleton is the entry's, else ``asf``, else the only .asf beside the .amc."""
     skeleton = os.path.join(data, entry.skeleton) if entry.skeleton else asf
-    return sources.ClipSpec.parse(os.path.join(data, entry.file), asf=skeleton)
+    # the crop is part of the spec: the comparison space (core.rigs: the heading) is computed on the cropped clip
+    return sources.ClipSpec.parse(os.path.join(data, entry.file), asf=skeleton, start=entry.start, end=entry.end,
+                                  bone_map=bone_map)
 
 
-def entry_loader(data, asf=None, cache=None):
+def entry_loader(data, asf=None, cache=None, bone_map="auto"):
     """``loader(entry) -> Clip`` for ``evaluate``: ``sources.read_one`` of ``entry_spec``. ``cache`` (a dict)
     keeps the clips read, keyed by the spec, for runs that share files."""
 
     def loader(entry):
-        spec = entry_spec(entry, data, asf)
+        spec = entry_spec(entry, data, asf, bone_map)
         if cache is None:
             return sources.read_one(spec)
         if spec not in cache:

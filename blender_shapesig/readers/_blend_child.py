@@ -19,7 +19,7 @@ import numpy as np
 
 # meta entries that travel back (JSON values; rest_rotations as an array)
 _META_KEYS = ("rotation_space", "up_axis", "format", "action", "slot", "fcurve_hash", "still_bones",
-              "missing_rotation_bones")
+              "missing_rotation_bones", "parents")
 
 
 def write_result(out, clips=None, error=None):

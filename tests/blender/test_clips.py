@@ -58,7 +58,7 @@ def _bvh_local_rotations(path):
 def test_amc_equals_core(empty_file):
     core = load_acclaim(ACC / "09_02.amc", ACC / "09-run.asf")  # ASF axes
     # the front door: Blender armature axes, A L A^T and s A T
-    (clip,) = read(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    (clip,) = read(ACC / "09_02.amc", asf=ACC / "09-run.asf", bone_map="none")  # the reader's space
     assert clip.meta["rotation_space"] == "armature"
     np.testing.assert_allclose(clip.rotations, A[None, None] @ core.rotations @ A.T[None, None], atol=1e-14)
     s = core.meta["meters_per_unit"]
@@ -89,7 +89,7 @@ def test_bvh_through_blender_importer(empty_file, capsys):
     assert arm.meta["rotation_space"] == "armature" and arm.meta["up_axis"] == "Z"
     np.testing.assert_allclose(arm.rotations, aligned, atol=1e-12)
     # the front door reads .bvh with our bpy-free reader: the same clip (the importer keys 32-bit floats)
-    (ours,) = read(DATA / "bvh" / "09_02.bvh")
+    (ours,) = read(DATA / "bvh" / "09_02.bvh", bone_map="none")  # the reader's space (core.rigs maps after it)
     assert ours.meta["rotation_space"] == "armature" and ours.meta["up_axis"] == "Z"
     np.testing.assert_allclose(ours.rotations, aligned, atol=1e-6)
 
@@ -141,7 +141,7 @@ def test_blend_file_and_single_action(empty_file, line_armature, tmp_path, capsy
 
     np.testing.assert_allclose(keyed.rotations[0, 0], Rotation.from_euler("zxy", [0.3, 0.1, 0.2]).as_matrix(),
                                atol=1e-6)
-    (one,) = read(f"{path}#walk_b")
+    (one,) = read(f"{path}#walk_b", bone_map="none")
     assert one.name == "walk_b" and one.frames == 50
     # armature space (the default) with the file's armature: B P B^T, back to pose by write_action
     assert one.meta["rotation_space"] == "armature"
@@ -215,8 +215,15 @@ def test_imported_and_folder_amc_agree_in_armature_space(empty_file):
     obj = bpy.context.view_layer.objects.active
     action = obj.animation_data.action
     from_file = action_io.read_action(action, armature=obj, space="armature")
-    (from_folder,) = read(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    (from_folder,) = read(ACC / "09_02.amc", asf=ACC / "09-run.asf", bone_map="none")
     assert from_file.bones == from_folder.bones
+    # through the bone map (the front door's default): the hierarchy of the armature and of the .asf agree too
+    from blender_shapesig.core import rigs
+
+    (mapped,) = read(ACC / "09_02.amc", asf=ACC / "09-run.asf")
+    via_armature = rigs.apply_bone_map(from_file)
+    assert via_armature.bones == mapped.bones and len(mapped.bones) == len(rigs.JOINTS)
+    np.testing.assert_allclose(via_armature.rotations, mapped.rotations, atol=5e-5)
     np.testing.assert_allclose(from_file.rotations, from_folder.rotations, atol=5e-6)  # float32 keys
     np.testing.assert_allclose(from_file.root_translation, from_folder.root_translation, atol=1e-5)
     # while their pose-space rotations differ by each bone's rest orientation (the defect this prevents)

@@ -9,7 +9,7 @@ import shutil
 import numpy as np
 import pytest
 
-from blender_shapesig.core import search, signatures
+from blender_shapesig.core import search, signatures, sources
 from blender_shapesig.core.index import words
 from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.clip import Clip
@@ -291,8 +291,8 @@ def test_folder_library_keys_follow_file_contents(data_dir, tmp_path):
     cache_dir = tmp_path / "cache"
     items = search.folder_library(tmp_path, asf=str(tmp_path / "07-walk.asf"))
     assert [it.name for it in items] == ["07_01", "07_02"]
-    # folder .amc clips are read in Blender's armature axes: so must the query be
-    q = load_acclaim(str(src / "07_01.amc"), str(src / "07-walk.asf"), axes="blender")
+    # folder .amc clips are read through the front door (armature axes, the comparison space): so must the query be
+    q = sources.read_one(sources.ClipSpec(str(src / "07_01.amc"), asf=str(src / "07-walk.asf")))
     first = search.rank_clips(q, items, cache=search.SignatureCache(cache_dir))
     assert first[0].name == "07_01" and first[0].distance == pytest.approx(0.0, abs=1e-6)
     again = search.rank_clips(q, search.folder_library(tmp_path, asf=str(tmp_path / "07-walk.asf")),

@@ -101,6 +101,7 @@ def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton
             "length_unit": skeleton.length_unit,
             "meters_per_unit": skeleton.meters_per_unit,
             "frame_numbers": motion.frame_numbers,
+            "parents": {n: b.parent for n, b in skeleton.bones.items()},
             # world-aligned local rotations C M C^-1 in the ASF's Y-up axes
             "rotation_space": "asf",
             "up_axis": "Y",

@@ -5,6 +5,7 @@ alone on a line followed by one ``bone value...`` line per animated bone, values
 (the root's in its ``order``). Conventions (M, L = C M C^-1, G): ``formats.acclaim``.
 """
 
+import re
 from dataclasses import dataclass
 from typing import Dict, List, Optional
 
@@ -13,6 +14,8 @@ import numpy as np
 from ..errors import ParseError
 from .asf import Skeleton, euler_matrices
 from .text import finite_float, read_text
+
+_FRAME_NUMBER = re.compile(r"[+-]?\d+")  # a frame-number line: digits with one optional sign
 
 __all__ = ["Motion", "parse_amc", "forward_kinematics"]
 
@@ -145,7 +148,7 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
                 amc_unit = "rad"
             continue
         tokens = text_line.split()
-        if len(tokens) == 1 and tokens[0].lstrip("+-").isdigit():
+        if len(tokens) == 1 and _FRAME_NUMBER.fullmatch(tokens[0]):  # one optional sign ("--1" is not one)
             number = int(tokens[0])
             if current is not None:
                 close_frame()

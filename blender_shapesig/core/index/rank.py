@@ -24,6 +24,7 @@ import numpy as np
 from ..clip import Clip
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, curve_distance, parse_metric
+from ..rigs import MIN_COVERAGE
 from ..sources import LibraryItem, as_items, clip_item, library
 from .entry import (IndexEntry, curve_from_increments, entry_distance, make_entry, pair_increments,
                     sim_from_increments, sketch_distance)
@@ -56,10 +57,11 @@ class RankResult:
     shared: int = 0
     approximate: bool = False
     partial: bool = False
+    coverage: float = 1.0  # joints compared / moving joints of the smaller clip (core.rigs.coverage)
 
     def as_dict(self):
         return {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
-                "source": self.source}
+                "source": self.source, "coverage": self.coverage}
 
 
 class RankList(list):
@@ -176,9 +178,16 @@ def _query_entry(query, level, store):
     return dataclasses.replace(_loaded(query, item, store))
 
 
-def _result(e, d, shared, approximate=False, partial=False):
+def _result(e, d, shared, approximate=False, partial=False, coverage=1.0):
     return RankResult(name=e.name, distance=float(d), frames=e.frames, key=e.key, source=e.source,
-                      shared=shared, approximate=approximate, partial=partial)
+                      shared=shared, approximate=approximate, partial=partial, coverage=coverage)
+
+
+def _coverage(q, e, shared):
+    """Moving joints compared / moving joints of the smaller clip (``rigs.coverage`` on index entries)."""
+    moving = {q.bones[j] for j in q.moving} | {e.bones[j] for j in e.moving}
+    smaller = min(len(q.moving), len(e.moving))
+    return 1.0 if smaller == 0 else min(1.0, sum(b in moving for b in shared) / smaller)
 
 
 def _sketch_candidates(q, same, store, npool):
@@ -202,9 +211,10 @@ def _rank_same_skeleton(q, same, store, npool, use_sketch):
     return results
 
 
-def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnings, skipped):
+def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnings, skipped, allow_partial=True):
     """Results for clips compared pairwise on the bones they share with the query (other skeletons, or any
-    metric other than sim), from their increments."""
+    metric other than sim), from their increments; without ``allow_partial``, clips whose coverage is below
+    ``rigs.MIN_COVERAGE`` are skipped with a warning naming it."""
     q_moving = {q.bones[j] for j in q.moving}
     results = []
     for item, e in pairs:
@@ -215,6 +225,12 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
             warnings.append(f"{e.name}: shares no bones with the query {q.name!r}; skipped")
             continue
         moving_shared = q_moving & set(shared)
+        cov = _coverage(q, e, shared)
+        if not allow_partial and cov < MIN_COVERAGE:
+            skipped.append(e.name)
+            warnings.append(f"{e.name}: coverage {cov:.2f} < {MIN_COVERAGE} of the moving joints; skipped "
+                            f"(allow partial matches to rank it)")
+            continue
         partial = bool(q_moving) and len(moving_shared) < FEW_SHARED * len(q_moving)
         if partial:
             warnings.append(f"{e.name}: shares only {len(moving_shared)} of the query's {len(q_moving)} moving "
@@ -224,7 +240,7 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
             d = sim_from_increments(a, b, sig_level)
         else:
             d = curve_distance(curve_from_increments(a), curve_from_increments(b), base, level=level, depth=depth)
-        results.append(_result(e, d, len(shared), partial=partial))
+        results.append(_result(e, d, len(shared), partial=partial, coverage=cov))
     return results
 
 
@@ -250,7 +266,7 @@ def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
 
 
 def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cache=None, *,
-               depth=DEFAULT_DEPTH, progress=None, exclude=(), pool=None) -> RankList:
+               depth=DEFAULT_DEPTH, progress=None, exclude=(), pool=None, allow_partial=True) -> RankList:
     """Rank ``library`` (Clips or LibraryItems) by their distance to ``query`` (a Clip), best first.
 
     ``metric``: ``sim`` (sim^n, through the index) or any name of ``metrics.parse_metric`` (computed
@@ -262,7 +278,8 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     4 top, rerank)). Clips of other skeletons are compared on the shared bones; clips sharing fewer than
     FEW_SHARED of the query's moving bones are ``partial``: warned about and ranked after all others (their
     distances cover a different, smaller part of the body), and never re-ranked above them; clips sharing
-    none are skipped with a warning in ``result.warnings``.
+    none are skipped with a warning in ``result.warnings``. ``allow_partial=False``: clips whose coverage
+    (``RankResult.coverage``) is below ``rigs.MIN_COVERAGE`` are skipped with a warning instead.
     """
     t0 = time.perf_counter()
     base, lvl = parse_metric(metric, level)
@@ -287,7 +304,7 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
         npool = pool if pool is not None else max(EXACT_POOL, 4 * (top or 0), rerank)
         results = _rank_same_skeleton(q, same, store, npool, use_sketch=top is not None and len(same) > npool)
     other = [(item, e) for item, e in pairs if base != "sim" or e.bones != q.bones]
-    pairwise = _rank_on_shared_bones(q, other, store, base, sig_level, lvl, depth, warnings, skipped)
+    pairwise = _rank_on_shared_bones(q, other, store, base, sig_level, lvl, depth, warnings, skipped, allow_partial)
     compared = sum(not r.approximate for r in results) + len(pairwise)
     results += pairwise
     # Distances over a small part of the body are not comparable with whole-body ones (a clip that shares

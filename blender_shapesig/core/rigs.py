@@ -1,0 +1,441 @@
+"""Rigs: the canonical joint set, built-in bone-name tables, bone maps, and the comparison space across rigs.
+
+The same take recorded or converted for different skeletons (CMU ASF/AMC, the cgspeed Daz BVH, MotionBuilder /
+HumanIK, iClone / Character Creator, Mixamo, Rigify, SMPL) shares almost no bone names and has other rest poses
+(T- vs A-pose), bone rolls and spine lengths. To compare such clips this module
+
+* names a **canonical joint set** (``JOINTS``: hips, spine, spine_mid, chest, neck, head and per side clavicle,
+  upper_arm, forearm, hand, thigh, shin, foot, toe, with ``.L`` / ``.R``);
+* detects a **bone map** ``{bone: joint}`` from bone names (``detect_map``): prefixes (``mixamorig:``,
+  ``mixamorig1:``, ``CC_Base_``, ``DEF-``, namespaces) are stripped, and the family table that names most bones
+  wins; spine chains of any length are spread over spine / spine_mid / chest in hierarchy order;
+* reads and writes saved maps (``load_map`` / ``save_map``: ``{"bone": "joint", ...}``, JSON);
+* maps a clip into the **comparison space** (``to_comparison_space``): every mapped bone's rotation relative to
+  its rest pose in the armature's world axes, ``W_b(t) = W_parent(t) X_b(t)`` (``X``: the clip's local rotations
+  in armature axes), with the clip's heading removed, ``H^T W_b(t)``, ``H`` a rotation about the vertical
+  (the direction of travel, else the mean facing: ``heading``). Bones are renamed to their joints.
+
+Why this space (measured in docs/model.md, "Comparison space across rigs"): for the same physical motion on two
+rigs, ``W`` differs only by a constant right factor per bone (the other rest pose / roll, ``W' = W K_b``), which
+the SRVT and the signature's development (both built on ``W(t+1) W(t)^T``) do not see; and unmapped intermediate
+bones (a third spine bone, twist and share bones) do not matter, because a world rotation already contains its
+whole chain. A constant left factor (the direction the actor faces) does rotate every increment, hence the
+heading is removed.
+"""
+
+import json
+import os
+import re
+from dataclasses import replace
+from typing import Dict, Iterable, List, Mapping, Optional, Tuple
+
+import numpy as np
+
+from .clip import Clip
+from .errors import ParseError, ShapeSigError
+
+__all__ = [
+    "JOINTS", "BODY", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
+    "check_map", "load_map", "save_map", "map_json", "resolve_map", "world_rotations", "heading",
+    "to_comparison_space", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
+    "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
+]
+
+BODY = ("hips", "spine", "spine_mid", "chest", "neck", "head")
+LIMBS = ("clavicle", "upper_arm", "forearm", "hand", "thigh", "shin", "foot", "toe")
+SIDES = ("L", "R")
+JOINTS = BODY + tuple(f"{j}.{s}" for s in SIDES for j in LIMBS)
+# the canonical parent of each joint (skeleton drawing, documentation)
+CANONICAL_PARENTS = {
+    "hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine_mid", "neck": "chest", "head": "neck",
+    **{f"clavicle.{s}": "chest" for s in SIDES}, **{f"upper_arm.{s}": f"clavicle.{s}" for s in SIDES},
+    **{f"forearm.{s}": f"upper_arm.{s}" for s in SIDES}, **{f"hand.{s}": f"forearm.{s}" for s in SIDES},
+    **{f"thigh.{s}": "hips" for s in SIDES}, **{f"shin.{s}": f"thigh.{s}" for s in SIDES},
+    **{f"foot.{s}": f"shin.{s}" for s in SIDES}, **{f"toe.{s}": f"foot.{s}" for s in SIDES},
+}
+BONE_MAP_MODES = ("auto", "none")
+# bump when the tables or the comparison space change (it is part of every clip's cache key)
+TABLES_VERSION = 2
+# below this coverage (compared / moving joints of the smaller clip) comparisons and blends refuse
+MIN_COVERAGE = 0.5
+
+# Family tables: joint -> bone name after strip_prefix, compared case-insensitively. "{s}" is the side as the
+# family writes it ("sides": the left and right spelling; "alt_sides": a second spelling), "{h}" the lower-case
+# side letter. A list tries names in order.
+FAMILIES = {
+    "cmu_asf": {  # CMU ASF/AMC and BVH conversions that keep its names (MotionBuilder 16_15)
+        "sides": ("l", "r"),
+        "joints": {"hips": "root", "spine": "lowerback", "spine_mid": "upperback", "chest": "thorax",
+                   "neck": "lowerneck", "head": "head", "clavicle": "{s}clavicle", "upper_arm": "{s}humerus",
+                   "forearm": "{s}radius", "hand": "{s}hand", "thigh": "{s}femur", "shin": "{s}tibia",
+                   "foot": "{s}foot", "toe": "{s}toes"}},
+    "daz": {  # cgspeed "Daz-friendly" CMU BVH (hip, abdomen, chest, rCollar, rShldr, ...)
+        "sides": ("l", "r"),
+        "joints": {"hips": "hip", "spine": "abdomen", "chest": "chest", "neck": "neck", "head": "head",
+                   "clavicle": "{s}Collar", "upper_arm": "{s}Shldr", "forearm": "{s}ForeArm", "hand": "{s}Hand",
+                   "thigh": "{s}Thigh", "shin": "{s}Shin", "foot": "{s}Foot", "toe": "{s}Toe"}},
+    "cmu_max": {  # cgspeed "3ds Max-friendly" CMU BVH (Hips, LHipJoint, LeftHip, LeftKnee, ..., Chest, Chest2)
+        "sides": ("Left", "Right"),
+        "joints": {"hips": "Hips", "spine": "lowerback", "spine_mid": "Chest", "chest": "Chest2",
+                   "neck": "lowerneck", "head": "Head", "clavicle": "{s}Collar", "upper_arm": "{s}Shoulder",
+                   "forearm": "{s}Elbow", "hand": ["{h}hand"], "thigh": "{s}Hip", "shin": "{s}Knee",
+                   "foot": "{s}Ankle", "toe": "{s}Toe"}},
+    "humanik": {  # MotionBuilder / HumanIK and Mixamo (after the mixamorig: prefix)
+        "sides": ("Left", "Right"),
+        "joints": {"hips": "Hips", "spine": "Spine", "spine_mid": "Spine1", "chest": ["Spine2", "Spine1"],
+                   "neck": "Neck", "head": "Head", "clavicle": "{s}Shoulder", "upper_arm": "{s}Arm",
+                   "forearm": "{s}ForeArm", "hand": "{s}Hand", "thigh": "{s}UpLeg", "shin": "{s}Leg",
+                   "foot": "{s}Foot", "toe": "{s}ToeBase"}},
+    "cc": {  # iClone / Character Creator (after the CC_Base_ prefix)
+        "sides": ("L_", "R_"),
+        "joints": {"hips": "Hip", "spine": "Waist", "spine_mid": "Spine01", "chest": "Spine02",
+                   "neck": "NeckTwist01", "head": "Head", "clavicle": "{s}Clavicle", "upper_arm": "{s}Upperarm",
+                   "forearm": "{s}Forearm", "hand": "{s}Hand", "thigh": "{s}Thigh", "shin": "{s}Calf",
+                   "foot": "{s}Foot", "toe": "{s}ToeBase"}},
+    "rigify": {  # Rigify deform / metarig bones (after DEF- / ORG-)
+        "sides": (".L", ".R"),
+        "joints": {"hips": "spine", "spine": "spine.001", "spine_mid": "spine.002", "chest": "spine.003",
+                   "neck": "spine.004", "head": "spine.006", "clavicle": "shoulder{s}", "upper_arm": "upper_arm{s}",
+                   "forearm": "forearm{s}", "hand": "hand{s}", "thigh": "thigh{s}", "shin": "shin{s}",
+                   "foot": "foot{s}", "toe": "toe{s}"}},
+    "smpl": {  # SMPL / SMPL-H / AMASS joint names (left_hip, ... or L_Hip, ...)
+        "sides": ("left_", "right_"), "alt_sides": ("L_", "R_"),
+        "joints": {"hips": "pelvis", "spine": "spine1", "spine_mid": "spine2", "chest": "spine3", "neck": "neck",
+                   "head": "head", "clavicle": "{s}collar", "upper_arm": "{s}shoulder", "forearm": "{s}elbow",
+                   "hand": "{s}wrist", "thigh": "{s}hip", "shin": "{s}knee", "foot": "{s}ankle", "toe": "{s}foot"}},
+}
+
+_PREFIX_RE = re.compile(r"^(?:.*[:|]|mixamorig\d*_|CC_Base_|(?:DEF|ORG)-|Bip0?1[ _])", re.IGNORECASE)
+
+
+def strip_prefix(name: str) -> str:
+    """The bone name without rig prefixes: namespaces (``mixamorig:``, ``mixamorig1:``, ``Armature|``),
+    ``mixamorig_``, ``CC_Base_``, ``DEF-`` / ``ORG-``, ``Bip01 ``."""
+    return _PREFIX_RE.sub("", name, count=1)
+
+
+def _family_names(family: dict) -> Dict[str, List[str]]:
+    """joint -> candidate bone names (lower case, after strip_prefix) of a family table."""
+    out = {}
+    for joint, names in family["joints"].items():
+        names = names if isinstance(names, list) else [names]
+        if joint in BODY:
+            out[joint] = [n.lower() for n in names]
+            continue
+        for side, word in zip(SIDES, family["sides"]):
+            spellings = [word] + ([family["alt_sides"][SIDES.index(side)]] if "alt_sides" in family else [])
+            out[f"{joint}.{side}"] = [n.replace("{s}", w).replace("{h}", side[0].lower()).lower()
+                                      for n in names for w in spellings]
+    return out
+
+
+_TABLES = {name: _family_names(f) for name, f in FAMILIES.items()}
+
+
+def _match(bones: Iterable[str], table: Dict[str, List[str]]) -> Dict[str, str]:
+    """{bone: joint} by one family table; each joint takes the first candidate name present."""
+    lookup = {}
+    for b in bones:
+        lookup.setdefault(strip_prefix(b).lower(), b)
+    out = {}
+    for joint, names in table.items():
+        for n in names:
+            b = lookup.get(n)
+            if b is not None and b not in out:
+                out[b] = joint
+                break
+    return out
+
+
+def _spine_chain(bones, parents, found):
+    """Generic spine chains: bones named ``spine``/``spine1``..``spineN``/``spine.00N`` between the hips and the
+    neck that no table named; first -> spine, last -> chest, the middle one -> spine_mid."""
+    pat = re.compile(r"^spine[._]?0*\d*$", re.IGNORECASE)
+    chain = [b for b in bones if b not in found and pat.match(strip_prefix(b))]
+    if parents:
+        chain = _hierarchy_order(chain, parents)
+    taken = set(found.values())
+    out = {}
+    if len(chain) >= 2:
+        picks = [("spine", chain[0]), ("chest", chain[-1])]
+        if len(chain) >= 3:
+            picks.append(("spine_mid", chain[len(chain) // 2]))
+        for joint, b in picks:
+            if joint not in taken:
+                out[b] = joint
+    return out
+
+
+def _hierarchy_order(names, parents):
+    def depth(b):
+        d, seen = 0, set()
+        while parents.get(b) and b not in seen:
+            seen.add(b)
+            b, d = parents[b], d + 1
+        return d
+    return sorted(names, key=depth)
+
+
+def detect_family(bones: Iterable[str]) -> Tuple[Optional[str], Dict[str, str]]:
+    """(family name, {bone: joint}) of the table that maps most bones; (None, {}) when the best maps fewer than
+    three bones, unless it maps every bone (a clip of one or two bones, e.g. only ``root``)."""
+    bones = list(bones)
+    best, best_map = None, {}
+    for name, table in _TABLES.items():
+        m = _match(bones, table)
+        if len(m) > len(best_map):
+            best, best_map = name, m
+    if len(best_map) < min(3, len(bones)):
+        return None, {}
+    return best, best_map
+
+
+def detect_map(bones: Iterable[str], parents: Optional[Mapping[str, Optional[str]]] = None) -> Dict[str, str]:
+    """The automatic bone map ``{bone: joint}`` of a rig from its bone names (and hierarchy, when given, for
+    spine chains of other lengths). Empty when no family is recognised."""
+    bones = list(bones)
+    family, found = detect_family(bones)
+    if family is None:
+        return {}
+    found.update(_spine_chain(bones, parents or {}, found))
+    return {b: found[b] for b in bones if b in found}
+
+
+def check_map(mapping: Mapping[str, str], where: str = "bone map") -> Dict[str, str]:
+    """A validated copy of a ``{bone: joint}`` map: joints must be canonical and used once."""
+    if not isinstance(mapping, Mapping):
+        raise ParseError("a bone map must be a JSON object {\"bone\": \"joint\", ...}", where)
+    out, used = {}, {}
+    for bone, joint in mapping.items():
+        if not isinstance(bone, str) or not isinstance(joint, str):
+            raise ParseError("bone map keys and values must be strings", where)
+        if joint not in JOINTS:
+            raise ParseError(f"unknown joint {joint!r} for bone {bone!r} (joints: {', '.join(JOINTS)})", where)
+        if joint in used:
+            raise ParseError(f"joint {joint!r} is given to two bones ({used[joint]!r}, {bone!r})", where)
+        used[joint] = bone
+        out[bone] = joint
+    return out
+
+
+def map_json(mapping: Mapping[str, str], rig: str = "") -> str:
+    """The saved-map JSON text: ``{"bone": "joint", ...}`` (a ``"#rig"`` entry names the rig when given)."""
+    body = dict(check_map(mapping))
+    if rig:
+        body = {"#rig": rig, **body}
+    return json.dumps(body, indent=1, sort_keys=False) + "\n"
+
+
+def save_map(path, mapping: Mapping[str, str], rig: str = "") -> str:
+    """Write a saved map (``map_json``) to ``path``; returns the path."""
+    path = os.fspath(path)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write(map_json(mapping, rig))
+    return path
+
+
+def load_map(path) -> Dict[str, str]:
+    """Read a saved map: a JSON object ``{"bone": "joint"}``; keys starting with ``#`` are comments."""
+    path = os.fspath(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = json.load(fh)
+    except OSError:
+        raise ParseError("cannot read the bone map", path) from None
+    except ValueError as exc:
+        raise ParseError(f"the bone map is not valid JSON ({exc.msg}, line {exc.lineno})", path) from None
+    if isinstance(data, dict):
+        data = {k: v for k, v in data.items() if not str(k).startswith("#")}
+    return check_map(data, path)
+
+
+def resolve_map(bone_map, clip: Clip) -> Optional[Dict[str, str]]:
+    """The map to apply to ``clip`` for a ``bone_map`` option: "none" -> None (names as they are); a saved map
+    (a path) or a dict -> its entries for the clip's bones, when it names any (a saved map is for the rig it
+    names: clips of other rigs fall back to "auto"); "auto" -> ``detect_map`` (None when no family is
+    recognised)."""
+    if bone_map is None or bone_map == "none":
+        return None
+    if bone_map != "auto":
+        mapping = check_map(bone_map) if isinstance(bone_map, Mapping) else load_map(bone_map)
+        present = {b: mapping[b] for b in clip.bones if b in mapping}
+        if present:
+            return present
+    return detect_map(clip.bones, clip.meta.get("parents")) or None
+
+
+# ----------------------------------------------------------------------------------------- the space
+
+def world_rotations(clip: Clip) -> np.ndarray:
+    """(frames, joints, 3, 3): each bone's rotation relative to its rest pose in the armature's axes,
+    ``W_b = W_parent X_b`` down the hierarchy (``meta["parents"]``; bones whose parent is not in the clip start
+    their chain there). ``X`` are the clip's local rotations in armature axes."""
+    parents = clip.meta.get("parents") or {}
+    index = {b: j for j, b in enumerate(clip.bones)}
+    W = np.empty_like(clip.rotations)
+    done = {}
+
+    def world(j):
+        if j in done:
+            return W[:, j]
+        b = clip.bones[j]
+        p, seen = parents.get(b), {b}
+        while p is not None and p not in index and p not in seen:  # skip bones the clip does not hold
+            seen.add(p)
+            p = parents.get(p)
+        if p is None or p not in index:
+            W[:, j] = clip.rotations[:, j]
+        else:
+            W[:, j] = world(index[p]) @ clip.rotations[:, j]
+        done[j] = True
+        return W[:, j]
+
+    for j in range(len(clip.bones)):
+        world(j)
+    return W
+
+
+# a clip travels when its net horizontal displacement is at least this fraction of its horizontal path
+TRAVEL_RATIO = 0.5
+
+
+def _yaw_matrix(yaw):
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def heading(W_root: np.ndarray, root_translation: Optional[np.ndarray] = None) -> np.ndarray:
+    """The rotation about the vertical (Z) that ``to_comparison_space`` removes: where the take goes.
+
+    * A clip that travels (net horizontal displacement of the root >= ``TRAVEL_RATIO`` of its horizontal path):
+      the direction of travel, turned so that it becomes Blender's forward (-Y). Positions do not depend on
+      rest poses or bone axes, so this heading is the same for the take on any rig.
+    * Otherwise: the circular mean over the frames of the root's yaw (its twist about Z, ``2 atan2(z, w)`` of
+      its quaternion), i.e. the facing relative to the rig's rest pose (rigs whose rests face the same way
+      agree; a left Z-rotation adds to it exactly)."""
+    if root_translation is not None and len(root_translation) > 1:
+        flat = np.asarray(root_translation, dtype=np.float64)[:, :2]
+        net = flat[-1] - flat[0]
+        path = np.linalg.norm(np.diff(flat, axis=0), axis=1).sum()
+        if path > 0 and np.linalg.norm(net) >= TRAVEL_RATIO * path:
+            return _yaw_matrix(np.arctan2(net[1], net[0]) + np.pi / 2)
+    yaw = 2.0 * np.arctan2(W_root[:, 1, 0] - W_root[:, 0, 1],
+                           W_root[:, 0, 0] + W_root[:, 1, 1] + W_root[:, 2, 2] + 1.0)
+    return _yaw_matrix(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()))
+
+
+def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
+    """The clip in the comparison space: the mapped bones only, renamed to their joints (canonical order),
+    rotations ``H^T W_b(t)`` (``world_rotations``, ``heading`` of the hips or the first mapped bone). The root
+    translation turns with the heading. ``meta["bone_map"]`` keeps ``{joint: bone}``."""
+    mapping = {b: j for b, j in mapping.items() if b in clip.bones}
+    if not mapping:
+        raise ShapeSigError(f"clip {clip.name!r}: no bone maps to a canonical joint")
+    W = world_rotations(clip)
+    index = {b: i for i, b in enumerate(clip.bones)}
+    by_joint = {j: b for b, j in mapping.items()}
+    joints = [j for j in JOINTS if j in by_joint]
+    root = by_joint.get("hips", by_joint[joints[0]])
+    H = heading(W[:, index[root]], clip.root_translation)
+    R = H.T[None, None] @ W[:, [index[by_joint[j]] for j in joints]]
+    rt = None if clip.root_translation is None else clip.root_translation @ H
+    meta = dict(clip.meta, bone_map={j: by_joint[j] for j in joints}, rotation_space="comparison",
+                rig_bones=len(clip.bones))
+    meta.pop("parents", None)
+    return replace(clip, bones=tuple(joints), rotations=R, root_translation=rt, root_bone="hips",
+                   rotation_modes=(), meta=meta)
+
+
+def apply_bone_map(clip: Clip, bone_map="auto") -> Clip:
+    """The front door's comparison-space step (``sources.read``): the clip mapped by ``resolve_map`` and moved
+    to the comparison space; a clip "auto" cannot map is returned as it is, marked ``meta["unmapped"]``
+    (comparing it with a mapped clip is refused by ``check_comparable``, naming its bones)."""
+    if clip.meta.get("rotation_space") == "comparison":
+        return clip
+    mapping = resolve_map(bone_map, clip)
+    if mapping is None:
+        return clip if bone_map in (None, "none") else replace(clip, meta=dict(clip.meta, unmapped=True))
+    return to_comparison_space(clip, mapping)
+
+
+def _names(bones, limit=12):
+    return ", ".join(bones[:limit]) + (f", ... ({len(bones)} bones)" if len(bones) > limit else "")
+
+
+def check_comparable(*clips: Clip) -> None:
+    """ShapeSigError (one line, naming the unmapped bones) when some clips are in the comparison space and
+    another's bones could not be mapped to the canonical joints."""
+    mapped = [c for c in clips if c.meta.get("rotation_space") == "comparison"]
+    if not mapped:
+        return
+    for c in clips:
+        if c.meta.get("rotation_space") != "comparison" and not set(c.bones) & set(mapped[0].bones):
+            raise ShapeSigError(f"clips {mapped[0].name!r} and {c.name!r} share no bones: no bone of {c.name!r} "
+                                f"maps to a canonical joint (unmapped bones: {_names(list(c.bones))}); give a bone "
+                                f"map (--bone-map FILE.json)")
+
+
+def moving_count(clip: Clip) -> int:
+    """The clip's moving joints (``Clip.still_bones``: the one stillness rule)."""
+    return len(clip.bones) - len(clip.still_bones())
+
+
+def coverage(a: Clip, b: Clip) -> Tuple[int, float]:
+    """(joints compared, coverage): the shared bones that move in either clip, over the moving joints of the
+    smaller clip (the one with fewer moving joints), 0..1 (1 when nothing moves)."""
+    still_a, still_b = set(a.still_bones()), set(b.still_bones())
+    shared = [x for x in a.bones if x in set(b.bones) and not (x in still_a and x in still_b)]
+    smaller = min(moving_count(a), moving_count(b))
+    if smaller == 0:
+        return len(shared), 1.0
+    return len(shared), min(1.0, len(shared) / smaller)
+
+
+def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
+    """A comparison-space clip (e.g. a blend of ``mapped`` with a clip of another rig) written back onto the
+    rig of ``rig`` (the same source as ``mapped``, read with ``bone_map="none"``): local rotations in armature
+    axes ``X_b = W_parent^T W_b`` for every bone of the rig, where a joint of ``clip`` sets ``W_b = H W~_b``
+    (``H``: ``mapped``'s heading) and every other bone keeps ``rig``'s own motion (local rotation, re-timed
+    to ``clip``'s frames by geodesic interpolation). ``meta["kept_bones"]`` lists the rig's bones that kept
+    their motion (no counterpart in ``clip``)."""
+    from .curves import geodesic_interpolate, uniform_times
+
+    bone_map = mapped.meta.get("bone_map") or {}
+    unblended = set(clip.meta.get("unmatched_a", ()))  # joints a blend copied from A: A's local motion stays
+    joint_of = {b: j for j, b in bone_map.items() if j in clip.bones and j not in unblended}
+    parents = rig.meta.get("parents") or {}
+    W0 = world_rotations(rig)
+    H = heading(W0[:, rig.bones.index(bone_map.get("hips", next(iter(bone_map.values()))))], rig.root_translation)
+    X_rig = geodesic_interpolate(rig.rotations, uniform_times(rig.frames), uniform_times(clip.frames))
+    index = {b: i for i, b in enumerate(rig.bones)}
+    W = np.empty_like(X_rig)
+    X = np.empty_like(X_rig)
+    done = set()
+
+    def parent_world(b):
+        p = parents.get(b)
+        while p is not None and p not in index:
+            p = parents.get(p)
+        return None if p is None else world(index[p])
+
+    def world(i):
+        if i in done:
+            return W[:, i]
+        b = rig.bones[i]
+        Wp = parent_world(b)
+        if b in joint_of:
+            W[:, i] = H[None] @ clip.rotations[:, clip.bones.index(joint_of[b])]
+            X[:, i] = W[:, i] if Wp is None else np.swapaxes(Wp, -1, -2) @ W[:, i]
+        else:
+            X[:, i] = X_rig[:, i]
+            W[:, i] = X[:, i] if Wp is None else Wp @ X[:, i]
+        done.add(i)
+        return W[:, i]
+
+    for i in range(len(rig.bones)):
+        world(i)
+    rt = None if clip.root_translation is None else clip.root_translation @ H.T
+    kept = tuple(b for b in rig.bones if b not in joint_of and not np.allclose(X_rig[:, index[b]], np.eye(3)))
+    meta = dict(rig.meta, kept_bones=kept)
+    return replace(rig, name=clip.name, rotations=X, root_translation=rt, frame_start=clip.frame_start,
+                   fps=clip.fps, meta=meta)

@@ -1,0 +1,176 @@
+"""core.rigs: canonical joints, name tables, saved maps, the comparison space (pure: AMC clips, no Blender)."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from blender_shapesig.core import rigs, sources, so3
+from blender_shapesig.core.clip import Clip
+from blender_shapesig.core.errors import ParseError, ShapeSigError
+from blender_shapesig.core.metrics import check_coverage, clip_distance, compare_clips
+
+
+def _bvh_names(path):
+    return re.findall(r"(?:ROOT|JOINT)\s+(\S+)", path.read_text().split("MOTION")[0])
+
+
+@pytest.fixture(scope="module")
+def walk(data_dir):
+    spec = sources.ClipSpec(str(data_dir / "acclaim" / "07_01.amc"), asf=str(data_dir / "acclaim" / "07-walk.asf"))
+    return sources.read_one(spec), sources.read_one(sources.ClipSpec(spec.path, asf=spec.asf, bone_map="none"))
+
+
+# --- name tables -----------------------------------------------------------------------------------------
+
+def test_cmu_asf_daz_and_iclone_files_map_every_limb(data_dir):
+    asf = sources.read_one(sources.ClipSpec(str(data_dir / "acclaim" / "07_01.amc"),
+                                            asf=str(data_dir / "acclaim" / "07-walk.asf"), bone_map="none"))
+    assert rigs.detect_family(asf.bones)[0] == "cmu_asf"
+    assert set(rigs.detect_map(asf.bones).values()) == set(rigs.JOINTS)
+    daz = _bvh_names(data_dir / "bvh" / "07_01.bvh")
+    m = rigs.detect_map(daz)
+    assert rigs.detect_family(daz)[0] == "daz"
+    assert m["rShldr"] == "upper_arm.R" and m["lShin"] == "shin.L" and m["abdomen"] == "spine"
+    assert set(rigs.JOINTS) - set(m.values()) == {"spine_mid", "toe.L", "toe.R"}  # the Daz rig has none
+    cc = _bvh_names(data_dir / "cross_rig" / "002_03.bvh")
+    m = rigs.detect_map(cc)
+    assert rigs.detect_family(cc)[0] == "cc"
+    assert set(m.values()) == set(rigs.JOINTS)
+    assert m["CC_Base_L_Calf"] == "shin.L" and "CC_Base_L_ThighTwist01" not in m
+
+
+@pytest.mark.parametrize("names, expect", [
+    (["mixamorig:Hips", "mixamorig:Spine", "mixamorig:Spine1", "mixamorig:Spine2", "mixamorig:LeftShoulder",
+      "mixamorig:LeftArm", "mixamorig:LeftUpLeg", "mixamorig:LeftLeg", "mixamorig:LeftToeBase"],
+     {"mixamorig:Spine2": "chest", "mixamorig:LeftShoulder": "clavicle.L", "mixamorig:LeftArm": "upper_arm.L",
+      "mixamorig:LeftLeg": "shin.L", "mixamorig:LeftToeBase": "toe.L"}),
+    (["mixamorig1:Hips", "mixamorig1:RightUpLeg", "mixamorig1:RightForeArm", "mixamorig1:Neck"],
+     {"mixamorig1:RightUpLeg": "thigh.R", "mixamorig1:RightForeArm": "forearm.R", "mixamorig1:Neck": "neck"}),
+    (["Hips", "LHipJoint", "LeftHip", "LeftKnee", "LeftAnkle", "LeftToe", "lowerback", "Chest", "Chest2",
+      "LeftCollar", "LeftShoulder", "LeftElbow", "LeftWrist", "lhand"],
+     {"LeftShoulder": "upper_arm.L", "LeftCollar": "clavicle.L", "Chest2": "chest", "LeftHip": "thigh.L",
+      "lhand": "hand.L"}),
+    (["DEF-spine", "DEF-spine.001", "DEF-spine.003", "DEF-thigh.L", "DEF-shin.R", "DEF-upper_arm.L",
+      "DEF-upper_arm.L.001", "DEF-shoulder.R"],
+     {"DEF-spine": "hips", "DEF-thigh.L": "thigh.L", "DEF-upper_arm.L": "upper_arm.L", "DEF-shoulder.R": "clavicle.R"}),
+    (["pelvis", "left_hip", "right_knee", "spine3", "left_shoulder", "left_collar"],
+     {"pelvis": "hips", "left_hip": "thigh.L", "right_knee": "shin.R", "left_shoulder": "upper_arm.L"}),
+    (["Pelvis", "L_Hip", "R_Ankle", "L_Collar", "L_Shoulder", "L_Wrist"],
+     {"L_Hip": "thigh.L", "R_Ankle": "foot.R", "L_Shoulder": "upper_arm.L", "L_Wrist": "hand.L"}),
+])
+def test_families_and_prefixes(names, expect):
+    m = rigs.detect_map(names)
+    for bone, joint in expect.items():
+        assert m.get(bone) == joint, (bone, m)
+    assert len(set(m.values())) == len(m)  # one bone per joint
+
+
+def test_longer_spine_chain_spreads_over_spine_mid_and_chest():
+    names = ["Hips", "Spine", "Spine1", "Spine2", "Spine3", "Spine4", "Neck", "Head", "LeftUpLeg", "LeftArm"]
+    parents = {"Hips": None, "Spine": "Hips", "Spine1": "Spine", "Spine2": "Spine1", "Spine3": "Spine2",
+               "Spine4": "Spine3", "Neck": "Spine4", "Head": "Neck", "LeftUpLeg": "Hips", "LeftArm": "Spine4"}
+    m = rigs.detect_map(names, parents)
+    assert m["Spine"] == "spine" and m["Spine1"] == "spine_mid" and m["Spine2"] == "chest"
+    assert "Spine4" not in m  # the table's chest wins; the extra bones stay unmapped
+    assert rigs.detect_map(["a", "b", "c"]) == {} and rigs.detect_map(["Hips", "b", "c"]) == {}
+    assert rigs.detect_map(["root"]) == {"root": "hips"}  # every bone of a one-bone clip maps
+
+
+# --- saved maps ------------------------------------------------------------------------------------------
+
+def test_saved_map_round_trip_and_errors(tmp_path):
+    m = {"lThigh": "thigh.L", "hip": "hips"}
+    path = rigs.save_map(tmp_path / "daz.json", m, rig="daz")
+    assert json.loads(open(path).read())["#rig"] == "daz"
+    assert rigs.load_map(path) == m
+    (tmp_path / "bad.json").write_text('{"lThigh": "femur"}')
+    with pytest.raises(ParseError, match="unknown joint 'femur'"):
+        rigs.load_map(tmp_path / "bad.json")
+    (tmp_path / "twice.json").write_text('{"a": "hips", "b": "hips"}')
+    with pytest.raises(ParseError, match="given to two bones"):
+        rigs.load_map(tmp_path / "twice.json")
+    (tmp_path / "broken.json").write_text('{"a": ')
+    with pytest.raises(ParseError, match="not valid JSON"):
+        rigs.load_map(tmp_path / "broken.json")
+
+
+def test_saved_map_file_through_the_front_door(data_dir, tmp_path, walk):
+    """A saved map renames exactly what it names; the key follows the map's content."""
+    mapped, _raw = walk
+    path = tmp_path / "legs.json"
+    rigs.save_map(path, {"root": "hips", "lfemur": "thigh.L", "rfemur": "thigh.R"})
+    spec = sources.ClipSpec(str(data_dir / "acclaim" / "07_01.amc"), asf=str(data_dir / "acclaim" / "07-walk.asf"),
+                            bone_map=str(path))
+    legs = sources.read_one(spec)
+    assert legs.bones == ("hips", "thigh.L", "thigh.R")
+    np.testing.assert_allclose(legs.rotations, mapped.select(legs.bones).rotations, atol=1e-12)
+    key = spec.key()
+    rigs.save_map(path, {"root": "hips", "lfemur": "thigh.L"})
+    assert spec.key() != key and spec.key() != sources.ClipSpec(spec.path, asf=spec.asf).key()
+
+
+# --- the comparison space --------------------------------------------------------------------------------
+
+def _other_rig(raw: Clip, seed=0):
+    """The same motion on a rig with other rest poses / bone rolls (a constant right factor K_b per bone), facing
+    elsewhere (a yaw G on the left) and with other bone names: local X'_b = W'_parent^T W'_b, W'_b = G W_b K_b."""
+    rng = np.random.default_rng(seed)
+    W = rigs.world_rotations(raw)
+    K = so3.exp(rng.normal(scale=0.6, size=(len(raw.bones), 3)))
+    G = so3.exp(np.array([0.0, 0.0, 2.1]))
+    W2 = G[None, None] @ W @ K[None]
+    parents = raw.meta["parents"]
+    index = {b: i for i, b in enumerate(raw.bones)}
+    X = np.empty_like(W2)
+    for b, i in index.items():
+        p = parents.get(b)
+        X[:, i] = W2[:, i] if p is None else np.swapaxes(W2[:, index[p]], -1, -2) @ W2[:, i]
+    rename = {b: "X_" + b for b in raw.bones}
+    return Clip(name="other", bones=[rename[b] for b in raw.bones], rotations=X, fps=raw.fps,
+                root_translation=0.3 * raw.root_translation @ G.T,  # inches or meters: only the direction counts
+                meta={"parents": {rename[b]: (rename[p] if p else None) for b, p in parents.items()}})
+
+
+def test_world_space_survives_rest_poses_rolls_and_heading(walk):
+    mapped, raw = walk
+    other = _other_rig(raw)
+    table = {"X_" + b: j for b, j in rigs.detect_map(raw.bones).items()}
+    moved = rigs.to_comparison_space(other, table)
+    assert moved.bones == mapped.bones
+    # increments agree up to the heading (a yaw): the SRVT and the signature see the same curve
+    assert clip_distance(mapped, moved, "sim3") < 1e-6
+    assert clip_distance(mapped, moved, "l2") < 1e-6
+    # the local rotations of the same two rigs do not agree
+    local = Clip(name="x", bones=raw.bones, rotations=other.rotations, fps=raw.fps)
+    assert clip_distance(raw, local, "sim3") > 0.1
+
+
+def test_onto_rig_inverts_the_comparison_space(walk):
+    mapped, raw = walk
+    back = rigs.onto_rig(mapped, raw, mapped)
+    assert back.bones == raw.bones
+    np.testing.assert_allclose(back.rotations, raw.rotations, atol=1e-9)
+    assert set(back.meta["kept_bones"]) <= set(raw.bones) - set(mapped.meta["bone_map"].values())
+
+
+def test_coverage_and_refusal(walk):
+    mapped, raw = walk
+    bones, cov = check_coverage(mapped, mapped)
+    assert cov == 1.0 and bones == len(mapped.bones) - len(mapped.still_bones())
+    legs = mapped.select(["thigh.L", "shin.L", "foot.L", "thigh.R"])
+    got = compare_clips(mapped, legs, "sim3")
+    assert got["bones"] == 4 and got["coverage"] == 1.0  # the smaller clip is covered
+    # 2 shared of the smaller clip's 6 moving joints: refused, one line naming the coverage
+    six = mapped.select(["hips", "thigh.L", "shin.L", "foot.L", "thigh.R", "shin.R"])
+    other = Clip(name="six", bones=["hips", "thigh.L", "x1", "x2", "x3", "x4"], rotations=six.rotations)
+    with pytest.raises(ShapeSigError, match=r"^clips '07_01' and 'six' share 2 moving joints, coverage 0\.33 < 0\.5"):
+        check_coverage(mapped, other)
+    assert compare_clips(mapped, other, "sim3", allow_partial=True)["coverage"] == pytest.approx(2 / 6)
+    # a clip whose bones map to no canonical joint against a mapped one: one line naming the unmapped bones
+    custom = Clip(name="custom", bones=["a_" + b for b in raw.bones], rotations=raw.rotations,
+                  meta={"unmapped": True})
+    with pytest.raises(ShapeSigError, match=r"^clips '07_01' and 'custom' share no bones: no bone of 'custom' maps "
+                                            r"to a canonical joint \(unmapped bones: a_root, a_lhipjoint"):
+        compare_clips(mapped, custom)

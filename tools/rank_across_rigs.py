@@ -1,0 +1,89 @@
+#!/usr/bin/env python
+"""The same take in other formats and skeletons ranks first (issue 14), and the comparison-space measurement.
+
+  .venv/bin/python tools/rank_across_rigs.py --data /work/shared/data/cmu [--bone-map auto|none] [--rerank K]
+
+A library of the shared CMU takes in two formats each: AMC 07_01-07_03 and 09_01-09_03 with their cgspeed Daz
+BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02_03, AMC 16_15 with its
+MotionBuilder BVH. Every clip queries the library (``core.index.rank_clips``, sim3, through ``core.sources``);
+the script prints each query's first result and whether it is the same take, and the count.
+
+Crops (explicit, until automatic trimming lands): the Daz BVH files start with a rest-pose frame and a 5-frame
+ramp (start = 7), which replaces the first 5 AMC frames, so the AMC takes start at frame 6 to cover the same
+moments; the iClone files start with a T-pose frame (start = 2). 16_15 is not cropped (both files hold the same
+471 frames).
+"""
+
+import argparse
+import dataclasses
+import os
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
+
+from blender_shapesig.core import index, sources  # noqa: E402
+
+_AMC = "uscresl_humanoid-gail/mocap/animations"
+_ASF = "Jiaqi-Zuo_CSCI520-Motion-Capture-Interpolation/mocapPlayer-starter"
+_DAZ = "Przestr_motion-capture/data"
+_ICL = "DragonForgedTheArtist_IClone-CMU-Mocap/All_BVH/subjects/002"
+_IMU = "martinling_imusim/imusim/tests/io"
+
+
+def takes():
+    """[(label, take, path, asf, start)] of the shared clips."""
+    out = []
+    for t in ("07_01", "07_02", "07_03"):
+        out += [("amc", t, f"{_AMC}/{t}.amc", f"{_ASF}/07-walk.asf", 6), ("daz", t, f"{_DAZ}/07/{t}.bvh", None, 7)]
+    for t in ("09_01", "09_02", "09_03"):
+        out += [("amc", t, f"{_AMC}/running/{t}.amc", f"{_ASF}/09-run.asf", 6),
+                ("daz", t, f"{_DAZ}/09/{t}.bvh", None, 7)]
+    for t in ("02_01", "02_02", "02_03"):
+        out += [("iclone", t, f"{_ICL}/0{t}.bvh", None, 2), ("daz", t, f"{_DAZ}/02/{t}.bvh", None, 7)]
+    out += [("amc", "16_15", f"{_IMU}/16_15.amc", f"{_IMU}/16.asf", None),
+            ("mb", "16_15", f"{_IMU}/16_15.bvh", None, None)]
+    return out
+
+
+def library(data, bone_map="auto"):
+    """(items, takes): one LibraryItem per shared clip, named ``format:take``."""
+    items, names = [], []
+    for fmt, take, path, asf, start in takes():
+        spec = sources.ClipSpec(os.path.join(data, path), asf=None if asf is None else os.path.join(data, asf),
+                                start=start, bone_map=bone_map)
+        item = sources.spec_item(spec)
+        item.name = f"{fmt}:{take}"
+        loader = item.load
+        item.load = lambda loader=loader, name=item.name: [dataclasses.replace(c, name=name) for c in loader()]
+        items.append(item)
+        names.append(take)
+    return items, names
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", required=True, help="the shared CMU folder")
+    ap.add_argument("--bone-map", default="auto")
+    ap.add_argument("--metric", default="sim3")
+    ap.add_argument("--rerank", type=int, default=0)
+    args = ap.parse_args(argv)
+    items, take_of = library(args.data, args.bone_map)
+    cache = index.SignatureCache()
+    ok = 0
+    for i, q in enumerate(items):
+        res = index.rank_clips(q, items, metric=args.metric, cache=cache, exclude=(q.key,), rerank=args.rerank)
+        first = res[0] if res else None
+        same = first is not None and first.name.split(":")[1] == take_of[i] and first.name != q.name
+        ok += same
+        d = f"{first.distance:.3f}" if first else "-"
+        cov = f"{first.coverage:.2f}" if first else "-"
+        print(f"{q.name:14s} -> {first.name if first else '(none)':14s} {d}  coverage {cov}  "
+              f"{'ok' if same else 'MISS'}")
+    print(f"same take first: {ok}/{len(items)} ({args.metric}, bone map {args.bone_map})")
+    return 0 if ok == len(items) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
