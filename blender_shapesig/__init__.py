@@ -18,8 +18,28 @@ def _modules():
 def register():
     for module in _modules():
         module.register()
+    _warm_up_kernels()
 
 
 def unregister():
+    from . import action_changes
+
+    action_changes.stop_change_detection()
     for module in reversed(_modules()):
         module.unregister()
+
+
+def _warm_up_kernels():
+    """Compile numba's DP kernels, or load them from numba's on-disk cache, in a background thread at enable: the
+    first distance of a session then does not pay the JIT (19 s cold; 0.7 s once cached, benchmarks/bench_elastic.py)."""
+    import threading
+
+    from .core import _dp_kernels
+
+    def run():
+        try:
+            _dp_kernels.warm_up()
+        except Exception:  # noqa: BLE001 - a read-only cache or a missing numba only costs the first call
+            pass
+
+    threading.Thread(target=run, name="shapesig-warm-up", daemon=True).start()

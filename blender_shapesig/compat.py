@@ -202,14 +202,3 @@ def stash_action(obj, action):
         except (TypeError, RuntimeError, AttributeError):
             pass
     return track
-
-
-def extension_user_path(package, subdir):
-    """The extension's per-user folder ``subdir`` (created), or None when not running as an extension (a
-    legacy add-on or the source tree) or on a Blender without ``bpy.utils.extension_path_user`` (before 4.2)."""
-    if not package.startswith("bl_ext.") or not hasattr(bpy.utils, "extension_path_user"):
-        return None
-    try:
-        return bpy.utils.extension_path_user(package, path=subdir, create=True)
-    except (ValueError, RuntimeError, OSError):
-        return None

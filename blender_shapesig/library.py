@@ -18,7 +18,6 @@ Source actions are only read, never modified.
 
 import fnmatch
 import hashlib
-import json
 import os
 import time
 from dataclasses import dataclass
@@ -37,8 +36,7 @@ from .properties import PANEL_MAX_LEVEL, results_of, settings_of
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
            "library_items", "index_items", "missing_count", "rank_into_settings", "store_results",
-           "selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result",
-           "RankJob", "unique_labels", "index_cost", "cost_text", "COSTLY_LEVEL"]
+           "active_armature", "check_problem", "RankJob", "unique_labels", "index_cost", "cost_text", "COSTLY_LEVEL"]
 
 # The session's stores: (absolute index folder, compact limit) -> SignatureCache (their memory layer survives
 # operators; clearing this dict makes the next operator read the folder afresh).
@@ -48,15 +46,13 @@ CACHES = {}
 # ------------------------------------------------------------------------------------------ the cache
 
 def cache_dir(context) -> str:
-    """The index folder: the preferences' folder, else $SHAPESIG_CACHE_DIR, else the extension's user folder
-    (``bpy.utils.extension_path_user``) when running as an extension, else core's per-user default."""
+    """The index folder: the preferences' folder, else the command line's per-user default
+    (``index.default_cache_dir``: $SHAPESIG_CACHE_DIR, else the user's cache folder), so the panel and the CLI
+    share one index."""
     prefs = get_preferences(context)
     if prefs is not None and prefs.cache_dir:
         return bpy.path.abspath(prefs.cache_dir)
-    env = os.environ.get(index.CACHE_ENV)
-    if env:
-        return env
-    return compat.extension_user_path(ADDON_ID, "cache") or index.default_cache_dir()
+    return index.default_cache_dir()
 
 
 def get_cache(context) -> index.SignatureCache:
@@ -150,7 +146,7 @@ def action_item(action, obj, frame_range=None, digests=None) -> ActionItem:
 
 # ------------------------------------------------------------------------------------ preconditions
 
-def _armature(context):
+def active_armature(context):
     obj = getattr(context, "active_object", None)
     return obj if obj is not None and obj.type == "ARMATURE" else None
 
@@ -167,7 +163,7 @@ def search_problem(context, settings) -> Optional[str]:
     """Why the search (build index, rank) cannot run, in one line, or None."""
     if settings is None:
         return "the scene has no ShapeSig settings (is the add-on registered?)"
-    obj = _armature(context)
+    obj = active_armature(context)
     if obj is None:
         return "select an armature (the query is its action)"
     if _query_action(obj, settings) is None:
@@ -198,7 +194,7 @@ def result_problem(context, settings) -> Optional[str]:
     """Why the selected result cannot be assigned or previewed, in one line, or None."""
     if settings is None:
         return "the scene has no ShapeSig settings (is the add-on registered?)"
-    if _armature(context) is None:
+    if active_armature(context) is None:
         return "select an armature (the query is its action)"
     if not settings.results:
         return "no results: run Find Similar first"
@@ -214,7 +210,7 @@ def preview_problem(context, settings) -> Optional[str]:
     return result_problem(context, settings)
 
 
-def _check(problem):
+def check_problem(problem):
     if problem is not None:
         raise ShapeSigError(problem)
 
@@ -240,9 +236,9 @@ def _query_range(action, settings):
 
 def query_item(context, settings):
     """(armature, action, ActionItem) of the query; ShapeSigError with a clear message otherwise."""
-    _check(search_problem(context, settings))
+    check_problem(search_problem(context, settings))
     action_changes.refresh_fingerprints(context)
-    obj = _armature(context)
+    obj = active_armature(context)
     action = _query_action(obj, settings)
     if settings.use_frame_range:
         frame_range = _query_range(action, settings)
@@ -537,126 +533,3 @@ def rank_into_settings(context, settings) -> index.RankList:
     job.run()
     job.store()
     return index.RankList(job.rows, job.warnings, job.ranked.skipped, dict(job.ranked.stats, seconds=job.seconds))
-
-
-def selected_action(context, settings):
-    """(armature, action) of the selected result (``result_action``); ShapeSigError with a clear message."""
-    _check(result_problem(context, settings))
-    obj = _armature(context)
-    return obj, result_action(settings, obj, settings.results[settings.results_index])
-
-
-def result_action(settings, obj, row):
-    """The bpy action of a result row; a folder clip is first read (``core.sources``) and written as a new
-    action on ``obj`` (the row then names that action; ``row.spec`` keeps the file)."""
-    if row.is_action:
-        action = bpy.data.actions.get(row.source)
-        if action is not None:
-            return action
-        if not row.spec:
-            raise ShapeSigError(f"the action {row.source!r} no longer exists")
-        row.is_action, row.source = False, row.spec  # its written action was undone or removed: read it again
-    asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
-    loaded = sources.read(sources.ClipSpec.parse(row.spec or row.source, asf=asf))
-    clip = next((c for c in loaded if c.name == row.clip_name), loaded[0])
-    if settings.crop_start and clip.frame_end >= settings.crop_start:
-        clip = clip.crop(start=settings.crop_start)
-    action = action_io.write_action(clip, armature=obj, name=clip.name)
-    row.is_action = True
-    row.source = action.name
-    return action
-def start_preview(context, settings, obj, action, written=""):
-    """Play ``action`` on ``obj`` until ``stop_preview``, which restores exactly what is here now: the active
-    action and its slot, the pose bones' rotation modes, the scene frame, whether the armature had animation
-    data. The previous action is kept alive meanwhile (a fake user when nothing else uses it, taken back at Stop)
-    so that saving during a preview loses nothing. ``written``: the action was written for the preview (a folder
-    result) and is removed at Stop unless assigned."""
-    ad = obj.animation_data
-    current = ad.action if ad is not None else None
-    slot = compat.object_action_slot(obj) if current is not None else None
-    settings.preview_object = obj.name
-    settings.preview_action = current.name if current is not None else ""
-    settings.preview_slot = getattr(slot, "identifier", "") if slot is not None else ""
-    settings.preview_modes = json.dumps({pb.name: pb.rotation_mode for pb in obj.pose.bones})
-    settings.preview_frame = context.scene.frame_current
-    settings.preview_animdata = ad is not None
-    settings.preview_written = written
-    settings.preview_fake_user = bool(current is not None and not current.use_fake_user and current.users <= 1)
-    if settings.preview_fake_user:
-        current.use_fake_user = True
-    action_io.assign_action(obj, action, keep_previous=False)  # bones switch to the modes it has curves for
-    context.scene.frame_set(int(action.frame_range[0]))
-    screen = getattr(context, "screen", None)
-    if screen is not None and context.window is not None and not screen.is_animation_playing:
-        bpy.ops.screen.animation_play()
-
-
-def _restore_slot(obj, identifier):
-    ad = obj.animation_data
-    if not identifier or ad is None or ad.action is None or not hasattr(ad, "action_slot"):
-        return
-    slot = next((sl for sl in ad.action.slots if sl.identifier == identifier), None)
-    if slot is not None and ad.action_slot != slot:
-        ad.action_slot = slot
-
-
-def stop_preview(context, settings, keep=""):
-    """End the preview: the armature gets back its action, slot, rotation modes and frame; the previous action
-    its fake-user state; the action written for the preview is removed unless it is ``keep`` (being assigned)."""
-    screen = getattr(context, "screen", None)
-    if screen is not None and screen.is_animation_playing:
-        bpy.ops.screen.animation_cancel(restore_frame=False)
-    obj = bpy.data.objects.get(settings.preview_object)
-    previous = bpy.data.actions.get(settings.preview_action) if settings.preview_action else None
-    if obj is not None:
-        if settings.preview_animdata or previous is not None:
-            compat.assign_action(obj, previous)
-            _restore_slot(obj, settings.preview_slot)
-        elif obj.animation_data is not None:
-            obj.animation_data_clear()
-        modes = json.loads(settings.preview_modes) if settings.preview_modes else {}
-        for pb in obj.pose.bones:
-            if pb.name in modes and pb.rotation_mode != modes[pb.name]:
-                pb.rotation_mode = modes[pb.name]
-    if previous is not None and settings.preview_fake_user:
-        previous.use_fake_user = False
-    written = bpy.data.actions.get(settings.preview_written) if settings.preview_written else None
-    if written is not None and settings.preview_written != keep:
-        _forget_written(settings.preview_written)
-        compat.remove_action(written)
-    context.scene.frame_set(settings.preview_frame)
-    settings.preview_object = settings.preview_action = settings.preview_slot = ""
-    settings.preview_modes = settings.preview_written = ""
-    settings.preview_fake_user, settings.preview_animdata = False, True
-
-
-def _forget_written(name):
-    """Result rows that named an action written for a preview point back at their file."""
-    for row in results_of().results:
-        if row.is_action and row.source == name and row.spec:
-            row.is_action, row.source = False, row.spec
-
-
-def preview_result(context, settings):
-    """Start previewing the selected result (a folder clip is written as an action for the preview); returns
-    the action."""
-    obj, row = _armature(context), None
-    _check(result_problem(context, settings))
-    row = settings.results[settings.results_index]
-    was_file = not row.is_action
-    obj, action = selected_action(context, settings)
-    start_preview(context, settings, obj, action, written=action.name if was_file else "")
-    return action
-
-
-def assign_result(context, settings):
-    """Make the selected result the armature's action (a running preview is stopped first, keeping the result
-    when it was written for the preview); the replaced action is stashed when nothing else uses it. Returns
-    (armature, action)."""
-    _check(result_problem(context, settings))
-    if settings.preview_object:
-        row = settings.results[settings.results_index]
-        stop_preview(context, settings, keep=row.source if row.is_action else "")
-    obj, action = selected_action(context, settings)
-    action_io.assign_action(obj, action)
-    return obj, action

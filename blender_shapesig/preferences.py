@@ -18,8 +18,8 @@ class ShapeSigPreferences(bpy.types.AddonPreferences):
 
     cache_dir: StringProperty(
         name="Index Folder",
-        description="Where the signature index (one small file per clip) is kept. Empty: the extension's "
-                    "user folder (or $SHAPESIG_CACHE_DIR, or a per-user cache folder)",
+        description="Where the signature index (one small file per clip) is kept. Empty: $SHAPESIG_CACHE_DIR, "
+                    "else a per-user cache folder, the same as the command line's",
         subtype="DIR_PATH",
         default="",
     )

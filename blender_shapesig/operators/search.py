@@ -24,7 +24,7 @@ import time
 import bpy
 from bpy.props import BoolProperty
 
-from .. import library
+from .. import library, results
 from ..core import index
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
@@ -297,7 +297,7 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj, action = library.assign_result(context, library.settings_of(context))
+            obj, action = results.assign_result(context, library.settings_of(context))
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Assign Result: {exc}")
             return {"CANCELLED"}
@@ -320,11 +320,11 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
     def execute(self, context):
         settings = library.settings_of(context)
         if settings.preview_object or self.stop:
-            library.stop_preview(context, settings)
+            results.stop_preview(context, settings)
             self.report({"INFO"}, "preview stopped")
             return {"FINISHED"}
         try:
-            action = library.preview_result(context, settings)
+            action = results.preview_result(context, settings)
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Preview: {exc}")
             return {"CANCELLED"}

@@ -22,6 +22,7 @@ def _same(ours, blender):
         (blender.name, blender.frames, blender.fps, blender.frame_start, blender.root_bone)
     assert ours.meta["missing_rotation_bones"] == blender.meta["missing_rotation_bones"]
     assert ours.meta["rotation_space"] == blender.meta["rotation_space"] == "armature"
+    assert ours.meta["parents"] == blender.meta["parents"]  # the hierarchy core.rigs composes rotations down
     np.testing.assert_allclose(ours.rotations, blender.rotations, rtol=0, atol=1e-6)
     assert (ours.root_translation is None) == (blender.root_translation is None)
     if ours.root_translation is not None:

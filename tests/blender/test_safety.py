@@ -16,7 +16,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import compat, library  # noqa: E402
+from blender_shapesig import compat, library, results  # noqa: E402
 from blender_shapesig.core import index, sources  # noqa: E402
 from blender_shapesig.core.errors import MAX_INBETWEENS  # noqa: E402
 from test_blend_operator import _buffer_hash, _import_bvh, _reopen  # noqa: E402
@@ -109,7 +109,7 @@ def test_preview_of_a_folder_result_leaves_nothing_after_stop(rig):
     assert not row.is_action and row.source == row.spec and row.spec.endswith("09_03.bvh")
     # a row whose written action disappeared (e.g. undone) reads its file again
     row.is_action, row.source = True, "gone"
-    assert library.result_action(s, rig, row).name.startswith("09_03")
+    assert results.result_action(s, rig, row).name.startswith("09_03")
     compat.remove_action(bpy.data.actions[row.source])
     row.is_action, row.source = False, row.spec
     # preview, then Assign the previewed folder result: it is kept (assigned), the walk is stashed

@@ -295,5 +295,7 @@ def load_bvh(path, name: Optional[str] = None):
                 rotations=R, fps=fps, frame_start=1, root_translation=root_translation, root_bone=joints[0].name,
                 rotation_modes=tuple(modes), source=path,
                 meta={"missing_rotation_bones": tuple(missing), "rotation_space": "armature", "up_axis": "Z",
-                      "format": "bvh"})
+                      "format": "bvh",
+                      # the hierarchy (core.rigs composes world rotations down it for the comparison space)
+                      "parents": {j.name: (joints[j.parent].name if j.parent >= 0 else None) for j in joints}})
     return clip

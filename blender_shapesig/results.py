@@ -1,0 +1,139 @@
+"""What an animator does with a result row of the search panel: assign it to the armature, or preview it and
+stop (``library`` owns the search itself). Assign never orphans the replaced action (``action_io.assign_action``
+stashes it); Stop restores exactly the state before Preview and removes an action written only for it."""
+
+import json
+
+import bpy
+
+from . import action_io, compat, library
+from .core import sources
+from .core.errors import ShapeSigError
+from .properties import results_of
+
+__all__ = ["selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result"]
+
+
+def selected_action(context, settings):
+    """(armature, action) of the selected result (``result_action``); ShapeSigError with a clear message."""
+    library.check_problem(library.result_problem(context, settings))
+    obj = library.active_armature(context)
+    return obj, result_action(settings, obj, settings.results[settings.results_index])
+
+
+def result_action(settings, obj, row):
+    """The bpy action of a result row; a folder clip is first read (``core.sources``) and written as a new
+    action on ``obj`` (the row then names that action; ``row.spec`` keeps the file)."""
+    if row.is_action:
+        action = bpy.data.actions.get(row.source)
+        if action is not None:
+            return action
+        if not row.spec:
+            raise ShapeSigError(f"the action {row.source!r} no longer exists")
+        row.is_action, row.source = False, row.spec  # its written action was undone or removed: read it again
+    asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
+    loaded = sources.read(sources.ClipSpec.parse(row.spec or row.source, asf=asf))
+    clip = next((c for c in loaded if c.name == row.clip_name), loaded[0])
+    if settings.crop_start and clip.frame_end >= settings.crop_start:
+        clip = clip.crop(start=settings.crop_start)
+    action = action_io.write_action(clip, armature=obj, name=clip.name)
+    row.is_action = True
+    row.source = action.name
+    return action
+
+
+def start_preview(context, settings, obj, action, written=""):
+    """Play ``action`` on ``obj`` until ``stop_preview``, which restores exactly what is here now: the active
+    action and its slot, the pose bones' rotation modes, the scene frame, whether the armature had animation
+    data. The previous action is kept alive meanwhile (a fake user when nothing else uses it, taken back at Stop)
+    so that saving during a preview loses nothing. ``written``: the action was written for the preview (a folder
+    result) and is removed at Stop unless assigned."""
+    ad = obj.animation_data
+    current = ad.action if ad is not None else None
+    slot = compat.object_action_slot(obj) if current is not None else None
+    settings.preview_object = obj.name
+    settings.preview_action = current.name if current is not None else ""
+    settings.preview_slot = getattr(slot, "identifier", "") if slot is not None else ""
+    settings.preview_modes = json.dumps({pb.name: pb.rotation_mode for pb in obj.pose.bones})
+    settings.preview_frame = context.scene.frame_current
+    settings.preview_animdata = ad is not None
+    settings.preview_written = written
+    settings.preview_fake_user = bool(current is not None and not current.use_fake_user and current.users <= 1)
+    if settings.preview_fake_user:
+        current.use_fake_user = True
+    action_io.assign_action(obj, action, keep_previous=False)  # bones switch to the modes it has curves for
+    context.scene.frame_set(int(action.frame_range[0]))
+    screen = getattr(context, "screen", None)
+    if screen is not None and context.window is not None and not screen.is_animation_playing:
+        bpy.ops.screen.animation_play()
+
+
+def _restore_slot(obj, identifier):
+    ad = obj.animation_data
+    if not identifier or ad is None or ad.action is None or not hasattr(ad, "action_slot"):
+        return
+    slot = next((sl for sl in ad.action.slots if sl.identifier == identifier), None)
+    if slot is not None and ad.action_slot != slot:
+        ad.action_slot = slot
+
+
+def stop_preview(context, settings, keep=""):
+    """End the preview: the armature gets back its action, slot, rotation modes and frame; the previous action
+    its fake-user state; the action written for the preview is removed unless it is ``keep`` (being assigned)."""
+    screen = getattr(context, "screen", None)
+    if screen is not None and screen.is_animation_playing:
+        bpy.ops.screen.animation_cancel(restore_frame=False)
+    obj = bpy.data.objects.get(settings.preview_object)
+    previous = bpy.data.actions.get(settings.preview_action) if settings.preview_action else None
+    if obj is not None:
+        if settings.preview_animdata or previous is not None:
+            compat.assign_action(obj, previous)
+            _restore_slot(obj, settings.preview_slot)
+        elif obj.animation_data is not None:
+            obj.animation_data_clear()
+        modes = json.loads(settings.preview_modes) if settings.preview_modes else {}
+        for pb in obj.pose.bones:
+            if pb.name in modes and pb.rotation_mode != modes[pb.name]:
+                pb.rotation_mode = modes[pb.name]
+    if previous is not None and settings.preview_fake_user:
+        previous.use_fake_user = False
+    written = bpy.data.actions.get(settings.preview_written) if settings.preview_written else None
+    if written is not None and settings.preview_written != keep:
+        _forget_written(settings.preview_written)
+        compat.remove_action(written)
+    context.scene.frame_set(settings.preview_frame)
+    settings.preview_object = settings.preview_action = settings.preview_slot = ""
+    settings.preview_modes = settings.preview_written = ""
+    settings.preview_fake_user, settings.preview_animdata = False, True
+
+
+def _forget_written(name):
+    """Result rows that named an action written for a preview point back at their file."""
+    for row in results_of().results:
+        if row.is_action and row.source == name and row.spec:
+            row.is_action, row.source = False, row.spec
+
+
+def preview_result(context, settings):
+    """Start previewing the selected result (a folder clip is written as an action for the preview); returns
+    the action."""
+    obj, row = library.active_armature(context), None
+    library.check_problem(library.result_problem(context, settings))
+    row = settings.results[settings.results_index]
+    was_file = not row.is_action
+    obj, action = selected_action(context, settings)
+    start_preview(context, settings, obj, action, written=action.name if was_file else "")
+    return action
+
+
+def assign_result(context, settings):
+    """Make the selected result the armature's action (a running preview is stopped first, keeping the result
+    when it was written for the preview); the replaced action is stashed when nothing else uses it. Returns
+    (armature, action)."""
+    library.check_problem(library.result_problem(context, settings))
+    if settings.preview_object:
+        row = settings.results[settings.results_index]
+        stop_preview(context, settings, keep=row.source if row.is_action else "")
+    obj, action = selected_action(context, settings)
+    action_io.assign_action(obj, action)
+    return obj, action
