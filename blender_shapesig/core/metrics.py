@@ -6,15 +6,17 @@ Grammar (``parse_metric_spec``): ``BASE[LEVEL][_OPTION...][+elasticK]``, case-in
   (sigma_L^n), ``sim`` (sim^n, eq. 9.1). The signature bases take a level (``group3``, ``sim2``;
   ``DEFAULT_LEVEL`` when none is written, an explicit ``level`` argument wins); ``l2`` and ``elastic``
   take none.
-* options: ``_numpy`` (elastic only: the plain numpy DP, the timing baseline); ``_tensor`` (linear and sim:
+* options: ``_numpy`` (elastic only: the plain numpy DP, the timing baseline); ``_joint`` / ``_group`` (l2 and
+  elastic: the SRVT normalized per joint or by the so(3)^d norm over all joints, ``curves.srvt(norm=...)``;
+  without it ``curves.DEFAULT_SRVT_NORM``); ``_tensor`` (linear and sim:
   the log-signature expanded in tensor space instead of Lyndon coordinates); ``_levelnorm`` (sim only:
   every level of the log-signature scaled to unit length, then divided by sqrt(n), so each level weighs
   the same).
 * ``+elasticK`` (e.g. ``sim3+elastic5``): a two-stage search, only for 1-NN evaluation: the K nearest
   clips by the first stage are re-ranked by d_S*.
 
-Canonical names put the options in the order numpy, levelnorm, tensor (``sim3_tensor_levelnorm`` ->
-``sim3_levelnorm_tensor``). ``parse_metric`` is the plain view used for one pair of clips (``distance``,
+Canonical names put the options in the order numpy, joint, group, levelnorm, tensor (``sim3_tensor_levelnorm``
+-> ``sim3_levelnorm_tensor``). ``parse_metric`` is the plain view used for one pair of clips (``distance``,
 ``rank``): a base and a level, no options.
 
 Clips are compared on the bones they share; bones still in both are dropped.
@@ -39,11 +41,12 @@ DEFAULT_LEVEL = 3
 DEFAULT_DEPTH = 9
 MAX_LEVEL = 8
 
-_OPTIONS = ("numpy", "levelnorm", "tensor")  # canonical order
-_OPTION_BASES = {"numpy": ("elastic",), "tensor": ("linear", "sim"), "levelnorm": ("sim",)}
+_OPTIONS = ("numpy", "joint", "group", "levelnorm", "tensor")  # canonical order
+_OPTION_BASES = {"numpy": ("elastic",), "tensor": ("linear", "sim"), "levelnorm": ("sim",),
+                 "joint": ("l2", "elastic"), "group": ("l2", "elastic")}
 _SPEC_RE = re.compile(
     r"(?P<base>l2|elastic|group|concat|linear|sim)(?P<level>\d*)"
-    r"(?P<opts>(?:_(?:numpy|tensor|levelnorm))*)"
+    r"(?P<opts>(?:_(?:numpy|tensor|levelnorm|joint|group))*)"
     r"(?:\+elastic(?P<k>\d+))?"
 )
 
@@ -59,6 +62,7 @@ class MetricSpec:
     levelnorm: bool = False
     numpy_dp: bool = False
     rerank: int = 0
+    srvt_norm: Optional[str] = None  # "joint", "group" or None (curves.DEFAULT_SRVT_NORM)
 
     @property
     def basis(self) -> str:
@@ -68,7 +72,7 @@ class MetricSpec:
     @property
     def plain(self) -> bool:
         """A base with its level only (what ``distance`` and ``rank`` compute)."""
-        return not (self.tensor or self.levelnorm or self.numpy_dp or self.rerank)
+        return not (self.tensor or self.levelnorm or self.numpy_dp or self.rerank or self.srvt_norm)
 
     @property
     def first_stage(self) -> "MetricSpec":
@@ -95,7 +99,7 @@ def parse_metric_spec(name, level=None) -> MetricSpec:
     if not m:
         raise ShapeSigError(
             f"unknown metric {name!r}: choose one of {', '.join(METRICS)} (with a level, e.g. sim3), "
-            f"optionally _tensor / _levelnorm / _numpy or +elasticK"
+            f"optionally _tensor / _levelnorm / _numpy / _joint / _group or +elasticK"
         )
     base, digits = m.group("base"), m.group("level")
     opts = set(filter(None, m.group("opts").split("_")))
@@ -109,13 +113,16 @@ def parse_metric_spec(name, level=None) -> MetricSpec:
         raise ShapeSigError(f"metric {base!r} takes no level")
     else:
         lvl = None
+    if {"joint", "group"} <= opts:
+        raise ShapeSigError(f"metric {name!r}: choose one SRVT norm, _joint or _group")
     if k and base == "elastic":
         raise ShapeSigError(f"metric {name!r}: the first stage cannot be elastic")
     canon = base + ("" if lvl is None else str(lvl)) + "".join(f"_{o}" for o in _OPTIONS if o in opts)
     if k:
         canon += f"+elastic{k}"
     return MetricSpec(name=canon, base=base, level=lvl, tensor="tensor" in opts, levelnorm="levelnorm" in opts,
-                      numpy_dp="numpy" in opts, rerank=k)
+                      numpy_dp="numpy" in opts, rerank=k,
+                      srvt_norm=next((o for o in ("joint", "group") if o in opts), None))
 
 
 def metric_label(name, level=None) -> str:
@@ -156,12 +163,20 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
     return fn(R0, R1, lvl)
 
 
-def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH):
-    """Distance between two clips on their shared bones (still-in-both bones dropped)."""
+def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, time_base=True):
+    """Distance between two clips on their shared bones (still-in-both bones dropped).
+
+    ``time_base`` (default): both clips are first put on the comparison time base (``prepare.prepare_clip``:
+    one rate in seconds, a low-pass of the angular velocity), so that a clip and the same motion at another
+    frame rate are close; False compares the curves as read."""
+    from .prepare import prepare_clip
+
     base, _ = parse_metric(metric, level)
     if base in ("l2", "elastic"):
         for c in (a, b):
             if c.frames < 2:
                 raise CurveError(f"clip {c.name!r} has {c.frames} frame; the {base} distance needs at least two frames")
+    if time_base:
+        a, b = prepare_clip(a), prepare_clip(b)
     a2, b2 = restrict_to_shared(a, b)
     return float(curve_distance(a2.rotations, b2.rotations, metric, level=level, depth=depth))
