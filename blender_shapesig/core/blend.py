@@ -53,6 +53,7 @@ __all__ = [
     "compute_warp",
     "identity_warp",
     "default_frames",
+    "blend_fps",
 ]
 
 # Grid points closer than this (in [0, 1]) are merged; they would make zero-length intervals.
@@ -453,8 +454,28 @@ def _bone_list(bones):
     return out
 
 
+def blend_fps(a, b):
+    """The frame rate of a blend of clips ``a`` and ``b``: the higher of their rates, so that neither source's
+    detail is lost (a blend of a 120 fps and a 30 fps clip is sampled at 120 fps; equal rates are kept)."""
+    return max(float(a.fps), float(b.fps))
+
+
+def _warp_curves(a, b, wa, wb, time_base):
+    """The curves the alignment is computed on: the warp bones of both clips, with ``time_base`` first put on
+    the comparison time base (``prepare.prepare_rotations``: one rate in seconds and a low-pass of the angular
+    velocity, so that a 120 fps and a 30 fps clip are aligned on the same footing). A warp lives on the
+    normalized time [0, 1] of each clip, and the preparation keeps every clip's duration, so the warp found on
+    the prepared curves applies to the clips as they are."""
+    Ra, Rb = a.rotations[:, wa], b.rotations[:, wb]
+    if not time_base:
+        return Ra, Rb
+    from .prepare import prepare_rotations
+
+    return prepare_rotations(Ra, a.fps), prepare_rotations(Rb, b.fps)
+
+
 def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
-                warp=None, up_axis=None, penalty=0.0, name=None):
+                warp=None, up_axis=None, penalty=0.0, name=None, time_base=True):
     """Blend clip ``a`` (weight 0) with clip ``b`` (weight 1) into a new Clip.
 
     * Bones are matched by name. Bones only in ``a`` keep A's motion (in the blended timing); bones
@@ -464,9 +485,12 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
       computed on *all* shared bones that move (the timing of the whole body, e.g. foot contacts),
       so a subset blend stays in step with the rest of the body; pass ``warp=`` to override.
     * ``align``/``depth``/``penalty``: the elastic alignment (see ``geodesic_blend``).
-    * ``frames``: output length; default ``round(((1 - w) D0 + w D1) fps_a) + 1`` with D the
-      durations in seconds (``(1 - w) N0 + w N1`` frames at equal frame rates). Output fps, frame
-      start, bone order and rotation modes are A's.
+    * ``frames``: output length; default ``round(((1 - w) D0 + w D1) fps) + 1`` with D the durations in
+      seconds and fps the blend's rate (``blend_fps``: the higher of the two), so the blend lasts the weighted
+      average of the sources' durations in seconds whatever their rates (``(1 - w) N0 + w N1`` frames at
+      equal rates). Frame start, bone order and rotation modes are A's.
+    * ``time_base``: the warp is computed on the clips put on the comparison time base
+      (``prepare.prepare_rotations``); False aligns the curves as read.
     * ``root="blend"``: the root translation is blended time-aligned: its height (along the up axis)
       directly, its horizontal per-frame displacements in the root's heading frame (twist of the
       root rotation about the up axis), then integrated from the blended start position, so a blend
@@ -491,12 +515,13 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
     else:
         wa = [ia[x] for x in warp_bones]
         wb = [ib[x] for x in warp_bones]
-        warp, edist = compute_warp(a.rotations[:, wa], b.rotations[:, wb], align, depth, penalty)
+        warp, edist = compute_warp(*_warp_curves(a, b, wa, wb, time_base), align, depth, penalty)
 
     d0 = (a.frames - 1) / float(a.fps)
     d1 = (b.frames - 1) / float(b.fps)
+    fps = blend_fps(a, b)
     if frames is None:
-        frames = default_frames(a.frames, b.frames, w, d0, d1, float(a.fps))
+        frames = default_frames(a.frames, b.frames, w, d0, d1, fps)
     plan = _Plan(a.frames, b.frames, w, warp, frames, (d0, d1))
 
     # Every bone of A in the blended timing, then the blended bones replaced.
@@ -534,7 +559,7 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
         name=name if name is not None else blend_name(a.name, b.name, w),
         bones=a.bones,
         rotations=out,
-        fps=a.fps,
+        fps=fps,
         frame_start=a.frame_start,
         root_translation=translation,
         root_bone=a.root_bone,
@@ -607,14 +632,14 @@ def _blend_translation(plan, a, b, ia, ib, blended, Bg, start, root, up_axis):
 
 
 def blend_clip_series(a, b, weights, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
-                      up_axis=None, penalty=0.0, progress=None):
+                      up_axis=None, penalty=0.0, progress=None, time_base=True):
     """``blend_clips`` at several weights with one warp (computed once). ``progress(i, n)`` is called
     after each blend. Returns a list of Clips."""
     weights = [_check_weight(x) for x in weights]
     if not weights:
         raise ShapeSigError("weights: at least one weight is needed")
     first = blend_clips(a, b, weights[0], align, depth, frames, bones, root, up_axis=up_axis,
-                        penalty=penalty)
+                        penalty=penalty, time_base=time_base)
     out = [first]
     if progress is not None:
         progress(1, len(weights))
