@@ -114,15 +114,20 @@ class _NoBar:
 
 
 def _crop_of(args):
-    return (getattr(args, "start", None), getattr(args, "end", None)) if args is not None else None
+    """``(start, end, fps, trim)`` of the command line (what ClipSpec takes besides the path and skeleton)."""
+    if args is None:
+        return None
+    return (getattr(args, "start", None), getattr(args, "end", None), getattr(args, "fps", None),
+            getattr(args, "trim", None) or "auto")
 
 
 def _spec(text, asf=None, crop=None):
-    """The ClipSpec of one CLIP argument with ``--asf`` and the crop ``(start, end)``."""
+    """The ClipSpec of one CLIP argument with ``--asf`` and ``(start, end[, fps, trim])``."""
     from .core.sources import ClipSpec
 
-    start, end = crop or (None, None)
-    return ClipSpec.parse(text, asf=asf or None, start=start, end=end)
+    start, end, *rest = crop or (None, None)
+    fps, trim = rest if rest else (None, "auto")
+    return ClipSpec.parse(text, asf=asf or None, start=start, end=end, fps=fps, trim=trim)
 
 
 def load_one(spec, asf=None, crop=None):
@@ -405,7 +410,7 @@ def cmd_evaluate(args):
     entries = evaluation.read_index(args.index)
     summary = evaluation.evaluate(
         entries,
-        evaluation.entry_loader(args.data, args.asf),
+        evaluation.entry_loader(args.data, args.asf, fps=args.fps, trim=args.trim),
         metrics,
         args.out,
         depth=args.depth,
@@ -432,9 +437,14 @@ def _add_common(p, asf=True, crop=True):
         p.add_argument("--asf", help="skeleton (.asf) for .amc clips (default: the only .asf beside each .amc)")
     if crop:
         p.add_argument("--start", type=int, metavar="FRAME",
-                       help="crop every clip to start at this frame (inclusive; e.g. 2 drops the rest pose "
-                            "of the CMU Daz-friendly BVH files)")
+                       help="crop every clip to start at this frame (inclusive; wins over --trim at the start)")
         p.add_argument("--end", type=int, metavar="FRAME", help="crop every clip to end at this frame (inclusive)")
+    p.add_argument("--trim", choices=("auto", "none"), default="auto",
+                   help="auto (default): drop detected rest-pose / ramp frames at both ends of every clip; "
+                        "none: keep every frame")
+    p.add_argument("--fps", type=float, metavar="F",
+                   help="frame rate of every clip (default: the file's: BVH Frame Time, AMC 120, an action's or "
+                        "its scene's)")
 
 
 def _metric_help(default):

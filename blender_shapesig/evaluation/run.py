@@ -13,6 +13,7 @@ import time
 from ..core.elastic import elastic_distance
 from ..core.metrics import DEFAULT_DEPTH, parse_metric_spec
 from ..core.pairwise import distance_matrix, prepare_curves
+from ..core.prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip
 from .index import unique_names
 from .plots import plot_dendrogram, plot_mds
 from .report import safe_name, write_matrix, write_summary
@@ -78,14 +79,16 @@ class _Matrices:
         return self.matrices[spec.name]
 
 
-def load_entries(entries, loader):
-    """Every entry's clip: ``loader(entry)`` (uncropped), then cropped to ``entry.start``..``entry.end``."""
+def load_entries(entries, loader, time_base=True):
+    """Every entry's clip: ``loader(entry)``, cropped to ``entry.start``..``entry.end``; with ``time_base``
+    prepared for comparison (``core.prepare.prepare_clip``: one rate in seconds, a low-pass in the Lie
+    algebra), as every comparison of the package is."""
     clips = []
     for e in entries:
         clip = loader(e)
         if e.start is not None or e.end is not None:
             clip = clip.crop(e.start, e.end)
-        clips.append(clip)
+        clips.append(prepare_clip(clip) if time_base else clip)
     return clips
 
 
@@ -128,7 +131,7 @@ def _plain_row(spec, mats, names, labels, out_dir, figures):
 
 
 def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEFAULT_DEPTH, workers=2,
-             figures=True, progress=None, log=None, repeat=1):
+             figures=True, progress=None, log=None, repeat=1, time_base=True):
     """Evaluate metrics on labelled clips and write ``out_dir/summary.json`` and ``report.md`` (plus
     matrices and figures). ``loader(entry)`` returns the entry's Clip (uncropped; e.g.
     ``index.entry_loader``); ``entry.start`` / ``entry.end`` crop it (inclusive frame numbers). Returns
@@ -136,11 +139,13 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
 
     ``repeat``: compute every matrix that many times and report the shortest wall time (the machine
     may be shared; the matrices are identical). ``progress``: "tqdm" or a callable counting pairs.
+    ``time_base``: compare the clips prepared by ``core.prepare`` (the default, as the command line does);
+    False compares the raw curves (the thesis' protocol).
     """
     specs = [parse_metric_spec(m) for m in metrics]
     os.makedirs(out_dir, exist_ok=True)
     say = log or (lambda msg: None)
-    clips = load_entries(entries, loader)
+    clips = load_entries(entries, loader, time_base)
     names = unique_names([os.path.splitext(os.path.basename(e.file))[0] for e in entries])
     labels = [e.label for e in entries]
     curves, bones = prepare_curves(clips)
@@ -149,7 +154,9 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
     mats = _Matrices(curves, depth, workers, repeat, progress, say)
     classes = class_order(labels)
     summary = {"clips": len(curves), "metrics": {}, "names": names, "labels": labels, "classes": classes,
-               "bones": list(bones), "depth": depth, "workers": workers, "repeat": mats.repeat}
+               "bones": list(bones), "depth": depth, "workers": workers, "repeat": mats.repeat,
+               "time_base": ({"fps": COMPARE_FPS, "smooth_seconds": SMOOTH_SECONDS} if time_base else None),
+               "trimmed": {n: c.meta.get("trim", {}).get("kept") for n, c in zip(names, clips)}}
     for spec in specs:
         if spec.rerank:
             row, pred, nb = _two_stage_row(spec, mats, labels)
