@@ -340,11 +340,14 @@ def cmd_blend(args):
         "out": out_path,
         "actions": list(names),
         "frames": [int(c.frames) for c in blended],
+        "seconds": [(c.frames - 1) / float(c.fps) for c in blended],
+        "fps": [float(c.fps) for c in blended],
         "weights": weights,
         "align": bool(args.align),
     }
     text = "\n".join(
-        [f"wrote {out_path}"] + [f"  {n}: {c.frames} frames (weight {w:g})" for n, c, w in zip(names, blended, weights)]
+        [f"wrote {out_path}"] + [f"  {n}: {c.frames} frames, {(c.frames - 1) / c.fps:.3f} s at {c.fps:g} fps "
+                                 f"(weight {w:g})" for n, c, w in zip(names, blended, weights)]
     )
     return out, text
 

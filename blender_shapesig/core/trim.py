@@ -17,8 +17,9 @@ the median over joints at the very first step.
   by that joint's median angle over the clip, is below ``REST_RATIO`` (0.03-0.07 on the Daz files' first frame,
   0.9-1.05 on every frame of the AMC and iClone files). The second test catches the glitchy run 09_10, whose
   own large steps hide its ramp from the first;
-* it then covers every step up to the last one above ``KEEP_RATIO`` within the first (last) ``MAX_SECONDS``
-  (the Daz ramps settle in 5-8 steps of 1/120 s; the window never covers more than a quarter of the clip).
+* it then covers the first run of consecutive steps above ``KEEP_RATIO`` and, from a rest pose, every frame
+  still on its way out of it (rest ratio below ``LEAVE_RATIO``), whichever is longer, within the first (last)
+  ``MAX_SECONDS`` (the Daz ramps settle in 4-8 steps of 1/120 s; never more than a quarter of the clip).
 
 A head of h steps drops frames 0..h-1, so the clip starts at the pose where the normal motion begins. On the
 Daz files of the shared CMU sets this keeps frame 6 to 9 onward (earlier versions asked for ``--start 7``);
@@ -32,13 +33,14 @@ import numpy as np
 from . import so3
 from .so3 import relative_rotvecs
 
-__all__ = ["TRIM_MODES", "START_RATIO", "REST_RATIO", "KEEP_RATIO", "MAX_SECONDS", "Trim", "step_ratios", "rest_ratios", "detect_trim",
+__all__ = ["TRIM_MODES", "START_RATIO", "REST_RATIO", "LEAVE_RATIO", "KEEP_RATIO", "MAX_SECONDS", "Trim", "step_ratios", "rest_ratios", "detect_trim",
            "trim_clip"]
 
 TRIM_MODES = ("auto", "none")
 START_RATIO = 4.0
 REST_RATIO = 0.25
-KEEP_RATIO = 2.0
+LEAVE_RATIO = 0.9
+KEEP_RATIO = 1.5
 MAX_SECONDS = 0.1
 
 
@@ -77,16 +79,23 @@ def rest_ratios(R):
     return np.median(A[:, moving] / med[moving], axis=1)
 
 
+def _leading(mask, limit):
+    """How many leading entries of ``mask`` are true (at most ``limit``)."""
+    n = 0
+    while n < min(limit, mask.size) and mask[n]:
+        n += 1
+    return n
+
+
 def _head(r, rest, window):
-    """Frames of the rest pose / ramp at the start: when the first step is above START_RATIO or the first frame
-    is a rest pose, up to the last step above KEEP_RATIO in the window (at least the rest frames); else 0."""
-    at_rest = 0
-    while at_rest < min(window, rest.size) and rest[at_rest] < REST_RATIO:
-        at_rest += 1
+    """Frames of the rest pose / ramp at the start: none unless the first step is above START_RATIO or the
+    first frame is a rest pose; then the longer of the first run of steps above KEEP_RATIO and (from a rest
+    pose) the frames still on the way out of it (rest ratio below LEAVE_RATIO), within the window."""
+    at_rest = _leading(rest < REST_RATIO, window)
     if r.size == 0 or not (r[0] > START_RATIO or at_rest):
         return 0
-    above = np.flatnonzero(r[:window] > KEEP_RATIO)
-    return max(at_rest, int(above[-1]) + 1 if above.size else 0)
+    leaving = _leading(rest < LEAVE_RATIO, window) if at_rest else 0
+    return max(leaving, _leading(r > KEEP_RATIO, window))
 
 
 def detect_trim(R, fps) -> Trim:
