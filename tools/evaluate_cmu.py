@@ -74,13 +74,14 @@ def make_loader(data):
     return ev.entry_loader(data, cache=_CACHE)
 
 
-def run_set(name, data, out, metrics, depth, workers, repeat=1, time_base=True):
+def run_set(name, data, out, metrics, depth, workers, repeat=1, time_base=True, smooth=None):
     entries = ev.read_index(SETS[name])
     out_dir = os.path.join(out, name)
     t0 = time.perf_counter()
     summary = ev.evaluate(entries, make_loader(data), metrics, out_dir, depth=depth, workers=workers,
                           figures=True, progress="tqdm", log=lambda m: print(f"[{name}] {m}", file=sys.stderr),
-                          repeat=repeat, time_base=time_base)
+                          repeat=repeat, time_base=time_base,
+                          **({} if smooth is None else {"smooth": smooth}))
     print(f"[{name}] done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return summary
 
@@ -263,6 +264,7 @@ def main(argv=None):
     p.add_argument("--sets", default=ALL_SETS, help=f"comma-separated, from {ALL_SETS} (default: all)")
     p.add_argument("--raw", action="store_true",
                    help="compare the curves as read (the thesis' protocol), without the time base of core.prepare")
+    p.add_argument("--smooth", type=float, help="the time base's low-pass in seconds (default core.prepare's)")
     p.add_argument("--metrics", help="override the metric list (comma-separated) for every set")
     p.add_argument("--depth", type=int, default=DEFAULT_DEPTH)
     p.add_argument("--workers", type=int, default=2)
@@ -275,7 +277,7 @@ def main(argv=None):
     for name in [s.strip() for s in args.sets.split(",") if s.strip()]:
         metrics = tuple(args.metrics.split(",")) if args.metrics else METRICS[name]
         results[name] = run_set(name, args.data, args.out, metrics, args.depth, args.workers, args.repeat,
-                                time_base=not args.raw)
+                                time_base=not args.raw, smooth=args.smooth)
         if name == "cmu_large":
             merged = relabelled(results[name], os.path.join(args.out, name), {"forward jump": "jump"},
                                 os.path.join(args.out, name, "merged_jumps.json"))

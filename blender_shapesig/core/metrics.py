@@ -30,12 +30,18 @@ from .clip import Clip, restrict_to_shared
 from .errors import CurveError, ShapeSigError
 
 __all__ = [
-    "METRICS", "SIGNATURE_METRICS", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
+    "METRICS", "SIGNATURE_METRICS", "TIME_BASE_METRICS", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
     "parse_metric_spec", "check_metric", "parse_metric", "metric_label", "clip_distance", "curve_distance",
 ]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
 METRICS = ("l2", "elastic") + SIGNATURE_METRICS
+# The measures computed on the comparison time base (``prepare.prepare_clip``): the SRVT ones, whose square
+# root of a velocity sees the frame rate through the capture jitter. The signature measures are computed on the
+# curves as read: they are reparametrization invariant, hardly see the rate (1-NN and mAP on the 27 clips at
+# mixed 120 / 60 / 30 fps equal those at 120 fps) and lose class information to the low-pass
+# (docs/evaluation.md, "Time base").
+TIME_BASE_METRICS = ("l2", "elastic")
 # The named defaults of the whole package: the log-signature level n and the elastic DP search depth D.
 DEFAULT_LEVEL = 3
 DEFAULT_DEPTH = 9
@@ -166,9 +172,10 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
 def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, time_base=True):
     """Distance between two clips on their shared bones (still-in-both bones dropped).
 
-    ``time_base`` (default): both clips are first put on the comparison time base (``prepare.prepare_clip``:
-    one rate in seconds, a low-pass of the angular velocity), so that a clip and the same motion at another
-    frame rate are close; False compares the curves as read."""
+    ``time_base`` (default): for the SRVT measures (``TIME_BASE_METRICS``) both clips are first put on the
+    comparison time base (``prepare.prepare_clip``: one rate in seconds, a low-pass of the angular velocity),
+    so that a clip and the same motion at another frame rate are close; False compares the curves as read.
+    The signature measures always use the curves as read."""
     from .prepare import prepare_clip
 
     base, _ = parse_metric(metric, level)
@@ -176,7 +183,7 @@ def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPT
         for c in (a, b):
             if c.frames < 2:
                 raise CurveError(f"clip {c.name!r} has {c.frames} frame; the {base} distance needs at least two frames")
-    if time_base:
-        a, b = prepare_clip(a), prepare_clip(b)
     a2, b2 = restrict_to_shared(a, b)
+    if time_base and base in TIME_BASE_METRICS:
+        a2, b2 = prepare_clip(a2), prepare_clip(b2)
     return float(curve_distance(a2.rotations, b2.rotations, metric, level=level, depth=depth))
