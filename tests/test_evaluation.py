@@ -347,14 +347,14 @@ def test_evaluate_writes_summary(tmp_path):
     assert (tmp_path / "figures" / "mds_l2.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "figures" / "dendrogram_sim2.png").exists()
     M = np.load(tmp_path / "matrices" / "l2.npy")
-    # Cropped to frames 2..29 (28 frames) before the distance; d_P* on the comparison time base (core.prepare),
-    # sim on the curves as read.
+    # Cropped to frames 2..29 (28 frames) before the distance, then on the comparison time base (core.prepare).
     crop = [clips[e.file[:-4]].crop(2, 29) for e in entries]
     assert crop[0].frames == 28
     prepared = [prepare_clip(c).rotations for c in crop]
     assert M[0, 1] == pytest.approx(curves.l2_distance(prepared[0], prepared[1]))
-    S = np.load(tmp_path / "matrices" / "sim2.npy")
-    assert S[0, 1] == pytest.approx(signatures.normalized_distance(crop[0].rotations, crop[1].rotations, 2))
+    S = np.load(tmp_path / "matrices" / "sim2.npy")  # the same time base, without the low-pass
+    sig = [prepare_clip(c, smooth=0.0).rotations for c in crop]
+    assert S[0, 1] == pytest.approx(signatures.normalized_distance(sig[0], sig[1], 2))
     raw = ev.evaluate(entries, lambda e: clips[e.file[:-4]], ("l2",), tmp_path / "raw", workers=1,
                       figures=False, time_base=False)
     assert raw["time_base"] is None

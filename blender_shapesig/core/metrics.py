@@ -30,18 +30,25 @@ from .clip import Clip, restrict_to_shared
 from .errors import CurveError, ShapeSigError
 
 __all__ = [
-    "METRICS", "SIGNATURE_METRICS", "TIME_BASE_METRICS", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
+    "METRICS", "SIGNATURE_METRICS", "SMOOTHED_METRICS", "time_base_smoothing", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
     "parse_metric_spec", "check_metric", "parse_metric", "metric_label", "clip_distance", "curve_distance",
 ]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
 METRICS = ("l2", "elastic") + SIGNATURE_METRICS
-# The measures computed on the comparison time base (``prepare.prepare_clip``): the SRVT ones, whose square
-# root of a velocity sees the frame rate through the capture jitter. The signature measures are computed on the
-# curves as read: they are reparametrization invariant, hardly see the rate (1-NN and mAP on the 27 clips at
-# mixed 120 / 60 / 30 fps equal those at 120 fps) and lose class information to the low-pass
-# (docs/evaluation.md, "Time base").
-TIME_BASE_METRICS = ("l2", "elastic")
+# Every measure compares clips on one time base (``prepare.prepare_clip``: sampled at ``prepare.COMPARE_FPS`` over
+# their durations in seconds). The SRVT measures also low-pass the angular velocity (``prepare.SMOOTH_SECONDS``):
+# the square root of the SRVT amplifies the capture jitter, whose velocity grows with the frame rate. The
+# signature measures do not (``prepare.SIGNATURE_SMOOTH_SECONDS`` = 0): the log-signature sums increments, the
+# jitter mostly cancels, and a low-pass costs them class information (docs/evaluation.md, "Time base").
+SMOOTHED_METRICS = ("l2", "elastic")
+
+
+def time_base_smoothing(base) -> float:
+    """The low-pass (seconds) of the comparison time base for a metric base name."""
+    from .prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS
+
+    return SMOOTH_SECONDS if base in SMOOTHED_METRICS else SIGNATURE_SMOOTH_SECONDS
 # The named defaults of the whole package: the log-signature level n and the elastic DP search depth D.
 DEFAULT_LEVEL = 3
 DEFAULT_DEPTH = 9
@@ -172,10 +179,10 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
 def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, time_base=True):
     """Distance between two clips on their shared bones (still-in-both bones dropped).
 
-    ``time_base`` (default): for the SRVT measures (``TIME_BASE_METRICS``) both clips are first put on the
-    comparison time base (``prepare.prepare_clip``: one rate in seconds, a low-pass of the angular velocity),
-    so that a clip and the same motion at another frame rate are close; False compares the curves as read.
-    The signature measures always use the curves as read."""
+    ``time_base`` (default): both clips are first put on the comparison time base (``prepare.prepare_clip``:
+    one rate in seconds; for the SRVT measures also a low-pass of the angular velocity,
+    ``time_base_smoothing``), so that a clip and the same motion at another frame rate are close; False
+    compares the curves as read."""
     from .prepare import prepare_clip
 
     base, _ = parse_metric(metric, level)
@@ -184,6 +191,7 @@ def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPT
             if c.frames < 2:
                 raise CurveError(f"clip {c.name!r} has {c.frames} frame; the {base} distance needs at least two frames")
     a2, b2 = restrict_to_shared(a, b)
-    if time_base and base in TIME_BASE_METRICS:
-        a2, b2 = prepare_clip(a2), prepare_clip(b2)
+    if time_base:
+        smooth = time_base_smoothing(base)
+        a2, b2 = prepare_clip(a2, smooth=smooth), prepare_clip(b2, smooth=smooth)
     return float(curve_distance(a2.rotations, b2.rotations, metric, level=level, depth=depth))

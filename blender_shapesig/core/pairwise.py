@@ -27,7 +27,7 @@ from .clip import restrict_to_shared
 from . import curves as curves_mod
 from .curves import srvt, srvt_l2_squared, uniform_times, use_srvt_norm
 from .errors import ShapeSigError
-from .metrics import DEFAULT_DEPTH, TIME_BASE_METRICS, MetricSpec, parse_metric_spec
+from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec, time_base_smoothing
 
 __all__ = [
     "prepare_curves", "distance_matrix", "clip_distance_matrix", "level_blocks", "log_signature_feature",
@@ -35,14 +35,15 @@ __all__ = [
 ]
 
 
-def prepare_curves(clips, time_base=False):
+def prepare_curves(clips, smooth=None):
     """``(curves, bones)``: the clips' curves on the bones shared by all of them (bones still in every
-    clip dropped); with ``time_base``, each restricted clip then goes through ``prepare.prepare_clip``."""
+    clip dropped); with ``smooth`` (seconds, may be 0), each restricted clip is then put on the comparison time
+    base by ``prepare.prepare_clip(clip, smooth=smooth)``."""
     restricted = restrict_to_shared(*clips)
-    if time_base:
+    if smooth is not None:
         from .prepare import prepare_clip
 
-        restricted = [prepare_clip(c) for c in restricted]
+        restricted = [prepare_clip(c, smooth=smooth) for c in restricted]
     return [c.rotations for c in restricted], restricted[0].bones
 
 
@@ -216,10 +217,10 @@ def distance_matrix(curves, metric, depth=DEFAULT_DEPTH, workers=2, progress=Non
 
 
 def clip_distance_matrix(clips, metric, depth=DEFAULT_DEPTH, workers=2, progress=None, time_base=True):
-    """``(D, seconds)``: the distance matrix of clips (on their shared moving bones; the SRVT measures on the
-    comparison time base of ``prepare.prepare_clip`` unless ``time_base`` is False) and its wall time."""
+    """``(D, seconds)``: the distance matrix of clips (on their shared moving bones, on the comparison time base
+    of ``prepare.prepare_clip`` unless ``time_base`` is False) and its wall time."""
     spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
-    curves, _ = prepare_curves(clips, time_base and spec.base in TIME_BASE_METRICS)
+    curves, _ = prepare_curves(clips, time_base_smoothing(spec.base) if time_base else None)
     t0 = time.perf_counter()
     D = distance_matrix(curves, metric, depth=depth, workers=workers, progress=progress)
     return D, time.perf_counter() - t0

@@ -36,11 +36,12 @@ from . import so3
 from .curves import as_curve, geodesic_interpolate
 from .errors import ShapeSigError, check_number
 
-__all__ = ["COMPARE_FPS", "SMOOTH_SECONDS", "smooth_increments", "resample_seconds", "prepare_rotations",
+__all__ = ["COMPARE_FPS", "SMOOTH_SECONDS", "SIGNATURE_SMOOTH_SECONDS", "smooth_increments", "resample_seconds", "prepare_rotations",
            "prepare_clip", "decimate_clip", "check_fps"]
 
 COMPARE_FPS = 30.0
-SMOOTH_SECONDS = 0.05
+SMOOTH_SECONDS = 0.05  # the SRVT measures and the blends' alignment
+SIGNATURE_SMOOTH_SECONDS = 0.0  # the signature measures: the common rate only
 # frame rates a clip may plausibly have (BVH Frame Time, an action's scene, --fps)
 MIN_FPS, MAX_FPS = 1.0, 1000.0
 

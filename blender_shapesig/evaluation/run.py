@@ -12,9 +12,9 @@ import time
 
 from ..core.clip import restrict_to_shared
 from ..core.elastic import elastic_distance
-from ..core.metrics import DEFAULT_DEPTH, TIME_BASE_METRICS, parse_metric_spec
+from ..core.metrics import DEFAULT_DEPTH, SMOOTHED_METRICS, parse_metric_spec
 from ..core.pairwise import distance_matrix
-from ..core.prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip
+from ..core.prepare import COMPARE_FPS, SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
 from .index import unique_names
 from .plots import plot_dendrogram, plot_mds
 from .report import safe_name, write_matrix, write_summary
@@ -54,9 +54,8 @@ def _make_bar(progress, total, desc):
 
 
 class _Matrices:
-    """Every metric's matrix once, timed as the shortest of ``repeat`` runs. ``curves``: the curves as read (the
-    signature measures); ``srvt_curves``: the same on the comparison time base (the SRVT measures, d_S* of
-    the two-stage searches)."""
+    """Every metric's matrix once, timed as the shortest of ``repeat`` runs. ``curves``: the curves of the
+    signature measures; ``srvt_curves``: those of the SRVT measures (and d_S* of the two-stage searches)."""
 
     def __init__(self, curves, srvt_curves, depth, workers, repeat, progress, say):
         self.curves, self.srvt_curves, self.depth, self.workers = curves, srvt_curves, depth, workers
@@ -82,7 +81,7 @@ class _Matrices:
         return self.matrices[spec.name]
 
     def curves_for(self, spec):
-        return self.srvt_curves if spec.base in TIME_BASE_METRICS else self.curves
+        return self.srvt_curves if spec.base in SMOOTHED_METRICS else self.curves
 
 
 def load_entries(entries, loader):
@@ -143,9 +142,10 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
 
     ``repeat``: compute every matrix that many times and report the shortest wall time (the machine
     may be shared; the matrices are identical). ``progress``: "tqdm" or a callable counting pairs.
-    ``time_base``: the SRVT measures (``metrics.TIME_BASE_METRICS``) compare the clips prepared by
-    ``core.prepare`` (the default, as the command line does; ``smooth``: the low-pass in seconds); False compares
-    the curves as read (the thesis' protocol). The signature measures always use the curves as read.
+    ``time_base``: compare the clips on the time base of ``core.prepare`` (the default, as the command line
+    does: every clip at ``COMPARE_FPS``; the SRVT measures ``metrics.SMOOTHED_METRICS`` after a low-pass of
+    ``smooth`` seconds, the signature measures without); False compares the curves as read (the thesis'
+    protocol).
     """
     specs = [parse_metric_spec(m) for m in metrics]
     os.makedirs(out_dir, exist_ok=True)
@@ -154,8 +154,11 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
     names = unique_names([os.path.splitext(os.path.basename(e.file))[0] for e in entries])
     labels = [e.label for e in entries]
     restricted = restrict_to_shared(*clips)
-    curves, bones = [c.rotations for c in restricted], restricted[0].bones
-    srvt_curves = [prepare_clip(c, smooth=smooth).rotations for c in restricted] if time_base else curves
+    bones = restricted[0].bones
+    curves = srvt_curves = [c.rotations for c in restricted]
+    if time_base:
+        curves = [prepare_clip(c, smooth=SIGNATURE_SMOOTH_SECONDS).rotations for c in restricted]
+        srvt_curves = [prepare_clip(c, smooth=smooth).rotations for c in restricted]
     say(f"{len(curves)} clips, {len(bones)} moving shared bones, frames {min(len(c) for c in curves)}.."
         f"{max(len(c) for c in curves)} ({min(len(c) for c in srvt_curves)}..{max(len(c) for c in srvt_curves)}"
         f" on the SRVT measures' time base)")
@@ -163,7 +166,8 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
     classes = class_order(labels)
     summary = {"clips": len(curves), "metrics": {}, "names": names, "labels": labels, "classes": classes,
                "bones": list(bones), "depth": depth, "workers": workers, "repeat": mats.repeat,
-               "time_base": ({"fps": COMPARE_FPS, "smooth_seconds": smooth} if time_base else None),
+               "time_base": ({"fps": COMPARE_FPS, "smooth_seconds": smooth,
+                              "signature_smooth_seconds": SIGNATURE_SMOOTH_SECONDS} if time_base else None),
                "trimmed": {n: c.meta.get("trim", {}).get("kept") for n, c in zip(names, clips)}}
     for spec in specs:
         if spec.rerank:
