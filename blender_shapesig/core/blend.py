@@ -44,6 +44,7 @@ from .curves import (
 from .elastic import check_warp
 from .errors import CurveError, ShapeSigError, check_integer, check_number
 from .metrics import DEFAULT_DEPTH
+from .prepare import prepare_rotations
 
 __all__ = [
     "geodesic_blend",
@@ -455,23 +456,8 @@ def _bone_list(bones):
 
 
 def blend_fps(a, b):
-    """The frame rate of a blend of clips ``a`` and ``b``: the higher of their rates, so that neither source's
-    detail is lost (a blend of a 120 fps and a 30 fps clip is sampled at 120 fps; equal rates are kept)."""
+    """A blend's frame rate: the higher of its sources' (neither source's detail is lost)."""
     return max(float(a.fps), float(b.fps))
-
-
-def _warp_curves(a, b, wa, wb, time_base):
-    """The curves the alignment is computed on: the warp bones of both clips, with ``time_base`` first put on
-    the comparison time base (``prepare.prepare_rotations``: one rate in seconds and a low-pass of the angular
-    velocity, so that a 120 fps and a 30 fps clip are aligned on the same footing). A warp lives on the
-    normalized time [0, 1] of each clip, and the preparation keeps every clip's duration, so the warp found on
-    the prepared curves applies to the clips as they are."""
-    Ra, Rb = a.rotations[:, wa], b.rotations[:, wb]
-    if not time_base:
-        return Ra, Rb
-    from .prepare import prepare_rotations
-
-    return prepare_rotations(Ra, a.fps), prepare_rotations(Rb, b.fps)
 
 
 def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
@@ -485,12 +471,9 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
       computed on *all* shared bones that move (the timing of the whole body, e.g. foot contacts),
       so a subset blend stays in step with the rest of the body; pass ``warp=`` to override.
     * ``align``/``depth``/``penalty``: the elastic alignment (see ``geodesic_blend``).
-    * ``frames``: output length; default ``round(((1 - w) D0 + w D1) fps) + 1`` with D the durations in
-      seconds and fps the blend's rate (``blend_fps``: the higher of the two), so the blend lasts the weighted
-      average of the sources' durations in seconds whatever their rates (``(1 - w) N0 + w N1`` frames at
-      equal rates). Frame start, bone order and rotation modes are A's.
-    * ``time_base``: the warp is computed on the clips put on the comparison time base
-      (``prepare.prepare_rotations``); False aligns the curves as read.
+    * ``frames``: default ``round(((1 - w) D0 + w D1) fps) + 1``, D the durations in seconds, fps = ``blend_fps``:
+      the weighted average of the durations whatever the rates. Frame start, bones and rotation modes are A's.
+    * ``time_base``: align on the comparison time base (``prepare.prepare_rotations``); False: as read.
     * ``root="blend"``: the root translation is blended time-aligned: its height (along the up axis)
       directly, its horizontal per-frame displacements in the root's heading frame (twist of the
       root rotation about the up axis), then integrated from the blended start position, so a blend
@@ -515,7 +498,10 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
     else:
         wa = [ia[x] for x in warp_bones]
         wb = [ib[x] for x in warp_bones]
-        warp, edist = compute_warp(*_warp_curves(a, b, wa, wb, time_base), align, depth, penalty)
+        Ra, Rb = a.rotations[:, wa], b.rotations[:, wb]
+        if time_base:  # a warp maps normalized times and the preparation keeps durations: it applies as is
+            Ra, Rb = prepare_rotations(Ra, a.fps), prepare_rotations(Rb, b.fps)
+        warp, edist = compute_warp(Ra, Rb, align, depth, penalty)
 
     d0 = (a.frames - 1) / float(a.fps)
     d1 = (b.frames - 1) / float(b.fps)
