@@ -6,7 +6,7 @@
 For every walk of the shared sets (the Daz BVH walks of tools/eval_sets/cmu_large.csv against its runs, the AMC
 walks of tools/eval_sets/cmu_amc.csv against its runs): the distance between the clip and its copy decimated to
 60 and 30 fps (every 2nd / 4th frame; the clip is first cut to a multiple of 4 frame intervals so that all three
-cover the same seconds), divided by the distance from the clip to the nearest run. Distances are
+cover the same seconds; ``--whole``: not cut), divided by the distance from the clip to the nearest run. Distances are
 ``core.metrics.clip_distance`` (the package's comparison, on the time base of ``core.prepare``; ``--raw``: on
 the curves as read). Prints one row per walk and the largest ratio per metric and rate; ``--json FILE`` saves
 them.
@@ -36,7 +36,7 @@ def same_span(clip, step=4):
     return replace(clip, rotations=clip.rotations[:n], root_translation=root)
 
 
-def measure(data, metrics, time_base=True, say=print):
+def measure(data, metrics, time_base=True, say=print, whole=False):
     rows = []
     for set_name in SETS:
         entries = ev.read_index(os.path.join(ROOT, "tools", "eval_sets", set_name))
@@ -46,7 +46,7 @@ def measure(data, metrics, time_base=True, say=print):
         for label, clip in clips:
             if label != "walk":
                 continue
-            clip = same_span(clip)
+            clip = clip if whole else same_span(clip)
             row = {"set": set_name, "clip": clip.name, "fps": clip.fps, "frames": clip.frames}
             for m in metrics:
                 near = min(clip_distance(clip, r, m, time_base=time_base) for r in runs)
@@ -67,10 +67,12 @@ def main(argv=None):
     p.add_argument("--data", required=True, help="the shared CMU folder")
     p.add_argument("--metrics", default="sim3,elastic")
     p.add_argument("--raw", action="store_true", help="compare the curves as read (no time base)")
+    p.add_argument("--whole", action="store_true",
+                   help="keep every clip whole: its copies then lose up to 3 trailing frames (12-25 ms)")
     p.add_argument("--json", help="write the rows and the largest ratios to this file")
     args = p.parse_args(argv)
     metrics = [m.strip() for m in args.metrics.split(",") if m.strip()]
-    rows, worst = measure(args.data, metrics, time_base=not args.raw)
+    rows, worst = measure(args.data, metrics, time_base=not args.raw, whole=args.whole)
     for m, w in worst.items():
         print(f"largest ratio {m}: 60 fps {w['60fps']:.3f}, 30 fps {w['30fps']:.3f} ({len(rows)} walks)")
     if args.json:
