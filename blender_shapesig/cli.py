@@ -114,15 +114,20 @@ class _NoBar:
 
 
 def _crop_of(args):
-    return (getattr(args, "start", None), getattr(args, "end", None)) if args is not None else None
+    """``(start, end, fps, trim)`` of the command line (what ClipSpec takes besides the path and skeleton)."""
+    if args is None:
+        return None
+    return (getattr(args, "start", None), getattr(args, "end", None), getattr(args, "fps", None),
+            getattr(args, "trim", None) or "auto")
 
 
 def _spec(text, asf=None, crop=None, bone_map="auto"):
-    """The ClipSpec of one CLIP argument with ``--asf``, the crop ``(start, end)`` and ``--bone-map``."""
+    """The ClipSpec of one CLIP argument with ``--asf``, ``(start, end[, fps, trim])`` and ``--bone-map``."""
     from .core.sources import ClipSpec
 
-    start, end = crop or (None, None)
-    return ClipSpec.parse(text, asf=asf or None, start=start, end=end, bone_map=bone_map)
+    start, end, *rest = crop or (None, None)
+    fps, trim = rest if rest else (None, "auto")
+    return ClipSpec.parse(text, asf=asf or None, start=start, end=end, fps=fps, trim=trim, bone_map=bone_map)
 
 
 def _bone_map_of(args):
@@ -377,13 +382,16 @@ def cmd_blend(args):
         "out": out_path,
         "actions": list(names),
         "frames": [int(c.frames) for c in blended],
+        "seconds": [(c.frames - 1) / float(c.fps) for c in blended],
+        "fps": [float(c.fps) for c in blended],
         "weights": weights,
         "align": bool(args.align),
     }
     if a.meta.get("rotation_space") == "comparison":
         out["kept_bones"] = list(blended[0].meta.get("kept_bones", ()))
     text = "\n".join(
-        [f"wrote {out_path}"] + [f"  {n}: {c.frames} frames (weight {w:g})" for n, c, w in zip(names, blended, weights)]
+        [f"wrote {out_path}"] + [f"  {n}: {c.frames} frames, {(c.frames - 1) / c.fps:.3f} s at {c.fps:g} fps "
+                                 f"(weight {w:g})" for n, c, w in zip(names, blended, weights)]
     )
     return out, text
 
@@ -449,7 +457,7 @@ def cmd_evaluate(args):
     entries = evaluation.read_index(args.index)
     summary = evaluation.evaluate(
         entries,
-        evaluation.entry_loader(args.data, args.asf, bone_map=args.bone_map),
+        evaluation.entry_loader(args.data, args.asf, fps=args.fps, trim=args.trim, bone_map=args.bone_map),
         metrics,
         args.out,
         depth=args.depth,
@@ -482,9 +490,14 @@ def _add_common(p, asf=True, crop=True):
                        help="compare / blend even when under half of the moving joints are shared")
     if crop:
         p.add_argument("--start", type=int, metavar="FRAME",
-                       help="crop every clip to start at this frame (inclusive; e.g. 2 drops the rest pose "
-                            "of the CMU Daz-friendly BVH files)")
+                       help="crop every clip to start at this frame (inclusive; wins over --trim at the start)")
         p.add_argument("--end", type=int, metavar="FRAME", help="crop every clip to end at this frame (inclusive)")
+    p.add_argument("--trim", choices=("auto", "none"), default="auto",
+                   help="auto (default): drop detected rest-pose / ramp frames at both ends of every clip; "
+                        "none: keep every frame")
+    p.add_argument("--fps", type=float, metavar="F",
+                   help="frame rate of every clip (default: the file's: BVH Frame Time, AMC 120, an action's or "
+                        "its scene's)")
 
 
 def _metric_help(default):

@@ -16,6 +16,8 @@ from blender_shapesig import cli
 from blender_shapesig.core import curves, signatures, sources
 from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.clip import restrict_to_shared
+from blender_shapesig.core.metrics import time_base_smoothing
+from blender_shapesig.core.prepare import prepare_clip
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 ACC = ROOT / "tests" / "data" / "acclaim"
@@ -51,6 +53,13 @@ def _clip(path, bone_map="auto", start=None, end=None):
                                              bone_map=bone_map))
 
 
+def _compared(a, b, base):
+    """Both clips on their shared bones and on the comparison time base of the measure (what the CLI compares)."""
+    a, b = restrict_to_shared(a, b)
+    smooth = time_base_smoothing(base)
+    return prepare_clip(a, smooth=smooth), prepare_clip(b, smooth=smooth)
+
+
 def run_json(capsys, args):
     code = cli.main(args + ["--json"])
     out, err = capsys.readouterr()
@@ -75,7 +84,7 @@ def run_error(capsys, args):
 def test_distance_l2_matches_core(capsys, amc):
     out, _ = run_json(capsys, ["distance", amc["w1"], amc["r1"], "--metric", "l2"])
     assert set(out) >= {"distance", "metric"} and out["metric"] == "l2"
-    a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["r1"]))
+    a, b = _compared(_clip(amc["w1"]), _clip(amc["r1"]), "l2")
     assert out["distance"] == pytest.approx(curves.l2_distance(a.rotations, b.rotations), rel=1e-12)
 
 
@@ -95,15 +104,28 @@ def test_distance_bone_map_none_is_the_armature_space(capsys, amc):
 def test_distance_signature_metrics(capsys, amc, args, label, fn):
     out, _ = run_json(capsys, ["distance", amc["w1"], amc["w2"]] + args)
     assert out["metric"] == label
-    a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["w2"]))
+    a, b = _compared(_clip(amc["w1"]), _clip(amc["w2"]), "sim")
     assert out["distance"] == pytest.approx(fn(a.rotations, b.rotations), rel=1e-10)
+
+
+def test_fps_and_trim_options(capsys, amc):
+    base, _ = run_json(capsys, ["distance", amc["w1"], amc["r1"], "--metric", "elastic"])
+    # the AMC takes have nothing to trim; the same rate for both clips at 60 fps means twice their durations
+    same, _ = run_json(capsys, ["distance", amc["w1"], amc["r1"], "--metric", "elastic", "--trim", "none"])
+    assert same["distance"] == base["distance"]
+    slow, _ = run_json(capsys, ["distance", amc["w1"], amc["r1"], "--metric", "elastic", "--fps", "60"])
+    assert slow["distance"] != base["distance"]
+    line = run_error(capsys, ["distance", amc["w1"], amc["r1"], "--fps", "0.001"])
+    assert "plausible" in line
+    line = run_error(capsys, ["distance", amc["w1"], amc["r1"], "--trim", "maybe"])
+    assert "--trim" in line
 
 
 def test_distance_elastic_depth(capsys, amc):
     from blender_shapesig.core.elastic import elastic_distance
 
     out, _ = run_json(capsys, ["distance", amc["r1"], amc["r2"], "--metric", "elastic", "--depth", "3"])
-    a, b = restrict_to_shared(_clip(amc["r1"]), _clip(amc["r2"]))
+    a, b = _compared(_clip(amc["r1"]), _clip(amc["r2"]), "elastic")
     assert out["metric"] == "elastic"
     assert out["distance"] == pytest.approx(elastic_distance(a.rotations, b.rotations, depth=3), rel=1e-12)
     # The elastic distance never exceeds d_P* (the identity warp is one candidate).
@@ -189,7 +211,7 @@ def test_matrix_sim2(capsys, amc, tmp_path):
     np.testing.assert_allclose(D, np.load(tmp_path / "matrix.npy"))
     assert np.allclose(D, D.T) and np.all(np.diag(D) == 0)
     # Entry (walk 07_01, run 09_02) against the pairwise function on the same clips.
-    a, b = restrict_to_shared(_clip(paths[0]), _clip(paths[2]))
+    a, b = _compared(_clip(paths[0]), _clip(paths[2]), "sim")
     assert D[0, 2] == pytest.approx(signatures.normalized_distance(a.rotations, b.rotations, 2), rel=1e-9)
 
 
@@ -215,8 +237,8 @@ def test_evaluate_amc(capsys, amc, tmp_path):
     # cropped before the comparison space (whose heading depends on the frames kept), as the front door does
     a = _clip(amc["w1"], start=1, end=200)
     d = _clip(amc["r2"], start=10)
-    a, d = restrict_to_shared(a, d)
     assert a.frames == 200
+    a, d = _compared(a, d, "l2")
     assert M[0, 3] == pytest.approx(curves.l2_distance(a.rotations, d.rotations), rel=1e-9)
 
 
@@ -362,10 +384,12 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     assert report["out"] == str(out) and report["frames"] == [120]
     assert report["actions"] == ["07_01_x_09_02_0.25"]
     assert out.exists()
-    # clips of one rig blend in the rig's own space (armature axes; core.rigs only maps across rigs)
-    got = load_clips(f"{out}#{report['actions'][0]}", bone_map="none")[0]
-    a = load_clips(str(bvh / "07_01.bvh"), bone_map="none")[0].crop(2, None)
-    b = load_clips(str(bvh / "09_02.bvh"), bone_map="none")[0].crop(2, None)
+    # clips of one rig blend in the rig's own space (armature axes; core.rigs only maps across rigs); read back
+    # as written (the blend starts with the sources' ramps, which --start 2 kept: no trimming here)
+    got = load_clips(f"{out}#{report['actions'][0]}", bone_map="none", trim="none")[0]
+    a = load_clips(str(bvh / "07_01.bvh"), start=2, bone_map="none")[0]  # an explicit start wins over --trim
+    b = load_clips(str(bvh / "09_02.bvh"), start=2, bone_map="none")[0]
+    assert (a.frame_start, b.frame_start) == (2, 2)
     want = blend_clips(a, b, 0.25, align=False, frames=120)
     assert got.frames == 120
     idx = [want.bones.index(n) for n in got.bones]
@@ -389,6 +413,7 @@ def test_subprocess_blend_amc_inbetweens(amc, tmp_path):
     assert report["weights"] == pytest.approx([1 / 3, 2 / 3])
     assert report["actions"] == ["07_01_x_07_02_0.33", "07_01_x_07_02_0.67"]
     assert report["frames"] == [320, 325]
+    assert report["seconds"] == pytest.approx([319 / 120, 324 / 120]) and report["fps"] == [120.0, 120.0]
     assert out.exists()
 
 

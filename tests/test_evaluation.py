@@ -13,6 +13,7 @@ from blender_shapesig import evaluation as ev
 from blender_shapesig.core import curves, metrics, pairwise, signatures, tensor
 from blender_shapesig.core.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
+from blender_shapesig.core.prepare import prepare_clip
 
 
 def _points_matrix(P):
@@ -346,7 +347,16 @@ def test_evaluate_writes_summary(tmp_path):
     assert (tmp_path / "figures" / "mds_l2.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "figures" / "dendrogram_sim2.png").exists()
     M = np.load(tmp_path / "matrices" / "l2.npy")
-    # Cropped to frames 2..29 (28 frames) before the distance.
-    crop = [clips[e.file[:-4]].crop(2, 29).rotations for e in entries]
-    assert crop[0].shape[0] == 28
-    assert M[0, 1] == pytest.approx(curves.l2_distance(crop[0], crop[1]))
+    # Cropped to frames 2..29 (28 frames) before the distance, then on the comparison time base (core.prepare).
+    crop = [clips[e.file[:-4]].crop(2, 29) for e in entries]
+    assert crop[0].frames == 28
+    prepared = [prepare_clip(c).rotations for c in crop]
+    assert M[0, 1] == pytest.approx(curves.l2_distance(prepared[0], prepared[1]))
+    S = np.load(tmp_path / "matrices" / "sim2.npy")  # the same time base, without the low-pass
+    sig = [prepare_clip(c, smooth=0.0).rotations for c in crop]
+    assert S[0, 1] == pytest.approx(signatures.normalized_distance(sig[0], sig[1], 2))
+    raw = ev.evaluate(entries, lambda e: clips[e.file[:-4]], ("l2",), tmp_path / "raw", workers=1,
+                      figures=False, time_base=False)
+    assert raw["time_base"] is None
+    M = np.load(tmp_path / "raw" / "matrices" / "l2.npy")
+    assert M[0, 1] == pytest.approx(curves.l2_distance(crop[0].rotations, crop[1].rotations))

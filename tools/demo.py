@@ -68,6 +68,27 @@ def stage(report, title):
     return run
 
 
+def trim_action(action, armature, fps=None):
+    """The Daz-friendly BVH files start with the rest pose and a ramp into the motion: find them as every reader
+    does (``core.trim.detect_trim``) and set the action's manual frame range to the rest (what an animator does
+    in the Action properties), so that search and blends read only the motion. Returns the kept (first, last)
+    or None when there is nothing to trim. ``fps``: the action's rate (a BVH file's, which Blender's importer does
+    not record; stored as ``shapesig_fps``, the property every reader of this package takes the rate from)."""
+    from blender_shapesig import action_io
+    from blender_shapesig.core.trim import detect_trim
+
+    if fps is not None:
+        action["shapesig_fps"] = float(fps)
+    clip = action_io.read_action(action, armature=armature)
+    cut = detect_trim(clip.rotations, clip.fps)
+    if not cut:
+        return None
+    first, last = clip.frame_start + cut.head, clip.frame_end - cut.tail
+    action.use_frame_range = True
+    action.frame_start, action.frame_end = first, last
+    return first, last
+
+
 def import_clips(bpy, data, report):
     """Import the sample clips; returns {action name: (armature object, label)}."""
     import csv
@@ -80,11 +101,13 @@ def import_clips(bpy, data, report):
         name = path.stem
         before_objects = set(bpy.data.objects)
         before_actions = set(bpy.data.actions)
+        fps = None
         with quiet_stdout():
             if path.suffix == ".bvh":
                 from blender_shapesig.readers.bvh import import_armature
 
-                import_armature(path)  # Blender's importer with the settings every reader uses
+                _arm, frame_time = import_armature(path)  # Blender's importer with the settings every reader uses
+                fps = round(1.0 / frame_time, 3)
             else:
                 bpy.ops.shapesig.import_acclaim(filepath=str(path), asf_path=str(data / row["skeleton"]))
         new_actions = [a for a in bpy.data.actions if a not in before_actions]
@@ -94,8 +117,10 @@ def import_clips(bpy, data, report):
         action = new_actions[0]
         action.name = f"{name}_{path.suffix[1:]}"
         armature = new_objects[0] if new_objects else bpy.context.object
-        # BVH files from this conversion start with a rest pose: the search skips frame 1 via the label file.
-        action["shapesig_start"] = int(row["start"]) if row["start"] else int(action.frame_range[0])
+        kept = trim_action(action, armature, fps)
+        if kept is not None:
+            report(f"  {action.name}: rest pose and ramp trimmed, frames {kept[0]}..{kept[1]} kept "
+                   f"(core.trim, as --trim auto)")
         imported[action.name] = (armature, row["label"])
     report(f"- imported {len(imported)} clips: "
            f"{sum(1 for v in imported.values() if v[1] == 'walk')} walks, "
@@ -112,7 +137,6 @@ def rank(bpy, imported, query_name, report):
     ctx.view_layer.objects.active = arm
     arm.animation_data.action = bpy.data.actions[query_name]
     s = ctx.scene.shapesig
-    s.crop_start = 7  # the Daz-friendly BVH files: rest pose + ramp on frames 1-6
     s.top = 0
     with quiet_stdout():
         assert bpy.ops.shapesig.build_index() == {"FINISHED"}

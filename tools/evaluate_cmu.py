@@ -38,11 +38,17 @@ SETS = {
     "cmu27": os.path.join(ROOT, "tools", "eval_sets", "cmu27.csv"),
     "cmu_large": os.path.join(ROOT, "tools", "eval_sets", "cmu_large.csv"),
     "cmu_amc": os.path.join(ROOT, "tools", "eval_sets", "cmu_amc.csv"),
-    # The 27 clips cropped only by the rest-pose frame: frames 2..6 still hold the converter's ramp.
+    # The 27 clips cropped only by the rest-pose frame (an explicit start wins over --trim): frames 2..6 still
+    # hold the converter's ramp. The ablation of the automatic trimming.
     "cmu27_start2": os.path.join(ROOT, "tools", "eval_sets", "cmu27_start2.csv"),
     # The 27-clip set across formats (docs/rigs.md): walks from ASF/AMC, runs and jumps from the Daz BVH.
     "cmu27_mixed": os.path.join(ROOT, "tools", "eval_sets", "cmu27_mixed.csv"),
+    # The AMC set plus the BVH conversion of the walk 16_15 (same bone names; the only such BVH here).
+    "cmu_mixed_format": os.path.join(ROOT, "tools", "eval_sets", "cmu_mixed_format.csv"),
+    # The 27 clips with every class at 120, 60 and 30 fps (column step: every step-th frame).
+    "cmu27_mixed_rate": os.path.join(ROOT, "tools", "eval_sets", "cmu27_mixed_rate.csv"),
 }
+_NORMS = ("l2", "elastic", "l2_group", "elastic_group")  # both SRVT norms (curves.srvt(norm=...))
 _SIGNATURE = (
     "group3", "concat3", "linear3", "sim2", "sim3",
     "linear3_tensor", "sim2_tensor", "sim3_tensor", "sim2_levelnorm", "sim3_levelnorm", "sim3_levelnorm_tensor",
@@ -54,12 +60,15 @@ _TWO_STAGE = (
     "group3+elastic5", "group3+elastic10",
 )
 METRICS = {
-    "cmu27": ("l2", "elastic", "elastic_numpy") + _SIGNATURE + _TWO_STAGE,
-    "cmu_large": ("l2", "elastic", "elastic_numpy") + _SIGNATURE + _TWO_STAGE,
-    "cmu_amc": ("l2", "elastic") + _SIGNATURE + _TWO_STAGE,
-    "cmu27_start2": ("l2", "elastic") + _SIGNATURE + ("sim3+elastic10",),
-    "cmu27_mixed": ("l2", "elastic") + _SIGNATURE + ("sim3+elastic10",),
+    "cmu27": _NORMS + ("elastic_numpy",) + _SIGNATURE + _TWO_STAGE,
+    "cmu_large": _NORMS + ("elastic_numpy",) + _SIGNATURE + _TWO_STAGE,
+    "cmu_amc": _NORMS + _SIGNATURE + _TWO_STAGE,
+    "cmu27_start2": _NORMS + _SIGNATURE + ("sim3+elastic10",),
+    "cmu_mixed_format": _NORMS + _SIGNATURE + _TWO_STAGE,
+    "cmu27_mixed_rate": _NORMS + _SIGNATURE + _TWO_STAGE,
+    "cmu27_mixed": _NORMS + _SIGNATURE + ("sim3+elastic10",),
 }
+ALL_SETS = "cmu27,cmu_large,cmu_amc,cmu27_start2,cmu_mixed_format,cmu27_mixed_rate,cmu27_mixed"
 
 _CACHE = {}  # clips read once for all sets (ClipSpec -> Clip, uncropped)
 
@@ -68,13 +77,14 @@ def make_loader(data):
     return ev.entry_loader(data, cache=_CACHE)
 
 
-def run_set(name, data, out, metrics, depth, workers, repeat=1):
+def run_set(name, data, out, metrics, depth, workers, repeat=1, time_base=True, smooth=None):
     entries = ev.read_index(SETS[name])
     out_dir = os.path.join(out, name)
     t0 = time.perf_counter()
     summary = ev.evaluate(entries, make_loader(data), metrics, out_dir, depth=depth, workers=workers,
                           figures=True, progress="tqdm", log=lambda m: print(f"[{name}] {m}", file=sys.stderr),
-                          repeat=repeat)
+                          repeat=repeat, time_base=time_base,
+                          **({} if smooth is None else {"smooth": smooth}))
     print(f"[{name}] done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return summary
 
@@ -254,8 +264,10 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", required=True, help="the shared CMU folder (e.g. /work/shared/data/cmu)")
     p.add_argument("--out", default="out/eval", help="output folder (default out/eval)")
-    p.add_argument("--sets", default="cmu27,cmu_large,cmu_amc,cmu27_start2",
-                   help="comma-separated: cmu27, cmu_large, cmu_amc, cmu27_start2 (default: all)")
+    p.add_argument("--sets", default=ALL_SETS, help=f"comma-separated, from {ALL_SETS} (default: all)")
+    p.add_argument("--raw", action="store_true",
+                   help="compare the curves as read (the thesis' protocol), without the time base of core.prepare")
+    p.add_argument("--smooth", type=float, help="the time base's low-pass in seconds (default core.prepare's)")
     p.add_argument("--metrics", help="override the metric list (comma-separated) for every set")
     p.add_argument("--depth", type=int, default=DEFAULT_DEPTH)
     p.add_argument("--workers", type=int, default=2)
@@ -267,7 +279,8 @@ def main(argv=None):
     results = {}
     for name in [s.strip() for s in args.sets.split(",") if s.strip()]:
         metrics = tuple(args.metrics.split(",")) if args.metrics else METRICS[name]
-        results[name] = run_set(name, args.data, args.out, metrics, args.depth, args.workers, args.repeat)
+        results[name] = run_set(name, args.data, args.out, metrics, args.depth, args.workers, args.repeat,
+                                time_base=not args.raw, smooth=args.smooth)
         if name == "cmu_large":
             merged = relabelled(results[name], os.path.join(args.out, name), {"forward jump": "jump"},
                                 os.path.join(args.out, name, "merged_jumps.json"))

@@ -44,6 +44,7 @@ from .curves import (
 from .elastic import check_warp
 from .errors import CurveError, ShapeSigError, check_inbetweens, check_integer, check_number
 from .metrics import DEFAULT_DEPTH
+from .prepare import prepare_rotations
 
 __all__ = [
     "geodesic_blend",
@@ -53,6 +54,7 @@ __all__ = [
     "compute_warp",
     "identity_warp",
     "default_frames",
+    "blend_fps",
 ]
 
 # Grid points closer than this (in [0, 1]) are merged; they would make zero-length intervals.
@@ -448,8 +450,13 @@ def _bone_list(bones):
     return out
 
 
+def blend_fps(a, b):
+    """A blend's frame rate: the higher of its sources' (neither source's detail is lost)."""
+    return max(float(a.fps), float(b.fps))
+
+
 def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
-                warp=None, up_axis=None, penalty=0.0, name=None):
+                warp=None, up_axis=None, penalty=0.0, name=None, time_base=True):
     """Blend clip ``a`` (weight 0) with clip ``b`` (weight 1) into a new Clip.
 
     * Bones are matched by name. Bones only in ``a`` keep A's motion (in the blended timing); bones
@@ -459,9 +466,9 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
       computed on *all* shared bones that move (the timing of the whole body, e.g. foot contacts),
       so a subset blend stays in step with the rest of the body; pass ``warp=`` to override.
     * ``align``/``depth``/``penalty``: the elastic alignment (see ``geodesic_blend``).
-    * ``frames``: output length; default ``round(((1 - w) D0 + w D1) fps_a) + 1`` with D the
-      durations in seconds (``(1 - w) N0 + w N1`` frames at equal frame rates). Output fps, frame
-      start, bone order and rotation modes are A's.
+    * ``frames``: default ``round(((1 - w) D0 + w D1) fps) + 1``, D the durations in seconds, fps = ``blend_fps``:
+      the weighted average of the durations whatever the rates. Frame start, bones and rotation modes are A's.
+    * ``time_base``: align on the comparison time base (``prepare.prepare_rotations``); False: as read.
     * ``root="blend"``: the root translation is blended time-aligned: its height (along the up axis)
       directly, its horizontal per-frame displacements in the root's heading frame (twist of the
       root rotation about the up axis), then integrated from the blended start position, so a blend
@@ -486,12 +493,16 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
     else:
         wa = [ia[x] for x in warp_bones]
         wb = [ib[x] for x in warp_bones]
-        warp, edist = compute_warp(a.rotations[:, wa], b.rotations[:, wb], align, depth, penalty)
+        Ra, Rb = a.rotations[:, wa], b.rotations[:, wb]
+        if time_base:  # a warp maps normalized times and the preparation keeps durations: it applies as is
+            Ra, Rb = prepare_rotations(Ra, a.fps), prepare_rotations(Rb, b.fps)
+        warp, edist = compute_warp(Ra, Rb, align, depth, penalty)
 
     d0 = (a.frames - 1) / float(a.fps)
     d1 = (b.frames - 1) / float(b.fps)
+    fps = blend_fps(a, b)
     if frames is None:
-        frames = default_frames(a.frames, b.frames, w, d0, d1, float(a.fps))
+        frames = default_frames(a.frames, b.frames, w, d0, d1, fps)
     plan = _Plan(a.frames, b.frames, w, warp, frames, (d0, d1))
 
     # Every bone of A in the blended timing, then the blended bones replaced.
@@ -529,7 +540,7 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
         name=name if name is not None else blend_name(a.name, b.name, w),
         bones=a.bones,
         rotations=out,
-        fps=a.fps,
+        fps=fps,
         frame_start=a.frame_start,
         root_translation=translation,
         root_bone=a.root_bone,
@@ -602,14 +613,14 @@ def _blend_translation(plan, a, b, ia, ib, blended, Bg, start, root, up_axis):
 
 
 def blend_clip_series(a, b, weights, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
-                      up_axis=None, penalty=0.0, progress=None):
+                      up_axis=None, penalty=0.0, progress=None, time_base=True):
     """``blend_clips`` at several weights with one warp (computed once). ``progress(i, n)`` is called
     after each blend. Returns a list of Clips."""
     weights = [_check_weight(x) for x in weights]
     if not weights:
         raise ShapeSigError("weights: at least one weight is needed")
     first = blend_clips(a, b, weights[0], align, depth, frames, bones, root, up_axis=up_axis,
-                        penalty=penalty)
+                        penalty=penalty, time_base=time_base)
     out = [first]
     if progress is not None:
         progress(1, len(weights))

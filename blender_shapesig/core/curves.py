@@ -10,6 +10,8 @@ are piecewise constant (eqs. 5.10-5.13): one value per interval, arrays of ``fra
 All exponentials, logarithms and quaternion conversions are those of ``core.so3``.
 """
 
+import contextlib
+
 import numpy as np
 
 from . import so3
@@ -26,6 +28,9 @@ __all__ = [
     "srvt",
     "srvt_of_velocity",
     "ZERO_STEP",
+    "SRVT_NORMS",
+    "DEFAULT_SRVT_NORM",
+    "use_srvt_norm",
     "inverse_srvt",
     "geodesic_interpolate",
     "l2_distance",
@@ -116,34 +121,62 @@ def right_log_derivative(R, t=None):
 ZERO_STEP = 1e-12
 
 
-def srvt_of_velocity(eta, steps):
-    """q = eta / sqrt(|eta|) (eq. 5.11) from velocities ``eta`` (..., 3) and the rotation ``steps`` they
+# How the SRVT normalizes a velocity of SO(3)^d: "joint" divides each joint's eta_j by sqrt(|eta_j|) (eq. 5.11
+# applied per factor, this package's original form); "group" divides the whole eta by sqrt(|eta|) with |eta| the
+# norm of so(3)^d over all joints (eq. 4.5 with the product norm of sec. 5.1: the thesis' definition).
+SRVT_NORMS = ("joint", "group")
+DEFAULT_SRVT_NORM = "joint"
+
+
+def _check_norm(norm):
+    norm = DEFAULT_SRVT_NORM if norm is None else norm
+    if norm not in SRVT_NORMS:
+        raise CurveError(f"SRVT norm must be one of {', '.join(SRVT_NORMS)}, got {norm!r}")
+    return norm
+
+
+def srvt_of_velocity(eta, steps, norm=None):
+    """q = eta / sqrt(|eta|) (eq. 5.11) from velocities ``eta`` (..., joints, 3) and the rotation ``steps`` they
     come from (rotation vectors, broadcastable to eta): zero where the step angle is at most ZERO_STEP
-    (rounding noise of a still joint) or eta is 0. The one SRVT zero rule (``srvt``, the blends)."""
-    norm = np.sqrt(np.einsum("...i,...i->...", eta, eta))
+    (rounding noise of a still joint) or eta is 0. The one SRVT zero rule (``srvt``, the blends).
+
+    ``norm``: "joint" (|eta_j| per joint) or "group" (|eta| over the last two axes, the so(3)^d norm; the zero
+    rule still acts per joint before the norm is taken). None: ``DEFAULT_SRVT_NORM``."""
+    norm_kind = _check_norm(norm)
     steps = np.asarray(steps)
-    nz = (np.einsum("...i,...i->...", steps, steps) > ZERO_STEP * ZERO_STEP) & (norm > 0.0)
-    scale = np.divide(1.0, np.sqrt(norm), out=np.zeros_like(norm), where=nz)
+    moving = np.einsum("...i,...i->...", steps, steps) > ZERO_STEP * ZERO_STEP
+    if norm_kind == "group":
+        eta = eta * np.broadcast_to(moving, eta.shape[:-1])[..., None]
+        size = np.sqrt(np.sum(eta * eta, axis=(-2, -1)))
+        scale = np.divide(1.0, np.sqrt(size), out=np.zeros_like(size), where=size > 0.0)
+        return eta * scale[..., None, None]
+    size = np.sqrt(np.einsum("...i,...i->...", eta, eta))
+    nz = moving & (size > 0.0)
+    scale = np.divide(1.0, np.sqrt(size), out=np.zeros_like(size), where=nz)
     return eta * scale[..., None]
 
 
-def srvt(R, t=None):
-    """Square-root-velocity transform q_k = eta_k / sqrt(|eta_k|) per joint (eq. 5.11).
+def srvt(R, t=None, norm=None):
+    """Square-root-velocity transform of a curve in SO(3)^d, shape (frames-1, joints, 3).
 
+    ``norm="joint"``: q_k = eta_k / sqrt(|eta_k|) per joint (eq. 5.11 per factor); ``norm="group"``: the
+    thesis' q_k = eta_k / sqrt(|eta_k|) with |eta_k| the norm of so(3)^d over all joints (eq. 4.5, sec. 5.1).
+    None: ``DEFAULT_SRVT_NORM``. Both are elastic: under a reparametrization phi, q becomes (q o phi) sqrt(phi').
     A joint that does not move on an interval (eta = 0, or a step angle below ``ZERO_STEP`` = 1e-12 rad,
-    i.e. rounding noise) gets q = 0 there, not NaN. Shape (frames-1, joints, 3).
+    i.e. rounding noise) contributes q = 0 there, not NaN.
     """
     R = as_curve(R)
     t = as_times(t, R.shape[0])
     steps = so3.relative_rotvecs(R)
-    return srvt_of_velocity(steps / np.diff(t)[:, None, None], steps)
+    return srvt_of_velocity(steps / np.diff(t)[:, None, None], steps, norm)
 
 
-def inverse_srvt(q, t=None, start=None):
+def inverse_srvt(q, t=None, start=None, norm=None):
     """Invert the SRVT: R[0] = start, R[k+1] = exp((t[k+1]-t[k]) |q_k| q_k) R[k] (sec. 5.2).
 
     ``q`` has shape (frames-1, joints, 3); ``start`` is a pose (joints, 3, 3) or quaternions
-    (joints, 4), the identity by default. Returns the curve (frames, joints, 3, 3).
+    (joints, 4), the identity by default; ``norm`` as in ``srvt`` (|q_k| per joint or over all joints).
+    Returns the curve (frames, joints, 3, 3).
     """
     q = np.asarray(q, dtype=np.float64)
     if q.ndim != 3 or q.shape[-1] != 3:
@@ -157,7 +190,23 @@ def inverse_srvt(q, t=None, start=None):
         R0 = as_curve(np.asarray(start)[None], name="start")[0]
         if R0.shape[0] != j:
             raise CurveError(f"start: has {R0.shape[0]} joints, q has {j}")
-    return so3.integrate(q * np.linalg.norm(q, axis=-1, keepdims=True) * np.diff(t)[:, None, None], R0)
+    if _check_norm(norm) == "group":
+        size = np.sqrt(np.sum(q * q, axis=(1, 2)))[:, None, None]
+    else:
+        size = np.linalg.norm(q, axis=-1, keepdims=True)
+    return so3.integrate(q * size * np.diff(t)[:, None, None], R0)
+
+
+@contextlib.contextmanager
+def use_srvt_norm(norm):
+    """Within the block, ``srvt(R)`` without a ``norm`` (e.g. inside ``elastic``, whose DP takes curves) uses
+    ``norm``: the evaluation compares both norms this way. Not thread-safe: set it around whole runs."""
+    global DEFAULT_SRVT_NORM
+    old, DEFAULT_SRVT_NORM = DEFAULT_SRVT_NORM, _check_norm(norm)
+    try:
+        yield
+    finally:
+        DEFAULT_SRVT_NORM = old
 
 
 def geodesic_interpolate(R, t, t_new, *, increments=None):

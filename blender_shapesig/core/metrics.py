@@ -6,15 +6,17 @@ Grammar (``parse_metric_spec``): ``BASE[LEVEL][_OPTION...][+elasticK]``, case-in
   (sigma_L^n), ``sim`` (sim^n, eq. 9.1). The signature bases take a level (``group3``, ``sim2``;
   ``DEFAULT_LEVEL`` when none is written, an explicit ``level`` argument wins); ``l2`` and ``elastic``
   take none.
-* options: ``_numpy`` (elastic only: the plain numpy DP, the timing baseline); ``_tensor`` (linear and sim:
+* options: ``_numpy`` (elastic only: the plain numpy DP, the timing baseline); ``_joint`` / ``_group`` (l2 and
+  elastic: the SRVT normalized per joint or by the so(3)^d norm over all joints, ``curves.srvt(norm=...)``;
+  without it ``curves.DEFAULT_SRVT_NORM``); ``_tensor`` (linear and sim:
   the log-signature expanded in tensor space instead of Lyndon coordinates); ``_levelnorm`` (sim only:
   every level of the log-signature scaled to unit length, then divided by sqrt(n), so each level weighs
   the same).
 * ``+elasticK`` (e.g. ``sim3+elastic5``): a two-stage search, only for 1-NN evaluation: the K nearest
   clips by the first stage are re-ranked by d_S*.
 
-Canonical names put the options in the order numpy, levelnorm, tensor (``sim3_tensor_levelnorm`` ->
-``sim3_levelnorm_tensor``). ``parse_metric`` is the plain view used for one pair of clips (``distance``,
+Canonical names put the options in the order numpy, joint, group, levelnorm, tensor (``sim3_tensor_levelnorm``
+-> ``sim3_levelnorm_tensor``). ``parse_metric`` is the plain view used for one pair of clips (``distance``,
 ``rank``): a base and a level, no options.
 
 Clips are compared on the bones they share; bones still in both are dropped.
@@ -28,23 +30,37 @@ from .clip import Clip, restrict_to_shared
 from .errors import CurveError, ShapeSigError
 
 __all__ = [
-    "METRICS", "SIGNATURE_METRICS", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
+    "METRICS", "SIGNATURE_METRICS", "SMOOTHED_METRICS", "time_base_smoothing", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
     "parse_metric_spec", "check_metric", "parse_metric", "metric_label", "clip_distance", "curve_distance",
     "check_coverage", "compare_clips",
 ]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
 METRICS = ("l2", "elastic") + SIGNATURE_METRICS
+# Every measure compares clips on one time base (``prepare.prepare_clip``: sampled at ``prepare.COMPARE_FPS`` over
+# their durations in seconds). The SRVT measures also low-pass the angular velocity (``prepare.SMOOTH_SECONDS``):
+# the square root of the SRVT amplifies the capture jitter, whose velocity grows with the frame rate. The
+# signature measures do not (``prepare.SIGNATURE_SMOOTH_SECONDS`` = 0): the log-signature sums increments, the
+# jitter mostly cancels, and a low-pass costs them class information (docs/evaluation.md, "Time base").
+SMOOTHED_METRICS = ("l2", "elastic")
+
+
+def time_base_smoothing(base) -> float:
+    """The low-pass (seconds) of the comparison time base for a metric base name."""
+    from .prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS
+
+    return SMOOTH_SECONDS if base in SMOOTHED_METRICS else SIGNATURE_SMOOTH_SECONDS
 # The named defaults of the whole package: the log-signature level n and the elastic DP search depth D.
 DEFAULT_LEVEL = 3
 DEFAULT_DEPTH = 9
 MAX_LEVEL = 8
 
-_OPTIONS = ("numpy", "levelnorm", "tensor")  # canonical order
-_OPTION_BASES = {"numpy": ("elastic",), "tensor": ("linear", "sim"), "levelnorm": ("sim",)}
+_OPTIONS = ("numpy", "joint", "group", "levelnorm", "tensor")  # canonical order
+_OPTION_BASES = {"numpy": ("elastic",), "tensor": ("linear", "sim"), "levelnorm": ("sim",),
+                 "joint": ("l2", "elastic"), "group": ("l2", "elastic")}
 _SPEC_RE = re.compile(
     r"(?P<base>l2|elastic|group|concat|linear|sim)(?P<level>\d*)"
-    r"(?P<opts>(?:_(?:numpy|tensor|levelnorm))*)"
+    r"(?P<opts>(?:_(?:numpy|tensor|levelnorm|joint|group))*)"
     r"(?:\+elastic(?P<k>\d+))?"
 )
 
@@ -60,6 +76,7 @@ class MetricSpec:
     levelnorm: bool = False
     numpy_dp: bool = False
     rerank: int = 0
+    srvt_norm: Optional[str] = None  # "joint", "group" or None (curves.DEFAULT_SRVT_NORM)
 
     @property
     def basis(self) -> str:
@@ -69,7 +86,7 @@ class MetricSpec:
     @property
     def plain(self) -> bool:
         """A base with its level only (what ``distance`` and ``rank`` compute)."""
-        return not (self.tensor or self.levelnorm or self.numpy_dp or self.rerank)
+        return not (self.tensor or self.levelnorm or self.numpy_dp or self.rerank or self.srvt_norm)
 
     @property
     def first_stage(self) -> "MetricSpec":
@@ -96,7 +113,7 @@ def parse_metric_spec(name, level=None) -> MetricSpec:
     if not m:
         raise ShapeSigError(
             f"unknown metric {name!r}: choose one of {', '.join(METRICS)} (with a level, e.g. sim3), "
-            f"optionally _tensor / _levelnorm / _numpy or +elasticK"
+            f"optionally _tensor / _levelnorm / _numpy / _joint / _group or +elasticK"
         )
     base, digits = m.group("base"), m.group("level")
     opts = set(filter(None, m.group("opts").split("_")))
@@ -110,13 +127,16 @@ def parse_metric_spec(name, level=None) -> MetricSpec:
         raise ShapeSigError(f"metric {base!r} takes no level")
     else:
         lvl = None
+    if {"joint", "group"} <= opts:
+        raise ShapeSigError(f"metric {name!r}: choose one SRVT norm, _joint or _group")
     if k and base == "elastic":
         raise ShapeSigError(f"metric {name!r}: the first stage cannot be elastic")
     canon = base + ("" if lvl is None else str(lvl)) + "".join(f"_{o}" for o in _OPTIONS if o in opts)
     if k:
         canon += f"+elastic{k}"
     return MetricSpec(name=canon, base=base, level=lvl, tensor="tensor" in opts, levelnorm="levelnorm" in opts,
-                      numpy_dp="numpy" in opts, rerank=k)
+                      numpy_dp="numpy" in opts, rerank=k,
+                      srvt_norm=next((o for o in ("joint", "group") if o in opts), None))
 
 
 def metric_label(name, level=None) -> str:
@@ -172,18 +192,29 @@ def check_coverage(a: Clip, b: Clip, allow_partial=False):
     return bones, cov
 
 
-def compare_clips(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, allow_partial=False) -> dict:
+def compare_clips(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, allow_partial=False,
+                  time_base=True) -> dict:
     """``{"distance", "bones", "coverage"}`` of two clips: ``clip_distance`` after ``check_coverage``."""
     bones, cov = check_coverage(a, b, allow_partial)
-    return {"distance": clip_distance(a, b, metric, level, depth), "bones": bones, "coverage": cov}
+    return {"distance": clip_distance(a, b, metric, level, depth, time_base), "bones": bones, "coverage": cov}
 
 
-def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH):
-    """Distance between two clips on their shared bones (still-in-both bones dropped)."""
+def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, time_base=True):
+    """Distance between two clips on their shared bones (still-in-both bones dropped).
+
+    ``time_base`` (default): both clips are first put on the comparison time base (``prepare.prepare_clip``:
+    one rate in seconds; for the SRVT measures also a low-pass of the angular velocity,
+    ``time_base_smoothing``), so that a clip and the same motion at another frame rate are close; False
+    compares the curves as read."""
+    from .prepare import prepare_clip
+
     base, _ = parse_metric(metric, level)
     if base in ("l2", "elastic"):
         for c in (a, b):
             if c.frames < 2:
                 raise CurveError(f"clip {c.name!r} has {c.frames} frame; the {base} distance needs at least two frames")
     a2, b2 = restrict_to_shared(a, b)
+    if time_base:
+        smooth = time_base_smoothing(base)
+        a2, b2 = prepare_clip(a2, smooth=smooth), prepare_clip(b2, smooth=smooth)
     return float(curve_distance(a2.rotations, b2.rotations, metric, level=level, depth=depth))

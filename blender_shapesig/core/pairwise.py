@@ -24,9 +24,10 @@ import numpy as np
 
 from . import elastic, signatures, tensor
 from .clip import restrict_to_shared
-from .curves import srvt, srvt_l2_squared, uniform_times
+from . import curves as curves_mod
+from .curves import srvt, srvt_l2_squared, uniform_times, use_srvt_norm
 from .errors import ShapeSigError
-from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec
+from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec, time_base_smoothing
 
 __all__ = [
     "prepare_curves", "distance_matrix", "clip_distance_matrix", "level_blocks", "log_signature_feature",
@@ -34,10 +35,15 @@ __all__ = [
 ]
 
 
-def prepare_curves(clips):
+def prepare_curves(clips, smooth=None):
     """``(curves, bones)``: the clips' curves on the bones shared by all of them (bones still in every
-    clip dropped)."""
+    clip dropped); with ``smooth`` (seconds, may be 0), each restricted clip is then put on the comparison time
+    base by ``prepare.prepare_clip(clip, smooth=smooth)``."""
     restricted = restrict_to_shared(*clips)
+    if smooth is not None:
+        from .prepare import prepare_clip
+
+        restricted = [prepare_clip(c, smooth=smooth) for c in restricted]
     return [c.rotations for c in restricted], restricted[0].bones
 
 
@@ -199,19 +205,22 @@ def distance_matrix(curves, metric, depth=DEFAULT_DEPTH, workers=2, progress=Non
     curves = [np.asarray(R, dtype=np.float64) for R in curves]
     if not curves:
         return np.zeros((0, 0))
-    if spec.base == "l2":
-        return srvt_matrix(curves, progress)
-    if spec.base == "elastic":
-        return elastic_matrix(curves, depth, workers, spec.numpy_dp, progress)
+    if spec.base in ("l2", "elastic"):
+        with use_srvt_norm(spec.srvt_norm or curves_mod.DEFAULT_SRVT_NORM):
+            if spec.base == "l2":
+                return srvt_matrix(curves, progress)
+            return elastic_matrix(curves, depth, workers, spec.numpy_dp, progress)
     if spec.base in ("linear", "sim"):
         F = signature_features(curves, spec.level, spec.basis, spec.levelnorm, workers, progress)
         return feature_matrix(F, normalized=spec.base == "sim")
     return tensor_pair_matrix(curves, spec.base, spec.level, workers, progress)
 
 
-def clip_distance_matrix(clips, metric, depth=DEFAULT_DEPTH, workers=2, progress=None):
-    """``(D, seconds)``: the distance matrix of clips (on their shared moving bones) and its wall time."""
-    curves, _ = prepare_curves(clips)
+def clip_distance_matrix(clips, metric, depth=DEFAULT_DEPTH, workers=2, progress=None, time_base=True):
+    """``(D, seconds)``: the distance matrix of clips (on their shared moving bones, on the comparison time base
+    of ``prepare.prepare_clip`` unless ``time_base`` is False) and its wall time."""
+    spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
+    curves, _ = prepare_curves(clips, time_base_smoothing(spec.base) if time_base else None)
     t0 = time.perf_counter()
     D = distance_matrix(curves, metric, depth=depth, workers=workers, progress=progress)
     return D, time.perf_counter() - t0

@@ -31,6 +31,8 @@ import numpy as np
 
 from .clip import Clip
 from .errors import ParseError, ShapeSigError
+from .prepare import check_fps
+from .trim import TRIM_MODES, trim_clip
 
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "find_asf", "discover",
@@ -41,6 +43,9 @@ EXTENSIONS = (".bvh", ".amc", ".blend")
 
 # the package as imported: "blender_shapesig", or e.g. "bl_ext.user_default.blender_shapesig" when installed
 _PACKAGE = __name__.rsplit(".", 2)[0]
+
+# changes when the trim rule changes (cached signatures of trimmed clips are then recomputed)
+_TRIM_VERSION = ":1"
 
 # extension -> reader(spec: ClipSpec) -> list[Clip], or "module:function" imported on first use
 _READERS = {
@@ -56,7 +61,9 @@ _READERS = {
 class ClipSpec:
     """One named source: ``path`` (a file), ``action`` (for ``FILE.blend#ACTION``), ``asf`` (skeleton of an
     ``.amc``; None: the only .asf beside it), ``start``/``end`` (crop, inclusive frame numbers), ``fps``
-    (override of the file's frame rate). Every field that changes the clips read is part of ``key()``."""
+    (override of the file's frame rate), ``trim`` ("auto": drop detected rest-pose / ramp frames at both ends,
+    ``core.trim``; "none": keep every frame; an explicit ``start`` keeps the head, an explicit ``end`` the tail).
+    Every field that changes the clips read is part of ``key()``."""
 
     path: str
     action: Optional[str] = None
@@ -64,8 +71,15 @@ class ClipSpec:
     start: Optional[int] = None
     end: Optional[int] = None
     fps: Optional[float] = None
+    trim: str = "auto"
     # "auto" | "none" | a saved map's path: the comparison space across rigs (core.rigs.apply_bone_map)
     bone_map: str = "auto"
+
+    def __post_init__(self):
+        if self.trim not in TRIM_MODES:
+            raise ShapeSigError(f"trim must be one of {', '.join(TRIM_MODES)}, got {self.trim!r}")
+        if self.fps is not None:
+            object.__setattr__(self, "fps", check_fps(self.fps, "--fps"))
 
     @classmethod
     def parse(cls, text, **options) -> "ClipSpec":
@@ -106,11 +120,11 @@ class ClipSpec:
         return find_asf(self.path, self.asf) if self.ext == ".amc" else None
 
     def key(self) -> str:
-        """The cache key: the file's content (``file_key``), the skeleton's content, the action, the crop and
-        the frame rate. Equal keys mean equal clips."""
+        """The cache key: the file's content (``file_key``), the skeleton's content, the action, the crop,
+        the frame rate, the trim rule and the bone map. Equal keys mean equal clips."""
         skeleton = self.skeleton()
         extra = (f"asf={file_key(skeleton) if skeleton else ''}|action={self.action}|start={self.start}"
-                 f"|end={self.end}|fps={self.fps}")
+                 f"|end={self.end}|fps={self.fps}|trim={self.trim}{_TRIM_VERSION if self.trim != 'none' else ''}")
         extra += f"|bone_map={_bone_map_key(self.bone_map)}"
         return file_key(self.path, extra)
 
@@ -220,6 +234,8 @@ def read(spec, **options) -> List[Clip]:
                          spec.path)
     if spec.fps is not None:
         clips = [dataclasses.replace(c, fps=float(spec.fps)) for c in clips]
+    if spec.trim == "auto" and (spec.start is None or spec.end is None):
+        clips = [_trimmed(c, spec) for c in clips]
     if spec.start is not None or spec.end is not None:
         clips = [c.crop(spec.start, spec.end) for c in clips]
     if spec.bone_map not in (None, "none"):
@@ -227,6 +243,16 @@ def read(spec, **options) -> List[Clip]:
 
         clips = [apply_bone_map(c, spec.bone_map) for c in clips]
     return clips
+
+
+def _trimmed(clip, spec):
+    """``trim.trim_clip`` keeping the end(s) the spec crops explicitly (an explicit ``start`` / ``end`` wins)."""
+    out = trim_clip(clip)
+    start = clip.frame_start if spec.start is not None else out.frame_start
+    end = clip.frame_end if spec.end is not None else out.frame_end
+    if (start, end) != (out.frame_start, out.frame_end):
+        out = dataclasses.replace(clip.crop(start, end), meta=out.meta)
+    return out
 
 
 def read_one(spec, **options) -> Clip:
@@ -312,7 +338,7 @@ def spec_item(spec: ClipSpec, load: Optional[Callable] = None) -> LibraryItem:
 def library(paths, recursive=True, load=None, **options) -> List[LibraryItem]:
     """Library items for sources (files, ``FILE.blend#ACTION``, folders searched for clip files).
 
-    ``options``: ClipSpec fields for every source (``asf``, ``start``, ``end``, ``fps``). Files are read only
+    ``options``: ClipSpec fields for every source (``asf``, ``start``, ``end``, ``fps``, ``trim``). Files are read only
     when their key is not in the cache."""
     return [spec_item(ClipSpec.parse(s, **options), load) for s in discover(paths, recursive)]
 

@@ -1,4 +1,4 @@
-"""Labelled clip sets: the index CSV (``file,label[,skeleton][,start][,end]``), display names, labels, and
+"""Labelled clip sets: the index CSV (``file,label[,skeleton][,start][,end][,step]``), display names, labels, and
 reading an entry's clip through the one clip front door (``core.sources``)."""
 
 import csv
@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Optional
 
 from ..core import sources
+from ..core.prepare import decimate_clip
 from ..core.errors import ShapeSigError
 
 __all__ = ["IndexEntry", "read_index", "unique_names", "labels_from_csv", "entry_spec", "entry_loader"]
@@ -15,13 +16,15 @@ __all__ = ["IndexEntry", "read_index", "unique_names", "labels_from_csv", "entry
 @dataclass(frozen=True)
 class IndexEntry:
     """One row of an index CSV: ``file`` (relative to the data folder), ``label``, optional ``skeleton``
-    (an .asf, relative to the data folder) and ``start``/``end`` (crop, inclusive frame numbers)."""
+    (an .asf, relative to the data folder), ``start``/``end`` (crop, inclusive frame numbers) and ``step``
+    (keep every step-th frame: the same take at 1/step of its rate, for the mixed-rate sets)."""
 
     file: str
     label: str
     skeleton: str = ""
     start: Optional[int] = None
     end: Optional[int] = None
+    step: int = 1
 
 
 def _opt_int(value, where):
@@ -35,7 +38,7 @@ def _opt_int(value, where):
 
 
 def read_index(path):
-    """Read an index CSV with columns file,label[,skeleton][,start][,end] (header required); rows whose
+    """Read an index CSV with columns file,label[,skeleton][,start][,end][,step] (header required); rows whose
     file starts with '#' are skipped."""
     try:
         with open(path, newline="", encoding="utf-8") as fh:
@@ -57,7 +60,8 @@ def read_index(path):
             raise ShapeSigError(f"{path}:{i}: empty label")
         entries.append(IndexEntry(file=f, label=label, skeleton=(row.get("skeleton") or "").strip(),
                                   start=_opt_int(row.get("start"), f"{path}:{i}"),
-                                  end=_opt_int(row.get("end"), f"{path}:{i}")))
+                                  end=_opt_int(row.get("end"), f"{path}:{i}"),
+                                  step=_opt_int(row.get("step"), f"{path}:{i}") or 1))
     if not entries:
         raise ShapeSigError(f"{path}: no clips listed")
     return entries
@@ -85,25 +89,28 @@ def labels_from_csv(path, names):
     return [by_stem.get(n.split("#")[0], by_stem.get(os.path.splitext(n)[0], "unknown")) for n in names]
 
 
-def entry_spec(entry: IndexEntry, data, asf=None, bone_map="auto") -> sources.ClipSpec:
-    """The ClipSpec of an entry's file, cropped to its start..end: paths relative to ``data``; the
-    skeleton is the entry's, else ``asf``, else the only .asf beside the .amc."""
+def entry_spec(entry: IndexEntry, data, asf=None, fps=None, trim="auto", bone_map="auto") -> sources.ClipSpec:
+    """The ClipSpec of an entry: paths relative to ``data``; the skeleton is the entry's, else ``asf``, else the
+    only .asf beside the .amc; the entry's ``start``/``end`` crop (an explicit end wins over ``trim``);
+    ``fps`` overrides the file's rate; ``bone_map`` the comparison space across rigs (computed on the cropped,
+    trimmed clip: core.rigs' heading)."""
     skeleton = os.path.join(data, entry.skeleton) if entry.skeleton else asf
-    # the crop is part of the spec: the comparison space (core.rigs: the heading) is computed on the cropped clip
     return sources.ClipSpec.parse(os.path.join(data, entry.file), asf=skeleton, start=entry.start, end=entry.end,
-                                  bone_map=bone_map)
+                                  fps=fps, trim=trim or "auto", bone_map=bone_map)
 
 
-def entry_loader(data, asf=None, cache=None, bone_map="auto"):
-    """``loader(entry) -> Clip`` for ``evaluate``: ``sources.read_one`` of ``entry_spec``. ``cache`` (a dict)
-    keeps the clips read, keyed by the spec, for runs that share files."""
+def entry_loader(data, asf=None, cache=None, fps=None, trim="auto", bone_map="auto"):
+    """``loader(entry) -> Clip`` for ``evaluate``: ``sources.read_one`` of ``entry_spec`` (with ``fps``, ``trim``
+    and ``bone_map``). ``cache`` (a dict) keeps the clips read, keyed by the spec, for runs that share files."""
 
     def loader(entry):
-        spec = entry_spec(entry, data, asf, bone_map)
+        spec = entry_spec(entry, data, asf, fps, trim, bone_map)
         if cache is None:
-            return sources.read_one(spec)
-        if spec not in cache:
-            cache[spec] = sources.read_one(spec)
-        return cache[spec]
+            clip = sources.read_one(spec)
+        else:
+            if spec not in cache:
+                cache[spec] = sources.read_one(spec)
+            clip = cache[spec]
+        return decimate_clip(clip, entry.step)
 
     return loader

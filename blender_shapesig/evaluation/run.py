@@ -10,9 +10,11 @@ import os
 import sys
 import time
 
+from ..core.clip import restrict_to_shared
 from ..core.elastic import elastic_distance
-from ..core.metrics import DEFAULT_DEPTH, parse_metric_spec
-from ..core.pairwise import distance_matrix, prepare_curves
+from ..core.metrics import DEFAULT_DEPTH, SMOOTHED_METRICS, parse_metric_spec
+from ..core.pairwise import distance_matrix
+from ..core.prepare import COMPARE_FPS, SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
 from .index import unique_names
 from .plots import plot_dendrogram, plot_mds
 from .report import safe_name, write_matrix, write_summary
@@ -52,10 +54,11 @@ def _make_bar(progress, total, desc):
 
 
 class _Matrices:
-    """Every metric's matrix once, timed as the shortest of ``repeat`` runs."""
+    """Every metric's matrix once, timed as the shortest of ``repeat`` runs. ``curves``: the curves of the
+    signature measures; ``srvt_curves``: those of the SRVT measures (and d_S* of the two-stage searches)."""
 
-    def __init__(self, curves, depth, workers, repeat, progress, say):
-        self.curves, self.depth, self.workers = curves, depth, workers
+    def __init__(self, curves, srvt_curves, depth, workers, repeat, progress, say):
+        self.curves, self.srvt_curves, self.depth, self.workers = curves, srvt_curves, depth, workers
         self.repeat, self.progress, self.say = max(1, int(repeat)), progress, say
         self.matrices, self.seconds = {}, {}
         self.pairs = len(curves) * (len(curves) - 1) // 2
@@ -67,7 +70,7 @@ class _Matrices:
                 bar = _make_bar(self.progress, self.pairs, spec.name)
                 t0 = time.perf_counter()
                 try:
-                    D = distance_matrix(self.curves, spec, depth=self.depth, workers=self.workers,
+                    D = distance_matrix(self.curves_for(spec), spec, depth=self.depth, workers=self.workers,
                                         progress=bar.update)
                 finally:
                     bar.close()
@@ -77,9 +80,12 @@ class _Matrices:
             self.say(f"{spec.name}: {best:.2f} s")
         return self.matrices[spec.name]
 
+    def curves_for(self, spec):
+        return self.srvt_curves if spec.base in SMOOTHED_METRICS else self.curves
+
 
 def load_entries(entries, loader):
-    """Every entry's clip: ``loader(entry)`` (uncropped), then cropped to ``entry.start``..``entry.end``."""
+    """Every entry's clip: ``loader(entry)``, cropped to ``entry.start``..``entry.end``."""
     clips = []
     for e in entries:
         clip = loader(e)
@@ -97,7 +103,7 @@ def _two_stage_row(spec, mats, labels):
         t_second = mats.seconds["elastic"] / max(1, mats.pairs) * len(pairs)
         timing = "estimated from the elastic matrix's time per pair"
     else:
-        curves, depth = mats.curves, mats.depth
+        curves, depth = mats.srvt_curves, mats.depth
         t0 = time.perf_counter()
         acc, pred, nb, pairs = two_stage_1nn(
             D1, labels, spec.rerank, lambda i, j: elastic_distance(curves[i], curves[j], depth=depth))
@@ -128,7 +134,7 @@ def _plain_row(spec, mats, names, labels, out_dir, figures):
 
 
 def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEFAULT_DEPTH, workers=2,
-             figures=True, progress=None, log=None, repeat=1):
+             figures=True, progress=None, log=None, repeat=1, time_base=True, smooth=SMOOTH_SECONDS):
     """Evaluate metrics on labelled clips and write ``out_dir/summary.json`` and ``report.md`` (plus
     matrices and figures). ``loader(entry)`` returns the entry's Clip (uncropped; e.g.
     ``index.entry_loader``); ``entry.start`` / ``entry.end`` crop it (inclusive frame numbers). Returns
@@ -136,6 +142,10 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
 
     ``repeat``: compute every matrix that many times and report the shortest wall time (the machine
     may be shared; the matrices are identical). ``progress``: "tqdm" or a callable counting pairs.
+    ``time_base``: compare the clips on the time base of ``core.prepare`` (the default, as the command line
+    does: every clip at ``COMPARE_FPS``; the SRVT measures ``metrics.SMOOTHED_METRICS`` after a low-pass of
+    ``smooth`` seconds, the signature measures without); False compares the curves as read (the thesis'
+    protocol).
     """
     specs = [parse_metric_spec(m) for m in metrics]
     os.makedirs(out_dir, exist_ok=True)
@@ -143,13 +153,22 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
     clips = load_entries(entries, loader)
     names = unique_names([os.path.splitext(os.path.basename(e.file))[0] for e in entries])
     labels = [e.label for e in entries]
-    curves, bones = prepare_curves(clips)
+    restricted = restrict_to_shared(*clips)
+    bones = restricted[0].bones
+    curves = srvt_curves = [c.rotations for c in restricted]
+    if time_base:
+        curves = [prepare_clip(c, smooth=SIGNATURE_SMOOTH_SECONDS).rotations for c in restricted]
+        srvt_curves = [prepare_clip(c, smooth=smooth).rotations for c in restricted]
     say(f"{len(curves)} clips, {len(bones)} moving shared bones, frames {min(len(c) for c in curves)}.."
-        f"{max(len(c) for c in curves)}")
-    mats = _Matrices(curves, depth, workers, repeat, progress, say)
+        f"{max(len(c) for c in curves)} ({min(len(c) for c in srvt_curves)}..{max(len(c) for c in srvt_curves)}"
+        f" on the SRVT measures' time base)")
+    mats = _Matrices(curves, srvt_curves, depth, workers, repeat, progress, say)
     classes = class_order(labels)
     summary = {"clips": len(curves), "metrics": {}, "names": names, "labels": labels, "classes": classes,
-               "bones": list(bones), "depth": depth, "workers": workers, "repeat": mats.repeat}
+               "bones": list(bones), "depth": depth, "workers": workers, "repeat": mats.repeat,
+               "time_base": ({"fps": COMPARE_FPS, "smooth_seconds": smooth,
+                              "signature_smooth_seconds": SIGNATURE_SMOOTH_SECONDS} if time_base else None),
+               "trimmed": {n: c.meta.get("trim", {}).get("kept") for n, c in zip(names, clips)}}
     for spec in specs:
         if spec.rerank:
             row, pred, nb = _two_stage_row(spec, mats, labels)

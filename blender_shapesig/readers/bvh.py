@@ -7,8 +7,9 @@ failures are tracebacks) and handed over as UTF-8 (a BOM / UTF-16 / latin-1 file
 
 ``import_bvh`` imports into a temporary scene, reads the action with ``action_io.read_action`` (pose-bone
 rotations in each bone's rest frame; rest frames include the Y-up -> Z-up conversion) and removes everything
-the import created. fps = 1 / the file's ``Frame Time``; every frame is kept (the Daz-friendly CMU files'
-first rest-pose frame too: crop it with ``Clip.crop``).
+the import created. fps = 1 / the file's ``Frame Time`` (rounded to a whole rate when within 0.01 %); every
+frame is kept here (the Daz-friendly CMU files' rest pose and ramp too: ``core.sources.read`` trims them,
+``core.trim``).
 """
 
 import contextlib
@@ -120,8 +121,9 @@ def import_bvh(path, name=None, space="armature"):
     with _scratch_scene():
         arm, frame_time = import_armature(path)
         fps = 1.0 / frame_time
-        if abs(fps - round(fps)) < 1e-3:
-            fps = float(round(fps))  # "Frame Time: 0.00833333" means 120 fps
+        if abs(fps - round(fps)) <= 1e-4 * fps:
+            # "Frame Time: 0.00833333" means 120 fps, "0.016667" (6 decimals, 59.9988) means 60
+            fps = float(round(fps))
         clip = action_io.read_action(arm.animation_data.action, armature=arm, fps=fps,
                                      name=name or os.path.splitext(os.path.basename(path))[0],
                                      space="armature" if space == "armature" else "pose")

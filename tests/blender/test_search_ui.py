@@ -96,6 +96,7 @@ def test_registered(addon):
 
 
 def test_file_library_ranks_walks_first_and_caches(rig):
+    # the index compares the curves as read: clip_distance(..., time_base=False)
     hashes = {a.name: action_io.action_hash(a) for a in bpy.data.actions}
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     s = bpy.context.scene.shapesig
@@ -105,7 +106,7 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     assert s.query_name == "walk1" and "walk1" not in dict(got)
     q = _read("walk1", rig)
     for name, d in got:
-        assert d == pytest.approx(clip_distance(q, _read(name, rig), "sim", 3), rel=1e-5)
+        assert d == pytest.approx(clip_distance(q, _read(name, rig), "sim", 3, time_base=False), rel=1e-5)
     assert [r.frames for r in s.results] == [_read(n, rig).frames for n, _ in got]
     assert {a.name: action_io.action_hash(a) for a in bpy.data.actions} == hashes  # sources untouched
     assert os.listdir(os.environ[search.CACHE_ENV])  # the index is on disk, not in the .blend
@@ -131,7 +132,7 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     assert cache.stats["misses"] == before["misses"] + 1
     new = dict(_results())
     assert new["run1"] != pytest.approx(dict(got)["run1"], rel=1e-6)
-    assert new["run1"] == pytest.approx(clip_distance(q, _read("run1", rig), "sim", 3), rel=1e-5)
+    assert new["run1"] == pytest.approx(clip_distance(q, _read("run1", rig), "sim", 3, time_base=False), rel=1e-5)
 
     # name filter and assets only
     s.name_filter = "walk*"
@@ -154,7 +155,7 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     el = [r.elastic for r in s.results]
     assert el == sorted(el)
     best = s.results[0]
-    assert best.elastic == pytest.approx(clip_distance(q, _read(best.name, rig), "elastic"), rel=1e-4)
+    assert best.elastic == pytest.approx(clip_distance(q, _read(best.name, rig), "elastic", time_base=False), rel=1e-4)
 
 
 def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_env):

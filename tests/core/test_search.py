@@ -81,13 +81,14 @@ def test_moving_joint_log_signature_is_the_full_one_restricted(clips):
 # ---------------------------------------------------------------------------------- rank_clips
 
 def test_rank_matches_clip_distance_and_walk_beats_runs(clips, mem):
+    # the index compares the curves as read (clip_distance(time_base=False)); see docs/search.md
     q = clips["07_01"]
     lib = [clips[k] for k in ("09_02", "07_02", "16_15", "09_03")]
     res = search.rank_clips(q, lib, cache=mem)
     assert [r.name for r in res][:2] in (["07_02", "16_15"], ["16_15", "07_02"])
     assert {r.name for r in res[2:]} == {"09_02", "09_03"}
     for r in res:
-        truth = clip_distance(q, clips[r.name], "sim", 3)
+        truth = clip_distance(q, clips[r.name], "sim", 3, time_base=False)
         assert r.distance == pytest.approx(truth, rel=1e-5, abs=1e-6)
         assert r.elastic is None and r.frames == clips[r.name].frames
     assert [r.distance for r in res] == sorted(r.distance for r in res)
@@ -96,7 +97,7 @@ def test_rank_matches_clip_distance_and_walk_beats_runs(clips, mem):
 def test_level_from_metric_name_and_argument(clips, mem):
     q, other = clips["07_01"], clips["09_02"]
     d2 = search.rank_clips(q, [other], metric="sim2", cache=mem)[0].distance
-    assert d2 == pytest.approx(clip_distance(q, other, "sim", 2), rel=1e-5)
+    assert d2 == pytest.approx(clip_distance(q, other, "sim", 2, time_base=False), rel=1e-5)
     assert search.rank_clips(q, [other], level=2, cache=mem)[0].distance == pytest.approx(d2, rel=1e-12)
     assert abs(d2 - search.rank_clips(q, [other], cache=mem)[0].distance) > 1e-3
 
@@ -112,8 +113,8 @@ def test_different_still_joints_and_other_skeletons(clips, mem):
     res = search.rank_clips(q, [c1, c2, c3], cache=mem)
     got = {r.name: r for r in res}
     assert set(got) == {"frozen", "subset"}
-    assert got["frozen"].distance == pytest.approx(clip_distance(q, c1, "sim", 3), rel=1e-5)
-    assert got["subset"].distance == pytest.approx(clip_distance(q, c2, "sim", 3), rel=1e-5)
+    assert got["frozen"].distance == pytest.approx(clip_distance(q, c1, "sim", 3, time_base=False), rel=1e-5)
+    assert got["subset"].distance == pytest.approx(clip_distance(q, c2, "sim", 3, time_base=False), rel=1e-5)
     assert got["subset"].shared == 20 and got["frozen"].shared == len(q.bones)
     assert res.skipped == ["alien"]
     assert any("alien" in w and "no bones" in w for w in res.warnings)
@@ -151,7 +152,7 @@ def test_rerank_orders_head_by_elastic_distance(clips):
     assert all(r.elastic is None for r in tail)
     by = {c.name: c for c in lib}
     for r in head:
-        assert r.elastic == pytest.approx(clip_distance(q, by[r.name], "elastic"), rel=1e-4)
+        assert r.elastic == pytest.approx(clip_distance(q, by[r.name], "elastic", time_base=False), rel=1e-4)
 
 
 def test_other_metrics_are_pairwise(clips, mem):
@@ -159,7 +160,7 @@ def test_other_metrics_are_pairwise(clips, mem):
     lib = [clips["09_02"], clips["07_02"]]
     res = search.rank_clips(q, lib, metric="l2", cache=mem)
     for r in res:
-        assert r.distance == pytest.approx(clip_distance(q, clips[r.name], "l2"), rel=1e-4)
+        assert r.distance == pytest.approx(clip_distance(q, clips[r.name], "l2", time_base=False), rel=1e-4)
 
 
 def test_top_and_sketch_pool(clips, mem):
@@ -214,7 +215,7 @@ def test_cache_hits_across_instances_and_invalidation_after_an_edit(clips, tmp_p
     third = search.rank_clips(q, lib2, cache=search.SignatureCache(tmp_path))
     assert third.stats["misses"] == 1 and third.stats["disk_hits"] == 3
     d = {r.name: r.distance for r in third}
-    assert d["09_02"] == pytest.approx(clip_distance(q, edited, "sim", 3), rel=1e-5)
+    assert d["09_02"] == pytest.approx(clip_distance(q, edited, "sim", 3, time_base=False), rel=1e-5)
     assert d["09_02"] != pytest.approx({r.name: r.distance for r in first}["09_02"], rel=1e-6)
 
 

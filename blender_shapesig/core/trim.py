@@ -1,0 +1,117 @@
+"""Rest-pose and ramp frames at the ends of a clip: detection and trimming (never imports bpy).
+
+Converted motion capture often carries frames that are not part of the take: the CMU "Daz-friendly" BVH files
+start with the rest pose and ramp into the first real pose over frames 2-6 (the first four steps are 5-14x the
+clip's median step), retargeted iClone exports may start with a T-pose frame (one huge step), AMC originals have
+none. Left in, these frames add a few large increments that carry the first pose relative to the rest pose:
+the signature measures read them as motion (docs/evaluation.md, "The rest-pose ramp").
+
+The rule (``detect_trim``) looks at how every joint moves against its own habit: r_k = median over the moving
+joints of |log(R_{k+1} R_k^T)|_j / (joint j's median step). A ramp or a snap out of a T-pose moves *all* joints
+at several times their usual speed at once, so r is 5-25 on the Daz ramps (against 0.1-2.5 in the motion),
+while a glitch of a few joints (the shins of run 09_10) or the take of a jump from a standstill does not raise
+the median over joints at the very first step.
+
+* a head (tail) exists only if the first (last) step is an outlier, r > ``START_RATIO``, or the first (last)
+  frame is a rest pose: the median over moving joints of each joint's angle from its rest orientation, divided
+  by that joint's median angle over the clip, is below ``REST_RATIO`` (0.03-0.07 on the Daz files' first frame,
+  0.9-1.05 on every frame of the AMC and iClone files). The second test catches the glitchy run 09_10, whose
+  own large steps hide its ramp from the first;
+* it then covers the first run of consecutive steps above ``KEEP_RATIO`` and, from a rest pose, every frame
+  still on its way out of it (rest ratio below ``LEAVE_RATIO``), whichever is longer, within the first (last)
+  ``MAX_SECONDS`` (the Daz ramps settle in 4-8 steps of 1/120 s; never more than a quarter of the clip).
+
+A head of h steps drops frames 0..h-1, so the clip starts at the pose where the normal motion begins. On the
+Daz files of the shared CMU sets this keeps frame 6 to 9 onward (earlier versions asked for ``--start 7``);
+the AMC originals and the iClone exports of subject 02 have nothing to trim.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from . import so3
+from .so3 import relative_rotvecs
+
+__all__ = ["TRIM_MODES", "START_RATIO", "REST_RATIO", "LEAVE_RATIO", "KEEP_RATIO", "MAX_SECONDS", "Trim", "step_ratios", "rest_ratios", "detect_trim",
+           "trim_clip"]
+
+TRIM_MODES = ("auto", "none")
+START_RATIO = 4.0
+REST_RATIO = 0.25
+LEAVE_RATIO = 0.9
+KEEP_RATIO = 1.5
+MAX_SECONDS = 0.1
+
+
+@dataclass(frozen=True)
+class Trim:
+    """Frames to drop: ``head`` at the start, ``tail`` at the end (counts of frames)."""
+
+    head: int = 0
+    tail: int = 0
+
+    def __bool__(self):
+        return bool(self.head or self.tail)
+
+
+def step_ratios(R):
+    """r_k: the median over moving joints of each joint's step angle divided by that joint's median step
+    (1 for a typical frame; joints whose median step is below 1e-9 rad are left out)."""
+    a = np.linalg.norm(relative_rotvecs(np.asarray(R, dtype=np.float64)), axis=-1)
+    if a.shape[0] == 0:
+        return np.zeros(0)
+    med = np.median(a, axis=0)
+    moving = med > 1e-9
+    if not moving.any():
+        return np.zeros(a.shape[0])
+    return np.median(a[:, moving] / med[moving], axis=1)
+
+
+def rest_ratios(R):
+    """Per frame: the median over moving joints of each joint's angle from the rest orientation (the identity)
+    divided by that joint's median angle over the clip (about 1 for a typical frame, near 0 at the rest pose)."""
+    A = so3.angle(np.asarray(R, dtype=np.float64))
+    med = np.median(A, axis=0)
+    moving = med > 1e-6
+    if not moving.any():
+        return np.ones(A.shape[0])
+    return np.median(A[:, moving] / med[moving], axis=1)
+
+
+def _leading(mask, limit):
+    """How many leading entries of ``mask`` are true (at most ``limit``)."""
+    n = 0
+    while n < min(limit, mask.size) and mask[n]:
+        n += 1
+    return n
+
+
+def _head(r, rest, window):
+    """Frames of the rest pose / ramp at the start: none unless the first step is above START_RATIO or the
+    first frame is a rest pose; then the longer of the first run of steps above KEEP_RATIO and (from a rest
+    pose) the frames still on the way out of it (rest ratio below LEAVE_RATIO), within the window."""
+    at_rest = _leading(rest < REST_RATIO, window)
+    if r.size == 0 or not (r[0] > START_RATIO or at_rest):
+        return 0
+    leaving = _leading(rest < LEAVE_RATIO, window) if at_rest else 0
+    return max(leaving, _leading(r > KEEP_RATIO, window))
+
+
+def detect_trim(R, fps) -> Trim:
+    """The rest-pose / ramp frames at both ends of the curve R sampled at ``fps`` (see the module docstring)."""
+    r = step_ratios(R)
+    if r.size < 8:
+        return Trim()
+    rest = rest_ratios(R)
+    window = max(1, min(int(round(MAX_SECONDS * float(fps))), r.size // 4))
+    return Trim(head=_head(r, rest, window), tail=_head(r[::-1], rest[::-1], window))
+
+
+def trim_clip(clip):
+    """The clip without its detected rest-pose / ramp frames; ``meta["trim"]`` records the frames kept
+    ``(first, last)`` (scene frame numbers, inclusive) and the frames read ``(first, last)``."""
+    cut = detect_trim(clip.rotations, clip.fps)
+    read = (clip.frame_start, clip.frame_end)
+    out = clip.crop(clip.frame_start + cut.head, clip.frame_end - cut.tail) if cut else clip
+    return replace(out, meta=dict(out.meta, trim={"kept": (out.frame_start, out.frame_end), "read": read}))
