@@ -268,63 +268,6 @@ def cmd_rank(args):
     return out, "\n".join(lines)
 
 
-def _source_armature(spec, asf=None):
-    """Make the current Blender file hold clip A's armature; returns the armature object.
-
-    .blend: the file itself is opened (the armature that plays the action, else the first one);
-    .bvh: Blender's importer (``readers.bvh.import_armature``), its imported action removed;
-    .amc: the Acclaim armature builder (``readers.acclaim.import_acclaim``), its action removed.
-    """
-    import bpy
-
-    spec = _spec(spec, asf)
-    if spec.ext == ".blend":
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(spec.path))
-        arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
-        for o in arms:
-            ad = o.animation_data
-            if spec.action and ad is not None and ad.action is not None and ad.action.name == spec.action:
-                return o
-        if not arms:
-            raise CommandError(f"{spec.path}: the file holds no armature to carry the blend")
-        return arms[0]
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    if spec.ext == ".bvh":
-        from .readers.bvh import import_armature
-
-        arm, _frame_time = import_armature(spec.path)
-    else:
-        from .readers.acclaim import import_acclaim
-
-        arm, _actions = import_acclaim(bpy.context, spec.skeleton(), [spec.path])
-    ad = arm.animation_data
-    if ad is not None and ad.action is not None:
-        from .compat import remove_action
-
-        old = ad.action
-        ad.action = None
-        remove_action(old)
-    return arm
-
-
-def write_blend_file(spec_a, blended, out_path, asf=None):
-    """Save a .blend with A's armature and one new action per blended clip (the first one assigned);
-    returns the action names."""
-    import bpy
-
-    from . import action_io
-
-    armature = _source_armature(spec_a, asf)
-    names = []
-    for i, clip in enumerate(blended):
-        action = action_io.write_action(clip, armature, name=clip.name, fake_user=True, assign=(i == 0))
-        names.append(action.name)
-    bpy.context.scene.frame_start = blended[0].frame_start
-    bpy.context.scene.frame_end = blended[0].frame_end
-    bpy.ops.wm.save_as_mainfile(filepath=out_path, check_existing=False)
-    return names
-
-
 def _parse_weights(args):
     from .core.errors import check_inbetweens, check_weight
 
@@ -377,7 +320,9 @@ def cmd_blend(args):
             clip.name = args.name if len(weights) == 1 else f"{args.name}_{w:.2f}"
         else:
             clip.name = blend_name(a.name, b.name, w)
-    names = write_blend_file(args.a, blended, out_path, asf=args.asf)
+    from .write_blend import write_blend
+
+    names = write_blend(_spec(args.a, args.asf), blended, out_path)
     out = {
         "out": out_path,
         "actions": list(names),
