@@ -39,6 +39,8 @@ __all__ = [
 EXTENSIONS = (".bvh", ".amc", ".blend")
 
 # extension -> reader(spec: ClipSpec) -> list[Clip], or "module:function" imported on first use
+# (module paths name the package "blender_shapesig"; reader_for maps that to the name it is imported under)
+_PACKAGE = __name__.rsplit(".", 2)[0]
 _READERS = {
     ".amc": "blender_shapesig.core.sources:_read_amc",
     ".bvh": "blender_shapesig.readers:read_bvh",
@@ -169,6 +171,8 @@ def reader_for(ext) -> Callable:
     reader = _READERS[ext]
     if isinstance(reader, str):
         module, _, attr = reader.partition(":")
+        if module.split(".")[0] == "blender_shapesig":  # installed as an extension the package is
+            module = _PACKAGE + module[len("blender_shapesig"):]  # bl_ext.<repo>.blender_shapesig
         try:
             reader = getattr(importlib.import_module(module), attr)
         except ImportError as exc:
