@@ -1,4 +1,4 @@
-"""Every difference between Blender versions (4.2 LTS .. 5.0) in one place.
+"""Every difference between Blender versions (4.2 LTS .. 5.2 LTS) in one place.
 
 Features are detected on the instances, never on version numbers:
 
@@ -10,6 +10,15 @@ Features are detected on the instances, never on version numbers:
 * 5.0: ``action.fcurves``/``action.groups`` are gone; everything goes through channelbags
   (``bpy_extras.anim_utils.action_get_channelbag_for_slot`` / ``action_ensure_channelbag_for_slot``);
   ``fcurves.new(path, index=, group_name=)``.
+* 5.1 / 5.2 LTS: Python 3.13 and numpy 2 (the add-on's wheels are per Python; see tools/build_extension.py).
+  The action API is 5.0's: the RNA of Action, ActionSlot(s), ActionLayer(s), ActionKeyframeStrip,
+  ActionChannelbag(s), their F-curve and group collections, AnimData, FCurve and the ``bpy_extras.anim_utils``
+  channelbag helpers is unchanged from 5.0 to 5.2.3 (compared member by member); the extension operators
+  (``extensions.package_install_files`` / ``package_uninstall``) too. Only additions elsewhere: asset metadata
+  (``AssetMetaData.preferred_import_method``, ``AssetRepresentation.is_online``/``owner_asset_library``), which
+  the add-on does not use (it reads ``action.asset_data`` and ``catalog_simple_name``, both unchanged), and
+  ``bpy.app.version_string`` now ends in " LTS" on LTS releases (compare ``bpy.app.version``, never the string).
+  tests/blender/test_action_io.py::test_compat_branches_match_the_blender_line pins which branch each line takes.
 
 API: ``is_layered(action)``, ``action_slots(action)``, ``action_fcurves(action, slot=None)``,
 ``all_action_fcurves(action)``, ``ensure_channelbag(action, id_type="OBJECT", name=None)``,

@@ -142,12 +142,23 @@ def test_wheel_selection_per_platform(tmp_path):
            "numba-0.68.1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl",
            "llvmlite-0.50.0-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl",
            "numba-0.68.1-cp311-cp311-win_amd64.whl",  # numba without llvmlite is useless: not bundled
-           "numpy-1.26.4-cp311-cp311-win_amd64.whl")
+           "numpy-1.26.4-cp311-cp311-win_amd64.whl",
+           # Python 3.13 (Blender 5.1+): macos-x64 has no cp313 scipy, so no cp313 wheels at all there
+           "scipy-1.18.1-cp313-cp313-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl",
+           "scipy-1.18.1-cp313-cp313-win_amd64.whl",
+           "scipy-1.15.3-cp313-cp313-macosx_10_13_x86_64.whl",  # cp313 pins scipy 1.18.1: not this one
+           "scipy-1.18.1-cp313-cp313-macosx_14_0_arm64.whl",  # macOS 14 only: too new for Blender's macOS 12
+           "numba-0.68.1-cp313-cp313-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl",
+           "llvmlite-0.50.0-cp313-cp313-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl",
+           "numba-0.68.1-cp313-cp313-win_amd64.whl")
     chosen, notes = be.collect_wheels(BEXT, tmp_path, list(be.PLATFORMS), offline=True, without={"iisignature"})
-    names = {p: sorted(w.name.split("-")[0] for w in ws) for p, ws in chosen.items()}
-    assert names == {"linux-x64": ["llvmlite", "numba", "scipy"], "windows-x64": ["scipy"], "macos-x64": ["scipy"]}
+    names = {p: sorted("-".join(w.name.split("-")[:3:2]) for w in ws) for p, ws in chosen.items()}
+    assert names == {"linux-x64": ["llvmlite-cp311", "llvmlite-cp313", "numba-cp311", "numba-cp313",
+                                   "scipy-cp311", "scipy-cp313"],
+                     "windows-x64": ["scipy-cp311", "scipy-cp313"], "macos-x64": ["scipy-cp311"]}
     assert "macos-arm64" not in chosen and any("scipy" in n for n in notes["macos-arm64"])
     assert any("numba" in n for n in notes["windows-x64"])
+    assert any("cp313" in n and "scipy" in n for n in notes["macos-x64"])
     for platform, wheels in chosen.items():
         for w in wheels:
             assert platform in be.wheel_blender_platforms(BEXT, w.name)
@@ -169,7 +180,8 @@ def test_wheel_tags_too_new_are_refused():
 
 def _cached_linux_wheels():
     cache = be.default_wheel_cache()
-    return cache.is_dir() and be.find_cached_wheel(BEXT, cache, "scipy==1.15.3", "linux-x64") is not None
+    return cache.is_dir() and all(be.find_cached_wheel(BEXT, cache, specs[0], "linux-x64", tag) is not None
+                                  for tag, specs in be.REQUIRED_GROUPS["scipy"].items())
 
 
 @pytest.fixture(scope="module")
@@ -215,21 +227,25 @@ def test_linux_zip_wheels(linux_zip):
     assert sorted(w.removeprefix("./") for w in manifest["build"]["generated"]["wheels"]) == wheels
     for w in wheels:
         assert "linux-x64" in be.wheel_blender_platforms(BEXT, Path(w).name), w
-        assert "-cp311-" in w
+    # Both Pythons Blender embeds (3.11 in 4.2-5.0, 3.13 in 5.1+), and the same modules for each.
+    per_tag = {tag: {Path(w).name.split("-")[0] for w in wheels if f"-{tag}-" in w} for tag in be.PYTHONS}
+    assert sum(map(len, per_tag.values())) == len(wheels), wheels
+    assert per_tag["cp311"] == per_tag["cp313"] and "scipy" in per_tag["cp313"], per_tag
 
 
 # ---------------------------------------------------------------------------------------------------------
 # Blender's install-time wheel filter, per target platform
 
 
-# What sysconfig.get_platform() says inside Blender on each platform (Blender 4.2 to 5.0 official builds).
+# What sysconfig.get_platform() says inside Blender on each platform (Blender 4.2 to 5.2 official builds).
 SYSCONFIG_PLATFORM = {"linux-x64": "linux-x86_64", "windows-x64": "win-amd64",
                       "macos-arm64": "macosx-11.2-arm64", "macos-x64": "macosx-11.2-x86_64"}
 
 
 def test_blender_installs_every_bundled_wheel_on_its_platform(monkeypatch):
     """Blender installs a wheel only if its own filter (bl_pkg, run on the user's machine) accepts it: every
-    wheel we pick for a platform must pass that filter there, and none must pass it on another platform."""
+    wheel we pick for a platform and this Python must pass that filter there, none for the other Python
+    (Blender 5.1+ filters by the Python tag too), and none must pass it on another platform."""
     pytest.importorskip("bpy")
     import sysconfig
 
@@ -241,10 +257,13 @@ def test_blender_installs_every_bundled_wheel_on_its_platform(monkeypatch):
         pytest.skip("no cached wheels (run: python tools/build_extension.py --out build/ext once)")
     for platform, wheels in chosen.items():
         names = [f"./wheels/{w.name}" for w in wheels]
+        pytag = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+        mine = [n for n in names if f"-{pytag}-" in n]
+        assert mine, (platform, names)
         for target, sysconfig_platform in SYSCONFIG_PLATFORM.items():
             monkeypatch.setattr(sysconfig, "get_platform", lambda p=sysconfig_platform: p)
             accepted = ops._extensions_wheel_filter_for_this_system(names)
             if target == platform:
-                assert accepted == names, (platform, sorted(set(names) - set(accepted)))
+                assert accepted == mine, (platform, sorted(set(mine) ^ set(accepted)))
             else:
                 assert accepted == [], (platform, target, accepted)

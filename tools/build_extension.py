@@ -7,18 +7,19 @@ The top-level ``blender_manifest.toml`` is the one source of truth. This script
 
 1. stages the package: copies ``blender_shapesig/`` to a temporary folder, puts the manifest beside
    ``__init__.py`` and adds ``wheels/`` plus the ``platforms = [...]`` and ``wheels = [...]`` lists;
-2. fetches the platform wheels from PyPI into a cache outside git (``~/.cache/blender_shapesig/wheels``,
-   or ``$SHAPESIG_WHEEL_CACHE``, or ``--wheel-cache``) with
-   ``pip download --only-binary=:all: --platform TAG --python-version 3.11 --implementation cp --no-deps``,
-   and builds the iisignature wheel from its sdist (it has no binary wheels on PyPI) when this machine can
-   (linux-x64, CPython 3.11, numpy/setuptools/wheel importable);
+2. fetches the platform wheels for both Pythons Blender embeds (CPython 3.11 in 4.2 LTS .. 5.0, CPython 3.13
+   in 5.1 and 5.2 LTS) from PyPI into a cache outside git (``~/.cache/blender_shapesig/wheels``, or
+   ``$SHAPESIG_WHEEL_CACHE``, or ``--wheel-cache``) with ``pip download --only-binary=:all: --platform TAG
+   --python-version 3.11|3.13 --implementation cp --no-deps``, and builds the iisignature wheels from the sdist
+   (it has no binary wheels on PyPI) against numpy 2 for each Python this machine has (linux-x64 only);
 3. runs ``blender_ext.py build --split-platforms --valid-tags TAGS`` (Blender's builder and tag list, found
    inside the bpy module), then ``blender_ext.py validate`` on every zip, then checks each zip's contents.
 
-Wheels per platform: scipy is required (a platform without a scipy wheel is left out); numba + llvmlite are
+Wheels per platform and Python: scipy is required (a Python without its scipy wheel gets no wheels on that
+platform, so Blender refuses the zip there; a platform left with no Python is left out); numba + llvmlite are
 optional and go together (bundled where PyPI has both; the add-on falls back to numpy otherwise); iisignature
 is optional (linux-x64 only; the add-on falls back to its numpy signatures). numpy is never bundled: Blender
-ships it.
+ships it. Blender installs only the wheels of its own Python (bl_pkg filters by the wheel's Python tag).
 
 Exit code 0 on success, 1 on a build/validation failure, 2 on a usage error. The last line on stdout is a
 JSON summary (``--json`` prints only that).
@@ -44,8 +45,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = "blender_shapesig"
 MANIFEST = ROOT / "blender_manifest.toml"
-PYTHON_VERSION = "3.11"  # Blender 4.2 .. 5.0 all embed CPython 3.11.
-PYTHON_TAG = "cp311"
+# Blender's embedded CPython per line: 4.2 LTS .. 5.0 run 3.11, 5.1 and 5.2 LTS run 3.13 (with numpy 2). Every
+# zip carries wheels for both; Blender installs the ones matching its own Python (and refuses an extension
+# without any). Python tag -> version.
+PYTHONS = {"cp311": "3.11", "cp313": "3.13"}
 
 # Blender platform -> pip --platform tags, most specific first. pip expands macOS versions downwards itself,
 # but not manylinux ones, hence the explicit list. Blender 4.2+ on Linux needs glibc >= 2.28, so
@@ -58,10 +61,15 @@ PLATFORMS: dict[str, list[str]] = {
     "macos-x64": ["macosx_11_0_x86_64"],
 }
 
-# Pinned like tools/setup_env.sh. Each group is bundled whole or not at all.
-REQUIRED_GROUPS = {"scipy": ["scipy==1.15.3"]}
-OPTIONAL_GROUPS = {"numba": ["numba==0.68.1", "llvmlite==0.50.0"]}
+# Pinned like tools/setup_env.sh, per Python tag. Each group is bundled whole or not at all. All are numpy-2
+# builds (they load with Blender 4.2-5.0's numpy 1.26 and with 5.1+'s numpy 2).
+REQUIRED_GROUPS = {"scipy": {"cp311": ["scipy==1.15.3"], "cp313": ["scipy==1.18.1"]}}
+OPTIONAL_GROUPS = {"numba": {"cp311": ["numba==0.68.1", "llvmlite==0.50.0"],
+                             "cp313": ["numba==0.68.1", "llvmlite==0.50.0"]}}
 IISIGNATURE = "iisignature==0.24"
+# iisignature has no wheels on PyPI: it is built from its sdist against this numpy (a numpy-2 build also
+# loads with numpy 1.26), in a throwaway build venv per Python, kept in the cache folder.
+BUILD_NUMPY = "2.3.5"
 NEVER_BUNDLE = {"numpy"}
 
 
@@ -151,14 +159,15 @@ def wheel_blender_platforms(bext, filename: str) -> set[str]:
     return out
 
 
-def find_cached_wheel(bext, cache: Path, spec: str, platform: str) -> Path | None:
+def find_cached_wheel(bext, cache: Path, spec: str, platform: str, pytag: str) -> Path | None:
+    """The cached wheel of ``spec`` for ``platform`` and CPython ``pytag`` (e.g. "cp313"), or None."""
     name, version = spec.split("==")
     hits = []
     for path in sorted(cache.glob("*.whl")):
         f = wheel_fields(path.name)
         if f["name"] != name.lower() or f["version"] != version:
             continue
-        if PYTHON_TAG not in f["python"].split(".") and not f["python"].startswith("py3"):
+        if pytag not in f["python"].split(".") and not f["python"].startswith("py3"):
             continue
         if platform in wheel_blender_platforms(bext, path.name) and wheel_tags_acceptable(f["platform"], platform):
             hits.append(path)
@@ -179,15 +188,15 @@ def wheel_tags_acceptable(wheel_platform: str, platform: str) -> bool:
     return False
 
 
-def pip_download(cache: Path, spec: str, platform: str) -> str:
+def pip_download(cache: Path, spec: str, platform: str, pytag: str) -> str:
     """"ok", "unavailable" (PyPI has no such wheel) or "error" (pip or the network failed)."""
     cmd = [sys.executable, "-m", "pip", "download", "--quiet", "--disable-pip-version-check",
-           "--only-binary=:all:", "--python-version", PYTHON_VERSION, "--implementation", "cp",
-           "--abi", PYTHON_TAG, "--no-deps", "--dest", str(cache)]
+           "--only-binary=:all:", "--python-version", PYTHONS[pytag], "--implementation", "cp",
+           "--abi", pytag, "--no-deps", "--dest", str(cache)]
     for tag in PLATFORMS[platform]:
         cmd += ["--platform", tag]
     cmd.append(spec)
-    log(f"pip download {spec} for {platform}")
+    log(f"pip download {spec} for {platform} {pytag}")
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         last = (proc.stderr.strip().splitlines() or ["?"])[-1]
@@ -199,106 +208,141 @@ def pip_download(cache: Path, spec: str, platform: str) -> str:
     return "ok"
 
 
-def ensure_wheel(bext, cache: Path, spec: str, platform: str, offline: bool, refresh: bool = False) -> Path | None:
-    """The cached wheel for ``spec`` on ``platform``, downloaded first if needed. A failed download leaves a
-    marker in the cache so later builds do not ask PyPI again (``--refresh`` asks again)."""
-    hit = find_cached_wheel(bext, cache, spec, platform)
-    marker = cache / f".unavailable-{spec.replace('==', '-')}-{platform}"
+def ensure_wheel(bext, cache: Path, spec: str, platform: str, pytag: str, offline: bool,
+                 refresh: bool = False) -> Path | None:
+    """The cached wheel for ``spec`` on ``platform`` / ``pytag``, downloaded first if needed. A failed download
+    leaves a marker in the cache so later builds do not ask PyPI again (``--refresh`` asks again)."""
+    hit = find_cached_wheel(bext, cache, spec, platform, pytag)
+    marker = cache / f".unavailable-{spec.replace('==', '-')}-{platform}-{pytag}"
     if hit is None and not offline and (refresh or not marker.exists()):
-        status = pip_download(cache, spec, platform)
+        status = pip_download(cache, spec, platform, pytag)
         if status == "ok":
             marker.unlink(missing_ok=True)
         elif status == "unavailable":
             marker.write_text("PyPI has no such wheel; delete this file or pass --refresh to retry\n")
-        hit = find_cached_wheel(bext, cache, spec, platform)
+        hit = find_cached_wheel(bext, cache, spec, platform, pytag)
     return hit
 
 
-def host_can_build_iisignature() -> str | None:
-    """None if this machine can build the linux-x64 cp311 iisignature wheel, else the reason it cannot."""
+def find_python(version: str) -> str | None:
+    """An interpreter of CPython ``version`` ("3.13") on this machine: $SHAPESIG_PYTHON_<X_Y>, pythonX.Y on PATH,
+    or a pyenv-installed X.Y (newest first); None if there is none."""
+    cands = [os.environ.get(f"SHAPESIG_PYTHON_{version.replace('.', '_')}"), shutil.which(f"python{version}")]
+    pyenv_root = os.environ.get("PYENV_ROOT") or os.path.expanduser("~/.pyenv")
+    for d in sorted(glob.glob(os.path.join(pyenv_root, "versions", f"{version}.*")), reverse=True):
+        cands.append(os.path.join(d, "bin", f"python{version}"))
+    if sys.version_info[:2] == tuple(map(int, version.split("."))):
+        cands.insert(0, sys.executable)
+    check = f"import sys; sys.exit(sys.version_info[:2] != {tuple(map(int, version.split('.')))!r})"
+    for cand in cands:
+        if cand and os.path.exists(cand) and subprocess.run([cand, "-c", check], capture_output=True).returncode == 0:
+            return cand
+    return None
+
+
+def host_can_build_iisignature(pytag: str) -> str | None:
+    """None if this machine can build the linux-x64 iisignature wheel for ``pytag``, else the reason it cannot."""
     import platform as _platform
 
     if sys.platform != "linux" or _platform.machine().lower() not in {"x86_64", "amd64"}:
         return f"host is {sys.platform}/{_platform.machine()}, not linux-x64"
-    if sys.version_info[:2] != (3, 11):
-        return f"host Python is {sys.version_info[0]}.{sys.version_info[1]}, not 3.11"
-    for mod in ("numpy", "setuptools", "wheel"):
-        if importlib.util.find_spec(mod) is None:
-            return f"{mod} is not importable (needed to build iisignature without build isolation)"
+    if find_python(PYTHONS[pytag]) is None:
+        return f"no Python {PYTHONS[pytag]} on this machine to build the {pytag} wheel"
     return None
 
 
-def ensure_iisignature(bext, cache: Path, offline: bool) -> Path | None:
-    hit = find_cached_wheel(bext, cache, IISIGNATURE, "linux-x64")
+def iisignature_dir(cache: Path) -> Path:
+    """Where the locally built iisignature wheels live: named after the numpy they were built against, so an
+    older build (e.g. against numpy 1.26) is never picked up."""
+    return cache / f"built-numpy-{BUILD_NUMPY}"
+
+
+def ensure_iisignature(bext, cache: Path, pytag: str, offline: bool) -> Path | None:
+    built = iisignature_dir(cache)
+    built.mkdir(parents=True, exist_ok=True)
+    hit = find_cached_wheel(bext, built, IISIGNATURE, "linux-x64", pytag)
     if hit is not None:
         return hit
-    reason = host_can_build_iisignature()
+    reason = host_can_build_iisignature(pytag)
     if reason:
-        log(f"iisignature not bundled: {reason}")
+        log(f"iisignature not bundled for {pytag}: {reason}")
         return None
-    import numpy
-
-    if not numpy.__version__.startswith("1."):
-        # A wheel built against numpy 2 would not load with Blender's numpy 1.26.
-        log(f"iisignature not bundled: host numpy is {numpy.__version__}, Blender ships numpy 1.26")
-        return None
-    cmd = [sys.executable, "-m", "pip", "wheel", "--quiet", "--disable-pip-version-check",
-           "--no-build-isolation", "--no-deps", "--no-binary", "iisignature", "--wheel-dir", str(cache),
-           IISIGNATURE]
     if offline:
-        cmd.insert(4, "--no-index")
-    log(f"building {IISIGNATURE} from source (linux-x64, numpy {numpy.__version__})")
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    if proc.returncode != 0:
-        log("  iisignature build failed: " + (proc.stderr.strip().splitlines() or ["?"])[-1])
+        log(f"iisignature not bundled for {pytag}: not built yet and --offline")
         return None
-    return find_cached_wheel(bext, cache, IISIGNATURE, "linux-x64")
+    # A build venv with numpy 2 + setuptools + wheel (iisignature's sdist imports numpy in setup.py, hence
+    # --no-build-isolation); kept beside the wheels and reused.
+    venv = built / f"venv-{pytag}"
+    python = venv / "bin" / "python"
+    log(f"building {IISIGNATURE} from source for linux-x64 {pytag} against numpy {BUILD_NUMPY}")
+    steps = []
+    if not python.exists():
+        steps.append([find_python(PYTHONS[pytag]), "-m", "venv", str(venv)])
+    steps.append([str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
+                  f"numpy=={BUILD_NUMPY}", "setuptools<75", "wheel"])
+    steps.append([str(python), "-m", "pip", "wheel", "--quiet", "--disable-pip-version-check",
+                  "--no-build-isolation", "--no-deps", "--no-binary", "iisignature", "--wheel-dir", str(built),
+                  IISIGNATURE])
+    for cmd in steps:
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            log("  iisignature build failed: " + (proc.stderr.strip().splitlines() or ["?"])[-1])
+            return None
+    return find_cached_wheel(bext, built, IISIGNATURE, "linux-x64", pytag)
 
 
 def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, without: set[str], refresh: bool = False):
     """Return ({platform: [wheel paths]}, {platform: [notes]}) for the platforms that have every required
-    wheel; platforms lacking one are dropped (with a note)."""
+    wheel for at least one Python; a Python without its required wheels gets none on that platform (Blender
+    then refuses the zip on that Python, rather than installing an add-on that cannot import), and a platform
+    with no Python left is dropped (with a note)."""
     cache.mkdir(parents=True, exist_ok=True)
     chosen: dict[str, list[Path]] = {}
     notes: dict[str, list[str]] = {}
     for platform in platforms:
         wheels: list[Path] = []
         note: list[str] = []
-        missing = None
-        for group, specs in REQUIRED_GROUPS.items():
-            found = [ensure_wheel(bext, cache, s, platform, offline, refresh) for s in specs]
-            if None in found:
-                missing = group
-                break
-            wheels += found
-        if missing:
-            log(f"platform {platform} left out: no {missing} wheel for cp311")
-            notes[platform] = [f"left out: no {missing} wheel"]
-            continue
-        for group, specs in OPTIONAL_GROUPS.items():
-            if group in without:
-                note.append(f"no {group} (--without)")
-                continue
-            found = []
-            for spec in specs:  # stop at the first missing one: the group is all or nothing
-                found.append(ensure_wheel(bext, cache, spec, platform, offline, refresh))
-                if found[-1] is None:
+        for pytag in PYTHONS:
+            tagged, missing = [], None
+            for group, per_tag in REQUIRED_GROUPS.items():
+                found = [ensure_wheel(bext, cache, s, platform, pytag, offline, refresh) for s in per_tag[pytag]]
+                if None in found:
+                    missing = group
                     break
-            if None in found:
-                note.append(f"no {group} (numpy fallback)")
-                log(f"platform {platform}: {group} not bundled (no cp311 wheel), the numpy fallback is used")
+                tagged += found
+            if missing:
+                log(f"platform {platform}: no {missing} wheel for {pytag}, so no {pytag} wheels at all")
+                note.append(f"no {pytag}: no {missing} wheel")
+                continue
+            for group, per_tag in OPTIONAL_GROUPS.items():
+                if group in without:
+                    note.append(f"no {group} (--without)")
+                    continue
+                found = []
+                for spec in per_tag[pytag]:  # stop at the first missing one: the group is all or nothing
+                    found.append(ensure_wheel(bext, cache, spec, platform, pytag, offline, refresh))
+                    if found[-1] is None:
+                        break
+                if None in found:
+                    note.append(f"no {group} for {pytag} (numpy fallback)")
+                    log(f"platform {platform}: {group} not bundled (no {pytag} wheel), the numpy fallback is used")
+                else:
+                    tagged += found
+            if "iisignature" in without:
+                note.append("no iisignature (--without)")
+            elif platform != "linux-x64":
+                note.append("no iisignature (numpy fallback)")
+            elif (iis := ensure_iisignature(bext, cache, pytag, offline)) is not None:
+                tagged.append(iis)
             else:
-                wheels += found
-        if "iisignature" in without:
-            note.append("no iisignature (--without)")
-        elif platform != "linux-x64":
-            note.append("no iisignature (numpy fallback)")
-        elif (iis := ensure_iisignature(bext, cache, offline)) is not None:
-            wheels.append(iis)
-        else:
-            note.append("no iisignature (numpy fallback)")
+                note.append(f"no iisignature for {pytag} (numpy fallback)")
+            wheels += tagged
+        if not wheels:
+            log(f"platform {platform} left out: no Python has its required wheels")
+            notes[platform] = ["left out: " + "; ".join(note)]
+            continue
         chosen[platform] = wheels
-        notes[platform] = note
+        notes[platform] = sorted(set(note), key=note.index)
     return chosen, notes
 
 

@@ -1,13 +1,14 @@
 #!/usr/bin/env python3
 """Install test: build the linux-x64 extension zip and install it, as a user would, into a clean Blender.
 
-    .venv/bin/python tools/install_test.py                # bpy 5.0.1 and 4.2.23 LTS, full + minimal zip
+    .venv/bin/python tools/install_test.py                # bpy 5.2.3 LTS, 5.0.1 and 4.2.23 LTS, full + minimal zip
     .venv/bin/python tools/install_test.py --bpy 5.0      # one version
     .venv/bin/python tools/install_test.py --zip FILE.zip # test a given zip instead of building
 
-For every Blender version the test uses its own throwaway virtualenv holding only ``bpy`` and ``numpy==1.26.4``
-(and bpy's own dependencies): ``.venv-install-5.0/`` and ``.venv-install-4.2/`` at the repository root, created
-with pip on first use and reused afterwards (they are checked to contain no scipy, numba, llvmlite,
+For every Blender version the test uses its own throwaway virtualenv on that Blender's Python holding only
+``bpy`` and the numpy Blender bundles (and bpy's own dependencies): ``.venv-install-5.2/`` (Python 3.13, numpy
+2.3.5), ``.venv-install-5.0/`` and ``.venv-install-4.2/`` (Python 3.11, numpy 1.26.4) at the repository root,
+created with pip on first use and reused afterwards (they are checked to contain no scipy, numba, llvmlite,
 iisignature or blender_shapesig before every run). ``BLENDER_USER_RESOURCES`` points at a fresh temporary
 folder, so nothing of the developer's Blender setup is used or touched. In that environment a child process
 
@@ -21,12 +22,12 @@ folder, so nothing of the developer's Blender setup is used or touched. In that 
    ``shapesig.build_index``, ``shapesig.rank`` and ``shapesig.blend_actions``, and checks their results;
 5. uninstalls the extension with ``extensions.package_uninstall``.
 
-Two zips are tested: "full" (every wheel we ship for linux-x64: scipy, numba + llvmlite, iisignature) on every
-Blender version, and "minimal" (scipy only, what the macos-x64 zip carries; exercises the numba-free DP and the
+Two zips are tested: "full" (every wheel we ship for linux-x64, cp311 and cp313: scipy, numba + llvmlite,
+iisignature) on every Blender version, and "minimal" (scipy only, what the macos-x64 zip carries; exercises the numba-free DP and the
 numpy signatures inside Blender) on the first version given.
 
-The build needs a Python with pip, numpy 1.26 and setuptools/wheel (the development venv) because it may
-compile iisignature. Exit code 0 when every check passed, 1 when one failed, 2 on a usage/setup error.
+The build (tools/build_extension.py) needs pip and bpy (any development venv) and Python 3.11 and 3.13 on the
+machine, to compile the iisignature wheels. Exit code 0 when every check passed, 1 when one failed, 2 on a usage/setup error.
 Operators that the add-on does not register are reported as skipped (with the reason) only with
 ``--allow-missing-operators``; by default a missing operator is a failure.
 """
@@ -44,8 +45,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BPY_VERSIONS = {"5.0": "5.0.1", "4.2": "4.2.23"}
-NUMPY = "1.26.4"
+# Blender line -> (bpy, its Python, the numpy it bundles); the first is the current LTS.
+BPY_VERSIONS = {"5.2": ("5.2.3", "3.13", "2.3.5"), "5.0": ("5.0.1", "3.11", "1.26.4"),
+                "4.2": ("4.2.23", "3.11", "1.26.4")}
 MUST_BE_ABSENT = ("scipy", "numba", "llvmlite", "iisignature", "blender_shapesig")
 RESULT_PREFIX = "INSTALL_TEST_RESULT "
 EXT_ID = "blender_shapesig"
@@ -74,20 +76,37 @@ def clean_env(extra: dict[str, str] | None = None) -> dict[str, str]:
     return env
 
 
-def ensure_venv(venv: Path, bpy_version: str) -> Path:
-    """A virtualenv with only bpy==bpy_version and numpy (plus bpy's dependencies). Returns its python."""
+def _build_module():
+    """tools/build_extension.py as a module (one owner of the wheel pins and of finding a Python X.Y)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_shapesig_build_extension", ROOT / "tools" / "build_extension.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def ensure_venv(venv: Path, version: str) -> Path:
+    """A virtualenv on Blender ``version``'s Python with only its bpy and numpy (plus bpy's dependencies).
+    Returns its python."""
+    bpy_version, python_version, numpy_version = BPY_VERSIONS[version]
     python = venv / "bin" / "python"
     stamp = venv / ".shapesig-install-env"
-    want = f"bpy={bpy_version} numpy={NUMPY}"
+    want = f"python={python_version} bpy={bpy_version} numpy={numpy_version}"
     if not (stamp.is_file() and stamp.read_text().strip() == want and python.exists()):
-        base = os.environ.get("SHAPESIG_PYTHON") or shutil.which("python3.11") or sys.executable
-        log(f"creating {venv} with bpy=={bpy_version} numpy=={NUMPY} (first run downloads bpy, ~1 min)")
+        base = _build_module().find_python(python_version)
+        if base is None:
+            raise SetupError(f"bpy {bpy_version} needs Python {python_version}: install it "
+                             f"(or set SHAPESIG_PYTHON_{python_version.replace('.', '_')})")
+        log(f"creating {venv} with bpy=={bpy_version} numpy=={numpy_version} on Python {python_version} "
+            "(first run downloads bpy, ~1-4 min)")
         t0 = time.monotonic()
         if venv.exists():
             shutil.rmtree(venv)
         for cmd in ([base, "-m", "venv", str(venv)],
                     [str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
-                     f"bpy=={bpy_version}", f"numpy=={NUMPY}"]):
+                     f"bpy=={bpy_version}", f"numpy=={numpy_version}"]):
             proc = subprocess.run(cmd, capture_output=True, text=True, env=clean_env())
             if proc.returncode != 0:
                 sys.stderr.write(proc.stdout + proc.stderr)
@@ -125,8 +144,10 @@ def build_zip(out: Path, without: str) -> Path:
     want = {"scipy"} | (set() if without else {"numba", "llvmlite", "iisignature"})
     if dists != want:
         raise SetupError(f"the linux-x64 zip bundles {sorted(dists)}, expected {sorted(want)} "
-                         f"({summary['notes']}); run this script with the development venv's Python "
-                         "(.venv/bin/python: pip, numpy 1.26, setuptools, wheel) so it can build iisignature")
+                         f"({summary['notes']}); the machine needs Python 3.11 and 3.13 to build iisignature")
+    tags = {w.split("-")[-3] for w in zips[0]["wheels"]}
+    if not without and not {"cp311", "cp313"} <= tags:
+        raise SetupError(f"the linux-x64 zip has wheels for {sorted(tags)}, expected cp311 and cp313")
     return Path(zips[0]["zip"])
 
 
@@ -169,7 +190,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--work", help=argparse.SUPPRESS)
-    ap.add_argument("--bpy", default="5.0,4.2", help="Blender versions, comma-separated: 5.0, 4.2 (default both)")
+    ap.add_argument("--bpy", default=",".join(BPY_VERSIONS),
+                    help=f"Blender versions, comma-separated: {', '.join(BPY_VERSIONS)} (default all)")
     ap.add_argument("--bpy-venv", default=None,
                     help="use this venv (must hold only bpy + numpy) instead of .venv-install-X.Y; one --bpy only")
     ap.add_argument("--zip", default=None, help="install this zip instead of building the full one")
@@ -207,12 +229,12 @@ def _run(args, versions: list[str], t_start: float) -> int:
     results = []
     for i, v in enumerate(versions):
         venv = Path(args.bpy_venv) if args.bpy_venv else ROOT / f".venv-install-{v}"
-        python = ensure_venv(venv, BPY_VERSIONS[v])
+        python = ensure_venv(venv, v)
         runs = [("full", full)] + ([("minimal", minimal)] if (minimal and i == 0) else [])
         for label, zip_path in runs:
-            log(f"bpy {BPY_VERSIONS[v]}: installing {zip_path.name} ({label})")
+            log(f"bpy {BPY_VERSIONS[v][0]}: installing {zip_path.name} ({label})")
             r = run_child(python, zip_path, f"{v}-{label}", args.allow_missing_operators, args.keep)
-            r["bpy"] = BPY_VERSIONS[v]
+            r["bpy"] = BPY_VERSIONS[v][0]
             results.append(r)
             for c in r["checks"]:
                 mark = {"pass": "ok  ", "fail": "FAIL", "skip": "skip"}[c["status"]]
@@ -326,9 +348,11 @@ def run_install(bpy, ck: Checks, zip_path: Path, user: Path) -> None:
     ck.add("add-on files", mod is not None and _under(getattr(mod, "__file__", None), pkg_dir),
            str(getattr(mod, "__file__", None)))
 
-    bundled = {w.split("-")[0].lower() for w in wheels}
-    ck.add("wheels in zip", "scipy" in bundled and "numpy" not in bundled, ", ".join(sorted(wheels)))
-    local = user  # Blender extracts wheels into <user resources>/extensions/.local/lib/python3.11/site-packages
+    # Blender installs only the wheels of its own Python (cp311 on 4.2-5.0, cp313 on 5.1+).
+    pytag = f"cp{sys.version_info[0]}{sys.version_info[1]}"
+    bundled = {w.split("-")[0].lower() for w in wheels if pytag in w.split("-")[-3].split(".")}
+    ck.add(f"wheels in zip for {pytag}", "scipy" in bundled and "numpy" not in bundled, ", ".join(sorted(wheels)))
+    local = user  # Blender extracts wheels into <user resources>/extensions/.local/lib/pythonX.Y/site-packages
     for name in ("scipy", "numba", "llvmlite", "iisignature"):
         if name in bundled:
             try:

@@ -314,3 +314,37 @@ def test_multiple_slots(empty_file, walk):
     obj.animation_data_create().action = action
     obj.animation_data.action_slot = second
     assert action_io.read_action(action, armature=obj, exclude_unkeyed=True).bones == ("ltibia",)
+
+
+def test_compat_branches_match_the_blender_line(empty_file, walk):
+    """compat detects features, never versions; this pins which branch each Blender line takes on a real clip,
+    so an API change in a new Blender (5.1 and 5.2 LTS take 5.0's branches) fails here first."""
+    v = bpy.app.version
+    obj = make_armature(walk.bones)
+    action = action_io.write_action(walk, armature=obj, rotation_modes="QUATERNION", assign=True)
+    assert compat.is_layered(action) == (v >= (4, 4))
+    assert hasattr(action, "fcurves") == (v < (5, 0))  # the legacy proxy is gone from 5.0 on
+    bag, slot = compat.ensure_channelbag(action, "OBJECT")
+    assert compat.is_layered_bag(bag) == (v >= (4, 4))
+    if v < (4, 4):
+        assert bag == action and slot is None
+        return
+    assert slot == action.slots[0] == compat.object_action_slot(obj)
+    assert (slot.target_id_type, slot.identifier) == ("OBJECT", "OB" + obj.name)
+    from bpy_extras import anim_utils
+
+    assert anim_utils.action_get_channelbag_for_slot(action, slot) == bag == compat._channelbag(action, slot)
+    assert compat.action_fcurves(action) == list(bag.fcurves) == compat.all_action_fcurves(action)
+    assert len(bag.fcurves) == 4 * len(walk.bones) + 3
+    # Reading back through the slot the armature uses gives the clip.
+    back = action_io.read_action(action, armature=obj)
+    np.testing.assert_allclose(back.rotations, walk.rotations, atol=2e-6)
+    # 5.0+: F-curves are made with their group in one call; 4.4/4.5: made, then grouped.
+    fc = compat.new_fcurve(bag, 'pose.bones["extra"].rotation_quaternion', 0, "extra")
+    assert fc.group is not None and fc.group.name == "extra"
+    try:
+        bag.fcurves.new('pose.bones["extra"].rotation_quaternion', index=1, group_name="extra")
+        takes_group_name = True
+    except TypeError:
+        takes_group_name = False
+    assert takes_group_name == (v >= (5, 0))

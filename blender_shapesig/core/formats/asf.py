@@ -339,7 +339,8 @@ def _make_bone(fields, where, to_rad) -> Bone:
         bone_id = int(_floats(tokens, 1, where, f"bone {name} id", no)[0])
     no, tokens = fields["direction"]
     direction = _floats(tokens, 3, where, f"bone {name} direction", no)
-    norm = np.linalg.norm(direction)
+    with np.errstate(over="ignore"):  # numpy 2's 3-vector norm warns on overflow (1.26's BLAS dot did not);
+        norm = np.linalg.norm(direction)  # a huge direction gives norm inf and the zero vector on both
     if norm > 0:
         direction = direction / norm
     no, tokens = fields["length"]
