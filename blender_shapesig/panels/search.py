@@ -57,6 +57,11 @@ def _header(layout, results):
     nums.label(text="Frames")
 
 
+def _progress(row, what, factor):
+    """A progress bar (``UILayout.progress``, Blender 4.0+) of a running modal operator."""
+    row.progress(factor=factor, type="BAR", text=f"{what} {factor:.0%} (Esc cancels)")
+
+
 def _message(layout, text, icon="INFO"):
     box = layout.box()
     for i, line in enumerate(_wrap(text, 48)):
@@ -130,16 +135,10 @@ def _draw_search(layout, context, s):
     results = library.results_of(context)
     row = layout.row(align=True)
     if results.running:
-        if hasattr(row, "progress"):
-            row.progress(factor=results.progress, type="BAR", text=f"Ranking {results.progress:.0%} (Esc cancels)")
-        else:
-            row.label(text=f"Ranking {results.progress:.0%} (Esc cancels)")
+        _progress(row, "Ranking", results.progress)
         row = layout.row(align=True)
     if s.index_running:
-        if hasattr(row, "progress"):
-            row.progress(factor=s.index_progress, type="BAR", text=f"Indexing {s.index_progress:.0%} (Esc cancels)")
-        else:
-            row.label(text=f"Indexing {s.index_progress:.0%} (Esc cancels)")
+        _progress(row, "Indexing", s.index_progress)
     else:
         row.operator("shapesig.build_index", icon="FILE_REFRESH")
     row = layout.row()

@@ -224,8 +224,11 @@ def _motion(lines, start, columns, path):
     if len(rows) < max(frames, 1):
         raise ParseError(f"{len(rows)} frames of motion data for 'Frames: {frames}' (truncated file?)", path)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # a bad token ends the C parser early: the size check below catches it
-        values = np.fromstring(" ".join(rows), dtype=np.float64, sep=" ")
+        warnings.simplefilter("ignore")  # numpy 1.26: a bad token ends the C parser early (a warning) ...
+        try:
+            values = np.fromstring(" ".join(rows), dtype=np.float64, sep=" ")
+        except ValueError:  # ... numpy 2 raises instead; either way the size check below names the problem
+            values = np.zeros(0)
     if (values.size != len(rows) * columns or not np.all(np.abs(values) < _FLOAT32_MAX)
             or any(len(r.split()) != columns for r in rows)):
         raise ParseError(f"every frame needs {columns} finite numbers", path)
