@@ -32,6 +32,7 @@ def unregister():
 def _warm_up_kernels():
     """Compile numba's DP kernels, or load them from numba's on-disk cache, in a background thread at enable: the
     first distance of a session then does not pay the JIT (19 s cold; 0.7 s once cached, benchmarks/bench_elastic.py)."""
+    import atexit
     import threading
 
     from .core import _dp_kernels
@@ -42,4 +43,7 @@ def _warm_up_kernels():
         except Exception:  # noqa: BLE001 - a read-only cache or a missing numba only costs the first call
             pass
 
-    threading.Thread(target=run, name="shapesig-warm-up", daemon=True).start()
+    thread = threading.Thread(target=run, name="shapesig-warm-up", daemon=True)
+    thread.start()
+    # never let the interpreter shut down under a compiling thread (it crashed Blender 4.2 at exit)
+    atexit.register(thread.join)

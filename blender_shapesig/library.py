@@ -196,9 +196,9 @@ def result_problem(context, settings) -> Optional[str]:
         return "the scene has no ShapeSig settings (is the add-on registered?)"
     if active_armature(context) is None:
         return "select an armature (the query is its action)"
-    if not settings.results:
+    if not results_of().results:
         return "no results: run Find Similar first"
-    if not 0 <= settings.results_index < len(settings.results):
+    if not 0 <= results_of().results_index < len(results_of().results):
         return "select a result in the list"
     return None
 
@@ -229,8 +229,9 @@ def _cropped_range(action, crop_start):
 
 def _query_range(action, settings):
     """The query's frame range: inside the action's own frames (``check_frame_range``: 2000..2100 on a
-    317-frame action would compare held poses, every sim 1.0)."""
-    return check_frame_range(settings.frame_start, settings.frame_end, *action.frame_range,
+    317-frame action would compare held poses, every sim 1.0); a 0 start or end is the action's own."""
+    first, last = (int(round(v)) for v in action.frame_range)
+    return check_frame_range(settings.frame_start or first, settings.frame_end or last, first, last,
                              what=f"action {action.name!r}")
 
 

@@ -28,18 +28,6 @@ RERANK_DEFAULT = 10
 PANEL_MAX_LEVEL = 4
 
 
-def _frame_range_from_action(settings, context):
-    """Switching the frame range on starts from the query action's own frames (never a default 1..250 that
-    would reach past a short action or cut a long one)."""
-    if not settings.use_frame_range:
-        return
-    obj = getattr(context, "active_object", None)
-    action = bpy.data.actions.get(settings.query_action) if settings.query_action else \
-        getattr(getattr(obj, "animation_data", None), "action", None)
-    if action is not None:
-        settings.frame_start, settings.frame_end = (int(round(v)) for v in action.frame_range)
-
-
 class ShapeSigResult(bpy.types.PropertyGroup):
     """One ranked clip. ``name`` (the item name) is the action's name or the file's base name."""
 
@@ -87,13 +75,13 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     # query
     query_action: StringProperty(
         name="Query Action", description="Action to search with; empty: the active armature's action")
-    use_frame_range: BoolProperty(name="Frame Range", description="Search with a part of the query action "
-                                  "(switching it on starts from the action's own range)", default=False,
-                                  update=_frame_range_from_action)
-    frame_start: IntProperty(name="Start", description="First frame of the query (inside the action's frames)",
-                             default=1)
-    frame_end: IntProperty(name="End", description="Last frame of the query (inside the action's frames)",
-                           default=250)
+    # no update callback here: the bpy module of Blender 4.2 crashes at exit after registering one
+    use_frame_range: BoolProperty(name="Frame Range", description="Search with a part of the query action",
+                                  default=False)
+    frame_start: IntProperty(name="Start", description="First frame of the query, inside the action's frames "
+                             "(0: the action's first frame)", default=0)
+    frame_end: IntProperty(name="End", description="Last frame of the query, inside the action's frames "
+                           "(0: the action's last frame)", default=0)
     # library
     use_file_actions: BoolProperty(name="File Actions", description="Search the actions of this file",
                                    default=True)
@@ -137,14 +125,6 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                                    default=True)
     preview_written: StringProperty(description="Action written for the preview (a folder result); removed at "
                                     "Stop unless it was assigned", default="")
-
-    # the results live on the window manager (not in undo steps): these views keep scripts working
-    results = property(lambda self: results_of().results)
-    query_name = property(lambda self: results_of().query_name,
-                          lambda self, v: setattr(results_of(), "query_name", v))
-    message = property(lambda self: results_of().message, lambda self, v: setattr(results_of(), "message", v))
-    results_index = property(lambda self: results_of().results_index,
-                             lambda self, v: setattr(results_of(), "results_index", v))
 
 
 classes = (ShapeSigResult, ShapeSigResults, ShapeSigSettings)

@@ -18,7 +18,7 @@ def selected_action(context, settings):
     """(armature, action) of the selected result (``result_action``); ShapeSigError with a clear message."""
     library.check_problem(library.result_problem(context, settings))
     obj = library.active_armature(context)
-    return obj, result_action(settings, obj, settings.results[settings.results_index])
+    return obj, result_action(settings, obj, results_of().results[results_of().results_index])
 
 
 def result_action(settings, obj, row):
@@ -119,7 +119,7 @@ def preview_result(context, settings):
     the action."""
     obj, row = library.active_armature(context), None
     library.check_problem(library.result_problem(context, settings))
-    row = settings.results[settings.results_index]
+    row = results_of().results[results_of().results_index]
     was_file = not row.is_action
     obj, action = selected_action(context, settings)
     start_preview(context, settings, obj, action, written=action.name if was_file else "")
@@ -132,7 +132,7 @@ def assign_result(context, settings):
     (armature, action)."""
     library.check_problem(library.result_problem(context, settings))
     if settings.preview_object:
-        row = settings.results[settings.results_index]
+        row = results_of().results[results_of().results_index]
         stop_preview(context, settings, keep=row.source if row.is_action else "")
     obj, action = selected_action(context, settings)
     action_io.assign_action(obj, action)

@@ -142,7 +142,7 @@ def rank(bpy, imported, query_name, report):
         assert bpy.ops.shapesig.build_index() == {"FINISHED"}
         assert bpy.ops.shapesig.rank() == {"FINISHED"}
     label = {n: lab for n, (_a, lab) in imported.items()}
-    results = list(s.results)
+    results = list(bpy.context.window_manager.shapesig_results.results)
     report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by sim^{s.level}, "
            f"top {s.rerank} re-ranked by elastic distance d_S* (shapesig.build_index + shapesig.rank):")
     report("  | rank | action | label | sim | d_S* | frames |")
@@ -150,8 +150,8 @@ def rank(bpy, imported, query_name, report):
     for i, r in enumerate(results, 1):
         el = f"{r.elastic:.3f}" if r.has_elastic else ""
         report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {r.distance:.4f} | {el} | {r.frames} |")
-    if s.message:
-        report(f"  panel says: {s.message}")
+    if bpy.context.window_manager.shapesig_results.message:
+        report(f"  panel says: {bpy.context.window_manager.shapesig_results.message}")
     top = [label.get(r.name) for r in results[:3]]
     report(f"  labels of the top 3: {top}")
     return results

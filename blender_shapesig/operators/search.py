@@ -138,7 +138,7 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
             msg = "cancelled; " + msg
         if self.errors:
             msg += f"; {failed} could not be read ({self.errors[0]})"
-        s.message = msg
+        library.results_of(context).message = msg
         self.report({"WARNING"} if (self.errors or cancelled) else {"INFO"}, msg)
         _tag_redraw(context)
         if getattr(self, "then_rank", False) and not cancelled:

@@ -447,7 +447,7 @@ def test_rank_with_degenerate_library_actions(library, rig):
     assert bpy.ops.shapesig.build_index("EXEC_DEFAULT") == {"FINISHED"}
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
     s = bpy.context.scene.shapesig
-    rows = {r.name: r.distance for r in s.results}
+    rows = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}
     assert {"part", "two", "const"} <= set(rows)
     assert all(np.isfinite(d) for d in rows.values()), rows
     assert rows["part"] < rows["const"]
@@ -475,11 +475,11 @@ def test_rank_skips_bad_library_actions_and_refuses_a_bad_query(library, rig):
     s = bpy.context.scene.shapesig
     before, hashes = snapshot(), all_hashes()
     assert bpy.ops.shapesig.build_index("EXEC_DEFAULT") == {"FINISHED"}
-    assert "could not be read" in s.message and "\n" not in s.message
+    assert "could not be read" in bpy.context.window_manager.shapesig_results.message and "\n" not in bpy.context.window_manager.shapesig_results.message
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
-    names = {r.name for r in s.results}
+    names = {r.name for r in bpy.context.window_manager.shapesig_results.results}
     assert "part" in names and not names & {"single", "B"}
-    assert "warning" in s.message and "NaN" in s.message
+    assert "warning" in bpy.context.window_manager.shapesig_results.message and "NaN" in bpy.context.window_manager.shapesig_results.message
     s.query_action = "B"
     assert "NaN or infinite" in op_error(bpy.ops.shapesig.rank)
     s.query_action = ""
@@ -496,7 +496,7 @@ def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
     from blender_shapesig.core import search
 
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
-    first = {r.name: r.distance for r in bpy.context.scene.shapesig.results}
+    first = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}
     files = sorted(library.glob("*.npz"))
     assert files
     for i, f in enumerate(files):  # truncate one, garbage in one, empty one ...
@@ -507,7 +507,7 @@ def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
     cache = search_mod.get_cache(bpy.context)
     assert cache.stats["invalid"] >= len(files)
-    again = {r.name: r.distance for r in bpy.context.scene.shapesig.results}
+    again = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}
     assert again.keys() == first.keys()
     for k in first:
         assert again[k] == pytest.approx(first[k], rel=1e-6, abs=1e-9)

@@ -81,7 +81,7 @@ def test_preview_and_stop_of_a_file_action_restore_exactly(rig):
     s.rerank = 0
     bpy.context.scene.frame_set(17)
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    s.results_index = [r.name for r in s.results].index("jump")
+    bpy.context.window_manager.shapesig_results.results_index = [r.name for r in bpy.context.window_manager.shapesig_results.results].index("jump")
     before, hashes = _state(rig), _hashes()
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
     assert rig.animation_data.action.name == "jump" and s.preview_object == rig.name
@@ -97,15 +97,15 @@ def test_preview_of_a_folder_result_leaves_nothing_after_stop(rig):
     s = bpy.context.scene.shapesig
     s.use_file_actions, s.use_folders, s.folders, s.rerank = False, True, str(BVH), 0
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    i = [r.name for r in s.results].index("09_03")
-    s.results_index = i
+    i = [r.name for r in bpy.context.window_manager.shapesig_results.results].index("09_03")
+    bpy.context.window_manager.shapesig_results.results_index = i
     before, n = _state(rig), len(bpy.data.actions)
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
     assert len(bpy.data.actions) == n + 1 and rig.animation_data.action.name.startswith("09_03")
     assert s.preview_written == rig.animation_data.action.name
     assert bpy.ops.shapesig.preview_result(stop=True) == {"FINISHED"}
     assert _state(rig) == before  # no leftover action, same action, slot, modes, frame
-    row = s.results[i]
+    row = bpy.context.window_manager.shapesig_results.results[i]
     assert not row.is_action and row.source == row.spec and row.spec.endswith("09_03.bvh")
     # a row whose written action disappeared (e.g. undone) reads its file again
     row.is_action, row.source = True, "gone"
@@ -127,12 +127,12 @@ def test_assign_preview_stop_and_blends_survive_save_and_reopen(rig, tmp_path):
     s.rerank = 0
     before = _hashes()
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    s.results_index = [r.name for r in s.results].index("run")
+    bpy.context.window_manager.shapesig_results.results_index = [r.name for r in bpy.context.window_manager.shapesig_results.results].index("run")
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
     mid = tmp_path / "during_preview.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(mid), copy=True)
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
-    s.results_index = [r.name for r in s.results].index("walk2")
+    bpy.context.window_manager.shapesig_results.results_index = [r.name for r in bpy.context.window_manager.shapesig_results.results].index("walk2")
     assert bpy.ops.shapesig.assign_result() == {"FINISHED"}  # walk (its only user was the rig) is stashed
     assert bpy.ops.shapesig.blend_actions("EXEC_DEFAULT", action_a="walk2", action_b="run", weight=0.25,
                                           align=False, assign=True) == {"FINISHED"}
@@ -181,17 +181,18 @@ def test_search_settings_out_of_range_are_refused_not_clamped(rig, prop, value, 
     assert getattr(s, prop) == value  # soft limits: the value is kept as given ...
     assert not bpy.ops.shapesig.rank.poll()  # ... and refused, with the reason
     assert needle in _error(bpy.ops.shapesig.rank) and needle in _error(bpy.ops.shapesig.build_index)
-    assert len(s.results) == 0
+    assert len(bpy.context.window_manager.shapesig_results.results) == 0
 
 
 def test_frame_range_is_checked_inside_the_action(rig):
     s = bpy.context.scene.shapesig
     walk = bpy.data.actions["walk"]
     first, last = (int(round(v)) for v in walk.frame_range)
-    s.use_frame_range = True  # starts from the action's own range, not 1..250
-    assert (s.frame_start, s.frame_end) == (first, last)
+    s.use_frame_range = True  # 0..0 by default: the action's own range, not 1..250
+    assert (s.frame_start, s.frame_end) == (0, 0)
+    assert library._query_range(walk, s) == (first, last)
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    rows = [(r.name, r.distance) for r in s.results]
+    rows = [(r.name, r.distance) for r in bpy.context.window_manager.shapesig_results.results]
     hashes = _hashes()
     s.frame_start, s.frame_end = 2000, 2100
     assert not bpy.ops.shapesig.rank.poll() and not bpy.ops.shapesig.build_index.poll()
@@ -200,7 +201,7 @@ def test_frame_range_is_checked_inside_the_action(rig):
     s.frame_start, s.frame_end = first, last + 1
     assert "outside" in _error(bpy.ops.shapesig.build_index)
     assert "outside" in _draw().labels()  # the panel says why
-    assert [(r.name, r.distance) for r in s.results] == rows and _hashes() == hashes
+    assert [(r.name, r.distance) for r in bpy.context.window_manager.shapesig_results.results] == rows and _hashes() == hashes
     s.frame_start, s.frame_end = first + 10, first + 60
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     _obj, _act, q = library.query_item(bpy.context, s)
@@ -214,20 +215,20 @@ def test_rows_follow_one_named_sort_column(rig):
     res = library.results_of(bpy.context)
     s.rerank, s.top = 0, 0
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    sims = [r.distance for r in s.results]
+    sims = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
     assert res.order_by == "sim^3" and sims == sorted(sims) and "sorted by sim^3" in res.message
     s.rerank, s.top = 2, 0
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     assert res.order_by == "d_S*" and "sorted by d_S*" in res.message
     assert "the best 2 by sim^3 re-ranked; 1 more not listed (raise Re-rank)" in res.message
-    el = [r.elastic for r in s.results]
-    assert len(el) == 2 and all(r.has_elastic for r in s.results) and el == sorted(el)
+    el = [r.elastic for r in bpy.context.window_manager.shapesig_results.results]
+    assert len(el) == 2 and all(r.has_elastic for r in bpy.context.window_manager.shapesig_results.results) and el == sorted(el)
     # the same d_S* and order as the core's own re-rank of the best two
     _obj, _act, q = library.query_item(bpy.context, s)
     items = [it for it in library.library_items(bpy.context, s, rig) if it.key != q.key]
     core = index.rank_clips(q, items, rerank=2, top=2, cache=library.get_cache(bpy.context))
     # (the rows keep float32)
-    assert [(r.name, pytest.approx(r.elastic, rel=1e-6)) for r in core] == [(r.name, r.elastic) for r in s.results]
+    assert [(r.name, pytest.approx(r.elastic, rel=1e-6)) for r in core] == [(r.name, r.elastic) for r in bpy.context.window_manager.shapesig_results.results]
     lay = _draw()
     assert "d_S* \u25b2" in lay.labels() and "sorted by d_S*" in lay.labels()
 
@@ -246,19 +247,19 @@ def test_labels_are_unique_and_counts_honest(empty_file, cache_env, tmp_path):
     s.use_file_actions, s.use_folders, s.folders, s.rerank, s.crop_start = False, True, str(lib), 0, 2
     bpy.context.view_layer.objects.active = arm
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    labels = sorted(r.label for r in s.results)
+    labels = sorted(r.label for r in bpy.context.window_manager.shapesig_results.results)
     assert labels == ["07_02.bvh", "a/16_15.bvh", "b/16_15.bvh"]
     msg = library.results_of(bpy.context).message
     # the query + 3 readable files were indexed; the broken one is counted apart, not as indexed
     assert "4 newly indexed, 1 could not be read" in msg and "broken" in msg
-    row = next(r for r in s.results if r.label == "07_02.bvh")
+    row = next(r for r in bpy.context.window_manager.shapesig_results.results if r.label == "07_02.bvh")
     assert row.coverage == pytest.approx(1.0) and row.shared == library.results_of().query_bones
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     assert "0 newly indexed, 1 could not be read" in library.results_of().message
     library.CACHES.clear()
     shutil.rmtree(cache_env)
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
-    assert "index: 5 of 5 clips, 4 computed, 0 already indexed; 1 could not be read" in s.message
+    assert "index: 5 of 5 clips, 4 computed, 0 already indexed; 1 could not be read" in bpy.context.window_manager.shapesig_results.message
     assert library.unique_labels(["/x/a/w.blend#run", "/x/b/w.blend#run", "/x/c.bvh"]) == \
         ["a/w.blend#run", "b/w.blend#run", "c.bvh"]
 
@@ -270,7 +271,7 @@ def test_rank_click_pushes_no_undo_and_keeps_results_on_the_window_manager(rig, 
     s = bpy.context.scene.shapesig
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     wm = bpy.context.window_manager.shapesig_results
-    assert len(wm.results) == len(s.results) > 0 and wm.results[0].name == s.results[0].name
+    assert len(wm.results) == len(bpy.context.window_manager.shapesig_results.results) > 0 and wm.results[0].name == bpy.context.window_manager.shapesig_results.results[0].name
     assert "results" not in s.bl_rna.properties  # nothing of them in the scene, so nothing in undo steps
     # the scene does not change: a click leaves no difference an undo step would have to record
     path = tmp_path / "a.blend"
@@ -362,7 +363,7 @@ def test_skeleton_field_for_amc_folders_shares_keys_with_the_cli(empty_file, cac
         bpy.ops.shapesig.rank()
     s.asf = str(lib / "07-walk.asf")
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert sorted(r.name for r in s.results) == ["07_02", "09_02"]
+    assert sorted(r.name for r in bpy.context.window_manager.shapesig_results.results) == ["07_02", "09_02"]
     items = library.library_items(bpy.context, s, bpy.context.active_object)
     spec = sources.ClipSpec.parse(str(lib / "07_02.amc"), asf=str(lib / "07-walk.asf"))
     assert spec.key() in {it.key for it in items}
@@ -379,8 +380,8 @@ def test_skeleton_field_for_amc_folders_shares_keys_with_the_cli(empty_file, cac
 def test_results_views_on_the_settings_are_the_window_managers(rig):
     s = bpy.context.scene.shapesig
     res = library.results_of(bpy.context)
-    s.message = "x"
-    s.results_index = 3
+    bpy.context.window_manager.shapesig_results.message = "x"
+    bpy.context.window_manager.shapesig_results.results_index = 3
     assert res.message == "x" and res.results_index == 3
-    s.query_name = "q"
+    bpy.context.window_manager.shapesig_results.query_name = "q"
     assert res.query_name == "q"

@@ -77,7 +77,7 @@ def _read(name, arm):
 
 def _results():
     s = bpy.context.scene.shapesig
-    return [(r.name, r.distance) for r in s.results]
+    return [(r.name, r.distance) for r in bpy.context.window_manager.shapesig_results.results]
 
 
 def test_registered(addon):
@@ -103,11 +103,11 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     got = _results()
     assert [n for n, _ in got][:2] in (["walk2", "walk3"], ["walk3", "walk2"])
     assert {n for n, _ in got[2:]} == {"run1", "run2", "jump"}
-    assert s.query_name == "walk1" and "walk1" not in dict(got)
+    assert bpy.context.window_manager.shapesig_results.query_name == "walk1" and "walk1" not in dict(got)
     q = _read("walk1", rig)
     for name, d in got:
         assert d == pytest.approx(clip_distance(q, _read(name, rig), "sim", 3, time_base=False), rel=1e-5)
-    assert [r.frames for r in s.results] == [_read(n, rig).frames for n, _ in got]
+    assert [r.frames for r in bpy.context.window_manager.shapesig_results.results] == [_read(n, rig).frames for n, _ in got]
     assert {a.name: action_io.action_hash(a) for a in bpy.data.actions} == hashes  # sources untouched
     assert os.listdir(os.environ[search.CACHE_ENV])  # the index is on disk, not in the .blend
 
@@ -137,12 +137,12 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     # name filter and assets only
     s.name_filter = "walk*"
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert {r.name for r in s.results} == {"walk2", "walk3"}
+    assert {r.name for r in bpy.context.window_manager.shapesig_results.results} == {"walk2", "walk3"}
     s.name_filter = ""
     bpy.data.actions["jump"].asset_mark()
     s.assets_only = True
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert [r.name for r in s.results] == ["jump"]
+    assert [r.name for r in bpy.context.window_manager.shapesig_results.results] == ["jump"]
     s.catalog = "Nothing*"
     with pytest.raises(RuntimeError, match="library is empty"):
         bpy.ops.shapesig.rank()
@@ -151,28 +151,28 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     # re-rank the best three by elastic distance: the head is ordered by it
     s.rerank, s.top = 3, 3
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert len(s.results) == 3 and all(r.has_elastic for r in s.results)
-    el = [r.elastic for r in s.results]
+    assert len(bpy.context.window_manager.shapesig_results.results) == 3 and all(r.has_elastic for r in bpy.context.window_manager.shapesig_results.results)
+    el = [r.elastic for r in bpy.context.window_manager.shapesig_results.results]
     assert el == sorted(el)
-    best = s.results[0]
+    best = bpy.context.window_manager.shapesig_results.results[0]
     assert best.elastic == pytest.approx(clip_distance(q, _read(best.name, rig), "elastic", time_base=False), rel=1e-4)
 
 
 def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_env):
     s = bpy.context.scene.shapesig
     assert bpy.ops.shapesig.build_index("INVOKE_DEFAULT") == {"FINISHED"}
-    assert "6 computed" in s.message and not s.index_running
+    assert "6 computed" in bpy.context.window_manager.shapesig_results.message and not s.index_running
     files = sorted(p for p in cache_env.iterdir() if p.suffix == ".npz")
     assert len(files) == 6
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
-    assert "0 computed" in s.message
+    assert "0 computed" in bpy.context.window_manager.shapesig_results.message
     # corrupt one entry file on disk, and forget the session's memory layer: it is detected and rebuilt
     files[0].write_bytes(b"garbage")
     from blender_shapesig import library
 
     library.CACHES.clear()
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
-    assert "1 computed" in s.message
+    assert "1 computed" in bpy.context.window_manager.shapesig_results.message
     assert _cache().stats["invalid"] == 1
     assert np.load(files[0])["meta"].size
 
@@ -182,29 +182,29 @@ def test_folder_library(empty_file, cache_env):
     s = bpy.context.scene.shapesig
     s.use_file_actions, s.use_folders, s.folders, s.crop_start = False, True, str(BVH), 2
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    names = [r.name for r in s.results]
-    assert len(names) == 6 and all(not r.is_action for r in s.results)
-    assert names[0] == "07_01" and s.results[0].distance < 1e-5  # the query's own file
+    names = [r.name for r in bpy.context.window_manager.shapesig_results.results]
+    assert len(names) == 6 and all(not r.is_action for r in bpy.context.window_manager.shapesig_results.results)
+    assert names[0] == "07_01" and bpy.context.window_manager.shapesig_results.results[0].distance < 1e-5  # the query's own file
     assert {LABEL[n] for n in names[:3]} == {"walk"}
-    assert all(r.source.endswith(".bvh") for r in s.results)
+    assert all(r.source.endswith(".bvh") for r in bpy.context.window_manager.shapesig_results.results)
     cache = _cache()
     before = dict(cache.stats)
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     assert cache.stats["misses"] == before["misses"]
     # assign a folder result: written as a new action on the armature, then usable by Blend
-    s.results_index = 1
+    bpy.context.window_manager.shapesig_results.results_index = 1
     n_actions = len(bpy.data.actions)
     assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
     assert len(bpy.data.actions) == n_actions + 1
     assert arm.animation_data.action.name.startswith(names[1])
-    assert s.results[1].is_action
+    assert bpy.context.window_manager.shapesig_results.results[1].is_action
 
 
 def test_assign_preview_and_blend(rig):
     s = bpy.context.scene.shapesig
     bpy.ops.shapesig.rank()
-    s.results_index = 2
-    target = s.results[2].name
+    bpy.context.window_manager.shapesig_results.results_index = 2
+    target = bpy.context.window_manager.shapesig_results.results[2].name
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
     assert rig.animation_data.action.name == target and s.preview_object == rig.name
     assert bpy.ops.shapesig.preview_result() == {"FINISHED"}  # again: stop and restore
@@ -213,7 +213,7 @@ def test_assign_preview_and_blend(rig):
     assert rig.animation_data.action.name == target
     compat.assign_action(rig, bpy.data.actions["walk1"])
     n = len(bpy.data.actions)
-    assert bpy.ops.shapesig.blend_actions(action_a=s.query_name, action_b=s.results[0].source, weight=0.5,
+    assert bpy.ops.shapesig.blend_actions(action_a=bpy.context.window_manager.shapesig_results.query_name, action_b=bpy.context.window_manager.shapesig_results.results[0].source, weight=0.5,
                                           assign=False) == {"FINISHED"}
     assert len(bpy.data.actions) == n + 1
 
@@ -300,12 +300,12 @@ def test_panel_draws_every_state(rig):
     assert {"shapesig.assign_result", "shapesig.preview_result", "shapesig.blend_actions"} <= set(lay.operators())
     i = lay.operators().index("shapesig.blend_actions")
     props = [e[1] for e in lay.log if e[0] == "props"][i]
-    assert (props.action_a, props.action_b) == ("walk1", s.results[0].source)
+    assert (props.action_a, props.action_b) == ("walk1", bpy.context.window_manager.shapesig_results.results[0].source)
     row = FakeLayout()
-    SHAPESIG_UL_results.draw_item(SimpleNamespace(layout_type="DEFAULT"), bpy.context, row, s, s.results[0], 0, s,
+    SHAPESIG_UL_results.draw_item(SimpleNamespace(layout_type="DEFAULT"), bpy.context, row, s, bpy.context.window_manager.shapesig_results.results[0], 0, s,
                                   "results_index")
-    assert s.results[0].name in row.labels() and f"{s.results[0].distance:.4f}" in row.labels()
-    s.results_index = 99
+    assert bpy.context.window_manager.shapesig_results.results[0].name in row.labels() and f"{bpy.context.window_manager.shapesig_results.results[0].distance:.4f}" in row.labels()
+    bpy.context.window_manager.shapesig_results.results_index = 99
     assert "Select a result" in _draw().labels()
     s.query_action = "nope"
     assert "no action 'nope'" in _draw().labels()
@@ -338,7 +338,7 @@ def test_build_index_modal_steps_and_escape(rig):
     assert op.modal(ctx, timer) == {"RUNNING_MODAL"}
     assert s.index_progress == pytest.approx(2 / 6)
     assert op.modal(ctx, SimpleNamespace(type="ESC")) == {"CANCELLED"}
-    assert not s.index_running and s.message.startswith("cancelled; index: 2 of 6")
+    assert not s.index_running and bpy.context.window_manager.shapesig_results.message.startswith("cancelled; index: 2 of 6")
     assert op.reports[-1][0] == {"WARNING"}
     # what was done stays indexed: a second, complete run computes only the other four, then ranks
     from blender_shapesig.library import missing_count
@@ -352,7 +352,7 @@ def test_build_index_modal_steps_and_escape(rig):
     assert res == {"FINISHED"} and s.index_progress == 1.0
     assert [r for r in op.reports if "4 computed, 2 already indexed" in r[1]]
     assert missing_count(ctx, s) == 0
-    assert len(s.results) == 5 and s.query_name == "walk1"  # ranked when the index was complete
+    assert len(bpy.context.window_manager.shapesig_results.results) == 5 and bpy.context.window_manager.shapesig_results.query_name == "walk1"  # ranked when the index was complete
 
 
 def test_actions_of_another_rig_are_read_with_it_and_mapped(rig):
@@ -368,12 +368,12 @@ def test_actions_of_another_rig_are_read_with_it_and_mapped(rig):
     s = bpy.context.scene.shapesig
     s.rerank, s.top = 10, 0
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    names = [r.name for r in s.results]
-    assert len(names) == 6 and not any(r.partial for r in s.results), names
+    names = [r.name for r in bpy.context.window_manager.shapesig_results.results]
+    assert len(names) == 6 and not any(r.partial for r in bpy.context.window_manager.shapesig_results.results), names
     assert names.index(amc_action) < min(names.index(n) for n in ("run1", "run2", "jump")), names
-    assert "shares only" not in s.message
-    row = s.results[names.index(amc_action)]
-    assert row.shared == s.results[0].shared >= 19  # the canonical joints both rigs have
+    assert "shares only" not in bpy.context.window_manager.shapesig_results.message
+    row = bpy.context.window_manager.shapesig_results.results[names.index(amc_action)]
+    assert row.shared == bpy.context.window_manager.shapesig_results.results[0].shared >= 19  # the canonical joints both rigs have
     from blender_shapesig.library import owner_armature
 
     assert owner_armature(bpy.data.actions[amc_action], rig) == amc_rig
@@ -391,7 +391,7 @@ def test_query_with_only_location_keys_is_a_clear_error(rig):
     s = bpy.context.scene.shapesig
     with pytest.raises(RuntimeError, match="no rotation channels"):
         bpy.ops.shapesig.rank()
-    assert len(s.results) == 0
+    assert len(bpy.context.window_manager.shapesig_results.results) == 0
 
 
 def test_action_items_have_typed_keys_and_poll_owns_preconditions(rig):
@@ -413,4 +413,4 @@ def test_action_items_have_typed_keys_and_poll_owns_preconditions(rig):
         bpy.ops.shapesig.rank()
     s.use_frame_range = False
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert bpy.ops.shapesig.assign_result.poll() and s.results[0].is_action
+    assert bpy.ops.shapesig.assign_result.poll() and bpy.context.window_manager.shapesig_results.results[0].is_action
