@@ -2,7 +2,7 @@
 
 Usage (from the repository root):
 
-    .venv/bin/python benchmarks/bench_elastic.py [--data /work/shared/data/cmu] [--repeat 15] [--json FILE]
+    .venv/bin/python benchmarks/bench_elastic.py [--data ../shared/data/cmu] [--repeat 15] [--json FILE]
 
 1. One pair: two 300-frame, 31-joint real CMU curves (07_01 and 07_02 from tests/data, first
    300 frames, every bone), depth 9, penalty 0. Times the DP kernel alone (numba and the
@@ -205,7 +205,7 @@ def matrix_benchmark(data, repeat):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    default = pathlib.Path("/work/shared/data/cmu")
+    default = ROOT.parent / "shared" / "data" / "cmu"  # ../shared/data/cmu beside the repository
     ap.add_argument("--data", type=pathlib.Path, default=default if default.exists() else None,
                     help="the shared CMU data folder (with uscresl_humanoid-gail/...)")
     ap.add_argument("--repeat", type=int, default=15)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Reproduce (and extend) the thesis' experiments on the shared CMU clips (docs/evaluation.md).
 
-  .venv/bin/python tools/evaluate_cmu.py --data /work/shared/data/cmu --out out/eval [--docs docs/img]
+  .venv/bin/python tools/evaluate_cmu.py --data ../shared/data/cmu --out out/eval [--docs docs/img]
 
 1. ``evaluate`` on the 27-clip set (tools/eval_sets/cmu27.csv: 12 walks, 12 runs, 3 forward jumps)
    and on the larger set (tools/eval_sets/cmu_large.csv: + 17 walks, 5 other jumps), optionally on
@@ -262,7 +262,7 @@ def copy_doc_figures(out, docs):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--data", required=True, help="the shared CMU folder (e.g. /work/shared/data/cmu)")
+    p.add_argument("--data", required=True, help="the shared CMU folder (e.g. ../shared/data/cmu)")
     p.add_argument("--out", default="out/eval", help="output folder (default out/eval)")
     p.add_argument("--sets", default=ALL_SETS, help=f"comma-separated, from {ALL_SETS} (default: all)")
     p.add_argument("--raw", action="store_true",

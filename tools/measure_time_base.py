@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """The same motion at 120 / 60 / 30 fps (issue 15, docs/evaluation.md "Time base"):
 
-  .venv/bin/python tools/measure_time_base.py --data /work/shared/data/cmu [--metrics sim3,elastic] [--raw]
+  .venv/bin/python tools/measure_time_base.py --data ../shared/data/cmu [--metrics sim3,elastic] [--raw]
 
 For every walk of the shared sets (the Daz BVH walks of tools/eval_sets/cmu_large.csv against its runs, the AMC
 walks of tools/eval_sets/cmu_amc.csv against its runs): the distance between the clip and its copy decimated to

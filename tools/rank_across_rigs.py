@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """The same take in other formats and skeletons ranks first (issue 14), and the comparison-space measurement.
 
-  .venv/bin/python tools/rank_across_rigs.py --data /work/shared/data/cmu [--bone-map auto|none] [--rerank K]
+  .venv/bin/python tools/rank_across_rigs.py --data ../shared/data/cmu [--bone-map auto|none] [--rerank K]
 
 A library of the shared CMU takes in two formats each: AMC 07_01-07_03 and 09_01-09_03 with their cgspeed Daz
 BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02_03, AMC 16_15 with its
