@@ -27,34 +27,6 @@ def _all_ids():
     return {(c, i.as_pointer()) for c in colls for i in getattr(bpy.data, c)}
 
 
-def _bvh_local_rotations(path):
-    """{joint: (frames, 3, 3)} local rotations straight from the BVH's Euler channels (file order = applied
-    last to first: R = R_c1 R_c2 R_c3)."""
-    from scipy.spatial.transform import Rotation
-
-    tokens = pathlib.Path(path).read_text().split()
-    joints, i = [], 0
-    while tokens[i] != "MOTION":
-        if tokens[i] in ("ROOT", "JOINT"):
-            joints.append([tokens[i + 1], []])
-            i += 2
-        elif tokens[i] == "CHANNELS":
-            n = int(tokens[i + 1])
-            joints[-1][1] = tokens[i + 2:i + 2 + n]
-            i += 2 + n
-        else:
-            i += 1
-    frames = int(tokens[i + 2])
-    data = np.array([float(x) for x in tokens[i + 6:]]).reshape(frames, -1)
-    out, col = {}, 0
-    for name, chans in joints:
-        rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
-        seq = "".join(chans[k][0] for k in rot)
-        out[name] = Rotation.from_euler(seq.upper(), data[:, [col + k for k in rot]], degrees=True).as_matrix()
-        col += len(chans)
-    return out
-
-
 def test_amc_equals_core(empty_file):
     core = load_acclaim(ACC / "09_02.amc", ACC / "09-run.asf")  # ASF axes
     # the front door: Blender armature axes, A L A^T and s A T
@@ -67,7 +39,7 @@ def test_amc_equals_core(empty_file):
     assert c60.fps == 60.0
 
 
-def test_bvh_through_blender_importer(empty_file, capsys):
+def test_bvh_through_blender_importer(empty_file, capsys, bvh_channels):
     scene = bpy.context.scene
     before = _all_ids()
     clip = import_bvh(DATA / "bvh" / "09_02.bvh", space="native")
@@ -77,7 +49,7 @@ def test_bvh_through_blender_importer(empty_file, capsys):
     assert len(clip.bones) == 43 and clip.bones[0] == "hip" and clip.root_bone == "hip"
     assert clip.rotation_modes[0] == "ZYX" and clip.rotation_modes[1] == "ZXY"  # NATIVE: channel order
     # independent check: B R B^T (armature-aligned) = A R_bvh A^T for every joint and frame
-    truth = _bvh_local_rotations(DATA / "bvh" / "09_02.bvh")
+    truth = dict(zip(*bvh_channels(DATA / "bvh" / "09_02.bvh")[:2]))
     B = clip.meta["rest_rotations"]
     aligned = B[None] @ clip.rotations @ np.swapaxes(B, -1, -2)[None]
     for j, name in enumerate(clip.bones):

@@ -54,34 +54,10 @@ Frame Time: 0.0333333\r
 """
 
 
-def _independent(path):
-    """{joint: (frames, 3, 3)} BVH rotations R = R_c1 R_c2 R_c3 (scipy's intrinsic upper-case sequence)."""
-    tokens = pathlib.Path(path).read_text().split()
-    joints, i = [], 0
-    while tokens[i] != "MOTION":
-        if tokens[i] in ("ROOT", "JOINT"):
-            joints.append([tokens[i + 1], []])
-            i += 2
-        elif tokens[i] == "CHANNELS":
-            joints[-1][1] = tokens[i + 2:i + 2 + int(tokens[i + 1])]
-            i += 2 + int(tokens[i + 1])
-        else:
-            i += 1
-    data = np.array([float(x) for x in tokens[i + 6:]]).reshape(-1, sum(len(c) for _, c in joints))
-    out, col = [], 0
-    for name, chans in joints:
-        rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
-        seq = "".join(chans[k][0] for k in rot).upper()
-        out.append(Rotation.from_euler(seq, data[:, [col + k for k in rot]], degrees=True).as_matrix() if rot
-                   else np.broadcast_to(np.eye(3), (len(data), 3, 3)))
-        col += len(chans)
-    return out, data
-
-
 @pytest.mark.parametrize("name", sorted(p.name for p in DATA.glob("*.bvh")))
-def test_rotations_equal_the_channels_in_blender_axes(name):
+def test_rotations_equal_the_channels_in_blender_axes(name, bvh_channels):
     clip = load_bvh(DATA / name)
-    truth, data = _independent(DATA / name)
+    _names, truth, data = bvh_channels(DATA / name)
     assert clip.frames == len(data) and clip.fps == 120.0 and clip.frame_start == 1
     for j, R in enumerate(truth):
         np.testing.assert_allclose(clip.rotations[:, j], A @ R @ A.T, atol=1e-12, err_msg=clip.bones[j])
