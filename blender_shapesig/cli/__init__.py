@@ -1,0 +1,84 @@
+"""Command line: ``python -m blender_shapesig COMMAND ...`` (issue 8).
+
+Commands (see ``docs/cli.md`` and ``interfaces.md``), one module each with ``add_parser(sub)`` and ``run(args)``:
+``distance``, ``rank``, ``blend``, ``matrix``, ``evaluate``. Every command takes ``--json`` (one JSON object on
+stdout, nothing else there) and ``--debug`` (full traceback on errors). Errors exit with code 2 and one line on
+stderr.
+
+bpy is imported lazily: only when a .blend file is read or written (.bvh and .amc are read without it). Blender's
+C code writes to file descriptor 1, so all work runs with fd 1 pointed at stderr; stdout only receives
+the final report.
+"""
+
+import json
+import sys
+import traceback
+
+from . import blend, distance, evaluate, matrix, rank
+from .common import EXIT_ERROR, PROG, CommandError, _Parser, load_many, load_one, stdout_to_stderr
+
+COMMANDS = (distance, rank, blend, matrix, evaluate)
+
+__all__ = ["main", "build_parser", "CommandError", "PROG", "EXIT_ERROR", "load_one", "load_many"]
+
+
+def build_parser():
+    parser = _Parser(
+        prog=PROG,
+        description="Shape analysis of motion-capture clips: SRVT elastic distance, geodesic blends, signatures.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for command in COMMANDS:
+        command.add_parser(sub)
+    return parser
+
+
+def _emit(args, out, text):
+    if getattr(args, "json", False):
+        sys.stdout.write(json.dumps(out) + "\n")
+    elif text:
+        sys.stdout.write(text + "\n")
+    sys.stdout.flush()
+
+
+def _error(message, debug):
+    if debug:
+        traceback.print_exc(file=sys.stderr)
+    line = " ".join(str(message).split()) or "error"
+    if not line.startswith(PROG):
+        line = f"{PROG}: error: {line}"
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+    return EXIT_ERROR
+
+
+def main(argv=None):
+    """Run the command line; returns the exit code (0, or 2 on errors)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except CommandError as exc:
+        return _error(exc, debug)
+    except SystemExit as exc:  # --help
+        return int(exc.code or 0) if isinstance(exc.code, int) else 0
+    if not getattr(args, "command", None):
+        names = ", ".join(m.__name__.rsplit(".", 1)[-1] for m in COMMANDS)
+        return _error(f"no command given: choose one of {names} (see --help)", False)
+    try:
+        with stdout_to_stderr():
+            out, text = args.func(args)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{PROG}: interrupted\n")
+        return 130
+    except Exception as exc:  # every failure: one line (and the traceback with --debug)
+        from ..core.errors import ShapeSigError
+
+        if isinstance(exc, (CommandError, ShapeSigError)):
+            return _error(exc, debug)
+        if isinstance(exc, OSError):
+            return _error(f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": "), debug)
+        return _error(f"{type(exc).__name__}: {exc}", debug)
+    _emit(args, out, text)
+    return 0

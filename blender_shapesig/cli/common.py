@@ -1,0 +1,206 @@
+"""What every command shares: the one-line error, stdout kept for the report, progress bars, turning CLIP
+arguments into ``core.sources.ClipSpec`` s, and the option groups (clip reading, metric)."""
+
+import argparse
+import contextlib
+import math
+import os
+import sys
+
+from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
+
+PROG = "blender_shapesig"
+EXIT_ERROR = 2
+CLIP_HELP = "a .bvh, .amc, .blend (every armature action) or FILE.blend#ACTION"
+
+
+class CommandError(Exception):
+    """Bad command-line usage or input: reported as one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but usage errors become a CommandError (one line) instead of usage + exit."""
+
+    def error(self, message):
+        where = self.prog[len(PROG):].strip()
+        raise CommandError(f"{PROG}: error: {where + ': ' if where else ''}{message}")
+
+
+# ---------------------------------------------------------------------------------------------
+# Output plumbing
+
+
+@contextlib.contextmanager
+def stdout_to_stderr():
+    """Send everything written to stdout (Python and C level) to stderr until the block ends."""
+    try:
+        sys.stdout.flush()
+    except Exception:
+        pass
+    saved_fd = None
+    try:
+        saved_fd = os.dup(1)
+        os.dup2(2, 1)
+    except OSError:
+        saved_fd = None
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        try:
+            sys.stderr.flush()
+        except Exception:
+            pass
+        if saved_fd is not None:
+            try:
+                # C-level buffers (Blender's printf) must be flushed before fd 1 is restored.
+                import ctypes
+
+                ctypes.CDLL(None).fflush(None)
+            except Exception:
+                pass
+            os.dup2(saved_fd, 1)
+            os.close(saved_fd)
+
+
+def finite(x):
+    """A float for JSON: NaN / inf become None (JSON has no NaN)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def progress(args, total, desc):
+    """A tqdm progress bar on stderr (a no-op object when tqdm is missing or --no-progress)."""
+    if getattr(args, "no_progress", False) or total is None or total < 2:
+        return NoBar()
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dev requirement
+        return NoBar()
+    return tqdm(total=total, desc=desc, file=sys.stderr, leave=False, dynamic_ncols=True)
+
+
+class NoBar:
+    def update(self, n=1):
+        pass
+
+    def close(self):
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading clips
+
+
+# core.sources is the one front door: the command line only turns a CLIP argument and its options into a
+# ClipSpec, so the signature-cache keys of its libraries are ClipSpec.key, those of the panel's folder libraries.
+
+
+def crop_of(args):
+    """``(start, end, fps, trim)`` of the command line (what ClipSpec takes besides the path and skeleton)."""
+    if args is None:
+        return None
+    return (getattr(args, "start", None), getattr(args, "end", None), getattr(args, "fps", None),
+            getattr(args, "trim", None) or "auto")
+
+
+def clip_spec(text, asf=None, crop=None, bone_map="auto"):
+    """The ClipSpec of one CLIP argument with ``--asf``, ``(start, end[, fps, trim])`` and ``--bone-map``."""
+    from ..core.sources import ClipSpec
+
+    start, end, *rest = crop or (None, None)
+    fps, trim = rest if rest else (None, "auto")
+    return ClipSpec.parse(text, asf=asf or None, start=start, end=end, fps=fps, trim=trim, bone_map=bone_map)
+
+
+def bone_map_of(args):
+    return getattr(args, "bone_map", "auto") if args is not None else "auto"
+
+
+def load_one(spec, asf=None, crop=None, bone_map="auto"):
+    """The one clip a CLIP argument names, cropped, through ``--bone-map``."""
+    from ..core.sources import read_one
+
+    return read_one(clip_spec(spec, asf, crop, bone_map))
+
+
+def load_many(specs, asf=None, args=None):
+    """Every clip the CLIP arguments name (a .blend may hold several), cropped by ``args``."""
+    from ..core.sources import read
+
+    out = []
+    bar = progress(args, len(specs), "loading") if args is not None else NoBar()
+    try:
+        for spec in specs:
+            out.extend(read(clip_spec(spec, asf, crop_of(args), bone_map_of(args))))
+            bar.update()
+    finally:
+        bar.close()
+    return out
+
+
+def display_name(clip):
+    return clip.name
+
+
+def cache_dir(args, search):
+    """The signature cache folder of ``rank``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the per-user cache
+    (``core.index.default_cache_dir``); None (memory only) with --no-cache or when the folder cannot be made."""
+    if args.no_cache:
+        if args.cache:
+            raise CommandError("--cache and --no-cache contradict each other")
+        return None
+    cache_dir = args.cache or search.default_cache_dir()
+    try:
+        os.makedirs(cache_dir, exist_ok=True)
+    except OSError as exc:
+        if args.cache:
+            raise CommandError(f"cannot make the cache folder {cache_dir!r}: {exc.strerror or exc}") from None
+        sys.stderr.write(f"{PROG}: warning: no signature cache ({cache_dir}: {exc.strerror or exc})\n")
+        return None
+    return cache_dir
+
+
+def add_common(p, asf=True, crop=True):
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout and nothing else there")
+    p.add_argument("--debug", action="store_true", help="show the full traceback on errors")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    if asf:
+        p.add_argument("--asf", help="skeleton (.asf) for .amc clips (default: the only .asf beside each .amc)")
+    if asf:  # every clip-reading command
+        p.add_argument("--bone-map", default="auto", metavar="auto|none|FILE.json",
+                       help="match bones of different rigs through the canonical joints: auto (built-in name "
+                            "tables, default), none (exact bone names), or a saved map {\"bone\": \"joint\"}")
+        p.add_argument("--allow-partial", action="store_true",
+                       help="compare / blend even when under half of the moving joints are shared")
+    if crop:
+        p.add_argument("--start", type=int, metavar="FRAME",
+                       help="crop every clip to start at this frame (inclusive; wins over --trim at the start)")
+        p.add_argument("--end", type=int, metavar="FRAME", help="crop every clip to end at this frame (inclusive)")
+    p.add_argument("--trim", choices=("auto", "none"), default="auto",
+                   help="auto (default): drop detected rest-pose / ramp frames at both ends of every clip; "
+                        "none: keep every frame")
+    p.add_argument("--fps", type=float, metavar="F",
+                   help="frame rate of every clip (default: the file's: BVH Frame Time, AMC 120, an action's or "
+                        "its scene's)")
+
+
+def metric_help(default):
+    return (
+        "l2 (d_P*), elastic (d_S*), group (rho^n), concat (sigma_*^n), linear (sigma_L^n) or sim (sim^n, eq. 9.1); "
+        f"a level may be appended (sim3) (default: {default})"
+    )
+
+
+def add_metric(p, depth_help=f"DP search depth D for elastic (default {DEFAULT_DEPTH})"):
+    p.add_argument("--metric", default="sim", help=metric_help("sim"))
+    p.add_argument("--level", type=int, help=f"signature truncation level (default {DEFAULT_LEVEL})")
+    p.add_argument("--depth", type=int, default=DEFAULT_DEPTH, help=depth_help)

@@ -1,0 +1,29 @@
+"""Distance between two clips: ``distance A B --metric ...``."""
+
+from . import common as c
+
+
+def run(args):
+    from ..core.metrics import compare_clips, metric_label, parse_metric
+
+    base, level = parse_metric(args.metric, args.level)
+    a = c.load_one(args.a, args.asf, c.crop_of(args), args.bone_map)
+    b = c.load_one(args.b, args.asf, c.crop_of(args), args.bone_map)
+    got = compare_clips(a, b, base, level=level, depth=args.depth, allow_partial=args.allow_partial)
+    d = got["distance"]
+    label = metric_label(base, level)
+    out = {"distance": c.finite(d), "metric": label, "a": c.display_name(a), "b": c.display_name(b),
+           "bones": got["bones"], "coverage": got["coverage"]}
+    if base == "elastic":
+        out["depth"] = args.depth
+    text = f"{label}({a.name}, {b.name}) = {d:.6g}"
+    return out, text
+
+
+def add_parser(sub):
+    p = sub.add_parser("distance", help="distance between two clips", description="Distance between two clips.")
+    p.add_argument("a", metavar="A", help=c.CLIP_HELP)
+    p.add_argument("b", metavar="B", help=c.CLIP_HELP)
+    c.add_metric(p)
+    c.add_common(p)
+    p.set_defaults(func=run)

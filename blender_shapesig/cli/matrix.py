@@ -1,0 +1,67 @@
+"""Pairwise distance matrix with MDS and dendrogram: ``matrix CLIP... --out DIR``."""
+
+import os
+
+from . import common as c
+
+
+def run(args):
+    from .. import evaluation
+    from ..core.metrics import check_metric
+    from ..core.pairwise import clip_distance_matrix
+
+    label = check_metric(args.metric, args.level)
+    clips = c.load_many(args.clips, args.asf, args)
+    if len(clips) < 2:
+        raise c.CommandError("matrix needs at least two clips")
+    names = evaluation.unique_names([c.name for c in clips])
+    labels = None
+    if args.labels:
+        labels = evaluation.labels_from_csv(args.labels, names)
+    bar = c.progress(args, len(clips) * (len(clips) - 1) // 2, f"{label} matrix")
+    try:
+        D, seconds = clip_distance_matrix(clips, label, depth=args.depth, workers=args.workers, progress=bar.update)
+    finally:
+        bar.close()
+    # the output folder is made only once there is something to write into it
+    os.makedirs(args.out, exist_ok=True)
+    paths = evaluation.write_matrix(D, names, args.out)
+    figures = []
+    if not args.no_figures and len(clips) >= 3:
+        figures.append(
+            evaluation.plot_mds(D, names, labels, os.path.join(args.out, "mds.png"), title=f"MDS, {label}")
+        )
+        figures.append(
+            evaluation.plot_dendrogram(
+                D, names, labels, os.path.join(args.out, "dendrogram.png"), title=f"Dendrogram, {label}"
+            )
+        )
+    out = {
+        "matrix": paths["csv"],
+        "npy": paths["npy"],
+        "figures": figures,
+        "metric": label,
+        "clips": names,
+        "seconds": seconds,
+    }
+    text = f"wrote {paths['csv']} ({len(clips)} clips, {label}, {seconds:.2f} s)"
+    if figures:
+        text += "\n" + "\n".join(f"wrote {f}" for f in figures)
+    return out, text
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "matrix",
+        help="pairwise distance matrix, MDS and dendrogram",
+        description="Pairwise distances between clips (in parallel), written as DIR/matrix.csv and "
+        "DIR/matrix.npy with an MDS plot and a dendrogram.",
+    )
+    p.add_argument("clips", metavar="CLIP", nargs="+", help=c.CLIP_HELP)
+    c.add_metric(p)
+    p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
+    p.add_argument("--labels", metavar="CSV", help="colour the figures by the 'label' column of an index CSV")
+    p.add_argument("--no-figures", action="store_true", help="write only the matrix")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    c.add_common(p)
+    p.set_defaults(func=run)
