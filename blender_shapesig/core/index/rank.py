@@ -58,10 +58,16 @@ class RankResult:
     approximate: bool = False
     partial: bool = False
     coverage: float = 1.0  # joints compared / moving joints of the smaller clip (core.rigs.coverage)
+    start: Optional[int] = None  # a moment (``windows.rank_windows``): its frames in the clip's own numbers
+    end: Optional[int] = None
+    explain: Optional[dict] = None  # ``core.explain``: per-joint shares, cost over time
 
     def as_dict(self):
-        return {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
-                "source": self.source, "coverage": self.coverage}
+        out = {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
+               "source": self.source, "coverage": self.coverage}
+        if self.start is not None:
+            out.update(start=self.start, end=self.end)
+        return out
 
 
 class RankList(list):

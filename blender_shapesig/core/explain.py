@@ -1,0 +1,88 @@
+"""Why two clips differ: the share of each joint in their elastic distance, and the alignment cost over time.
+
+The elastic energy of an optimal DP path (d_S*^2, pinned or with a free window) is an integral over the query's
+time of |q0(t) - q1(phi(t)) sqrt(phi'(t))|^2, and the squared norm is a sum over joints, so the energy splits
+exactly into (query interval x joint) pieces (``subsequence.path_costs``). Summed over time, a joint's piece is
+its contribution: ``joints`` gives each bone's share of the energy (non-negative, summing to 1), ``groups`` the
+same summed over the canonical joint groups of ``core.rigs`` (spine and head, each arm, each leg) when the bones
+are canonical joints. Summed over joints, the pieces give ``cost_over_time``: the energy spent on each interval of
+the query on the comparison time base (``fps`` intervals a second; they sum to ``energy``), i.e. where in the
+query the match is poor. Shares are of the energy (the squared distance): they add up, the distances do not.
+"""
+
+import numpy as np
+
+from .clip import Clip, restrict_to_shared
+from .elastic import elastic_align
+from .errors import CurveError
+from .metrics import DEFAULT_DEPTH
+from .prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip
+from .rigs import BODY, LIMBS
+from .subsequence import path_costs
+
+__all__ = ["joint_group", "explain_path", "explain_clips", "top_joints"]
+
+ARM = LIMBS[:4]  # clavicle, upper_arm, forearm, hand; the rest of core.rigs.LIMBS is the leg
+
+
+def joint_group(bone):
+    """The canonical group of a bone named like ``core.rigs.JOINTS`` (e.g. 'forearm.L' -> 'left arm'), else None."""
+    if bone in BODY:
+        return "spine and head"
+    base, _, side = bone.rpartition(".")
+    if side in ("L", "R") and base in LIMBS:
+        limb = "arm" if base in ARM else "leg"
+        return f"{'left' if side == 'L' else 'right'} {limb}"
+    return None
+
+
+def _shares(values, names):
+    total = float(np.sum(values))
+    if total <= 0.0:
+        return {n: 1.0 / len(names) for n in names}
+    return {n: float(v) / total for n, v in zip(names, values)}
+
+
+def explain_path(R0, R1, nodes, bones, *, same_spacing, fps=COMPARE_FPS):
+    """The explanation of one DP path (see the module docstring): a dict with ``joints`` ({bone: share}),
+    ``groups`` ({group: share}, only when some bones are canonical joints), ``cost_over_time`` (energy per query
+    interval), ``fps`` and ``energy``. ``R0``, ``R1``, ``nodes``, ``same_spacing`` as for ``path_costs``."""
+    costs = np.maximum(path_costs(R0, R1, nodes, same_spacing=same_spacing), 0.0)  # rounding only
+    bones = list(bones)
+    if len(bones) != costs.shape[1]:
+        raise CurveError(f"{len(bones)} bone names for {costs.shape[1]} joints")
+    per_joint = costs.sum(axis=0)
+    out = {"joints": _shares(per_joint, bones), "cost_over_time": [float(x) for x in costs.sum(axis=1)],
+           "fps": float(fps), "energy": float(per_joint.sum())}
+    groups = {}
+    for b, v in zip(bones, per_joint):
+        g = joint_group(b)
+        if g is not None:
+            groups[g] = groups.get(g, 0.0) + float(v)
+    if groups:
+        groups["other"] = float(per_joint.sum()) - sum(groups.values())
+        if groups["other"] <= 1e-12 * max(float(per_joint.sum()), 1.0):
+            del groups["other"]
+        out["groups"] = _shares(list(groups.values()), list(groups))
+    return out
+
+
+def explain_clips(query: Clip, clip: Clip, window=None, depth=DEFAULT_DEPTH):
+    """``explain_path`` for two clips on their shared bones, on the comparison time base (the SRVT low-pass of
+    ``core.prepare``): the pinned elastic alignment of the query with ``clip``, or with its frames
+    ``window = (start, end)`` (the clip's own numbers, inclusive) for a moment."""
+    if window is not None:
+        clip = clip.crop(int(window[0]), int(window[1]))
+    a, b = restrict_to_shared(query, clip)
+    a, b = prepare_clip(a, smooth=SMOOTH_SECONDS), prepare_clip(b, smooth=SMOOTH_SECONDS)
+    for c in (a, b):
+        if c.frames < 2:
+            raise CurveError(f"clip {c.name!r} is too short to explain a distance")
+    _, _, info = elastic_align(a.rotations, b.rotations, depth=depth, return_info=True)
+    return explain_path(a.rotations, b.rotations, info["nodes"], a.bones, same_spacing=False, fps=a.fps)
+
+
+def top_joints(explanation, count=5, key="joints"):
+    """The ``count`` largest shares of an explanation as [(name, share)], largest first."""
+    items = sorted((explanation or {}).get(key, {}).items(), key=lambda kv: (-kv[1], kv[0]))
+    return items[:count]

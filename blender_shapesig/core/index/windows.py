@@ -1,0 +1,274 @@
+"""Moments: rank (clip, window) pairs against a query, not whole clips.
+
+Two stages, like the whole-clip search:
+
+1. **Shortlist by signatures.** On the comparison time base (``core.prepare``, ``COMPARE_FPS``), a clip's
+   development has the prefix signatures P_t = S(x)_{0,t}. By Chen's identity S(x)_{0,t} = S(x)_{0,s} ⊗
+   S(x)_{s,t}, so the signature of the window [s, t] is S(x)_{s,t} = P_s^{-1} ⊗ P_t, with P_s^{-1} the antipode
+   (``tensor.antipode``, exact for group-like elements). The prefixes are computed once per clip on a grid of
+   ``stride`` frames (each from the previous one and the signature of one stride of increments), and every
+   window of every scale is then one product of two of them. Windows last ``scales`` x the query's duration in
+   seconds (so re-timed copies, 0.8x to 1.25x, are met by some scale) and start every ``stride`` (a fraction
+   ``STRIDE`` of the query's duration); a clip shorter than a window is one window, the whole clip. Each window is
+   compared with the query by sim^n (eq. 9.1) in tensor coordinates (``tensor.log``; the norm is the orthonormal
+   one of ``signatures``) at ``WINDOW_LEVEL`` = 2: a level-3 prefix over 30 moving joints holds 90^3 = 729,000
+   numbers, and a clip needs hundreds of prefixes, so level 3 would cost gigabytes where level 2 costs
+   megabytes.
+2. **Refine by the elastic distance with a free window.** For the ``rerank`` clips whose best windows are
+   closest, the open-begin/open-end DP (``core.subsequence``) matches the whole query against the clip around
+   its ``REFINE_WINDOWS`` best non-overlapping windows (each padded by ``PAD`` of its length on both sides): the
+   path's ends are the moment's frames, its energy's square root the result's ``elastic``. The refined results
+   are ordered by it, before the others.
+
+Results are ``RankResult``s with ``start``/``end`` in the clip's own frame numbers (``Clip.frame_start``, so a
+crop or a trim is accounted for): comparison frame f of a clip of N frames at F fps maps to frame
+``frame_start + round(f * (N - 1) / (M - 1))`` with M the comparison frames (the same duration).
+"""
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from .. import so3, tensor
+from ..clip import Clip, restrict_to_shared
+from ..errors import CurveError, ShapeSigError
+from ..metrics import DEFAULT_DEPTH
+from ..prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
+from ..rigs import MIN_COVERAGE, coverage
+from ..signatures import normalized_difference
+from ..sources import LibraryItem, as_items
+from .rank import FEW_SHARED, RankList, RankResult
+
+__all__ = ["WINDOW_LEVEL", "SCALES", "STRIDE", "REFINE", "prefix_signatures", "window_log_signatures",
+           "clip_windows", "rank_windows", "query_clip", "retimed_excerpt"]
+
+WINDOW_LEVEL = 2
+SCALES = (0.67, 0.8, 1.0, 1.25, 1.5)
+STRIDE = 0.1       # window starts every STRIDE x the query's duration
+REFINE = 10        # clips refined by the free-window DP when no rerank is asked
+REFINE_WINDOWS = 3  # best non-overlapping windows of a clip refined
+PAD = 0.5          # each refined window is padded by PAD x its length on both sides
+
+
+def _increments(R):
+    """The development's increments (frames-1, 3 joints)."""
+    inc = so3.relative_rotvecs(R)
+    return inc.reshape(inc.shape[0], -1)
+
+
+def prefix_signatures(dx, positions, level=WINDOW_LEVEL):
+    """Prefix signatures P_p = S(x)_{0,p} (tensors, levels 0..level) of the path with increments ``dx`` at the
+    increasing frame ``positions`` (0 <= p <= len(dx)), each from the previous one by Chen's identity."""
+    dim = dx.shape[1]
+    out, prev, cur = [], 0, tensor.one(dim, level)
+    for p in positions:
+        if p > prev:
+            cur = tensor.mul(cur, tensor.signature_from_increments(dx[prev:p], level), level)
+            prev = p
+        out.append(cur)
+    return out
+
+
+def window_log_signatures(prefixes, pairs, dim, level=WINDOW_LEVEL):
+    """Flattened log-signatures (tensor coordinates) of the windows (a, b) between prefixes a and b:
+    log(P_a^{-1} ⊗ P_b)."""
+    inverse = {}
+    out = []
+    for a, b in pairs:
+        if a not in inverse:
+            inverse[a] = tensor.antipode(prefixes[a], dim)
+        out.append(tensor.flatten(tensor.log(tensor.mul(inverse[a], prefixes[b], level))))
+    return out
+
+
+def _log_signature(dx, level):
+    return tensor.flatten(tensor.log(tensor.signature_from_increments(dx, level)))
+
+
+def clip_windows(query_frames, frames, scales=SCALES, stride=STRIDE):
+    """Windows (start, end) in comparison frames of a clip of ``frames`` for a query of ``query_frames``
+    (inclusive ends), and the grid of prefix positions they start and end on."""
+    n = frames - 1
+    step = max(1, int(round(stride * (query_frames - 1))))
+    lengths = sorted({max(1, int(round(s * (query_frames - 1)))) for s in scales})
+    wins = set()
+    for length in lengths:
+        if length >= n:
+            wins.add((0, n))
+            continue
+        starts = list(range(0, n - length + 1, step))
+        if starts[-1] != n - length:
+            starts.append(n - length)  # the last window ends on the clip's last frame
+        wins.update((s, s + length) for s in starts)
+    wins = sorted(wins)
+    grid = sorted({p for w in wins for p in w})
+    return wins, grid
+
+
+def _to_clip_frame(clip: Clip, frames_compared, f):
+    return int(clip.frame_start + round(f * (clip.frames - 1) / max(frames_compared - 1, 1)))
+
+
+class _Query:
+    """The query on the comparison time base, per set of shared bones (prepared once each)."""
+
+    def __init__(self, clip, level):
+        self.clip, self.level, self._cache = clip, level, {}
+
+    def pair(self, clip):
+        a, b = restrict_to_shared(self.clip, clip)
+        if a.bones not in self._cache:
+            sig = prepare_clip(a, smooth=SIGNATURE_SMOOTH_SECONDS)
+            self._cache[a.bones] = (sig, _log_signature(_increments(sig.rotations), self.level))
+        return a, b, self._cache[a.bones]
+
+
+def _best_windows(query, clip, level, scales, stride):
+    """(sorted [(sim, start, end)] in comparison frames, the clip on the signature time base)."""
+    q, b, (qsig, qlog) = query.pair(clip)
+    bsig = prepare_clip(b, smooth=SIGNATURE_SMOOTH_SECONDS)
+    dx = _increments(bsig.rotations)
+    wins, grid = clip_windows(qsig.frames, bsig.frames, scales, stride)
+    where = {p: i for i, p in enumerate(grid)}
+    prefixes = prefix_signatures(dx, grid, level)
+    logs = window_log_signatures(prefixes, [(where[s], where[e]) for s, e in wins], dx.shape[1], level)
+    scored = sorted((normalized_difference(qlog, w), s, e) for w, (s, e) in zip(logs, wins))
+    return scored, bsig
+
+
+def _distinct(scored, count):
+    """The best ``count`` windows none of which contains another's centre."""
+    out = []
+    for d, s, e in scored:
+        if all(not (s <= (a + b) / 2 <= e or a <= (s + e) / 2 <= b) for _, a, b in out):
+            out.append((d, s, e))
+            if len(out) == count:
+                break
+    return out
+
+
+def _refine(query, clip, windows, depth):
+    """(elastic, start, end) in comparison frames of the best free-window match around ``windows``."""
+    from ..subsequence import subsequence_align  # numba is imported only when a refinement needs the DP
+
+    a, b, _ = query.pair(clip)
+    qa, cb = prepare_clip(a, smooth=SMOOTH_SECONDS), prepare_clip(b, smooth=SMOOTH_SECONDS)
+    best = None
+    for _, s, e in windows:
+        pad = int(np.ceil(PAD * (e - s)))
+        lo, hi = max(0, s - pad), min(cb.frames - 1, e + pad)
+        if hi - lo < 1:
+            continue
+        try:
+            m = subsequence_align(qa.rotations, cb.rotations[lo:hi + 1], depth=depth)
+        except CurveError:
+            continue
+        if best is None or m.distance < best[0]:
+            best = (m.distance, m.start + lo, m.end + lo, m.nodes + np.array([0, lo]))
+    return best, qa, cb
+
+
+def _moment(query, item, clip, level, scales, stride, allow_partial, warnings, skipped):
+    """The clip's best window as a RankResult (with private fields for the refinement), or None."""
+    shared, cov = coverage(query.clip, clip)
+    if not allow_partial and cov < MIN_COVERAGE:
+        skipped.append(clip.name)
+        warnings.append(f"{clip.name}: coverage {cov:.2f} < {MIN_COVERAGE} of the moving joints; skipped "
+                        f"(allow partial matches to rank it)")
+        return None
+    try:
+        scored, bsig = _best_windows(query, clip, level, scales, stride)
+    except CurveError as exc:
+        skipped.append(clip.name)
+        warnings.append(f"{clip.name}: {exc}; skipped")
+        return None
+    d, s, e = scored[0]
+    r = RankResult(name=clip.name, distance=float(d), frames=clip.frames, key=item.key,
+                   source=clip.source or item.source, shared=shared, coverage=cov, partial=cov < FEW_SHARED,
+                   start=_to_clip_frame(clip, bsig.frames, s), end=_to_clip_frame(clip, bsig.frames, e))
+    return r, (clip, scored, bsig.frames)
+
+
+def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, depth=DEFAULT_DEPTH,
+                 scales=SCALES, stride=STRIDE, explain=False, progress=None, exclude=(), allow_partial=True,
+                 errors=None) -> RankList:
+    """Rank the moments of ``library`` (Clips or LibraryItems) that look like ``query`` (a Clip), best first.
+
+    Every clip contributes its best window (see the module docstring); ``rerank`` clips (default ``REFINE``;
+    0: signatures only) are refined by the free-window elastic DP, which sets their window and ``elastic``, and
+    come first, ordered by it. ``explain``: refined results get ``explain`` (``core.explain.explain_path`` of
+    their DP path). ``top``: keep the first ``top``. ``exclude``: item keys or names to leave out. Clips sharing
+    few of the query's moving joints are ``partial`` and ranked after the others; with ``allow_partial=False``
+    clips below ``rigs.MIN_COVERAGE`` are skipped with a warning."""
+    query = query_clip(query)
+    t0 = time.perf_counter()
+    rerank = REFINE if rerank is None else max(int(rerank), 0)
+    items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
+    q = _Query(query, int(level))
+    warnings, skipped, found = [], [], []
+    for i, item in enumerate(items):
+        if progress is not None and progress(i, len(items), item.name) is False:
+            break
+        try:
+            clips = item.clips()
+        except ShapeSigError as exc:
+            if errors is None:
+                raise
+            errors.append(f"{item.name}: {exc}")
+            continue
+        for clip in clips:
+            got = _moment(q, item, clip, int(level), scales, stride, allow_partial, warnings, skipped)
+            if got is not None:
+                found.append(got)
+    if progress is not None:
+        progress(len(items), len(items), "")
+    found.sort(key=lambda rc: (rc[0].partial, rc[0].distance, rc[0].name))
+    head = found[:rerank]
+    for r, (clip, scored, compared) in head:
+        best, qa, cb = _refine(q, clip, _distinct(scored, REFINE_WINDOWS), depth)
+        if best is None:
+            continue
+        r.elastic = float(best[0])
+        r.start, r.end = _to_clip_frame(clip, compared, best[1]), _to_clip_frame(clip, compared, best[2])
+        if explain:
+            from ..explain import explain_path
+
+            r.explain = explain_path(qa.rotations, cb.rotations, best[3], qa.bones, same_spacing=True, fps=qa.fps)
+    head.sort(key=lambda rc: (rc[0].partial, np.inf if rc[0].elastic is None else rc[0].elastic,
+                              rc[0].distance, rc[0].name))
+    results = [r for r, _ in head + found[rerank:]]
+    if top is not None:
+        results = results[:int(top)]
+    stats = {"compared": len(found), "library": len(items), "refined": len(head),
+             "seconds": time.perf_counter() - t0}
+    return RankList(results, warnings, skipped, stats)
+
+
+def query_clip(query) -> Clip:
+    """The query of ``rank_windows`` from a Clip or a LibraryItem holding one clip."""
+    if isinstance(query, LibraryItem):
+        clips = query.clips()
+        if len(clips) != 1:
+            raise ShapeSigError(f"query {query.name!r} holds {len(clips)} clips; choose one")
+        return clips[0]
+    if not isinstance(query, Clip):
+        raise ShapeSigError(f"the query must be a Clip, got {type(query).__name__}")
+    return query
+
+
+def retimed_excerpt(clip: Clip, start, end, speed, name=None) -> Clip:
+    """Frames ``start``..``end`` (the clip's own numbers) played ``speed`` times as fast, at the clip's frame rate
+    (resampled along geodesics, eq. 5.8; the root path linearly): the test and benchmark query of a moment."""
+    from ..curves import geodesic_interpolate
+
+    part = clip.crop(start, end)
+    n = max(2, int(round((part.frames - 1) / float(speed))) + 1)
+    t = np.linspace(0.0, 1.0, n)
+    R = geodesic_interpolate(part.rotations, None, t)
+    root = part.root_translation
+    if root is not None:
+        x = np.linspace(0.0, 1.0, part.frames)
+        root = np.stack([np.interp(t, x, root[:, i]) for i in range(3)], axis=1)
+    return replace(part, name=name or f"{clip.name}[{start}:{end}]x{speed:g}", rotations=R, root_translation=root,
+                   frame_start=1, meta=dict(part.meta, excerpt=(int(start), int(end), float(speed))))
