@@ -13,6 +13,30 @@ def library_items(specs, args):
     return [spec_item(c.clip_spec(s, args.asf, c.crop_of(args), args.bone_map).check()) for s in specs]
 
 
+def _rank_windows(query, items, args, progress):
+    """``rank --windows``: moments of the clips (``core.index.windows``), the signature stage at level 2."""
+    from ..core.index.windows import rank_windows
+
+    if args.metric not in ("sim", "sim2") or args.level not in (None, 2):
+        raise c.CommandError("--windows ranks by sim2 (then elastic): leave --metric and --level out")
+    return rank_windows(query, items, rerank=args.rerank, top=args.top, depth=args.depth, explain=bool(args.explain),
+                        progress=progress, allow_partial=args.allow_partial)
+
+
+def _explanation(query, item, result, args):
+    """``--explain``: the result's per-joint shares and alignment cost (``core.explain``), from its DP path when
+    the moment search made one, else from the elastic alignment of the two clips (or of the window)."""
+    from ..core.explain import explain_clips
+
+    if result.explain is not None:
+        return result.explain
+    if item is None:
+        return None
+    clip = next((x for x in item.clips() if x.name == result.name), None)
+    window = None if result.start is None else (result.start, result.end)
+    return None if clip is None else explain_clips(query, clip, window, depth=args.depth)
+
+
 def run(args):
     from ..core import search
     from ..core.metrics import metric_label, parse_metric
@@ -22,6 +46,8 @@ def run(args):
         raise c.CommandError("--rerank must be 0 or more")
     if args.top is not None and args.top < 1:
         raise c.CommandError("--top must be 1 or more")
+    if args.explain < 0:
+        raise c.CommandError("--explain must be 0 or more")
     from ..core.sources import read_one, spec_item
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
@@ -41,9 +67,12 @@ def run(args):
             done[0] = i
 
     try:
-        results = search.rank_clips(query_item, items, metric=base, level=level, rerank=args.rerank or 0,
-                                    top=args.top, cache=cache, depth=args.depth, progress=progress,
-                                    allow_partial=args.allow_partial)
+        if args.windows:
+            results = _rank_windows(query, items, args, progress)
+        else:
+            results = search.rank_clips(query_item, items, metric=base, level=level, rerank=args.rerank or 0,
+                                        top=args.top, cache=cache, depth=args.depth, progress=progress,
+                                        allow_partial=args.allow_partial)
     finally:
         bar.close()
     for w in getattr(results, "warnings", []):
@@ -62,7 +91,11 @@ def run(args):
         action = (item.action or r.name) if path and path.lower().endswith(".blend") else None
         rows.append({"clip": r.name, "distance": c.finite(r.distance), "elastic": c.finite(r.elastic),
                      "path": path, "action": action, "coverage": r.coverage})
-    label = metric_label(base, level)
+        if r.start is not None:
+            rows[-1].update(start=r.start, end=r.end)
+        if args.explain and len(rows) <= args.explain:
+            rows[-1]["explain"] = _explanation(query, item, r, args)
+    label = "sim2 windows" if args.windows else metric_label(base, level)
     stats = dict(getattr(results, "stats", {}) or {})
     out = {"query": query.name, "metric": label, "results": rows,
            "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}}
@@ -70,7 +103,12 @@ def run(args):
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
         dist = "nan" if r["distance"] is None else f"{r['distance']:.6g}"
-        lines.append(f"{i:3d}. {r['clip']}  {dist}{el}")
+        win = f"  frames {r['start']}-{r['end']}" if "start" in r else ""
+        lines.append(f"{i:3d}. {r['clip']}{win}  {dist}{el}")
+        if "explain" in r:
+            from ..core.explain import top_joints
+
+            lines.append("       " + ", ".join(f"{n} {v:.0%}" for n, v in top_joints(r["explain"], 4)))
     return out, "\n".join(lines)
 
 
@@ -85,7 +123,14 @@ def add_parser(sub):
     p.add_argument("query", metavar="QUERY", help=c.CLIP_HELP)
     p.add_argument("clips", metavar="CLIP", nargs="+", help=c.CLIP_HELP)
     c.add_metric(p, depth_help=f"DP search depth D for the elastic re-rank (default {c.DEFAULT_DEPTH})")
-    p.add_argument("--rerank", type=int, default=0, metavar="K", help="re-order the first K by elastic distance")
+    p.add_argument("--rerank", type=int, default=None, metavar="K",
+                   help="re-order the first K by elastic distance (with --windows: refine the first K moments by "
+                   "the free-window elastic DP, default 10)")
+    p.add_argument("--windows", action="store_true",
+                   help="rank moments inside the clips: each result adds the matching frames (start, end)")
+    p.add_argument("--explain", type=int, nargs="?", const=5, default=0, metavar="K",
+                   help="explain the first K results (default 5): per-joint shares of the elastic distance and "
+                   "the alignment cost over time")
     p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
     p.add_argument("--cache", metavar="DIR",
                    help="signature cache folder (default $SHAPESIG_CACHE_DIR, else the per-user cache folder)")
