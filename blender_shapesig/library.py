@@ -18,6 +18,7 @@ Source actions are only read, never modified.
 
 import fnmatch
 import hashlib
+import json
 import os
 import time
 from dataclasses import dataclass
@@ -29,6 +30,7 @@ import bpy
 
 from . import action_changes, action_io, compat, rigmap
 from .core import index, rigs, sources
+from .core.index.windows import WINDOW_LEVEL, rank_windows
 from .core.errors import ShapeSigError, check_frame_range, check_integer
 from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, results_of, settings_of
@@ -400,6 +402,8 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
         # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
+        row.window_action = ""
+        row.explain = json.dumps(r.explain) if getattr(r, "explain", None) else ""
     out.results_index = 0
     out.query_name = query_name
     out.order_by = order_by
@@ -432,6 +436,8 @@ class RankJob:
         self.cache, self.level = get_cache(context), settings.level
         self.rerank, self.top = max(int(settings.rerank), 0), max(int(settings.top), 0)
         todo = [it for it in [self.query] + self.items if not self.cache.contains(it.key, self.level)]
+        if settings.use_windows:
+            todo = []  # moments read the clips themselves (core.index.windows), not the signature index
         self.errors, self.failed, self.indexed = [], set(), 0
         self._entries = index.iter_entries(todo, self.level, self.cache, self.errors)
         self.total = len(todo) + 1 + self.rerank
@@ -478,6 +484,8 @@ class RankJob:
         items = [it for it in self.items if it.key not in self.failed]
         if not items:
             raise ShapeSigError(f"no library clip could be read ({self.errors[0]})")
+        if self.settings.use_windows:
+            return self._rank_windows(items)
         cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
         self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
                                        cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
@@ -488,6 +496,17 @@ class RankJob:
         self.total = self.done + len(self._head)
         if not self._head:
             self._order()
+
+    def _rank_windows(self, items):
+        """Moments (``core.index.windows.rank_windows``), explained: one step (the refinement of the first K runs
+        inside it)."""
+        self.ranked = rank_windows(self.query, items, rerank=self.rerank, top=self.top or None,
+                                   depth=self.settings.depth, explain=True, errors=self.errors)
+        self.warnings = self.errors + self.ranked.warnings
+        self.compared = self.ranked.stats.get("compared", len(items))
+        self.by_key = {it.key: it for it in items}
+        self._head = []
+        self._order()
 
     def _elastic(self, r):
         """d_S* of one row: rank_clips' elastic metric on that one clip (its shared bones, the same depth)."""
@@ -509,7 +528,8 @@ class RankJob:
         """Write the rows and the status message; returns the message."""
         entries = self.cache.get(self.query.key, self.level) or []
         q_bones = len(entries[0].bones) if entries else 0
-        column = {"sim": f"sim^{self.level}", "elastic": ELASTIC_COLUMN}[self.order_by]
+        level = WINDOW_LEVEL if self.settings.use_windows else self.level
+        column = {"sim": f"sim^{level}", "elastic": ELASTIC_COLUMN}[self.order_by]
         store_results(self.settings, self.rows, self.items, self.action.name, column, q_bones,
                       time.perf_counter() - self.t0)
         out = results_of()
@@ -519,7 +539,7 @@ class RankJob:
             msg += f", {len(self.failed)} could not be read"
         msg += f"; {out.seconds:.2f} s"
         if self.rerank:
-            msg += f"; the best {len(self.rows)} by sim^{self.level} re-ranked"
+            msg += f"; the best {len(self.rows)} by sim^{level} re-ranked"
         if self.not_listed:
             msg += f"; {self.not_listed} more not listed (raise {'Re-rank' if self.rerank else 'Show'})"
         if self.warnings:

@@ -55,6 +55,11 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                             precision=2)
     frame_first: IntProperty(name="First Frame", description="First frame of the matched clip or window")
     frame_last: IntProperty(name="Last Frame", description="Last frame of the matched clip or window")
+    # issue 19: moments and explanations
+    window_action: StringProperty(name="Window Action", description="The action written for the matched window "
+                                  "(Assign / Preview of a moment); Blend uses it")
+    explain: StringProperty(name="Explanation", description="Why different (JSON, core.explain): per-joint "
+                            "shares of the elastic distance and the alignment cost over time")
 
 
 class ShapeSigResults(bpy.types.PropertyGroup):
@@ -101,6 +106,9 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                             "0 keeps all",
                             default=0, soft_min=0)
     # search
+    use_windows: BoolProperty(name="Moments", description="Rank moments inside the clips (the best window of each, "
+                              "refined by the elastic distance with a free start and end); Assign, Preview and "
+                              "Blend use the window", default=False)
     level: IntProperty(name="Level", description="Log-signature level n of sim^n", default=DEFAULT_LEVEL,
                        soft_min=1, soft_max=PANEL_MAX_LEVEL)
     # default 10: the evaluation's winner (docs/evaluation.md): a sim^3 shortlist re-ranked by d_S* over the top

@@ -11,7 +11,8 @@ from .core import sources
 from .core.errors import ShapeSigError
 from .properties import results_of
 
-__all__ = ["selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result"]
+__all__ = ["selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result",
+           "window_action", "explain_result"]
 
 
 def selected_action(context, settings):
@@ -23,7 +24,10 @@ def selected_action(context, settings):
 
 def result_action(settings, obj, row):
     """The bpy action of a result row; a folder clip is first read (``core.sources``) and written as a new
-    action on ``obj`` (the row then names that action; ``row.spec`` keeps the file)."""
+    action on ``obj`` (the row then names that action; ``row.spec`` keeps the file). A moment (``row.frame_last``):
+    its window as an action (``window_action``)."""
+    if row.frame_last:
+        return window_action(settings, obj, row)
     if row.is_action:
         action = bpy.data.actions.get(row.source)
         if action is not None:
@@ -31,15 +35,68 @@ def result_action(settings, obj, row):
         if not row.spec:
             raise ShapeSigError(f"the action {row.source!r} no longer exists")
         row.is_action, row.source = False, row.spec  # its written action was undone or removed: read it again
+    clip = _file_clip(settings, row)
+    action = action_io.write_action(clip, armature=obj, name=clip.name)
+    row.is_action = True
+    row.source = action.name
+    return action
+
+
+def _file_clip(settings, row):
+    """The clip of a folder result, read as the search read it (skeleton, crop)."""
     asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
     loaded = sources.read(sources.ClipSpec.parse(row.spec or row.source, asf=asf))
     clip = next((c for c in loaded if c.name == row.clip_name), loaded[0])
     if settings.crop_start and clip.frame_end >= settings.crop_start:
         clip = clip.crop(start=settings.crop_start)
-    action = action_io.write_action(clip, armature=obj, name=clip.name)
-    row.is_action = True
-    row.source = action.name
+    return clip
+
+
+def window_action(settings, obj, row):
+    """The action of a moment: frames ``row.frame_first..frame_last`` (the clip's own numbers) of the result,
+    written once as a new action on ``obj`` (named ``NAME[first-last]``) and remembered in ``row.window_action``;
+    the source action is only read."""
+    got = bpy.data.actions.get(row.window_action) if row.window_action else None
+    if got is not None:
+        return got
+    first, last = row.frame_first, row.frame_last
+    source = bpy.data.actions.get(row.source) if row.is_action else None
+    if source is not None:
+        name = f"{source.name}[{first}-{last}]"
+        clip = action_io.read_action(source, armature=obj, frame_range=(first, last), exclude_unkeyed=True,
+                                     name=name)
+    elif row.is_action and not row.spec:
+        raise ShapeSigError(f"the action {row.source!r} no longer exists")
+    else:
+        clip = _file_clip(settings, row).crop(first, last)
+        name = f"{clip.name}[{first}-{last}]"
+    action = action_io.write_action(clip, armature=obj, name=name)
+    row.window_action = action.name
     return action
+
+
+def explain_result(context, settings):
+    """Why the selected result differs from the query (``core.explain.explain_clips``, on its window for a
+    moment): stored as JSON in ``row.explain``; returns the explanation."""
+    from .core.explain import explain_clips
+
+    library.check_problem(library.result_problem(context, settings))
+    obj, _action, q = library.query_item(context, settings)
+    row = results_of().results[results_of().results_index]
+    action = bpy.data.actions.get(row.source) if row.is_action else None
+    if action is not None:
+        item = library.action_item(action, obj)
+    else:
+        item = next((it for it in library.library_items(context, settings, obj)
+                     if row.spec in (it.source, f"{it.source}#{row.clip_name}")), None)
+        if item is None:
+            raise ShapeSigError(f"the result {row.label or row.name!r} is no longer in the library")
+    clips = item.clips()
+    clip = next((c for c in clips if c.name == row.clip_name), clips[0])
+    window = (row.frame_first, row.frame_last) if row.frame_last else None
+    out = explain_clips(q.clips()[0], clip, window, depth=settings.depth)
+    row.explain = json.dumps(out)
+    return out
 
 
 def start_preview(context, settings, obj, action, written=""):
@@ -110,6 +167,8 @@ def stop_preview(context, settings, keep=""):
 def _forget_written(name):
     """Result rows that named an action written for a preview point back at their file."""
     for row in results_of().results:
+        if row.window_action == name:
+            row.window_action = ""
         if row.is_action and row.source == name and row.spec:
             row.is_action, row.source = False, row.spec
 
@@ -121,8 +180,9 @@ def preview_result(context, settings):
     library.check_problem(library.result_problem(context, settings))
     row = results_of().results[results_of().results_index]
     was_file = not row.is_action
+    fresh = bool(row.frame_last) and bpy.data.actions.get(row.window_action or "") is None  # a moment's window
     obj, action = selected_action(context, settings)
-    start_preview(context, settings, obj, action, written=action.name if was_file else "")
+    start_preview(context, settings, obj, action, written=action.name if (was_file or fresh) else "")
     return action
 
 
@@ -133,7 +193,8 @@ def assign_result(context, settings):
     library.check_problem(library.result_problem(context, settings))
     if settings.preview_object:
         row = results_of().results[results_of().results_index]
-        stop_preview(context, settings, keep=row.source if row.is_action else "")
+        keep = row.window_action if row.frame_last else (row.source if row.is_action else "")
+        stop_preview(context, settings, keep=keep)
     obj, action = selected_action(context, settings)
     action_io.assign_action(obj, action)
     return obj, action

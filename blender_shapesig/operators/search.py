@@ -17,6 +17,7 @@ and in the error of a script's call.
   written as a new action).
 * ``shapesig.preview_result``: assign the result temporarily and play; run again to stop and restore.
 * ``shapesig.clear_index``: delete the cache files.
+* ``shapesig.explain_result``: why the selected result differs (``core.explain``), stored on its row for the panel.
 """
 
 import time
@@ -26,6 +27,7 @@ from bpy.props import BoolProperty
 
 from .. import library, results
 from ..core import index
+from ..core.explain import top_joints
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
 from ..library import CACHES as _CACHES  # noqa: F401
@@ -333,6 +335,28 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class SHAPESIG_OT_explain_result(bpy.types.Operator):
+    """Why the selected result differs from the query: each joint's share of the elastic distance and the
+    alignment cost over the query's time"""
+
+    bl_idname = "shapesig.explain_result"
+    bl_label = "Why Different"
+    bl_options = {"REGISTER"}  # writes only the transient result row
+
+    poll = _poll_with(library.result_problem)
+
+    def execute(self, context):
+        try:
+            out = results.explain_result(context, library.settings_of(context))
+        except ShapeSigError as exc:
+            self.report({"ERROR"}, f"Why Different: {exc}")
+            return {"CANCELLED"}
+        name, share = top_joints(out, 1, "groups" if out.get("groups") else "joints")[0]
+        self.report({"INFO"}, f"largest share: {name} {share:.0%}")
+        _tag_redraw(context)
+        return {"FINISHED"}
+
+
 class SHAPESIG_OT_clear_index(bpy.types.Operator):
     """Delete the signature index files (they are rebuilt when needed)"""
 
@@ -353,4 +377,4 @@ class SHAPESIG_OT_clear_index(bpy.types.Operator):
 
 
 classes = (SHAPESIG_OT_build_index, SHAPESIG_OT_rank, SHAPESIG_OT_assign_result, SHAPESIG_OT_preview_result,
-           SHAPESIG_OT_clear_index)
+           SHAPESIG_OT_clear_index, SHAPESIG_OT_explain_result)

@@ -10,9 +10,16 @@ their preconditions (their buttons grey out, with the reason as tooltip); the pa
 label (``library.search_problem``), never an exception.
 """
 
+import json
+
 import bpy
 
 from .. import library
+from ..core.explain import top_joints
+
+# the "Why different" box: bars of the largest shares, and the cost over time in this many cells
+EXPLAIN_BARS = 5
+STRIP_CELLS = 24
 
 __all__ = ["classes", "SHAPESIG_UL_results", "draw_search"]
 
@@ -120,6 +127,7 @@ def _draw_library(layout, s):
 
 def _draw_search(layout, context, s):
     col = layout.column(align=True)
+    col.prop(s, "use_windows", toggle=True, icon="SEQUENCE")
     row = col.row(align=True)
     row.prop(s, "level")
     row.prop(s, "rerank")
@@ -171,6 +179,7 @@ def _draw_results(layout, s, res):
     info.label(text=f"{window}, compared on {item.shared} bones{cover}")
     if item.spec:
         info.label(text=item.spec, icon="FILE")
+    _draw_explanation(layout, item)
     row = layout.row(align=True)
     row.operator("shapesig.assign_result", icon="CHECKMARK", text="Assign")
     if s.preview_object:
@@ -184,8 +193,55 @@ def _draw_results(layout, s, res):
     op = sub.operator("shapesig.blend_actions", icon="MOD_DATA_TRANSFER", text="Blend")
     op.action_a = query
     op.action_b = item.source if item.is_action else ""
-    if not item.is_action:
+    if item.frame_last:  # a moment blends its window, written by Assign or Preview
+        sub.enabled = bool(query) and item.window_action in bpy.data.actions
+        op.action_b = item.window_action
+        if not sub.enabled:
+            layout.label(text="Assign or preview the moment to blend it.", icon="INFO")
+    elif not item.is_action:
         layout.label(text="Assign a file result to blend it.", icon="INFO")
+
+
+def _strip(values, cells):
+    """``values`` (cost per query interval) averaged into ``cells`` bins, scaled to the largest (0..1)."""
+    n = len(values)
+    if n == 0:
+        return []
+    bins = [values[i * n // cells:max((i + 1) * n // cells, i * n // cells + 1)] for i in range(min(cells, n))]
+    means = [sum(b) / len(b) for b in bins]
+    top = max(means)
+    return [m / top if top > 0 else 0.0 for m in means]
+
+
+def _draw_explanation(layout, item):
+    """Why different: the largest joint (group) shares as bars and the alignment cost along the query as a strip
+    (``core.explain``); a button computes it when the search did not."""
+    box = layout.box()
+    head = box.row(align=True)
+    head.label(text="Why different", icon="ARMATURE_DATA")
+    head.operator("shapesig.explain_result", text="", icon="FILE_REFRESH")
+    if not item.explain:
+        box.label(text="Press the button to explain this result.")
+        return
+    try:
+        ex = json.loads(item.explain)
+    except ValueError:
+        return
+    key = "groups" if ex.get("groups") else "joints"
+    col = box.column(align=True)
+    for name, share in top_joints(ex, EXPLAIN_BARS, key):
+        row = col.row(align=True)
+        split = row.split(factor=0.4)
+        split.label(text=name)
+        split.progress(factor=float(share), type="BAR", text=f"{share:.0%}")
+    if key == "groups":
+        col.label(text="Joints: " + ", ".join(f"{n} {v:.0%}" for n, v in top_joints(ex, 3)))
+    cells = _strip(ex.get("cost_over_time", []), STRIP_CELLS)
+    if cells:
+        box.label(text="Cost along the query (start to end)")
+        row = box.row(align=True)
+        for v in cells:
+            row.progress(factor=v, type="BAR", text="")
 
 
 def draw_search(layout, context):

@@ -1,0 +1,109 @@
+"""Moments and "Why different" in Blender (issue 19) on real CMU clips: with the panel's Moments toggle, a re-timed
+excerpt of the 16_15 walk (a 471-frame take, imported with Blender's BVH importer) is found in its take with the
+right window; Assign, Preview and Blend use the window; the explanation is stored on the row and drawn (bars and
+a strip); Why Different explains a whole-clip result."""
+
+import contextlib
+import io
+import json
+import pathlib
+
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig.core import search  # noqa: E402
+from blender_shapesig.core.index.windows import retimed_excerpt  # noqa: E402
+
+DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
+FIRST, LAST, SPEED = 101, 340, 1.25
+
+
+def _import_bvh(path, action_name):
+    try:
+        bpy.ops.import_anim.bvh.get_rna_type()
+    except (AttributeError, KeyError):
+        import addon_utils
+
+        addon_utils.enable("io_anim_bvh", default_set=False)
+    with contextlib.redirect_stdout(io.StringIO()):
+        bpy.ops.import_anim.bvh(filepath=str(path), rotate_mode="NATIVE", frame_start=1, use_fps_scale=False,
+                                update_scene_fps=False, update_scene_duration=False)
+    obj = bpy.context.view_layer.objects.active
+    obj.animation_data.action.name = action_name
+    obj.animation_data.action.use_fake_user = True
+    return obj
+
+
+@pytest.fixture
+def take(empty_file, monkeypatch, tmp_path):
+    """The 16_15 armature with its take ('take'); the query 'query' is frames 101-340 of the take played 1.25x as
+    fast, and 'other' its first half second played at half speed, both written as actions of the same armature
+    (the query active)."""
+    monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
+    arm = _import_bvh(DATA / "acclaim" / "16_15.bvh", "take")
+    clip = action_io.read_action(bpy.data.actions["take"], armature=arm)
+    query = action_io.write_action(retimed_excerpt(clip, FIRST, LAST, SPEED), armature=arm, name="query")
+    query.use_fake_user = True
+    other = action_io.write_action(retimed_excerpt(clip, 1, 60, 0.5), armature=arm, name="other")
+    other.use_fake_user = True
+    compat.assign_action(arm, query)
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    return arm
+
+
+def _rows():
+    return bpy.context.window_manager.shapesig_results.results
+
+
+def _iou(a, b):
+    inter = max(0, min(a[1], b[1]) - max(a[0], b[0]) + 1)
+    return inter / (max(a[1], b[1]) - min(a[0], b[0]) + 1)
+
+
+def test_moments_find_the_window_and_assign_preview_blend_use_it(take):
+    s = bpy.context.scene.shapesig
+    s.use_windows = True
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    best = _rows()[0]
+    assert best.name == "take" and best.has_elastic
+    assert _iou((best.frame_first, best.frame_last), (FIRST, LAST)) >= 0.5
+    ex = json.loads(best.explain)
+    assert sum(ex["joints"].values()) == pytest.approx(1.0) and ex["cost_over_time"]
+    # Preview plays the window (an action written for it, removed at Stop)
+    n = len(bpy.data.actions)
+    assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
+    playing = take.animation_data.action
+    assert playing.name.startswith("take[") and tuple(round(v) for v in playing.frame_range) == (
+        best.frame_first, best.frame_last)
+    assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
+    assert take.animation_data.action.name == "query" and len(bpy.data.actions) == n and not best.window_action
+    # Assign keeps the window action; Blend uses it
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    assigned = take.animation_data.action
+    assert assigned.name == _rows()[0].window_action and bpy.data.actions["take"].users >= 1
+    from test_search_ui import FakeLayout  # noqa: E402 - the recording layout of the panel tests
+    from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
+
+    lay = FakeLayout()
+    SHAPESIG_PT_search_view3d.draw(type("P", (), {"layout": lay})(), bpy.context)
+    i = lay.operators().index("shapesig.blend_actions")
+    props = [e[1] for e in lay.log if e[0] == "props"][i]
+    assert props.action_b == assigned.name
+    assert "Why different" in lay.labels() and sum(e[0] == "progress" for e in lay.log) >= 5
+    compat.assign_action(take, bpy.data.actions["query"])
+    assert bpy.ops.shapesig.blend_actions(action_a="query", action_b=assigned.name, weight=0.5,
+                                          assign=False) == {"FINISHED"}
+
+
+def test_why_different_on_a_whole_clip_result(take):
+    s = bpy.context.scene.shapesig
+    s.use_windows, s.rerank = False, 2
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    row = _rows()[0]
+    assert row.frame_last == 0 and not row.explain
+    assert bpy.ops.shapesig.explain_result() == {"FINISHED"}
+    ex = json.loads(_rows()[0].explain)
+    assert sum(ex["joints"].values()) == pytest.approx(1.0) and len(ex["cost_over_time"]) > 10
