@@ -67,14 +67,16 @@ class Subsequence:
 
 
 def _chunk(vals):
-    """The canonical sum of 1..4 terms (the contract of ``_dp_kernels``)."""
-    if len(vals) == 1:
-        return vals[0]
-    if len(vals) == 2:
-        return vals[0] + vals[1]
+    """The canonical sum of 1..4 terms (the contract of ``_dp_kernels``): v1, v1 + v2, (v1 + v2) + v3,
+    (v1 + v2) + (v3 + v4)."""
+    c = vals[0]
+    if len(vals) >= 2:
+        c = c + vals[1]
     if len(vals) == 3:
-        return (vals[0] + vals[1]) + vals[2]
-    return (vals[0] + vals[1]) + (vals[2] + vals[3])
+        c = c + vals[2]
+    elif len(vals) == 4:
+        c = c + (vals[2] + vals[3])
+    return c
 
 
 def subsequence_dp_numpy(G, B0, B1, di, dj, start, ea, eb, coef):
@@ -132,21 +134,15 @@ if _dp_kernels.HAVE_NUMBA:
                     x = 0.0
                     first = True
                     while e < eend:
-                        n = min(4, eend - e)
-                        v1 = coef[e] * G[k + ea[e], l + eb[e]]
-                        if n == 1:
-                            c = v1
-                        else:
-                            v2 = coef[e + 1] * G[k + ea[e + 1], l + eb[e + 1]]
-                            if n == 2:
-                                c = v1 + v2
-                            else:
-                                v3 = coef[e + 2] * G[k + ea[e + 2], l + eb[e + 2]]
-                                if n == 3:
-                                    c = (v1 + v2) + v3
-                                else:
-                                    v4 = coef[e + 3] * G[k + ea[e + 3], l + eb[e + 3]]
-                                    c = (v1 + v2) + (v3 + v4)
+                        n = min(4, eend - e)  # one chunk, summed as _chunk does
+                        c = coef[e] * G[k + ea[e], l + eb[e]]
+                        if n >= 2:
+                            c = c + coef[e + 1] * G[k + ea[e + 1], l + eb[e + 1]]
+                        if n == 3:
+                            c = c + coef[e + 2] * G[k + ea[e + 2], l + eb[e + 2]]
+                        elif n == 4:
+                            c = c + (coef[e + 2] * G[k + ea[e + 2], l + eb[e + 2]]
+                                     + coef[e + 3] * G[k + ea[e + 3], l + eb[e + 3]])
                         if first:
                             x = c
                             first = False

@@ -3,10 +3,7 @@ excerpt of the 16_15 walk (a 471-frame take, imported with Blender's BVH importe
 right window; Assign, Preview and Blend use the window; the explanation is stored on the row and drawn (bars and
 a strip); Why Different explains a whole-clip result."""
 
-import contextlib
-import io
 import json
-import pathlib
 
 import pytest
 
@@ -15,25 +12,9 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.core import search  # noqa: E402
 from blender_shapesig.core.index.windows import retimed_excerpt  # noqa: E402
+from test_search_ui import FakeLayout, _import_bvh  # noqa: E402 - the importer call and recording layout there
 
-DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
 FIRST, LAST, SPEED = 101, 340, 1.25
-
-
-def _import_bvh(path, action_name):
-    try:
-        bpy.ops.import_anim.bvh.get_rna_type()
-    except (AttributeError, KeyError):
-        import addon_utils
-
-        addon_utils.enable("io_anim_bvh", default_set=False)
-    with contextlib.redirect_stdout(io.StringIO()):
-        bpy.ops.import_anim.bvh(filepath=str(path), rotate_mode="NATIVE", frame_start=1, use_fps_scale=False,
-                                update_scene_fps=False, update_scene_duration=False)
-    obj = bpy.context.view_layer.objects.active
-    obj.animation_data.action.name = action_name
-    obj.animation_data.action.use_fake_user = True
-    return obj
 
 
 @pytest.fixture
@@ -42,7 +23,7 @@ def take(empty_file, monkeypatch, tmp_path):
     fast, and 'other' its first half second played at half speed, both written as actions of the same armature
     (the query active)."""
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
-    arm = _import_bvh(DATA / "acclaim" / "16_15.bvh", "take")
+    arm = _import_bvh("../acclaim/16_15", "take")  # tests/data/acclaim/16_15.bvh
     clip = action_io.read_action(bpy.data.actions["take"], armature=arm)
     query = action_io.write_action(retimed_excerpt(clip, FIRST, LAST, SPEED), armature=arm, name="query")
     query.use_fake_user = True
@@ -84,7 +65,6 @@ def test_moments_find_the_window_and_assign_preview_blend_use_it(take):
     assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
     assigned = take.animation_data.action
     assert assigned.name == _rows()[0].window_action and bpy.data.actions["take"].users >= 1
-    from test_search_ui import FakeLayout  # noqa: E402 - the recording layout of the panel tests
     from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
 
     lay = FakeLayout()
