@@ -202,6 +202,8 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
     few of the query's moving joints are ``partial`` and ranked after the others; with ``allow_partial=False``
     clips below ``rigs.MIN_COVERAGE`` are skipped with a warning."""
     query = query_clip(query)
+    if query.frames < 2:
+        raise ShapeSigError(f"the query {query.name!r} has {query.frames} frame; a moment needs at least two")
     t0 = time.perf_counter()
     rerank = REFINE if rerank is None else max(int(rerank), 0)
     items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
