@@ -15,22 +15,27 @@ The method, per leg (thigh, shin, foot through the canonical joints of ``core.ri
 1. **Contacts** of each source (``find_contacts``), for two points of the foot: the *heel* (the foot bone's head,
    the ankle) and the *ball* (its tail: the toe's head, or the BVH End Site). A point is in contact on the frames
    where it is low, ``height < floor + CONTACT_HEIGHT`` (``floor``: the point's lowest height within
-   ``FLOOR_WINDOW``: ground that is not level, or not at 0, is followed), and slow, ``speed < CONTACT_SPEED``
-   (positions averaged over ``SPEED_WINDOW`` first: marker noise); gaps shorter than ``MIN_GAP`` are filled and contacts shorter
-   than ``MIN_CONTACT`` dropped. Thresholds are in metres and seconds, the clip's unit from
-   ``skeleton.unit_meters`` (CMU Acclaim in its ASF units or in metres, BVH and Blender scenes guessed from the
-   legs).
+   ``FLOOR_WINDOW``, so ground that is not level, or not at 0, is followed), and slow, ``speed < CONTACT_SPEED``
+   (positions averaged over ``SPEED_WINDOW`` first: marker noise); gaps shorter than ``MIN_GAP`` are filled and
+   contacts shorter than ``MIN_CONTACT`` dropped. Thresholds are in metres and seconds, the clip's unit from
+   ``skeleton.unit_meters`` (Acclaim: known; BVH and Blender scenes: guessed from the legs).
 2. **Carried through the warp**: a blended frame is in contact for a point when the sources' contact indicators at
-   their corresponding times (linear interpolation), weighted with the blend weights, sum to at least 1/2.
-3. **Planted**: on each contact interval of the blend, the point's target is fixed: its mean blended position over
-   the interval. The ankle's target follows from the heel's pin, or from the ball's pin with the foot's blended
-   orientation; both are averaged with their contact weights, which ramp
-   linearly over ``RAMP`` seconds outside each interval, so the correction fades in and out (no pops).
-4. **IK**: where a leg cannot reach its target (``|target - hip| > REACH`` of thigh + shin), the root is lowered
-   along the up axis by the smallest amount that lets it (smoothed over ``RAMP``); then each leg is solved
-   analytically: the knee lies in the plane of the blended leg (hip, target, blended knee), at the distances of
-   the thigh and shin lengths; the thigh and shin turn by the smallest rotations that point them at the new knee
-   and target; the foot keeps its blended world orientation. Rotations are written back in the clip's space.
+   their corresponding times (linear interpolation), weighted with the blend weights, sum to more than 1/2; a tie
+   (exactly 1/2, e.g. w = 0.5 with one source in contact) counts where the blended point is low.
+3. **Planted**: on each contact run of the blend, the point's goal is its mean blended position over the run plus
+   the sources' own slide there (each source's positions minus their mean, held at its last contact frame where
+   its foot is already lifted, turned into the blend's heading, weighted): the blend slides as little as its
+   sources do, and a blend equal to a source (w = 0) is left as it is. The offset goal - position moves the ankle
+   (the foot keeps its blended orientation, so a ball offset moves the ankle as much); heel and ball offsets are
+   averaged with their contact weights, which ramp linearly to 0 over ``RAMP`` seconds outside each run, the
+   offset at the run's end fading out there (no pops).
+4. **IK**: where a leg cannot reach its target (``|target - hip|`` beyond ``REACH`` of thigh + shin and beyond
+   what the blended leg already stretches), the root is lowered along the up axis by the smallest amount that lets
+   it, at most ``MAX_LOWER`` of the leg (smoothed over ``RAMP``; beyond it the foot lets go); then each leg is
+   solved analytically: the knee lies in the plane of the blended leg (hip, target, blended knee), at the
+   distances of the thigh and shin lengths; the thigh and shin turn by the smallest rotations that point them at
+   the new knee and target; the foot keeps its blended world orientation. Rotations are written back in the
+   clip's space (pose space through ``meta["rest_rotations"]``).
 """
 
 from dataclasses import replace
@@ -60,6 +65,7 @@ MIN_CONTACT = 0.04      # s: shorter contacts are dropped
 MIN_GAP = 0.05          # s: shorter gaps between contacts are filled
 RAMP = 0.1              # s: the IK correction fades in/out over this time outside each contact
 REACH = 0.995           # a leg reaches at most this fraction of thigh + shin
+MAX_LOWER = 0.08        # the root goes down at most this fraction of the leg (beyond, the foot lets go)
 
 
 # ------------------------------------------------------------------------------------------------ legs
@@ -248,13 +254,22 @@ def _smooth_max(x, fps):
     return uniform_filter1d(maximum_filter1d(x, k, mode="nearest"), k, mode="nearest")
 
 
-def _solve_leg(hip, knee, target, l1, l2):
+def _solve_leg(hip, knee, target, l1, l2, forward):
     """The new knee (frames, 3): in the plane of hip, target and the blended knee, |knee - hip| = l1,
-    |target - knee| = l2 (the target is reachable: the root was lowered before)."""
+    |target - knee| = l2 (clamped to the reach). A straight blended leg has no plane: the knee then bends towards
+    ``forward`` (the foot's direction): a bias of 1% of l1, fading out as the knee leaves the hip-target line by
+    2% of l1 (a leg bent more keeps its plane exactly)."""
     d = target - hip
     dist = np.linalg.norm(d, axis=1, keepdims=True)
     dn = d / np.maximum(dist, 1e-12)
-    pole = (knee - hip) - np.sum((knee - hip) * dn, axis=1, keepdims=True) * dn
+
+    def across(v):
+        return v - np.sum(v * dn, axis=1, keepdims=True) * dn
+
+    bent = across(knee - hip)
+    bias = across(forward)
+    bias *= 0.01 * l1 / np.maximum(np.linalg.norm(bias, axis=1, keepdims=True), 1e-12)
+    pole = bent + bias * np.clip(1.0 - np.linalg.norm(bent, axis=1, keepdims=True) / (0.02 * l1), 0.0, 1.0)
     pn = np.linalg.norm(pole, axis=1, keepdims=True)
     pole = pole / np.maximum(pn, 1e-12)
     dist = np.clip(dist, abs(l1 - l2) + 1e-9, l1 + l2)
@@ -399,6 +414,7 @@ def lock_feet(blend, sources):
     lowered = np.zeros(work.frames)
     if desired and root is not None:
         need = _lower_root(hips, desired, {s: pos[s]["heel"] for s in desired}, lengths, up)
+        need = np.minimum(need, MAX_LOWER * min(lengths.values()))
         if need.max() > 0:
             lowered = np.maximum(_smooth_max(need, work.fps), need)
             root = root - np.outer(lowered, up)
@@ -421,7 +437,8 @@ def _ik_leg(X, W, heads, rest, leg, target):
     hip, knee, ankle = heads[:, thigh], heads[:, shin], heads[:, foot]
     l1 = np.linalg.norm(rest.heads[shin] - rest.heads[thigh])
     l2 = np.linalg.norm(rest.heads[foot] - rest.heads[shin])
-    new_knee = _solve_leg(hip, knee, target, l1, l2)
+    forward = W[:, foot] @ (rest.tails[foot] - rest.heads[foot])
+    new_knee = _solve_leg(hip, knee, target, l1, l2, forward)
     Rt = _swing(knee - hip, new_knee - hip)
     Wt = Rt @ W[:, thigh]
     Rs = _swing(np.einsum("fij,fj->fi", Rt, ankle - knee), target - new_knee)
