@@ -86,7 +86,8 @@ def legs_of(clip):
 
 
 def feet_positions(clip, legs=None, fk=None):
-    """``{side: {"heel": (frames, 3), "ball": (frames, 3)}}``: the foot bone's head and tail (``forward_kinematics``)."""
+    """``{side: {"heel": (frames, 3), "ball": (frames, 3)}}``: the foot bone's head and tail
+    (``forward_kinematics``)."""
     legs = legs_of(clip) if legs is None else legs
     heads, tails, _W = forward_kinematics(clip) if fk is None else fk
     return {s: {"heel": heads[:, f], "ball": tails[:, f]} for s, (_t, _s, f) in legs.items()}
@@ -117,7 +118,8 @@ def _clean(mask, fps):
 def intervals(mask, fps, start=0):
     """Contact runs of a boolean mask as ``[{"frames": [first, last], "seconds": [t0, t1]}]`` (frames offset by
     ``start``, seconds from the first frame)."""
-    return [{"frames": [int(a + start), int(b + start)], "seconds": [round(a / fps, 4), round(b / fps, 4)]}
+    return [{"frames": [int(a + start), int(b + start)],
+             "seconds": [round(float(a) / fps, 4), round(float(b) / fps, 4)]}
             for a, b in _runs(mask)]
 
 
@@ -305,7 +307,8 @@ class _Source:
         self.unit = unit_meters(clip, [(t, f) for t, _s, f in self.legs.values()])
         self.up = up_vector(clip)
         root = rest.root if rest.root is not None else 0
-        self.frame = np.clip(np.asarray(times) * clip.fps, 0, clip.frames - 1)  # its (fractional) frame per blended frame
+        # its (fractional) frame at every blended frame
+        self.frame = np.clip(np.asarray(times) * clip.fps, 0, clip.frames - 1)
         self.yaw = np.unwrap(_yaw(fk[2][:, root], self.up))
 
     def at(self, values):
@@ -446,8 +449,11 @@ def _ik_leg(X, W, heads, rest, leg, target):
     parent = rest.ancestor[thigh]
     Wp = W[:, parent] if parent >= 0 else np.eye(3)[None]
     X[:, thigh] = np.swapaxes(Wp, -1, -2) @ Wt
-    X[:, shin] = np.swapaxes(Wt, -1, -2) @ Ws if rest.ancestor[shin] == thigh else X[:, shin]
-    X[:, foot] = np.swapaxes(Ws, -1, -2) @ W[:, foot] if rest.ancestor[foot] == shin else X[:, foot]
+    # bones between thigh and shin or shin and foot (twist bones) keep their local rotations: they turn along
+    new_shin_parent = Rt @ W[:, rest.ancestor[shin]]
+    new_foot_parent = Rs @ Rt @ W[:, rest.ancestor[foot]]
+    X[:, shin] = np.swapaxes(new_shin_parent, -1, -2) @ Ws
+    X[:, foot] = np.swapaxes(new_foot_parent, -1, -2) @ W[:, foot]
 
 
 def _report(work, srcs, contacts, before, after, unit, lowered):
