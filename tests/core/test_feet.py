@@ -129,3 +129,44 @@ def test_source_times_from_time_map_and_warp_or_given():
     blend.meta.pop("warp")
     with pytest.raises(ShapeSigError):
         feet.source_times(blend, [a, b])
+
+
+def test_across_rigs_daz_bvh_walk_and_acclaim_run():
+    """A blend through the canonical joints written back on the Daz BVH rig (rigs.onto_rig keeps the timing)."""
+    from blender_shapesig.core.rigs import apply_bone_map, onto_rig
+
+    a = load_bvh(BVH / "07_01.bvh").crop(126, 254)  # the AMC stride (the BVH has one more frame first)
+    b = run()
+    ma, mb = apply_bone_map(a), apply_bone_map(b)
+    blend = onto_rig(blend_clips(ma, mb, 0.5, align=True), a, ma)
+    assert "time_map" in blend.meta and "warp" in blend.meta
+    out, report = feet.lock_feet(blend, [a, b])
+    assert report["unit_meters"] == 0.01
+    before, after = _drifts(report, "drift_before"), _drifts(report, "drift_after")
+    assert len(after) >= 3 and np.median(after) < 0.5 * np.median(before)
+    with pytest.raises(ShapeSigError, match="rest skeleton"):
+        feet.lock_feet(blend_clips(ma, mb, 0.5, align=True), [ma, mb])  # comparison space: no FK
+
+
+def test_pose_space_gives_the_same_planted_feet():
+    """Rotations written back in the clip's space: a pose-space copy (random bone rest frames B, P = B^T X B, the
+    root's location in its rest frame) is planted exactly like the armature-space clip."""
+    from dataclasses import replace
+
+    from blender_shapesig.core import so3
+
+    a, b = walk(), run()
+    blend = blend_clips(a, b, 0.25, align=True)
+    planted, _ = feet.lock_feet(blend, [a, b])
+    B = so3.exp(np.random.default_rng(3).normal(size=(len(a.bones), 3)))
+    r = a.bones.index(a.root_bone)
+    head = np.array(a.meta["rest_heads"][a.root_bone])
+
+    def to_pose(clip):
+        P = np.swapaxes(B, -1, -2)[None] @ clip.rotations @ B[None]
+        meta = dict(clip.meta, rotation_space="pose", rest_rotations=B)
+        return replace(clip, rotations=P, root_translation=(clip.root_translation - head) @ B[r], meta=meta)
+
+    pose_planted, _ = feet.lock_feet(to_pose(blend), [to_pose(a), to_pose(b)])
+    assert np.abs(pose_planted.rotations - to_pose(planted).rotations).max() < 1e-9
+    assert np.abs(pose_planted.root_translation - to_pose(planted).root_translation).max() < 1e-9
