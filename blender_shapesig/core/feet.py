@@ -29,13 +29,14 @@ The method, per leg (thigh, shin, foot through the canonical joints of ``core.ri
    (the foot keeps its blended orientation, so a ball offset moves the ankle as much); heel and ball offsets are
    averaged with their contact weights, which ramp linearly to 0 over ``RAMP`` seconds outside each run, the
    offset at the run's end fading out there (no pops).
-4. **IK**: where a leg cannot reach its target (``|target - hip|`` beyond ``REACH`` of thigh + shin and beyond
-   what the blended leg already stretches), the root is lowered along the up axis by the smallest amount that lets
-   it, at most ``MAX_LOWER`` of the leg (smoothed over ``RAMP``; beyond it the foot lets go); then each leg is
-   solved analytically: the knee lies in the plane of the blended leg (hip, target, blended knee), at the
-   distances of the thigh and shin lengths; the thigh and shin turn by the smallest rotations that point them at
-   the new knee and target; the foot keeps its blended world orientation. Rotations are written back in the
-   clip's space (pose space through ``meta["rest_rotations"]``).
+4. **IK**: where a leg cannot reach its target (``|target - hip|`` beyond ``SOFT_REACH`` of thigh + shin and
+   beyond what the blended leg already stretches), the root is lowered along the up axis by the smallest amount
+   that lets it, at most ``MAX_LOWER`` of the leg (smoothed over ``RAMP``); beyond that the leg straightens softly
+   (``_soft_reach``: no snap) and the foot falls short. Each leg is solved analytically: the knee lies in the
+   plane of the blended leg (hip, target, blended knee), at the distances of the thigh and shin lengths; the thigh
+   and shin turn by the smallest rotations that point them at the new knee and target; the foot keeps its blended
+   world orientation. Rotations are written back in the clip's space (pose space through
+   ``meta["rest_rotations"]``).
 """
 
 from dataclasses import replace
@@ -53,7 +54,7 @@ from .skeleton import (
 
 __all__ = ["FEET_MODES", "lock_feet", "find_contacts", "legs_of", "source_times", "blend_contacts", "intervals",
            "stance_drift", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
-           "REACH", "POINTS"]
+           "SOFT_REACH", "MAX_LOWER", "POINTS"]
 
 FEET_MODES = ("lock", "none")
 POINTS = ("heel", "ball")
@@ -64,8 +65,8 @@ SPEED_WINDOW = 0.05     # s: positions are averaged over this window before the 
 MIN_CONTACT = 0.04      # s: shorter contacts are dropped
 MIN_GAP = 0.05          # s: shorter gaps between contacts are filled
 RAMP = 0.1              # s: the IK correction fades in/out over this time outside each contact
-REACH = 0.995           # a leg reaches at most this fraction of thigh + shin
 MAX_LOWER = 0.08        # the root goes down at most this fraction of the leg (beyond, the foot lets go)
+SOFT_REACH = 0.97       # a leg stretched beyond this fraction (and beyond its blended stretch) straightens softly
 
 
 # ------------------------------------------------------------------------------------------------ legs
@@ -256,9 +257,18 @@ def _smooth_max(x, fps):
     return uniform_filter1d(maximum_filter1d(x, k, mode="nearest"), k, mode="nearest")
 
 
-def _solve_leg(hip, knee, target, l1, l2, forward):
+def _soft_reach(dist, free, length):
+    """The hip-ankle distance the leg takes for a target at ``dist``: ``dist`` up to ``soft`` = the larger of
+    SOFT_REACH of the leg's ``length`` and the blended leg's own ``free`` extension, beyond it approaching
+    ``length`` exponentially (a leg straightens smoothly instead of snapping straight; the foot falls short)."""
+    soft = np.minimum(np.maximum(SOFT_REACH * length, free), length)
+    room = np.maximum(length - soft, 1e-12)
+    return np.where(dist <= soft, dist, soft + room * (1.0 - np.exp(-(dist - soft) / room)))
+
+
+def _solve_leg(hip, knee, target, l1, l2, forward, free):
     """The new knee (frames, 3): in the plane of hip, target and the blended knee, |knee - hip| = l1,
-    |target - knee| = l2 (clamped to the reach). A straight blended leg has no plane: the knee then bends towards
+    |target - knee| = l2 (``_soft_reach``; ``free``: the blended leg's hip-ankle vector). A straight blended leg has no plane: the knee then bends towards
     ``forward`` (the foot's direction): a bias of 1% of l1, fading out as the knee leaves the hip-target line by
     2% of l1 (a leg bent more keeps its plane exactly)."""
     d = target - hip
@@ -274,6 +284,7 @@ def _solve_leg(hip, knee, target, l1, l2, forward):
     pole = bent + bias * np.clip(1.0 - np.linalg.norm(bent, axis=1, keepdims=True) / (0.02 * l1), 0.0, 1.0)
     pn = np.linalg.norm(pole, axis=1, keepdims=True)
     pole = pole / np.maximum(pn, 1e-12)
+    dist = _soft_reach(dist, np.linalg.norm(free, axis=1, keepdims=True), l1 + l2)
     dist = np.clip(dist, abs(l1 - l2) + 1e-9, l1 + l2)
     a = (l1 * l1 - l2 * l2 + dist * dist) / (2.0 * dist)
     h = np.sqrt(np.maximum(l1 * l1 - a * a, 0.0))
@@ -366,11 +377,11 @@ def _working_clip(blend, sources):
 
 def _lower_root(hips, desired, current, lengths, up):
     """(frames,) how far the root must go down (along ``up``) so every leg reaches its target: never asking a leg to
-    stretch beyond REACH of its length or beyond what it already is in the blend."""
+    stretch beyond SOFT_REACH of its length or beyond what it already is in the blend."""
     need = np.zeros(len(next(iter(hips.values()))))
     for side, hip in hips.items():
         d = desired[side] - hip
-        reach = np.maximum(REACH * lengths[side], np.linalg.norm(current[side] - hip, axis=1))
+        reach = np.maximum(SOFT_REACH * lengths[side], np.linalg.norm(current[side] - hip, axis=1))
         du = d @ up
         disc = du * du - np.sum(d * d, axis=1) + reach * reach
         delta = np.where(disc >= 0, -du - np.sqrt(np.maximum(disc, 0.0)), -du)
@@ -441,7 +452,7 @@ def _ik_leg(X, W, heads, rest, leg, target):
     l1 = np.linalg.norm(rest.heads[shin] - rest.heads[thigh])
     l2 = np.linalg.norm(rest.heads[foot] - rest.heads[shin])
     forward = W[:, foot] @ (rest.tails[foot] - rest.heads[foot])
-    new_knee = _solve_leg(hip, knee, target, l1, l2, forward)
+    new_knee = _solve_leg(hip, knee, target, l1, l2, forward, ankle - hip)
     Rt = _swing(knee - hip, new_knee - hip)
     Wt = Rt @ W[:, thigh]
     Rs = _swing(np.einsum("fij,fj->fi", Rt, ankle - knee), target - new_knee)
