@@ -2,7 +2,7 @@
 """A rendered contact sheet of a walk x run blend before and after ``core.feet.lock_feet`` (docs/blending.md,
 "Planted feet"), headless with the bpy module (Workbench engine):
 
-  .venv/bin/python tools/render_contact_sheet.py --data ../shared/data/cmu [--weight 0.25] [--frames 6]
+  .venv/bin/python tools/render_contact_sheet.py --data ../shared/data/cmu [--weight 0.5] [--frames 6]
       [--out docs/img/feet_contact_sheet.png]
 
 The blend is the benchmark's 07_01 x 09_02 stride (benchmarks/bench_foot_drift.py) on 07_01's rig, imported with
@@ -109,7 +109,7 @@ def _camera(center, along, length, height=1.0):
     return cam
 
 
-def render(data, weight, count, out, span=0.6):
+def render(data, weight, count, out, span=0.45):
     a, b = load(data, "07_01"), load(data, "09_02")
     blend = blend_pair(a, b, weight)
     locked, _report = feet.lock_feet(blend, [a, b])
@@ -126,7 +126,7 @@ def render(data, weight, count, out, span=0.6):
     frames = np.linspace(blend.frame_start, blend.frame_start + span * blend.fps, count).round().astype(int)
     stretch = root[frames - blend.frame_start, :2]
     center = 0.5 * (stretch[0] + stretch[-1])
-    length = float(np.linalg.norm(stretch[-1] - stretch[0])) + 1.6
+    length = float(np.linalg.norm(stretch[-1] - stretch[0])) + 1.1
     _floor(center, along, length + 4.0)
     _camera(center, along, length)
     _post(locked, [a, b], span)
@@ -200,7 +200,7 @@ def _sheet(images, frames, blend, out, weight):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", required=True, help="the CMU data folder (the one with INDEX.md)")
-    parser.add_argument("--weight", type=float, default=0.25)
+    parser.add_argument("--weight", type=float, default=0.5)
     parser.add_argument("--frames", type=int, default=6)
     parser.add_argument("--out", default=os.path.join(ROOT, "docs", "img", "feet_contact_sheet.png"))
     args = parser.parse_args(argv)
