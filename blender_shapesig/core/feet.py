@@ -400,6 +400,9 @@ def lock_feet(blend, sources):
     if len(times) != len(sources):
         raise ShapeSigError(f"blend {blend.name!r}: {len(times)} source times for {len(sources)} sources")
     srcs = [_Source(c, t) for c, t in zip(sources, times)]
+    if any(not np.allclose(s.up, up_vector(work)) for s in srcs):
+        raise ShapeSigError(f"blend {blend.name!r}: its sources are in other axes "
+                            f"(read every clip in the same space)")
     weights = _weights(work, len(sources))
     legs = legs_of(work)
     rest = rest_of(work)
@@ -413,7 +416,7 @@ def lock_feet(blend, sources):
     contacts = blend_contacts(work, sources, [s.contacts for s in srcs], times, pos, unit)
 
     desired, lengths, hips = {}, {}, {}
-    for side in contacts:
+    for side in [x for x in sorted(contacts) if x in legs]:
         thigh, shin, foot = legs[side]
 
         def slide(point, a, b, side=side):
