@@ -268,9 +268,9 @@ def _soft_reach(dist, free, length):
 
 def _solve_leg(hip, knee, target, l1, l2, forward, free):
     """The new knee (frames, 3): in the plane of hip, target and the blended knee, |knee - hip| = l1,
-    |target - knee| = l2 (``_soft_reach``; ``free``: the blended leg's hip-ankle vector). A straight blended leg has no plane: the knee then bends towards
-    ``forward`` (the foot's direction): a bias of 1% of l1, fading out as the knee leaves the hip-target line by
-    2% of l1 (a leg bent more keeps its plane exactly)."""
+    |target - knee| = l2 (``_soft_reach``; ``free``: the blended leg's hip-ankle vector). A straight blended leg
+    has no plane: the knee then bends towards ``forward`` (the foot's direction): a bias of 1% of l1, fading out
+    as the knee leaves the hip-target line by 2% of l1 (a leg bent more keeps its plane exactly)."""
     d = target - hip
     dist = np.linalg.norm(d, axis=1, keepdims=True)
     dn = d / np.maximum(dist, 1e-12)
