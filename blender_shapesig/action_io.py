@@ -46,6 +46,7 @@ import numpy as np
 from . import compat
 from .core.clip import Clip
 from .core.errors import ShapeSigError
+from .core.skeleton import rest_meta
 # the rotation maths is core.so3's; the channel conversions are re-exported here, where callers know them
 from .core.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
@@ -396,6 +397,10 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         clip.meta["rest_rotations"] = _rest_frames(names, armature)[0]
         # the hierarchy (every bone of the armature): core.rigs builds world rotations and bone maps from it
         clip.meta["parents"] = {b.name: (b.parent.name if b.parent else None) for b in armature.data.bones}
+        # the rest skeleton in armature space (core.skeleton: forward kinematics of the feet)
+        bones = armature.data.bones
+        clip.meta.update(rest_meta([b.name for b in bones], [b.head_local for b in bones],
+                                   [b.tail_local for b in bones]))
     clip.meta["rotation_space"] = "pose"
     if space == "armature":
         clip = to_armature_space(clip, armature)

@@ -1,19 +1,490 @@
 """Planted feet in blends (issue 18): foot contacts of the sources, carried through the warp, kept planted in the
-blend by an analytic two-bone IK post-pass. STUB: the contract only; the implementation lands with issue 18.
+blend by an analytic two-bone IK post-pass.
 
 Contract (used by the blend command and operator):
     lock_feet(blend, sources) -> (Clip, report)
 ``blend`` is a result of ``core.blend`` (``meta["source_times"]``: per source, the time in seconds from that
-source's first frame of every blended frame; for two-clip blends it can be derived from ``meta["time_map"]`` and
-``meta["warp"]``); ``sources`` are the clips blended, the first one's rig being the blend's. Returns a new Clip (the
-blend with planted feet) and a JSON-able report ``{"contacts": [...], "feet": [...], ...}``.
+source's first frame of every blended frame; for two-clip blends it is derived from ``meta["time_map"]`` (A's
+normalized parameter u per frame) and ``meta["warp"]`` (B's normalized time phi(u))); ``sources`` are the clips
+blended, each on its own rig (with the rest skeleton its reader puts in meta, ``core.skeleton``), the first one's
+rig being the blend's. Returns a new Clip (the blend with planted feet) and a JSON-able report
+``{"contacts": [...], "feet": [...], ...}``.
+
+The method, per leg (thigh, shin, foot through the canonical joints of ``core.rigs``):
+
+1. **Contacts** of each source (``find_contacts``), for two points of the foot: the *heel* (the foot bone's head,
+   the ankle) and the *ball* (its tail: the toe's head, or the BVH End Site). A point is in contact on the frames
+   where it is low, ``height < floor + CONTACT_HEIGHT`` (``floor``: the point's lowest height within
+   ``FLOOR_WINDOW``, so ground that is not level, or not at 0, is followed), and slow, ``speed < CONTACT_SPEED``
+   (positions averaged over ``SPEED_WINDOW`` first: marker noise); gaps shorter than ``MIN_GAP`` are filled and
+   contacts shorter than ``MIN_CONTACT`` dropped. Thresholds are in metres and seconds, the clip's unit from
+   ``skeleton.unit_meters`` (Acclaim: known; BVH and Blender scenes: guessed from the legs).
+2. **Carried through the warp**: a blended frame is in contact for a point when the sources' contact indicators at
+   their corresponding times (linear interpolation), weighted with the blend weights, sum to more than 1/2; a tie
+   (exactly 1/2, e.g. w = 0.5 with one source in contact) counts where the blended point is low.
+3. **Planted**: on each contact run of the blend, the point's goal is its mean blended position over the run plus
+   the sources' own slide there (each source's positions minus their mean, held at its last contact frame where
+   its foot is already lifted, turned into the blend's heading, weighted): the blend slides as little as its
+   sources do, and a blend equal to a source (w = 0) is left as it is. The offset goal - position moves the ankle
+   (the foot keeps its blended orientation, so a ball offset moves the ankle as much); heel and ball offsets are
+   averaged with their contact weights, which ramp linearly to 0 over ``RAMP`` seconds outside each run, the
+   offset at the run's end fading out there (no pops).
+4. **IK**: where a leg cannot reach its target (``|target - hip|`` beyond ``SOFT_REACH`` of thigh + shin and
+   beyond what the blended leg already stretches), the root is lowered along the up axis by the smallest amount
+   that lets it, at most ``MAX_LOWER`` of the leg (smoothed over ``RAMP``); beyond that the leg straightens softly
+   (``_soft_reach``: no snap) and the foot falls short. Each leg is solved analytically: the knee lies in the
+   plane of the blended leg (hip, target, blended knee), at the distances of the thigh and shin lengths; the thigh
+   and shin turn by the smallest rotations that point them at the new knee and target; the foot keeps its blended
+   world orientation. Rotations are written back in the clip's space (pose space through
+   ``meta["rest_rotations"]``).
 """
 
-__all__ = ["FEET_MODES", "lock_feet"]
+from dataclasses import replace
+
+import numpy as np
+from scipy.ndimage import minimum_filter1d, uniform_filter1d
+
+from . import so3
+from .errors import ShapeSigError
+from .rigs import resolve_map
+from .skeleton import (
+    aligned_rotations, forward_kinematics, from_aligned, rest_of, root_heads, root_translation_from_heads,
+    unit_meters, up_vector,
+)
+
+__all__ = ["FEET_MODES", "lock_feet", "find_contacts", "legs_of", "source_times", "blend_contacts", "intervals",
+           "stance_drift", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
+           "SOFT_REACH", "MAX_LOWER", "POINTS"]
 
 FEET_MODES = ("lock", "none")
+POINTS = ("heel", "ball")
+CONTACT_HEIGHT = 0.02   # m above the point's floor
+CONTACT_SPEED = 0.8     # m/s
+FLOOR_WINDOW = 1.2      # s: the floor under a point is its lowest height within this window (uneven ground)
+SPEED_WINDOW = 0.05     # s: positions are averaged over this window before the speed is taken
+MIN_CONTACT = 0.04      # s: shorter contacts are dropped
+MIN_GAP = 0.05          # s: shorter gaps between contacts are filled
+RAMP = 0.1              # s: the IK correction fades in/out over this time outside each contact
+MAX_LOWER = 0.08        # the root goes down at most this fraction of the leg (beyond, the foot lets go)
+SOFT_REACH = 0.97       # a leg stretched beyond this fraction (and beyond its blended stretch) straightens softly
+
+
+# ------------------------------------------------------------------------------------------------ legs
+
+def legs_of(clip):
+    """``{side: (thigh, shin, foot)}`` bone indices of the clip's legs (sides "L", "R") through the canonical joints
+    (``rigs.resolve_map`` "auto": CMU ASF, Daz BVH, Mixamo, Rigify, ...); ShapeSigError without any leg."""
+    mapping = resolve_map("auto", clip) or {}
+    by_joint = {j: b for b, j in mapping.items()}
+    legs = {}
+    for side in ("L", "R"):
+        names = [by_joint.get(f"{j}.{side}") for j in ("thigh", "shin", "foot")]
+        if all(n is not None for n in names):
+            legs[side] = tuple(clip.bones.index(n) for n in names)
+    if not legs:
+        raise ShapeSigError(f"clip {clip.name!r}: no leg (thigh, shin, foot) found through the bone map")
+    return legs
+
+
+def feet_positions(clip, legs=None, fk=None):
+    """``{side: {"heel": (frames, 3), "ball": (frames, 3)}}``: the foot bone's head and tail
+    (``forward_kinematics``)."""
+    legs = legs_of(clip) if legs is None else legs
+    heads, tails, _W = forward_kinematics(clip) if fk is None else fk
+    return {s: {"heel": heads[:, f], "ball": tails[:, f]} for s, (_t, _s, f) in legs.items()}
+
+
+# ------------------------------------------------------------------------------------------------ contacts
+
+def _runs(mask):
+    """[(start, end)] inclusive index runs where ``mask`` is True."""
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    d = np.diff(m.astype(np.int8))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
+
+
+def _clean(mask, fps):
+    """Gaps shorter than MIN_GAP filled, then runs shorter than MIN_CONTACT dropped."""
+    mask = np.asarray(mask, bool).copy()
+    gap, short = MIN_GAP * fps, MIN_CONTACT * fps
+    for a, b in _runs(~mask):
+        if a > 0 and b < len(mask) - 1 and b - a + 1 < gap:
+            mask[a:b + 1] = True
+    for a, b in _runs(mask):
+        if b - a + 1 < short:
+            mask[a:b + 1] = False
+    return mask
+
+
+def intervals(mask, fps, start=0):
+    """Contact runs of a boolean mask as ``[{"frames": [first, last], "seconds": [t0, t1]}]`` (frames offset by
+    ``start``, seconds from the first frame)."""
+    return [{"frames": [int(a + start), int(b + start)],
+             "seconds": [round(float(a) / fps, 4), round(float(b) / fps, 4)]}
+            for a, b in _runs(mask)]
+
+
+def _low_slow(p, unit, up, fps, height=CONTACT_HEIGHT):
+    """(low, slow) masks of a point's positions p (frames, 3) in units of ``unit`` metres (step 1)."""
+    h = (p @ up) * unit
+    floor = minimum_filter1d(h, max(1, int(round(FLOOR_WINDOW * fps))) | 1, mode="nearest")
+    smooth = uniform_filter1d(p, max(1, int(round(SPEED_WINDOW * fps))) | 1, axis=0, mode="nearest")
+    v = np.linalg.norm(np.gradient(smooth, axis=0), axis=1) * unit * fps
+    return h < floor + height, v < CONTACT_SPEED
+
+
+def find_contacts(clip, legs=None, fk=None):
+    """``{side: {"heel": mask, "ball": mask}}``: frames where each point of each foot is low and slow (module
+    docstring, step 1)."""
+    legs = legs_of(clip) if legs is None else legs
+    pos = feet_positions(clip, legs, fk)
+    unit = unit_meters(clip, [(t, f) for t, _s, f in legs.values()])
+    up = up_vector(clip)
+    out = {}
+    for side, points in pos.items():
+        out[side] = {}
+        for name, p in points.items():
+            low, slow = _low_slow(p, unit, up, clip.fps)
+            out[side][name] = _clean(low & slow, clip.fps)
+    return out
+
+
+def source_times(blend, sources):
+    """Per source, the time (s, from its first frame) of every blended frame: ``meta["source_times"]``, else for
+    two sources ``u D0`` and ``phi(u) D1`` from ``meta["time_map"]`` and ``meta["warp"]``."""
+    given = blend.meta.get("source_times")
+    if given is not None:
+        return [np.asarray(t, dtype=np.float64) for t in given]
+    u, warp = blend.meta.get("time_map"), blend.meta.get("warp")
+    if u is None or warp is None or len(sources) != 2:
+        raise ShapeSigError(f"blend {blend.name!r}: no meta source_times (nor time_map and warp of two clips)")
+    u = np.asarray(u, dtype=np.float64)
+    warp = np.asarray(warp, dtype=np.float64)
+    phi = np.clip(np.interp(u, warp[:, 0], warp[:, 1]), 0.0, 1.0)
+    a, b = sources
+    return [u * (a.frames - 1) / a.fps, phi * (b.frames - 1) / b.fps]
+
+
+def _weights(blend, count):
+    given = blend.meta.get("weights")
+    if given is not None:
+        w = np.asarray(given, dtype=np.float64)
+    elif count == 2:
+        x = float(blend.meta.get("weight", 0.0))
+        w = np.array([1.0 - x, x])
+    else:
+        raise ShapeSigError(f"blend {blend.name!r}: no meta weights for {count} sources")
+    return w / w.sum()
+
+
+def blend_contacts(blend, sources, contacts, times, pos=None, unit=1.0):
+    """``{side: {point: mask over the blend's frames}}``: the sources' contacts (``find_contacts`` per source, on
+    sides present in all of them) carried through their times and weighted (step 2). With the blend's feet
+    positions ``pos`` (``feet_positions``, in units of ``unit`` metres), a weighted tie counts only where the
+    blended point is low (within twice CONTACT_HEIGHT of its floor)."""
+    w = _weights(blend, len(sources))
+    up = up_vector(blend)
+    out = {}
+    for side in set.intersection(*(set(c) for c in contacts)):
+        out[side] = {}
+        for point in POINTS:
+            score = np.zeros(blend.frames)
+            for wi, src, c, t in zip(w, sources, contacts, times):
+                score += wi * np.interp(t * src.fps, np.arange(src.frames), c[side][point].astype(float))
+            mask = score > 0.5 + 1e-9
+            if pos is not None:
+                tie = score >= 0.5 - 1e-9
+                mask |= tie & _low_slow(pos[side][point], unit, up, blend.fps, 2.0 * CONTACT_HEIGHT)[0]
+            out[side][point] = _clean(mask, blend.fps)
+    return out
+
+
+# ------------------------------------------------------------------------------------------------ planting
+
+def _ramped(mask, fps):
+    """(weight, interval id) per frame: 1 on each run of ``mask``, ramping linearly to 0 over RAMP seconds outside
+    it; the id is the run with the largest weight (-1 where none)."""
+    n = len(mask)
+    ramp = max(RAMP * fps, 1.0)
+    weight, owner = np.zeros(n), np.full(n, -1)
+    frames = np.arange(n)
+    for k, (a, b) in enumerate(_runs(mask)):
+        dist = np.maximum(np.maximum(a - frames, frames - b), 0)
+        w = np.clip(1.0 - dist / ramp, 0.0, 1.0)
+        better = w > weight
+        weight[better], owner[better] = w[better], k
+    return weight, owner
+
+
+def _ankle_offsets(mask_of, pos, fps, slide):
+    """(offset (frames, 3), weight (frames,)): how far the ankle must move, from the heel's and the ball's pins
+    (step 3). On a contact run a..b a point's goal is its pin (mean blended position over the run) plus
+    ``slide(point, a, b)``, the sources' weighted slide there; its offset is goal - position (the foot's orientation
+    is kept, so the ball's offset moves the ankle as much). Outside the run the offset at its end fades out
+    linearly over RAMP seconds. The two points' offsets are averaged with their weights."""
+    n = len(pos["heel"])
+    frames = np.arange(n)
+    weights, offsets = {}, {}
+    for point in POINTS:
+        weights[point], owner = _ramped(mask_of[point], fps)
+        offsets[point] = np.zeros((n, 3))
+        for k, (a, b) in enumerate(_runs(mask_of[point])):
+            inside = pos[point][a:b + 1]
+            off = inside.mean(axis=0) + slide(point, a, b) - inside
+            here = owner == k
+            offsets[point][here] = off[np.clip(frames[here], a, b) - a]
+    wb, wh = weights["ball"], weights["heel"]
+    total = wh + wb
+    offset = (wh[:, None] * offsets["heel"] + wb[:, None] * offsets["ball"]) / np.maximum(total, 1e-12)[:, None]
+    return offset, np.minimum(total, 1.0)
+
+
+def _swing(u, v):
+    """The smallest rotations (n, 3, 3) turning directions u into v (rows)."""
+    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    axis = np.cross(u, v)
+    s = np.linalg.norm(axis, axis=-1, keepdims=True)
+    angle = np.arctan2(s, np.sum(u * v, axis=-1, keepdims=True))
+    return so3.exp(np.where(s > 1e-12, axis / np.maximum(s, 1e-12), 0.0) * angle)
+
+
+def _smooth_max(x, fps):
+    """A smooth envelope above ``x`` >= 0 (root lowering): a running max over 2 RAMP, then a moving average."""
+    k = max(1, int(round(RAMP * fps))) * 2 + 1
+    from scipy.ndimage import maximum_filter1d
+
+    return uniform_filter1d(maximum_filter1d(x, k, mode="nearest"), k, mode="nearest")
+
+
+def _soft_reach(dist, free, length):
+    """The hip-ankle distance the leg takes for a target at ``dist``: ``dist`` up to ``soft`` = the larger of
+    SOFT_REACH of the leg's ``length`` and the blended leg's own ``free`` extension, beyond it approaching
+    ``length`` exponentially (a leg straightens smoothly instead of snapping straight; the foot falls short)."""
+    soft = np.minimum(np.maximum(SOFT_REACH * length, free), length)
+    room = np.maximum(length - soft, 1e-12)
+    return np.where(dist <= soft, dist, soft + room * (1.0 - np.exp(-(dist - soft) / room)))
+
+
+def _solve_leg(hip, knee, target, l1, l2, forward, free):
+    """The new knee (frames, 3): in the plane of hip, target and the blended knee, |knee - hip| = l1,
+    |target - knee| = l2 (``_soft_reach``; ``free``: the blended leg's hip-ankle vector). A straight blended leg
+    has no plane: the knee then bends towards ``forward`` (the foot's direction): a bias of 1% of l1, fading out
+    as the knee leaves the hip-target line by 2% of l1 (a leg bent more keeps its plane exactly)."""
+    d = target - hip
+    dist = np.linalg.norm(d, axis=1, keepdims=True)
+    dn = d / np.maximum(dist, 1e-12)
+
+    def across(v):
+        return v - np.sum(v * dn, axis=1, keepdims=True) * dn
+
+    bent = across(knee - hip)
+    bias = across(forward)
+    bias *= 0.01 * l1 / np.maximum(np.linalg.norm(bias, axis=1, keepdims=True), 1e-12)
+    pole = bent + bias * np.clip(1.0 - np.linalg.norm(bent, axis=1, keepdims=True) / (0.02 * l1), 0.0, 1.0)
+    pn = np.linalg.norm(pole, axis=1, keepdims=True)
+    pole = pole / np.maximum(pn, 1e-12)
+    dist = _soft_reach(dist, np.linalg.norm(free, axis=1, keepdims=True), l1 + l2)
+    dist = np.clip(dist, abs(l1 - l2) + 1e-9, l1 + l2)
+    a = (l1 * l1 - l2 * l2 + dist * dist) / (2.0 * dist)
+    h = np.sqrt(np.maximum(l1 * l1 - a * a, 0.0))
+    return hip + a * dn + h * pole
+
+
+def _yaw(R, up):
+    """The heading of rotations R (n, 3, 3) about ``up``: the angle of a horizontal reference vector turned by R."""
+    ref = np.eye(3)[int(np.argmin(np.abs(up)))]
+    ref = ref - (ref @ up) * up
+    ref /= np.linalg.norm(ref)
+    g = R @ ref
+    return np.arctan2(np.cross(ref, g) @ up, g @ ref)
+
+
+def _turn(v, up, angle):
+    """Vectors v (n, 3) turned about ``up`` by ``angle`` (radians)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return v * c + np.cross(up, v) * s + np.outer(v @ up, up) * (1.0 - c)
+
+
+class _Source:
+    """One source's feet: points per side, root heading, contacts, and its times in the blend."""
+
+    def __init__(self, clip, times):
+        self.clip, self.legs = clip, legs_of(clip)
+        rest = rest_of(clip)
+        fk = forward_kinematics(clip, rest)
+        self.pos = feet_positions(clip, self.legs, fk)
+        self.contacts = find_contacts(clip, self.legs, fk)
+        self.unit = unit_meters(clip, [(t, f) for t, _s, f in self.legs.values()])
+        self.up = up_vector(clip)
+        root = rest.root if rest.root is not None else 0
+        # its (fractional) frame at every blended frame
+        self.frame = np.clip(np.asarray(times) * clip.fps, 0, clip.frames - 1)
+        self.yaw = np.unwrap(_yaw(fk[2][:, root], self.up))
+
+    def at(self, values):
+        """``values`` (frames, ...) of this source at its time of every blended frame (linear)."""
+        x = np.arange(self.clip.frames)
+        flat = values.reshape(len(values), -1)
+        return np.stack([np.interp(self.frame, x, flat[:, i]) for i in range(flat.shape[1])], axis=1)
+
+    def slide(self, side, point, a, b, unit_to, up_to, yaw_to):
+        """This source's slide of a point over blended frames a..b: its held positions (``_held``) minus their
+        mean, turned into the blend's heading (``yaw_to``, mean over a..b) and units."""
+        p = self.at(_held(self.pos[side][point], self.contacts[side][point]))[a:b + 1]
+        yaw = self.at(self.yaw)[a:b + 1, 0]
+        r = (p - p.mean(axis=0)) * (self.unit / unit_to)
+        delta = np.angle(np.mean(np.exp(1j * (yaw_to - yaw))))
+        return _turn(r, up_to, delta)
+
+
+def _held(p, mask):
+    """Positions p (frames, 3) held at the nearest contact frame of ``mask`` where the point is not in contact (a
+    source whose foot is already lifted while the blend's is planted adds no slide); p without contacts."""
+    idx = np.flatnonzero(mask)
+    if not len(idx):
+        return p
+    k = np.arange(len(p))
+    j = np.clip(np.searchsorted(idx, k), 1, len(idx) - 1) if len(idx) > 1 else np.zeros(len(p), dtype=int)
+    if len(idx) > 1:
+        j = np.where(np.abs(idx[j - 1] - k) <= np.abs(idx[j] - k), j - 1, j)
+    return p[idx[j]]
+
+
+def stance_drift(positions, mask):
+    """Per contact run of ``mask``: the largest distance between two positions of the point (its slide)."""
+    out = []
+    for a, b in _runs(mask):
+        p = positions[a:b + 1]
+        out.append(float(np.max(np.linalg.norm(p[:, None] - p[None], axis=-1))))
+    return out
+
+
+def _working_clip(blend, sources):
+    """The blend with its rig's skeleton meta (the first source's, unless the blend carries one)."""
+    if not sources:
+        raise ShapeSigError("lock_feet: no source clips")
+    rig = sources[0]
+    if blend.bones != rig.bones and "rest_heads" not in blend.meta:
+        raise ShapeSigError(f"blend {blend.name!r} is not on the rig of {rig.name!r} (other bones)")
+    keep = ("rest_heads", "rest_tails", "parents", "rest_rotations", "unit_meters", "up_axis", "rotation_space")
+    meta = dict(blend.meta)
+    for k in keep:
+        if k not in meta and k in rig.meta:
+            meta[k] = rig.meta[k]
+    return replace(blend, meta=meta)
+
+
+def _lower_root(hips, desired, current, lengths, up):
+    """(frames,) how far the root must go down (along ``up``) so every leg reaches its target: never asking a leg to
+    stretch beyond SOFT_REACH of its length or beyond what it already is in the blend."""
+    need = np.zeros(len(next(iter(hips.values()))))
+    for side, hip in hips.items():
+        d = desired[side] - hip
+        reach = np.maximum(SOFT_REACH * lengths[side], np.linalg.norm(current[side] - hip, axis=1))
+        du = d @ up
+        disc = du * du - np.sum(d * d, axis=1) + reach * reach
+        delta = np.where(disc >= 0, -du - np.sqrt(np.maximum(disc, 0.0)), -du)
+        far = np.linalg.norm(d, axis=1) > reach
+        need = np.maximum(need, np.where(far, np.maximum(delta, 0.0), 0.0))
+    return need
 
 
 def lock_feet(blend, sources):
-    """The blend unchanged and an empty report (stub; see the module docstring)."""
-    return blend, {"contacts": [], "feet": []}
+    """(the blend with planted feet, report): the module docstring's steps 1-4. ``report``: ``contacts`` (per source
+    and for the blend, per side and point, intervals in frames and seconds), ``feet`` (per side and point, the
+    slide of each contact in metres before and after), ``root_lowered`` (m, largest), ``unit_meters``."""
+    sources = list(sources)
+    work = _working_clip(blend, sources)
+    times = source_times(work, sources)
+    if len(times) != len(sources):
+        raise ShapeSigError(f"blend {blend.name!r}: {len(times)} source times for {len(sources)} sources")
+    srcs = [_Source(c, t) for c, t in zip(sources, times)]
+    if any(not np.allclose(s.up, up_vector(work)) for s in srcs):
+        raise ShapeSigError(f"blend {blend.name!r}: its sources are in other axes "
+                            f"(read every clip in the same space)")
+    weights = _weights(work, len(sources))
+    legs = legs_of(work)
+    rest = rest_of(work)
+    X = aligned_rotations(work).copy()
+    root = root_heads(work, rest)
+    heads, tails, W = forward_kinematics(work, rest, X, root)
+    unit = unit_meters(work, [(t, f) for t, _s, f in legs.values()])
+    up = up_vector(work)
+    yaw = np.unwrap(_yaw(W[:, rest.root if rest.root is not None else 0], up))
+    pos = feet_positions(work, legs, (heads, tails, W))
+    contacts = blend_contacts(work, sources, [s.contacts for s in srcs], times, pos, unit)
+
+    desired, lengths, hips = {}, {}, {}
+    for side in [x for x in sorted(contacts) if x in legs]:
+        thigh, shin, foot = legs[side]
+
+        def slide(point, a, b, side=side):
+            yaw_to = np.angle(np.mean(np.exp(1j * yaw[a:b + 1])))
+            return sum(w * s.slide(side, point, a, b, unit, up, yaw_to) for w, s in zip(weights, srcs) if w > 0)
+
+        offset, alpha = _ankle_offsets(contacts[side], pos[side], work.fps, slide)
+        desired[side] = pos[side]["heel"] + alpha[:, None] * offset
+        lengths[side] = (np.linalg.norm(rest.heads[shin] - rest.heads[thigh])
+                         + np.linalg.norm(rest.heads[foot] - rest.heads[shin]))
+        hips[side] = heads[:, thigh]
+    lowered = np.zeros(work.frames)
+    if desired and root is not None:
+        need = _lower_root(hips, desired, {s: pos[s]["heel"] for s in desired}, lengths, up)
+        need = np.minimum(need, MAX_LOWER * min(lengths.values()))
+        if need.max() > 0:
+            lowered = np.maximum(_smooth_max(need, work.fps), need)
+            root = root - np.outer(lowered, up)
+            heads = heads - np.outer(lowered, up)[:, None]
+    for side in desired:
+        _ik_leg(X, W, heads, rest, legs[side], desired[side])
+    rotations = from_aligned(work, X)
+    rt = work.root_translation if root is None else root_translation_from_heads(work, rest, root)
+    out = replace(blend, rotations=rotations, root_translation=rt)
+    after = feet_positions(replace(work, rotations=rotations, root_translation=rt), legs)
+    report = _report(work, srcs, contacts, pos, after, unit, lowered)
+    out.meta = dict(blend.meta, feet="lock")
+    return out, report
+
+
+def _ik_leg(X, W, heads, rest, leg, target):
+    """Two-bone IK in place on X (world-aligned local rotations): thigh and shin turned so that the ankle reaches
+    ``target`` with the knee in the plane of the blended leg; the foot keeps its world rotation."""
+    thigh, shin, foot = leg
+    hip, knee, ankle = heads[:, thigh], heads[:, shin], heads[:, foot]
+    l1 = np.linalg.norm(rest.heads[shin] - rest.heads[thigh])
+    l2 = np.linalg.norm(rest.heads[foot] - rest.heads[shin])
+    forward = W[:, foot] @ (rest.tails[foot] - rest.heads[foot])
+    new_knee = _solve_leg(hip, knee, target, l1, l2, forward, ankle - hip)
+    Rt = _swing(knee - hip, new_knee - hip)
+    Wt = Rt @ W[:, thigh]
+    Rs = _swing(np.einsum("fij,fj->fi", Rt, ankle - knee), target - new_knee)
+    Ws = Rs @ Rt @ W[:, shin]
+    parent = rest.ancestor[thigh]
+    Wp = W[:, parent] if parent >= 0 else np.eye(3)[None]
+    X[:, thigh] = np.swapaxes(Wp, -1, -2) @ Wt
+    # bones between thigh and shin or shin and foot (twist bones) keep their local rotations: they turn along
+    new_shin_parent = Rt @ W[:, rest.ancestor[shin]]
+    new_foot_parent = Rs @ Rt @ W[:, rest.ancestor[foot]]
+    X[:, shin] = np.swapaxes(new_shin_parent, -1, -2) @ Ws
+    X[:, foot] = np.swapaxes(new_foot_parent, -1, -2) @ W[:, foot]
+
+
+def _report(work, srcs, contacts, before, after, unit, lowered):
+    """The JSON-able report of ``lock_feet``."""
+    rows = []
+    for s in srcs:
+        for side, pts in sorted(s.contacts.items()):
+            for point, mask in pts.items():
+                rows.append({"clip": s.clip.name, "side": side, "point": point,
+                             "intervals": intervals(mask, s.clip.fps, s.clip.frame_start)})
+    feet = []
+    for side, pts in sorted(contacts.items()):
+        for point, mask in pts.items():
+            rows.append({"clip": work.name, "side": side, "point": point,
+                         "intervals": intervals(mask, work.fps, work.frame_start)})
+            feet.append({"side": side, "point": point,
+                         "drift_before": [round(d * unit, 4) for d in stance_drift(before[side][point], mask)],
+                         "drift_after": [round(d * unit, 4) for d in stance_drift(after[side][point], mask)]})
+    return {"contacts": rows, "feet": feet, "root_lowered": round(float(lowered.max()) * unit, 4),
+            "unit_meters": unit}

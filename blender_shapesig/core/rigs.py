@@ -437,5 +437,7 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
     rt = None if clip.root_translation is None else clip.root_translation @ H.T
     kept = tuple(b for b in rig.bones if b not in joint_of and not np.allclose(X_rig[:, index[b]], np.eye(3)))
     meta = dict(rig.meta, kept_bones=kept)
+    # the blend's timing and weights (core.feet carries the sources' contacts through them)
+    meta.update({k: clip.meta[k] for k in ("weight", "weights", "warp", "time_map", "source_times") if k in clip.meta})
     return replace(rig, name=clip.name, rotations=X, root_translation=rt, frame_start=clip.frame_start,
                    fps=clip.fps, meta=meta)

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..clip import Clip
 from ..errors import ParseError
+from ..skeleton import map_rest_meta, rest_meta
 from ..sources import find_asf
 from .amc import Motion, forward_kinematics, parse_amc
 from .asf import Bone, Skeleton, euler_matrices, parse_asf
@@ -59,6 +60,8 @@ def to_blender_axes(clip: Clip, scale: float = 1.0) -> Clip:
     if clip.root_translation is not None:
         rt = float(clip.meta.get("meters_per_unit", 1.0)) * float(scale) * (clip.root_translation @ A.T)
     meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
+    s = float(clip.meta.get("meters_per_unit", 1.0)) * float(scale)
+    meta.update(map_rest_meta(clip.meta, A, s), unit_meters=1.0 / float(scale))  # the rest skeleton (feet, FK)
     return replace(clip, rotations=R, root_translation=rt, meta=meta)
 
 
@@ -105,6 +108,8 @@ def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton
             # world-aligned local rotations C M C^-1 in the ASF's Y-up axes
             "rotation_space": "asf",
             "up_axis": "Y",
+            "unit_meters": skeleton.meters_per_unit,
+            **rest_meta(skeleton.bone_names, *skeleton.rest_heads_tails()),  # core.skeleton (FK of the feet)
         },
     )
     return to_blender_axes(clip, scale) if axes == "blender" else clip

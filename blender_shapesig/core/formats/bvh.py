@@ -150,6 +150,8 @@ class BvhJoint:
     parent: int
     channels: List[str] = field(default_factory=list)
     first: int = 0
+    offset: tuple = (0.0, 0.0, 0.0)  # OFFSET (BVH axes and units); ``end``: its End Site's OFFSET, if any
+    end: Optional[tuple] = None
 
     def columns(self, kind):
         """{axis letter: column} of its ``kind`` ("position" or "rotation") channels, in file order."""
@@ -192,8 +194,18 @@ def _hierarchy(lines, path):
             if not stack:
                 raise ParseError("unbalanced '}'", path, no + 1)
             stack.pop()
-        elif key == "offset" and len(tokens) != 4:
-            raise ParseError("OFFSET needs 3 numbers", path, no + 1)
+        elif key == "offset":
+            if len(tokens) != 4:
+                raise ParseError("OFFSET needs 3 numbers", path, no + 1)
+            if joints and stack:  # after "End Site {" the top of the stack is None: the last joint's end
+                try:
+                    xyz = tuple(float(v) for v in tokens[1:])
+                except ValueError:
+                    raise ParseError("OFFSET needs 3 numbers", path, no + 1) from None
+                if stack[-1] is None:
+                    joints[next(p for p in reversed(stack) if p is not None)].end = xyz
+                else:
+                    joints[stack[-1]].offset = xyz
         elif key == "channels":
             if not joints:
                 raise ParseError("CHANNELS before any joint", path, no + 1)
@@ -300,5 +312,24 @@ def load_bvh(path, name: Optional[str] = None):
                 meta={"missing_rotation_bones": tuple(missing), "rotation_space": "armature", "up_axis": "Z",
                       "format": "bvh",
                       # the hierarchy (core.rigs composes world rotations down it for the comparison space)
-                      "parents": {j.name: (joints[j.parent].name if j.parent >= 0 else None) for j in joints}})
+                      "parents": {j.name: (joints[j.parent].name if j.parent >= 0 else None) for j in joints},
+                      **_rest_skeleton(joints)})
     return clip
+
+
+def _rest_skeleton(joints):
+    """The rest skeleton Blender's importer builds (``core.skeleton.rest_meta``, armature axes, file units): heads
+    are OFFSET sums; a tail is the End Site, else the one child's head, else the mean of the children's heads."""
+    from ..skeleton import rest_meta
+
+    heads = np.zeros((len(joints), 3))
+    for j, joint in enumerate(joints):
+        heads[j] = np.asarray(joint.offset) + (heads[joint.parent] if joint.parent >= 0 else 0.0)
+    tails = heads.copy()
+    for j, joint in enumerate(joints):
+        kids = [k for k, other in enumerate(joints) if other.parent == j]
+        if joint.end is not None:
+            tails[j] = heads[j] + np.asarray(joint.end)
+        elif kids:
+            tails[j] = heads[kids].mean(axis=0)
+    return rest_meta([j.name for j in joints], heads @ BVH_TO_BLENDER.T, tails @ BVH_TO_BLENDER.T)

@@ -1,0 +1,201 @@
+"""Rest skeletons and forward kinematics on Clip data (issue 18: planted feet), without bpy.
+
+A clip holds rotations only; joint positions need the rest skeleton. The readers put it in ``clip.meta`` (one
+recipe, ``rest_meta``): ``meta["rest_heads"]`` / ``meta["rest_tails"]`` = ``{bone: (x, y, z)}``, each bone's
+rest head and tail in the clip's world-aligned axes and units (Blender's armature axes for ``rotation_space``
+"armature" and "pose", the ASF's Y-up axes and units for "asf"), and ``meta["parents"]``. Readers that fill them:
+``formats.acclaim.load_acclaim`` (ASF heads/tails; ``to_blender_axes`` maps them), ``formats.bvh.load_bvh``
+(OFFSET sums, End Sites; what Blender's importer builds), ``action_io.read_action`` with an armature
+(``Bone.head_local`` / ``tail_local``).
+
+Forward kinematics. Let ``X_b`` be bone b's rotation relative to its rest pose in world-aligned axes (the clip's
+rotation in "armature"/"asf" space; ``B P B^T`` for a pose-space rotation P, B the bone's rest orientation
+``meta["rest_rotations"]``). Its world rotation is ``W_b = W_a X_b`` (a: the nearest ancestor the clip holds;
+missing bones are at rest), and because a bone and everything below it turn rigidly about its head,
+
+    head_b(t) = head_a(t) + W_a(t) (h_b - h_a),        tail_b(t) = head_b(t) + W_b(t) (t_b - h_b),
+
+with ``h``, ``t`` the rest heads and tails. The root bone's head is the clip's root translation (in armature
+space that is the root's head; in pose space its location ``loc`` gives ``h_root + B_root loc``).
+"""
+
+from dataclasses import dataclass, replace
+from typing import Optional, Tuple
+
+import numpy as np
+
+from .clip import Clip
+from .errors import ShapeSigError
+
+__all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "rest_of",
+           "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",
+           "forward_kinematics", "up_vector", "unit_meters", "LEG_METERS"]
+
+REST_HEADS = "rest_heads"
+REST_TAILS = "rest_tails"
+UNIT_METERS = "unit_meters"  # metres per unit of the clip's positions, when the reader knows it
+# an adult's thigh + shin (hip to ankle), to guess the unit of files that do not say it (BVH, Blender scenes)
+LEG_METERS = 0.85
+_UNITS = (1.0, 0.1, 0.0254, 0.01, 0.001)  # m, dm, inch, cm, mm: the candidates of the guess
+
+
+def rest_meta(names, heads, tails=None) -> dict:
+    """The meta entries of a rest skeleton: ``{"rest_heads": {bone: (x, y, z)}, "rest_tails": {...}}``."""
+    out = {REST_HEADS: {n: tuple(float(v) for v in h) for n, h in zip(names, np.asarray(heads, float))}}
+    if tails is not None:
+        out[REST_TAILS] = {n: tuple(float(v) for v in t) for n, t in zip(names, np.asarray(tails, float))}
+    return out
+
+
+def map_rest_meta(meta: dict, matrix, scale: float = 1.0) -> dict:
+    """The rest entries of ``meta`` mapped by ``scale * matrix @ x`` (a change of axes and units)."""
+    A = np.asarray(matrix, dtype=np.float64)
+    out = {}
+    for key in (REST_HEADS, REST_TAILS):
+        if key in meta:
+            out[key] = {n: tuple(float(v) for v in scale * (A @ np.asarray(p, float))) for n, p in meta[key].items()}
+    return out
+
+
+@dataclass
+class Rest:
+    """The rest skeleton of a clip, parallel to ``clip.bones``: ``ancestor`` (index of the nearest ancestor the
+    clip holds, -1 for none), ``heads`` and ``tails`` (bones, 3) in world-aligned axes."""
+
+    bones: Tuple[str, ...]
+    ancestor: np.ndarray
+    heads: np.ndarray
+    tails: np.ndarray
+    root: Optional[int]
+
+    def index(self, bone):
+        return self.bones.index(bone)
+
+
+def rest_of(clip: Clip) -> Rest:
+    """The clip's rest skeleton from its meta (ShapeSigError naming what is missing)."""
+    heads = clip.meta.get(REST_HEADS)
+    parents = clip.meta.get("parents")
+    if not heads or parents is None:
+        raise ShapeSigError(f"clip {clip.name!r} carries no rest skeleton (meta rest_heads/parents): "
+                            f"read it from a file or with its armature")
+    missing = [b for b in clip.bones if b not in heads]
+    if missing:
+        raise ShapeSigError(f"clip {clip.name!r}: no rest head for bone(s) {', '.join(missing[:5])}")
+    tails = clip.meta.get(REST_TAILS) or {}
+    index = {b: i for i, b in enumerate(clip.bones)}
+    anc = np.full(len(clip.bones), -1)
+    for i, b in enumerate(clip.bones):
+        p, seen = parents.get(b), {b}
+        while p is not None and p not in index and p not in seen:
+            seen.add(p)
+            p = parents.get(p)
+        anc[i] = index.get(p, -1) if p is not None else -1
+    H = np.array([heads[b] for b in clip.bones], dtype=np.float64)
+    T = np.array([tails.get(b, heads[b]) for b in clip.bones], dtype=np.float64)
+    root = index.get(clip.root_bone) if clip.root_bone is not None else None
+    return Rest(clip.bones, anc, H, T, root)
+
+
+def _rest_rotations(clip):
+    B = clip.meta.get("rest_rotations")
+    if B is None or np.shape(B) != (len(clip.bones), 3, 3):
+        raise ShapeSigError(f"clip {clip.name!r} is in pose space without meta rest_rotations")
+    return np.asarray(B, dtype=np.float64)
+
+
+def aligned_rotations(clip: Clip) -> np.ndarray:
+    """X (frames, bones, 3, 3): each bone's rotation relative to its rest in world-aligned axes."""
+    space = clip.meta.get("rotation_space", "pose")
+    if space in ("armature", "asf"):
+        return clip.rotations
+    if space == "pose":
+        B = _rest_rotations(clip)
+        return B[None] @ clip.rotations @ np.swapaxes(B, -1, -2)[None]
+    raise ShapeSigError(f"clip {clip.name!r}: no forward kinematics in the {space!r} space (use the rig's clip)")
+
+
+def from_aligned(clip: Clip, X: np.ndarray) -> np.ndarray:
+    """The inverse of ``aligned_rotations``: world-aligned rotations X back in the clip's rotation space."""
+    if clip.meta.get("rotation_space", "pose") == "pose":
+        B = _rest_rotations(clip)
+        return np.swapaxes(B, -1, -2)[None] @ X @ B[None]
+    return X
+
+
+def root_heads(clip: Clip, rest: Rest) -> Optional[np.ndarray]:
+    """(frames, 3) the root bone's head (world-aligned), or None without a root translation."""
+    if clip.root_translation is None or rest.root is None:
+        return None
+    if clip.meta.get("rotation_space", "pose") == "pose":
+        B = _rest_rotations(clip)[rest.root]
+        return rest.heads[rest.root] + clip.root_translation @ B.T
+    return clip.root_translation
+
+
+def root_translation_from_heads(clip: Clip, rest: Rest, heads: np.ndarray) -> np.ndarray:
+    """The inverse of ``root_heads``: the clip's root translation that puts the root's head at ``heads``."""
+    if clip.meta.get("rotation_space", "pose") == "pose":
+        B = _rest_rotations(clip)[rest.root]
+        return (heads - rest.heads[rest.root]) @ B
+    return heads
+
+
+def forward_kinematics(clip: Clip, rest: Optional[Rest] = None, X: Optional[np.ndarray] = None,
+                       root: Optional[np.ndarray] = None):
+    """(heads, tails, W): every bone's head and tail (frames, bones, 3) and world rotation (frames, bones, 3, 3)
+    in world-aligned axes and the clip's units (module docstring). ``X``/``root``: other aligned rotations /
+    root heads than the clip's (e.g. during IK)."""
+    rest = rest_of(clip) if rest is None else rest
+    X = aligned_rotations(clip) if X is None else X
+    root = root_heads(clip, rest) if root is None else root
+    F, n = X.shape[0], X.shape[1]
+    W = np.empty_like(X)
+    heads = np.empty((F, n, 3))
+    done = np.zeros(n, dtype=bool)
+
+    def solve(j):
+        if done[j]:
+            return
+        a = rest.ancestor[j]
+        if a < 0:
+            W[:, j] = X[:, j]
+            heads[:, j] = root if (j == rest.root and root is not None) else rest.heads[j]
+        else:
+            solve(a)
+            W[:, j] = W[:, a] @ X[:, j]
+            heads[:, j] = heads[:, a] + W[:, a] @ (rest.heads[j] - rest.heads[a])
+        done[j] = True
+
+    for j in range(n):
+        solve(j)
+    tails = heads + np.einsum("fnij,nj->fni", W, rest.tails - rest.heads)
+    return heads, tails, W
+
+
+def up_vector(clip: Clip) -> np.ndarray:
+    """The world's up in the clip's axes: ``meta["up_axis"]`` ('Y' for ASF axes), else Blender's Z."""
+    up = clip.meta.get("up_axis")
+    if up is None:
+        up = "Y" if clip.meta.get("rotation_space") == "asf" else "Z"
+    if isinstance(up, str):
+        return np.eye(3)["XYZ".index(up.upper())]
+    v = np.asarray(up, dtype=np.float64)
+    return v / np.linalg.norm(v)
+
+
+def unit_meters(clip: Clip, legs=None) -> float:
+    """Metres per unit of the clip's positions: ``meta["unit_meters"]`` when the reader knows it (Acclaim), else
+    the unit among m, dm, inch, cm, mm that makes the rest legs (``legs``: pairs of (thigh, foot) bone indices of
+    ``rest_of(clip)``) closest to ``LEG_METERS`` (log scale); 1 without legs."""
+    known = clip.meta.get(UNIT_METERS)
+    if known:
+        return float(known)
+    if not legs:
+        return 1.0
+    rest = rest_of(clip)
+    length = float(np.mean([np.linalg.norm(rest.heads[t] - rest.heads[f]) for t, f in legs]))
+    if length <= 0:
+        return 1.0
+    return min(_UNITS, key=lambda u: abs(np.log(u * length / LEG_METERS)))
+
