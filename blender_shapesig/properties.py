@@ -13,8 +13,8 @@ readable and writable on the scene settings for scripts: they are views onto the
 """
 
 import bpy
-from bpy.props import (BoolProperty, CollectionProperty, FloatProperty, IntProperty, PointerProperty,
-                       StringProperty)
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       PointerProperty, StringProperty)
 
 from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
@@ -55,6 +55,9 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                             precision=2)
     frame_first: IntProperty(name="First Frame", description="First frame of the matched clip or window")
     frame_last: IntProperty(name="Last Frame", description="Last frame of the matched clip or window")
+    # issue 15: the frames read before trimming, when trimming cut some (0..0: nothing trimmed)
+    read_first: IntProperty(name="Read From", description="First frame read, before trimming")
+    read_last: IntProperty(name="Read To", description="Last frame read, before trimming")
 
 
 class ShapeSigResults(bpy.types.PropertyGroup):
@@ -100,6 +103,17 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                             "CMU 'Daz-friendly' BVH files (frame 1 is a rest pose, frames 2-6 a ramp from it); "
                             "0 keeps all",
                             default=0, soft_min=0)
+    # issue 15: how every clip is read (query, file actions, folder clips); part of each clip's index key
+    trim: EnumProperty(
+        name="Trim", description="Rest-pose / ramp frames at the ends of each clip (core/trim.py); an explicit "
+        "crop start or frame range keeps its end",
+        items=(("auto", "Auto", "Drop detected rest-pose and ramp frames at both ends"),
+               ("none", "None", "Compare every frame")),
+        default="auto")
+    fps: FloatProperty(name="FPS", description="Frame rate the clips are read at (0: each action's own rate, "
+                       "else the scene's; each file's own rate)", default=0.0, soft_min=0.0, soft_max=240.0)
+    # the Bone Map panel's selected row (its list draws the active armature's bones)
+    bone_map_index: IntProperty(name="Bone", default=0)
     # search
     level: IntProperty(name="Level", description="Log-signature level n of sim^n", default=DEFAULT_LEVEL,
                        soft_min=1, soft_max=PANEL_MAX_LEVEL)

@@ -17,7 +17,7 @@ See docs/search.md for the measurements (recall of the sketch against the exact 
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -58,6 +58,7 @@ class RankResult:
     approximate: bool = False
     partial: bool = False
     coverage: float = 1.0  # joints compared / moving joints of the smaller clip (core.rigs.coverage)
+    trimmed: Tuple[int, ...] = ()  # (first kept, last kept, first read, last read) when trimming cut frames
 
     def as_dict(self):
         return {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
@@ -180,7 +181,8 @@ def _query_entry(query, level, store):
 
 def _result(e, d, shared, approximate=False, partial=False, coverage=1.0):
     return RankResult(name=e.name, distance=float(d), frames=e.frames, key=e.key, source=e.source,
-                      shared=shared, approximate=approximate, partial=partial, coverage=coverage)
+                      shared=shared, approximate=approximate, partial=partial, coverage=coverage,
+                      trimmed=e.trimmed)
 
 
 def _coverage(q, e, shared):
