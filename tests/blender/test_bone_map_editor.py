@@ -9,6 +9,7 @@ import os
 import shutil
 import subprocess
 import sys
+from types import SimpleNamespace
 
 import bpy
 import pytest
@@ -43,11 +44,33 @@ def test_editor_registered_and_drawn(daz):
                 "SHAPESIG_UL_bone_map", "SHAPESIG_MT_saved_maps"):
         assert hasattr(bpy.types, cls)
     assert bpy.types.SHAPESIG_PT_bone_map_view3d.bl_parent_id == "SHAPESIG_PT_search_view3d"
+    from test_search_ui import FakeLayout
+
     from blender_shapesig.panels import rigmap as panel
 
     rows = panel.bone_rows(daz)
     assert rows["lThigh"] == ("thigh.L", "thigh.L") and rows["lThumb1"] == ("", "")
-    assert panel._status(daz)[0].startswith("Automatic: ")
+    lay = FakeLayout()
+    panel.SHAPESIG_PT_bone_map_view3d.draw(SimpleNamespace(layout=lay), bpy.context)
+    assert "Automatic: 19 of" in lay.labels() and any(e[0] == "template_list" for e in lay.log)
+    assert {"shapesig.bone_map_detect", "shapesig.bone_map_import", "shapesig.bone_map_export"} <= \
+        set(lay.operators())
+    bpy.ops.shapesig.bone_map_set(bone="lThumb1", joint="hand.L")
+    row = FakeLayout()
+    panel.SHAPESIG_UL_bone_map.draw_item(None, bpy.context, row, daz.data, daz.data.bones["lHand"], 0, None, "")
+    assert "lHand" in row.labels() and "auto: hand.L" in row.labels()  # the joint moved to lThumb1
+    menu = [e for e in row.log if e[0] == "operator_menu_enum"]
+    assert menu[0][1][:2] == ("shapesig.bone_map_set", "joint")
+    lay = FakeLayout()
+    panel.SHAPESIG_PT_bone_map_view3d.draw(SimpleNamespace(layout=lay), bpy.context)
+    assert "Stored map: 19 of" in lay.labels()
+    lay = FakeLayout()
+    panel.SHAPESIG_MT_saved_maps.draw(SimpleNamespace(layout=lay), bpy.context)
+    assert "No maps" in lay.labels()
+    bpy.context.view_layer.objects.active = None
+    lay = FakeLayout()
+    panel.draw_bone_map(lay, bpy.context)
+    assert "Select an armature" in lay.labels()
 
 
 def test_poll_needs_an_armature(empty_file):
@@ -162,6 +185,14 @@ def test_trim_toggle_changes_the_frames_compared(empty_file, data_dir, tmp_path)
     row = next(iter(_rank(s).values()))
     assert (row.frame_first, row.frame_last, row.read_first, row.read_last) == (6, 330, 1, 330)
     assert row.frames == 325
+    from test_search_ui import FakeLayout
+
+    from blender_shapesig.panels.search import draw_search
+
+    lay = FakeLayout()
+    draw_search(lay, bpy.context)
+    assert "trimmed: frames 1-330 read" in lay.labels() and "frames 6-330" in lay.labels()
+    assert ("prop", (s, "trim"), {"expand": True}) in lay.log
 
     s.trim = "none"
     _obj, _act, q2 = library.query_item(bpy.context, s)
