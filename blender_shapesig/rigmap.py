@@ -142,8 +142,12 @@ def rows(obj) -> List[Tuple[str, str, str]]:
 
 
 def export_map(obj, path) -> str:
-    """Write the armature's map (stored, else detected) as a saved-map JSON file; returns the path."""
-    return rigs.save_map(path, armature_map(obj), rig=obj.data.name)
+    """Write the armature's map (``armature_map``) as a saved-map JSON file; returns the path. ShapeSigError
+    when no bone is mapped (nothing is written)."""
+    mapping = armature_map(obj)
+    if not mapping:
+        raise ShapeSigError(f"no bone of {obj.name!r} is mapped to a joint: nothing to export")
+    return rigs.save_map(path, mapping, rig=obj.data.name)
 
 
 def import_map(obj, path) -> Dict[str, str]:

@@ -30,22 +30,23 @@ JOINT_ITEMS = (("NONE", "\u2014", "Not a joint: this bone is not compared"),) + 
     (j, j, f"Canonical joint {j}") for j in rigs.JOINTS)
 
 
-def armature_problem(context):
-    """Why a bone-map operator cannot run (one line), or None."""
+def armature_problem(context, edits=True):
+    """Why a bone-map operator cannot run (one line), or None; ``edits``: it stores a map on the armature."""
     obj = getattr(context, "active_object", None)
     if obj is None or obj.type != "ARMATURE":
         return "select an armature: bone maps are stored on the active armature"
-    if getattr(obj.data, "library", None) is not None:
+    if edits and getattr(obj.data, "library", None) is not None:
         return f"armature {obj.data.name!r} is linked from a library: its bone map cannot be edited"
     return None
 
 
 class _ArmatureOperator:
     bl_options = {"REGISTER", "UNDO"}
+    edits = True  # stores a map on the armature (refused on linked armature data)
 
     @classmethod
     def poll(cls, context):
-        reason = armature_problem(context)
+        reason = armature_problem(context, cls.edits)
         if reason is not None:
             cls.poll_message_set(reason[:1].upper() + reason[1:])
         return reason is None
@@ -109,6 +110,7 @@ class SHAPESIG_OT_bone_map_export(_ArmatureOperator, ExportHelper, bpy.types.Ope
     bl_idname = "shapesig.bone_map_export"
     bl_label = "Export Bone Map"
     bl_options = {"REGISTER"}  # writes a file, not the .blend
+    edits = False
     filename_ext = ".json"
     filter_glob: StringProperty(default="*.json", options={"HIDDEN"})
 

@@ -244,3 +244,35 @@ def test_blend_across_rigs_reads_through_the_stored_map(empty_file, data_dir):
     with pytest.raises(Exception, match="map to no joint"):
         blend_actions(daz, a, b, [0.5], bones=["rShin"])
     assert set(bpy.data.actions) == before
+
+
+def test_auto_pick_from_the_maps_folder(daz, tmp_path, monkeypatch):
+    from blender_shapesig import preferences
+
+    folder = tmp_path / "maps"
+    folder.mkdir()
+    rigs.save_map(folder / "mine.json", {"hip": "hips", "lThigh": "thigh.L", "rThigh": "thigh.R", "x": "head"})
+    rigs.save_map(folder / "two.json", {"hip": "hips", "abdomen": "spine"})
+    (folder / "broken.json").write_text("{")
+    auto_digest = library.armature_digest(daz)
+    prefs = SimpleNamespace(maps_folder=str(folder), auto_pick_map=False)
+    monkeypatch.setattr(preferences, "get_preferences", lambda context=None: prefs)
+    assert rigmap.bone_map_of(daz) == "auto"  # Auto-Pick off: the folder is only offered in the menu
+    assert rigmap.import_saved(daz, "two", rigmap.maps_folder()) == {"hip": "hips", "abdomen": "spine"}
+    rigmap.clear_map(daz)
+    prefs.auto_pick_map = True
+    picked = {"hip": "hips", "lThigh": "thigh.L", "rThigh": "thigh.R"}  # its entries for this armature's bones
+    assert rigmap.bone_map_of(daz) == picked and rigmap.armature_map(daz) == picked
+    assert library.armature_digest(daz) != auto_digest  # a picked map gives the actions new index keys
+    rigmap.store_map(daz, {"hip": "hips"})
+    assert rigmap.bone_map_of(daz) == {"hip": "hips"}  # a stored map wins
+
+
+def test_an_unknown_rig_detects_nothing_and_exports_nothing(empty_file, line_armature, tmp_path):
+    obj = line_armature(["bone0", "bone1", "bone2"])
+    _refused(bpy.ops.shapesig.bone_map_detect, "matches a known rig")
+    _refused(bpy.ops.shapesig.bone_map_export, "nothing to export", filepath=str(tmp_path / "x.json"))
+    assert not (tmp_path / "x.json").exists() and rigmap.PROP not in obj.data
+    assert bpy.ops.shapesig.bone_map_set(bone="bone1", joint="hips") == {"FINISHED"}
+    assert bpy.ops.shapesig.bone_map_export(filepath=str(tmp_path / "x.json")) == {"FINISHED"}
+    assert rigs.load_map(tmp_path / "x.json") == {"bone1": "hips"}
