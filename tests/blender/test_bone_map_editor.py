@@ -193,6 +193,10 @@ def test_trim_toggle_changes_the_frames_compared(empty_file, data_dir, tmp_path)
     draw_search(lay, bpy.context)
     assert "trimmed: frames 1-330 read" in lay.labels() and "frames 6-330" in lay.labels()
     assert ("prop", (s, "trim"), {"expand": True}) in lay.log
+    library.CACHES.clear()  # a new session: the rows come from the index files, the trimmed range with them
+    row = next(iter(_rank(s).values()))
+    assert (row.frame_first, row.frame_last, row.read_first, row.read_last) == (6, 330, 1, 330)
+    assert "0 newly indexed" in bpy.context.window_manager.shapesig_results.message
 
     s.trim = "none"
     _obj, _act, q2 = library.query_item(bpy.context, s)
