@@ -16,21 +16,26 @@ from ..core.errors import ShapeSigError
 
 __all__ = ["classes", "SHAPESIG_UL_bone_map", "draw_bone_map"]
 
-# (armature data pointer, map text, bone names) -> {bone: (joint in use, detected joint)}: the list draws one
-# row at a time; detection runs once per armature and map
+# (armature data pointer, map text, maps folder and its mtime, bone names) -> ({bone: (joint in use, detected
+# joint)}, where the map comes from): the list draws one row at a time; detection runs once per armature and map
 _ROWS = {}
 NONE = "\u2014"  # how "not a joint" is shown
 
 
 def bone_rows(obj):
-    """{bone: (joint in use or "", detected or "")} of the armature (memoized until its map or bones change)."""
+    """({bone: (joint in use or "", detected or "")}, "stored" | "picked" | "auto") of the armature, memoized
+    until its map, its bones or the auto-pick folder change. ShapeSigError when its stored map is corrupt."""
+    folder = rigmap.maps_folder(auto_only=True)
+    stamp = os.stat(folder).st_mtime_ns if folder and os.path.isdir(folder) else 0
     names = tuple(b.name for b in obj.data.bones)
-    memo = (obj.data.as_pointer(), str(obj.data.get(rigmap.PROP, "")), rigmap.maps_folder(auto_only=True), names)
-    rows = _ROWS.get(memo)
-    if rows is None:
+    memo = (obj.data.as_pointer(), str(obj.data.get(rigmap.PROP, "")), folder, stamp, names)
+    got = _ROWS.get(memo)
+    if got is None:
+        used = rigmap.bone_map_of(obj)
+        kind = "auto" if used == "auto" else ("stored" if rigmap.PROP in obj.data else "picked")
         _ROWS.clear()
-        rows = _ROWS[memo] = {b: (j, d) for b, j, d in rigmap.rows(obj)}
-    return rows
+        got = _ROWS[memo] = ({b: (j, d) for b, j, d in rigmap.rows(obj)}, kind)
+    return got
 
 
 class SHAPESIG_UL_bone_map(bpy.types.UIList):
@@ -41,7 +46,7 @@ class SHAPESIG_UL_bone_map(bpy.types.UIList):
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0, flt_flag=0):
         obj = context.active_object
         try:
-            joint, detected = bone_rows(obj).get(item.name, ("", ""))
+            joint, detected = bone_rows(obj)[0].get(item.name, ("", ""))
         except ShapeSigError:
             joint = detected = ""
         row = layout.row(align=True)
@@ -74,18 +79,18 @@ class SHAPESIG_MT_saved_maps(bpy.types.Menu):
             self.layout.operator("shapesig.bone_map_pick", icon="VIEWZOOM")
 
 
+_KINDS = {"stored": ("Stored map", "CHECKMARK"), "picked": ("Auto-picked saved map (not stored)", "FILE"),
+          "auto": ("Automatic", "AUTO")}
+
+
 def _status(obj):
-    """One line: where the map in use comes from, and how many bones it maps."""
+    """(text, icon): where the map in use comes from and how many bones it maps."""
     try:
-        stored = rigmap.stored_map(obj)
-        used = rigmap.bone_map_of(obj)
+        rows, kind = bone_rows(obj)
     except ShapeSigError as exc:
-        return str(exc), "ERROR"
-    if stored is not None:
-        return f"Stored map: {len(stored)} of {len(obj.data.bones)} bones", "CHECKMARK"
-    if used != "auto":
-        return f"Auto-picked saved map: {len(used)} bones (not stored)", "FILE"
-    return f"Automatic: {len(rigmap.detect_armature_map(obj))} of {len(obj.data.bones)} bones", "AUTO"
+        return f"{exc}; Clear it", "ERROR"
+    text, icon = _KINDS[kind]
+    return f"{text}: {sum(1 for j, _d in rows.values() if j)} of {len(rows)} bones", icon
 
 
 def draw_bone_map(layout, context):

@@ -48,8 +48,8 @@ def test_editor_registered_and_drawn(daz):
 
     from blender_shapesig.panels import rigmap as panel
 
-    rows = panel.bone_rows(daz)
-    assert rows["lThigh"] == ("thigh.L", "thigh.L") and rows["lThumb1"] == ("", "")
+    rows, kind = panel.bone_rows(daz)
+    assert kind == "auto" and rows["lThigh"] == ("thigh.L", "thigh.L") and rows["lThumb1"] == ("", "")
     lay = FakeLayout()
     panel.SHAPESIG_PT_bone_map_view3d.draw(SimpleNamespace(layout=lay), bpy.context)
     assert "Automatic: 19 of" in lay.labels() and any(e[0] == "template_list" for e in lay.log)
@@ -139,6 +139,10 @@ def test_bad_json_is_refused_and_nothing_changes(daz, tmp_path):
     daz.data[rigmap.PROP] = "{"
     with pytest.raises(Exception, match="not valid JSON"):
         rigmap.bone_map_of(daz)
+    from blender_shapesig.panels import rigmap as panel
+
+    assert "not valid JSON; Clear it" in panel._status(daz)[0]
+    assert bpy.ops.shapesig.bone_map_clear() == {"FINISHED"} and rigmap.bone_map_of(daz) == "auto"
 
 
 def _rank(settings):
@@ -268,6 +272,9 @@ def test_auto_pick_from_the_maps_folder(daz, tmp_path, monkeypatch):
     picked = {"hip": "hips", "lThigh": "thigh.L", "rThigh": "thigh.R"}  # its entries for this armature's bones
     assert rigmap.bone_map_of(daz) == picked and rigmap.armature_map(daz) == picked
     assert library.armature_digest(daz) != auto_digest  # a picked map gives the actions new index keys
+    from blender_shapesig.panels import rigmap as panel
+
+    assert panel._status(daz)[0].startswith("Auto-picked saved map (not stored): 3 of ")
     rigmap.store_map(daz, {"hip": "hips"})
     assert rigmap.bone_map_of(daz) == {"hip": "hips"}  # a stored map wins
 
