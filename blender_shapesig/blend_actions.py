@@ -13,7 +13,7 @@ from typing import List, Optional, Sequence
 import bpy
 import numpy as np
 
-from . import action_io, compat
+from . import action_io, compat, rigmap
 from .core.blend import blend_clip_series
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
@@ -70,8 +70,16 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
     ``progress(done, total)``: called after each blend and each written action (2 per weight)."""
     if action_a == action_b:
         raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
-    a = action_io.read_action(action_a, armature=armature, exclude_unkeyed=True)
-    b = action_io.read_action(action_b, armature=armature, exclude_unkeyed=True)
+    # B of another rig (issue 14): both through their armatures' bone maps (rigmap.bone_map_of), back onto A's rig
+    from .library import owner_armature
+
+    other = owner_armature(action_b, armature)
+    across = rigmap.across_rigs(armature, other)
+    space = "armature" if across else "pose"
+    a = action_io.read_action(action_a, armature=armature, exclude_unkeyed=True, space=space)
+    b = action_io.read_action(action_b, armature=other if across else armature, exclude_unkeyed=True, space=space)
+    if across:
+        a_rig, (a, b, bones) = a, rigmap.onto_comparison(a, armature, b, other, bones)
     if bones is not None:
         shared = set(a.bones) & set(b.bones)
         missing = [x for x in bones if x not in shared]
@@ -80,8 +88,10 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
                                 f"and {action_b.name!r}")
     n = len(weights)
     clips = blend_clip_series(a, b, weights, align=align, depth=depth, frames=frames, bones=bones, root=root,
-                              up_axis=armature_up_axis(armature, a.root_bone),
+                              up_axis=None if across else armature_up_axis(armature, a.root_bone),
                               progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
+    if across:
+        clips = [rigmap.back_onto_armature(x, a_rig, a) for x in clips]
     created, names = [], []
     try:
         for i, clip in enumerate(clips):
@@ -93,4 +103,4 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
         for act in created:
             compat.remove_action(act)
         raise
-    return BlendResult(created, clips, tuple(clips[0].meta.get("unmatched_a", ())))
+    return BlendResult(created, clips, tuple(clips[0].meta.get("kept_bones" if across else "unmatched_a", ())))

@@ -78,12 +78,16 @@ class ActionKey:
     action_hash: str
     armature_digest: str
     frame_range: Optional[Tuple[int, int]] = None
+    trim: str = "none"            # issue 15: "auto" trims rest-pose / ramp frames (core.trim)
+    fps: Optional[float] = None   # the rate read at (None: the action's own, else the scene's)
 
     @property
     def text(self) -> str:
         """The cache key."""
         return (f"action:{self.action_hash}|arm:{self.armature_digest}|range:{self.frame_range}"
-                f"|space:armature|keyed|bone_map=auto{rigs.TABLES_VERSION}")
+                f"|space:armature|keyed|bone_map=auto{rigs.TABLES_VERSION}"
+                + (f"|{sources.trim_key(self.trim)}" if self.trim != "none" else "")
+                + (f"|fps={self.fps}" if self.fps else ""))
 
 
 @dataclass
@@ -123,25 +127,31 @@ def owner_armature(action, default):
     return default
 
 
-def action_item(action, obj, frame_range=None, digests=None) -> ActionItem:
-    """The library item of an action, read with the armature that plays it (else ``obj``). Its content hash is
-    the session's fingerprint (``action_changes``: re-read only when the action changed); ``digests``: a dict
-    remembering ``armature_digest`` per armature for one library."""
+def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=None) -> ActionItem:
+    """The library item of an action, read with the armature that plays it (else ``obj``) through that
+    armature's bone map (``rigmap.bone_map_of``). Its content hash is the session's fingerprint
+    (``action_changes``: re-read only when the action changed); ``digests``: a dict remembering
+    ``armature_digest`` per armature for one library. ``trim`` "auto": rest-pose / ramp frames dropped
+    (``sources.trim_ends``; a ``frame_range``'s start is explicit and kept: pass "none" for an exact range);
+    ``fps``: the rate to read at (None: the action's own)."""
     arm = owner_armature(action, obj)
     digests = {} if digests is None else digests
     digest = digests.get(arm.as_pointer())
     if digest is None:
         digest = digests[arm.as_pointer()] = armature_digest(arm)
     key = ActionKey(action_changes.action_fingerprint(action), digest,
-                    None if frame_range is None else (int(frame_range[0]), int(frame_range[1])))
+                    None if frame_range is None else (int(frame_range[0]), int(frame_range[1])), trim,
+                    float(fps) if fps else None)
 
-    def load(action=action, arm=arm, frame_range=key.frame_range, name=action.name):
+    def load(action=action, arm=arm, key=key, name=action.name):
         # armature space: comparable with folder clips and with actions of rigs with other bone rolls;
         # only the bones the action keys (a bone it does not animate is unknown, not the rest pose)
-        clip = action_io.read_action(action, armature=arm, frame_range=frame_range, name=name,
-                                     space="armature", exclude_unkeyed=True)
+        clip = action_io.read_action(action, armature=arm, frame_range=key.frame_range, name=name,
+                                     space="armature", exclude_unkeyed=True, fps=key.fps)
+        if key.trim == "auto":  # as folder clips are trimmed at the front door (core.sources.read)
+            clip = sources.trim_ends(clip, start=key.frame_range[0] if key.frame_range else None)
         # the comparison space across rigs, as folder clips get it at the front door (core.sources.read)
-        return rigs.apply_bone_map(clip, rigmap.stored_map(arm) or "auto")
+        return rigs.apply_bone_map(clip, rigmap.bone_map_of(arm))
 
     return ActionItem(action.name, key.text, load, source=action.name, action=action.name, action_key=key)
 
@@ -190,6 +200,16 @@ def _check_values(settings):
     check_integer(settings.top, "show", 0)
     check_integer(settings.depth, "depth", 1)
     check_integer(settings.crop_start, "crop start", 0)
+    _read_options(settings)
+
+
+def _read_options(settings):
+    """(trim, fps) every clip of a search is read with (issue 15): the Trim toggle, the FPS field (0: each clip's
+    own rate; else refused unless plausible, ``prepare.check_fps``)."""
+    from .core.prepare import check_fps
+
+    fps = check_fps(settings.fps, "FPS") if settings.fps else None
+    return settings.trim, fps
 
 
 def result_problem(context, settings) -> Optional[str]:
@@ -243,11 +263,12 @@ def query_item(context, settings):
     action_changes.refresh_fingerprints(context)
     obj = active_armature(context)
     action = _query_action(obj, settings)
-    if settings.use_frame_range:
-        frame_range = _query_range(action, settings)
+    trim, fps = _read_options(settings)
+    if settings.use_frame_range:  # an exact range: nothing trimmed from it
+        frame_range, trim = _query_range(action, settings), "none"
     else:
         frame_range = _cropped_range(action, settings.crop_start)
-    return obj, action, action_item(action, obj, frame_range)
+    return obj, action, action_item(action, obj, frame_range, trim=trim, fps=fps)
 
 
 def _folders(context, settings):
@@ -277,10 +298,11 @@ def _file_actions(settings, obj):
 def library_items(context, settings, obj) -> List[sources.LibraryItem]:
     """The library as LibraryItems: the file's actions (filtered), then the folders' clip files."""
     items = []
+    trim, fps = _read_options(settings)
     if settings.use_file_actions:
         action_changes.refresh_fingerprints(context)
         digests = {}
-        items += [action_item(a, obj, _cropped_range(a, settings.crop_start), digests)
+        items += [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps)
                   for a in _file_actions(settings, obj)]
     if settings.use_folders:
         folders = _folders(context, settings)
@@ -289,7 +311,7 @@ def library_items(context, settings, obj) -> List[sources.LibraryItem]:
         asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
         if asf is not None and not os.path.isfile(asf):
             raise ShapeSigError(f"the skeleton file {asf} does not exist")
-        items += sources.library(folders, start=settings.crop_start or None, asf=asf)
+        items += sources.library(folders, start=settings.crop_start or None, asf=asf, trim=trim, fps=fps)
     return items
 
 
@@ -404,6 +426,10 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
         row.window_action = ""
         row.explain = json.dumps(r.explain) if getattr(r, "explain", None) else ""
+        trimmed = getattr(r, "trimmed", ())  # the frames compared when trimming cut some (issue 15)
+        # kept / read apart from the moment's window: Assign and Preview of a trimmed clip give the whole action
+        row.kept_first, row.kept_last = trimmed[:2] if trimmed else (0, 0)
+        row.read_first, row.read_last = trimmed[2:] if trimmed else (0, 0)
     out.results_index = 0
     out.query_name = query_name
     out.order_by = order_by

@@ -1,4 +1,6 @@
-"""Add-on preferences: where the signature index is kept and the default library folders.
+"""Add-on preferences: where the signature index is kept, the default library folders and the folder of saved
+bone maps (``rigmap``: import a map by name; with Auto-Pick, armatures without a stored map use the folder's map
+made for their rig).
 
 The preferences' ``bl_idname`` is the add-on's module name (``__package__`` of this top-level module:
 ``blender_shapesig`` when installed as a legacy add-on or imported from source,
@@ -37,11 +39,28 @@ class ShapeSigPreferences(bpy.types.AddonPreferences):
         default=False,
     )
 
+    maps_folder: StringProperty(
+        name="Bone Maps Folder",
+        description="Folder of saved bone maps (.json, {\"bone\": \"canonical joint\"}): the Bone Map panel "
+                    "imports them by name",
+        subtype="DIR_PATH",
+        default="",
+    )
+    auto_pick_map: BoolProperty(
+        name="Auto-Pick Maps",
+        description="An armature without a stored bone map uses the folder's saved map that names most of its "
+                    "bones (at least 3), instead of the automatic detection",
+        default=False,
+    )
+
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "cache_dir")
         layout.prop(self, "compact_index")
         layout.prop(self, "library_folders")
+        row = layout.row(align=True)
+        row.prop(self, "maps_folder")
+        row.prop(self, "auto_pick_map", toggle=True)
         row = layout.row()
         row.operator("shapesig.clear_index", icon="TRASH")
 

@@ -13,8 +13,8 @@ readable and writable on the scene settings for scripts: they are views onto the
 """
 
 import bpy
-from bpy.props import (BoolProperty, CollectionProperty, FloatProperty, IntProperty, PointerProperty,
-                       StringProperty)
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
+                       PointerProperty, StringProperty)
 
 from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
@@ -60,6 +60,11 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                                   "(Assign / Preview of a moment); Blend uses it")
     explain: StringProperty(name="Explanation", description="Why different (JSON, core.explain): per-joint "
                             "shares of the elastic distance and the alignment cost over time")
+    # issue 15: the frames read before trimming, when trimming cut some (0..0: nothing trimmed)
+    kept_first: IntProperty(name="Compared From", description="First frame compared, after trimming")
+    kept_last: IntProperty(name="Compared To", description="Last frame compared, after trimming")
+    read_first: IntProperty(name="Read From", description="First frame read, before trimming")
+    read_last: IntProperty(name="Read To", description="Last frame read, before trimming")
 
 
 class ShapeSigResults(bpy.types.PropertyGroup):
@@ -105,6 +110,17 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                             "CMU 'Daz-friendly' BVH files (frame 1 is a rest pose, frames 2-6 a ramp from it); "
                             "0 keeps all",
                             default=0, soft_min=0)
+    # issue 15: how every clip is read (query, file actions, folder clips); part of each clip's index key
+    trim: EnumProperty(
+        name="Trim", description="Rest-pose / ramp frames at the ends of each clip (core/trim.py); an explicit "
+        "crop start or frame range keeps its end",
+        items=(("auto", "Auto", "Drop detected rest-pose and ramp frames at both ends"),
+               ("none", "None", "Compare every frame")),
+        default="auto")
+    fps: FloatProperty(name="FPS", description="Frame rate the clips are read at (0: each action's own rate, "
+                       "else the scene's; each file's own rate)", default=0.0, soft_min=0.0, soft_max=240.0)
+    # the Bone Map panel's selected row (its list draws the active armature's bones)
+    bone_map_index: IntProperty(name="Bone", default=0)
     # search
     use_windows: BoolProperty(name="Moments", description="Rank moments inside the clips (the best window of each, "
                               "refined by the elastic distance with a free start and end); Assign, Preview and "

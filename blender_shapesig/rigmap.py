@@ -6,26 +6,35 @@ is **stored on the armature data** as the custom property ``shapesig_bone_map`` 
 the .blend file and every object using that armature), exported to / imported from the saved-map JSON format
 (``core.rigs.save_map`` / ``load_map``), and looked up in a folder of saved maps (the preferences' maps folder).
 
+    bone_map_of(obj)               -> THE map the package reads this armature's actions with (search, blend):
+                                      the stored map, else (preference Auto-Pick) the maps folder's map for
+                                      this rig, else "auto" (core.rigs detection at reading)
     rows(obj)                      -> [(bone, joint or "", detected joint or "")]  the editor's list
-    armature_map(obj)              -> the stored map, else the detected one
-    store_map(obj, mapping) / clear_map(obj) / stored_map(obj)
-    export_map(obj, path) / import_map(obj, path)
+    armature_map(obj)              -> bone_map_of as a dict (the detected map for "auto")
+    store_map(obj, mapping) / clear_map(obj) / stored_map(obj) / set_joint(obj, bone, joint)
+    export_map(obj, path) / import_map(obj, path) / import_saved(obj, name, folder)
     best_saved_map(obj, folder)    -> (path, mapping) of the folder's map that names most of the bones
+    onto_comparison(...) / back_onto_armature(...)   blending actions of two rigs (blend_actions)
 
-The panel drawing of the editor is not here (the panels are thin; they call these functions).
+The panel drawing of the editor is not here (``panels/rigmap.py``, ``operators/rigmap.py`` call these).
 """
 
 import json
 import os
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Optional, Tuple, Union
 
 from .core import rigs
 from .core.errors import ShapeSigError
 
 __all__ = ["PROP", "armature_parents", "detect_armature_map", "stored_map", "store_map", "clear_map",
-           "armature_map", "rows", "export_map", "import_map", "saved_maps", "best_saved_map", "map_digest"]
+           "armature_map", "rows", "export_map", "import_map", "saved_maps", "best_saved_map", "map_digest",
+           "bone_map_of", "maps_folder", "set_joint", "import_saved", "MIN_PICKED", "across_rigs", "onto_comparison",
+           "back_onto_armature"]
 
 PROP = "shapesig_bone_map"
+# a saved map is picked automatically (preference Auto-Pick) only when it names at least this many bones of the
+# armature (detection's own threshold: three bones of one table)
+MIN_PICKED = 3
 
 
 def _armature_data(obj):
@@ -74,15 +83,56 @@ def clear_map(obj) -> None:
         del data[PROP]
 
 
-def armature_map(obj) -> Dict[str, str]:
-    """The map the package uses for this armature: the stored one, else the detected one."""
+def maps_folder(context=None, auto_only=False) -> str:
+    """The preferences' folder of saved maps ("" when not set; with ``auto_only``, "" unless Auto-Pick is on)."""
+    import bpy
+
+    from .preferences import get_preferences
+
+    prefs = get_preferences(context)
+    if prefs is None or not getattr(prefs, "maps_folder", "") or (auto_only and not prefs.auto_pick_map):
+        return ""
+    return bpy.path.abspath(prefs.maps_folder)
+
+
+def bone_map_of(obj, folder=None) -> Union[Dict[str, str], str]:
+    """THE bone map this armature's actions are read with (the search library and blends across rigs call only
+    this): the map stored on the armature; else, when a maps folder is given (default: the preferences' folder
+    with Auto-Pick on), its saved map for this rig (``best_saved_map``, naming at least ``MIN_PICKED`` bones);
+    else ``"auto"`` (``core.rigs.resolve_map`` detects the map from the bones read)."""
     stored = stored_map(obj)
-    return stored if stored is not None else detect_armature_map(obj)
+    if stored is not None:
+        return stored
+    folder = maps_folder(auto_only=True) if folder is None else folder
+    if folder:
+        path, mapping = best_saved_map(obj, folder)
+        if path is not None and len(mapping) >= MIN_PICKED:
+            return mapping
+    return "auto"
+
+
+def armature_map(obj) -> Dict[str, str]:
+    """The map the package uses for this armature (``bone_map_of``) as a dict: "auto" is the detected map."""
+    mapping = bone_map_of(obj)
+    return detect_armature_map(obj) if mapping == "auto" else dict(mapping)
 
 
 def map_digest(obj) -> str:
-    """The stored map's text ("" when none): part of an armature's cache digest."""
-    return str(_armature_data(obj).get(PROP, ""))
+    """The map in use as text ("" for automatic detection): part of an armature's cache digest, so a stored,
+    edited or auto-picked map gives the armature's actions new index keys."""
+    mapping = bone_map_of(obj)
+    return "" if mapping == "auto" else json.dumps(mapping, sort_keys=True)
+
+
+def set_joint(obj, bone: str, joint: str) -> Dict[str, str]:
+    """Give ``bone`` the canonical ``joint`` ("" or "NONE": not a joint) in the map in use and store it; a bone
+    that had this joint loses it (a joint is used once). Returns the stored map."""
+    if bone not in _armature_data(obj).bones:
+        raise ShapeSigError(f"armature {obj.name!r} has no bone {bone!r}")
+    mapping = {b: j for b, j in armature_map(obj).items() if b != bone and j != joint}
+    if joint and joint != "NONE":
+        mapping[bone] = joint
+    return store_map(obj, mapping)
 
 
 def rows(obj) -> List[Tuple[str, str, str]]:
@@ -92,8 +142,12 @@ def rows(obj) -> List[Tuple[str, str, str]]:
 
 
 def export_map(obj, path) -> str:
-    """Write the armature's map (stored, else detected) as a saved-map JSON file; returns the path."""
-    return rigs.save_map(path, armature_map(obj), rig=obj.data.name)
+    """Write the armature's map (``armature_map``) as a saved-map JSON file; returns the path. ShapeSigError
+    when no bone is mapped (nothing is written)."""
+    mapping = armature_map(obj)
+    if not mapping:
+        raise ShapeSigError(f"no bone of {obj.name!r} is mapped to a joint: nothing to export")
+    return rigs.save_map(path, mapping, rig=obj.data.name)
 
 
 def import_map(obj, path) -> Dict[str, str]:
@@ -105,6 +159,14 @@ def import_map(obj, path) -> Dict[str, str]:
         raise ShapeSigError(f"{os.path.basename(os.fspath(path))}: none of its bones are in armature "
                             f"{obj.name!r}")
     return store_map(obj, usable)
+
+
+def import_saved(obj, name: str, folder) -> Dict[str, str]:
+    """Import the saved map ``name`` (a file name of ``saved_maps(folder)``, with or without ``.json``)."""
+    for path in saved_maps(folder):
+        if os.path.basename(path) in (name, f"{name}.json"):
+            return import_map(obj, path)
+    raise ShapeSigError(f"no saved map {name!r} in the maps folder {folder or '(not set)'}")
 
 
 def saved_maps(folder) -> List[str]:
@@ -128,3 +190,40 @@ def best_saved_map(obj, folder) -> Tuple[Optional[str], Dict[str, str]]:
         if len(usable) > len(best_map):
             best, best_map = path, usable
     return best, best_map
+
+
+# ------------------------------------------------------------------------------- blends across two rigs
+
+def across_rigs(armature, other) -> bool:
+    """True when actions of ``armature`` and ``other`` are of two rigs (another armature with other bone names):
+    they are then blended through their bone maps; one rig blends in its own space."""
+    if other is None or other == armature:
+        return False
+    return {b.name for b in _armature_data(armature).bones} != {b.name for b in _armature_data(other).bones}
+
+
+def onto_comparison(a, armature, b, other, bones=None):
+    """(a, b, bones) for a blend of two rigs: clips ``a`` of ``armature`` and ``b`` of ``other`` (read in
+    armature space with their own armatures) in the comparison space through each armature's map
+    (``bone_map_of``); ``bones`` (a subset of ``armature``'s bones, or None) becomes their joints. ShapeSigError
+    (one line) when a bone of the subset has no joint or the coverage is below ``core.rigs.MIN_COVERAGE``."""
+    from .core.metrics import check_coverage
+
+    ma, mb = rigs.apply_bone_map(a, bone_map_of(armature)), rigs.apply_bone_map(b, bone_map_of(other))
+    check_coverage(ma, mb)
+    if bones is not None:
+        joint_of = {bone: joint for joint, bone in (ma.meta.get("bone_map") or {}).items()}
+        missing = [x for x in bones if x not in joint_of]
+        if missing:
+            raise ShapeSigError(f"bone(s) {', '.join(missing[:5])} of {armature.name!r} map to no joint of the "
+                                f"bone map: map them in the Bone Map panel, or blend all shared bones")
+        bones = [joint_of[x] for x in bones]
+    return ma, mb, bones
+
+
+def back_onto_armature(clip, rig, mapped):
+    """A blend in the comparison space written back onto A's rig (``core.rigs.onto_rig``: mapped bones take
+    the blend, the others keep A's motion, listed in ``meta["kept_bones"]``), in A's armature space."""
+    out = rigs.onto_rig(clip, rig, mapped)
+    out.meta["rotation_space"] = rig.meta.get("rotation_space", "armature")
+    return out

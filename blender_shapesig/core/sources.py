@@ -36,7 +36,7 @@ from .trim import TRIM_MODES, trim_clip
 
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "find_asf", "discover",
-    "read", "read_one", "file_key", "clip_key", "clip_item", "library",
+    "read", "read_one", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
 ]
 
 EXTENSIONS = (".bvh", ".amc", ".blend")
@@ -124,9 +124,14 @@ class ClipSpec:
         the frame rate, the trim rule and the bone map. Equal keys mean equal clips."""
         skeleton = self.skeleton()
         extra = (f"asf={file_key(skeleton) if skeleton else ''}|action={self.action}|start={self.start}"
-                 f"|end={self.end}|fps={self.fps}|trim={self.trim}{_TRIM_VERSION if self.trim != 'none' else ''}")
+                 f"|end={self.end}|fps={self.fps}|{trim_key(self.trim)}")
         extra += f"|bone_map={_bone_map_key(self.bone_map)}"
         return file_key(self.path, extra)
+
+
+def trim_key(trim) -> str:
+    """The key part of a trim rule (with the rule's version: a new rule recomputes trimmed clips)."""
+    return f"trim={trim}{_TRIM_VERSION if trim != 'none' else ''}"
 
 
 def _bone_map_key(bone_map) -> str:
@@ -235,7 +240,7 @@ def read(spec, **options) -> List[Clip]:
     if spec.fps is not None:
         clips = [dataclasses.replace(c, fps=float(spec.fps)) for c in clips]
     if spec.trim == "auto" and (spec.start is None or spec.end is None):
-        clips = [_trimmed(c, spec) for c in clips]
+        clips = [trim_ends(c, spec.start, spec.end) for c in clips]
     if spec.start is not None or spec.end is not None:
         clips = [c.crop(spec.start, spec.end) for c in clips]
     if spec.bone_map not in (None, "none"):
@@ -245,14 +250,21 @@ def read(spec, **options) -> List[Clip]:
     return clips
 
 
-def _trimmed(clip, spec):
-    """``trim.trim_clip`` keeping the end(s) the spec crops explicitly (an explicit ``start`` / ``end`` wins)."""
+def trim_ends(clip, start=None, end=None):
+    """``trim.trim_clip`` keeping the end(s) cropped explicitly (an explicit ``start`` / ``end`` wins; the crop
+    itself is the caller's). Used by ``read`` and by the Blender library's actions."""
     out = trim_clip(clip)
-    start = clip.frame_start if spec.start is not None else out.frame_start
-    end = clip.frame_end if spec.end is not None else out.frame_end
+    start = clip.frame_start if start is not None else out.frame_start
+    end = clip.frame_end if end is not None else out.frame_end
     if (start, end) != (out.frame_start, out.frame_end):
-        out = dataclasses.replace(clip.crop(start, end), meta=out.meta)
+        trim = dict(out.meta["trim"], kept=(start, end))  # what the rule cut, the explicit end(s) kept
+        out = dataclasses.replace(clip.crop(start, end), meta=dict(out.meta, trim=trim))
     return out
+
+
+def _trimmed(clip, spec):
+    """``trim_ends`` with a spec's explicit crop (kept for tests written against it)."""
+    return trim_ends(clip, spec.start, spec.end)
 
 
 def read_one(spec, **options) -> Clip:

@@ -3,9 +3,9 @@ Each submodule lists its classes in ``classes`` and may add menu entries (``menu
 
 import bpy
 
-from . import blend, import_acclaim, search
+from . import blend, import_acclaim, rigmap, search
 
-_MODULES = (import_acclaim, blend, search)
+_MODULES = (import_acclaim, blend, search, rigmap)
 classes = tuple(cls for module in _MODULES for cls in module.classes)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
 

@@ -2,7 +2,8 @@
 
 import bpy
 
-from . import search
+from . import rigmap, search
 
-classes = search.classes
+# the search panels first: the Bone Map subpanels name them as parents
+classes = search.classes + rigmap.classes
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -126,6 +126,9 @@ def _draw_library(layout, s):
         col.prop(s, "folders", text="")
         col.prop(s, "asf", text="Skeleton (.asf)")
     col.prop(s, "crop_start")
+    row = col.row(align=True)  # issue 15: how every clip is read
+    row.prop(s, "trim", expand=True)
+    row.prop(s, "fps")
 
 
 def _draw_search(layout, context, s):
@@ -180,6 +183,9 @@ def _draw_results(layout, s, res):
     window = f"frames {item.frame_first}-{item.frame_last}" if item.frame_last else f"{item.frames} frames"
     cover = f" of {res.query_bones} ({item.coverage:.0%})" if res.query_bones else ""
     info.label(text=f"{window}, compared on {item.shared} bones{cover}")
+    if item.read_last:  # trimming cut rest-pose / ramp frames: the frames compared and those read
+        info.label(text=f"trimmed: frames {item.kept_first}-{item.kept_last} compared of "
+                   f"{item.read_first}-{item.read_last} read", icon="INFO")
     if item.spec:
         info.label(text=item.spec, icon="FILE")
     _draw_explanation(layout, item)

@@ -51,6 +51,8 @@ class IndexEntry:
     source: str = ""
     key: str = ""
     exact: bool = True                # False: the direction is not stored (compact index), sketch only
+    # (first kept, last kept, first read, last read) when trimming cut frames (core.trim: meta["trim"]), else ()
+    trimmed: Tuple[int, ...] = ()
 
     @property
     def nbytes(self):
@@ -93,7 +95,17 @@ def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     return IndexEntry(name=clip.name, bones=tuple(clip.bones), moving=moving, frames=int(R.shape[0]),
                       level=level, norm=norm, direction=direction, increments=inc.astype(np.float32),
                       sketch=sketch(direction, len(clip.bones), moving, level), fps=float(clip.fps),
-                      source=clip.source, key=key)
+                      source=clip.source, key=key, trimmed=_trimmed(clip))
+
+
+def _trimmed(clip: Clip) -> Tuple[int, ...]:
+    """``IndexEntry.trimmed`` of a clip: (first, last) of its frames (those compared) and (first, last) of the
+    frames read, when the trim rule cut something (``meta["trim"]``: kept != read), else ()."""
+    trim = clip.meta.get("trim") or {}
+    kept, read = tuple(trim.get("kept", ())), tuple(trim.get("read", ()))
+    if len(kept) != 2 or len(read) != 2 or kept == read:
+        return ()
+    return tuple(int(f) for f in (clip.frame_start, clip.frame_end) + read)
 
 
 def entry_distance(a: IndexEntry, b: IndexEntry) -> float:

@@ -17,7 +17,7 @@ See docs/search.md for the measurements (recall of the sketch against the exact 
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -61,6 +61,7 @@ class RankResult:
     start: Optional[int] = None  # a moment (``windows.rank_windows``): its frames in the clip's own numbers
     end: Optional[int] = None
     explain: Optional[dict] = None  # ``core.explain``: per-joint shares, cost over time
+    trimmed: Tuple[int, ...] = ()  # (first kept, last kept, first read, last read) when trimming cut frames
 
     def as_dict(self):
         out = {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
@@ -186,7 +187,8 @@ def _query_entry(query, level, store):
 
 def _result(e, d, shared, approximate=False, partial=False, coverage=1.0):
     return RankResult(name=e.name, distance=float(d), frames=e.frames, key=e.key, source=e.source,
-                      shared=shared, approximate=approximate, partial=partial, coverage=coverage)
+                      shared=shared, approximate=approximate, partial=partial, coverage=coverage,
+                      trimmed=e.trimmed)
 
 
 def _coverage(q, e, shared):

@@ -36,7 +36,8 @@ CACHE_ENV = "SHAPESIG_CACHE_DIR"
 COMPACT_MAX_DIRECTION = 65_536
 
 _PACK = "light_pack.bin"  # the light pack's file name (see SignatureCache.save_pack)
-_ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact")
+_ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact",
+                 "trimmed")
 
 
 def default_cache_dir() -> str:
@@ -54,7 +55,8 @@ def default_cache_dir() -> str:
 def _entry_from_meta(m, key, sketch):
     return IndexEntry(name=m["name"], bones=tuple(m["bones"]), moving=tuple(m["moving"]), frames=int(m["frames"]),
                       level=int(m["level"]), norm=float(m["norm"]), fps=float(m["fps"]), source=m["source"],
-                      key=key, direction=None, increments=None, sketch=sketch, exact=bool(m["exact"]))
+                      key=key, direction=None, increments=None, sketch=sketch, exact=bool(m["exact"]),
+                      trimmed=tuple(int(f) for f in m.get("trimmed", ())))
 
 
 def _load_heavy(e: IndexEntry, z, i):

@@ -1,0 +1,144 @@
+"""The "Bone Map" subpanel of the ShapeSig sidebar tab (issue 14's map editor).
+
+It lists the active armature's bones (a UI list over ``armature.data.bones``: filter and sort for free), each
+with the canonical joint it is compared as and, when that differs, the automatically detected one. A joint is
+changed from the row's menu (``shapesig.bone_map_set``: one undo step, stored on the armature data); Detect,
+Clear, Import / Export JSON and the saved maps of the preferences' folder are buttons. Nothing is stored until the
+first edit: until then the panel shows the map the search would use (``rigmap.bone_map_of``).
+"""
+
+import os
+
+import bpy
+
+from .. import library, rigmap
+from ..core.errors import ShapeSigError
+
+__all__ = ["classes", "SHAPESIG_UL_bone_map", "draw_bone_map"]
+
+# (armature data pointer, map text, maps folder and its mtime, bone names) -> ({bone: (joint in use, detected
+# joint)}, where the map comes from): the list draws one row at a time; detection runs once per armature and map
+_ROWS = {}
+NONE = "\u2014"  # how "not a joint" is shown
+
+
+def bone_rows(obj):
+    """({bone: (joint in use or "", detected or "")}, "stored" | "picked" | "auto") of the armature, memoized
+    until its map, its bones or the auto-pick folder change. ShapeSigError when its stored map is corrupt."""
+    folder = rigmap.maps_folder(auto_only=True)
+    stamp = os.stat(folder).st_mtime_ns if folder and os.path.isdir(folder) else 0
+    names = tuple(b.name for b in obj.data.bones)
+    memo = (obj.data.as_pointer(), str(obj.data.get(rigmap.PROP, "")), folder, stamp, names)
+    got = _ROWS.get(memo)
+    if got is None:
+        used = rigmap.bone_map_of(obj)
+        kind = "auto" if used == "auto" else ("stored" if rigmap.PROP in obj.data else "picked")
+        _ROWS.clear()
+        got = _ROWS[memo] = ({b: (j, d) for b, j, d in rigmap.rows(obj)}, kind)
+    return got
+
+
+class SHAPESIG_UL_bone_map(bpy.types.UIList):
+    """A bone, its joint (a menu of the canonical joints) and, greyed, the detected joint when it differs."""
+
+    bl_idname = "SHAPESIG_UL_bone_map"
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index=0, flt_flag=0):
+        obj = context.active_object
+        try:
+            joint, detected = bone_rows(obj)[0].get(item.name, ("", ""))
+        except ShapeSigError:
+            joint = detected = ""
+        row = layout.row(align=True)
+        split = row.split(factor=0.45)
+        split.label(text=item.name, icon="BONE_DATA")
+        right = split.row(align=True)
+        op = right.operator_menu_enum("shapesig.bone_map_set", "joint", text=joint or NONE,
+                                      icon="CHECKMARK" if joint else "BLANK1")
+        op.bone = item.name
+        hint = right.row()
+        hint.active = False
+        hint.label(text="auto: " + (detected or NONE) if detected != joint else "")
+
+
+class SHAPESIG_MT_saved_maps(bpy.types.Menu):
+    """The saved maps of the preferences' Bone Maps Folder"""
+
+    bl_idname = "SHAPESIG_MT_saved_maps"
+    bl_label = "Saved Maps"
+
+    def draw(self, context):
+        paths = rigmap.saved_maps(rigmap.maps_folder(context))
+        if not paths:
+            self.layout.label(text="No maps: set a Bone Maps Folder in the preferences", icon="INFO")
+        for path in paths:
+            op = self.layout.operator("shapesig.bone_map_import_saved", text=os.path.basename(path))
+            op.name = os.path.basename(path)
+        if paths:
+            self.layout.separator()
+            self.layout.operator("shapesig.bone_map_pick", icon="VIEWZOOM")
+
+
+_KINDS = {"stored": ("Stored map", "CHECKMARK"), "picked": ("Auto-picked saved map (not stored)", "FILE"),
+          "auto": ("Automatic", "AUTO")}
+
+
+def _status(obj):
+    """(text, icon): where the map in use comes from and how many bones it maps."""
+    try:
+        rows, kind = bone_rows(obj)
+    except ShapeSigError as exc:
+        return f"{exc}; Clear it", "ERROR"
+    text, icon = _KINDS[kind]
+    return f"{text}: {sum(1 for j, _d in rows.values() if j)} of {len(rows)} bones", icon
+
+
+def draw_bone_map(layout, context):
+    """Draw the editor for the active armature (a hint when there is none)."""
+    obj = getattr(context, "active_object", None)
+    s = library.settings_of(context)
+    if obj is None or obj.type != "ARMATURE" or s is None:
+        layout.label(text="Select an armature to see its bone map.", icon="INFO")
+        return
+    text, icon = _status(obj)
+    layout.label(text=text, icon=icon)
+    row = layout.row(align=True)
+    row.operator("shapesig.bone_map_detect", text="Detect", icon="AUTO")
+    row.operator("shapesig.bone_map_clear", text="Clear", icon="X")
+    layout.template_list("SHAPESIG_UL_bone_map", "", obj.data, "bones", s, "bone_map_index", rows=8)
+    row = layout.row(align=True)
+    row.operator("shapesig.bone_map_import", text="Import", icon="IMPORT")
+    row.operator("shapesig.bone_map_export", text="Export", icon="EXPORT")
+    row.menu("SHAPESIG_MT_saved_maps", text="Saved", icon="FILE_FOLDER")
+
+
+class _BoneMapPanel:
+    bl_label = "Bone Map"
+    bl_region_type = "UI"
+    bl_category = "ShapeSig"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        draw_bone_map(self.layout, context)
+
+
+class SHAPESIG_PT_bone_map_view3d(_BoneMapPanel, bpy.types.Panel):
+    bl_idname = "SHAPESIG_PT_bone_map_view3d"
+    bl_space_type = "VIEW_3D"
+    bl_parent_id = "SHAPESIG_PT_search_view3d"
+
+
+class SHAPESIG_PT_bone_map_dopesheet(_BoneMapPanel, bpy.types.Panel):
+    bl_idname = "SHAPESIG_PT_bone_map_dopesheet"
+    bl_space_type = "DOPESHEET_EDITOR"
+    bl_parent_id = "SHAPESIG_PT_search_dopesheet"
+
+
+class SHAPESIG_PT_bone_map_nla(_BoneMapPanel, bpy.types.Panel):
+    bl_idname = "SHAPESIG_PT_bone_map_nla"
+    bl_space_type = "NLA_EDITOR"
+    bl_parent_id = "SHAPESIG_PT_search_nla"
+
+
+classes = (SHAPESIG_UL_bone_map, SHAPESIG_MT_saved_maps, SHAPESIG_PT_bone_map_view3d,
+           SHAPESIG_PT_bone_map_dopesheet, SHAPESIG_PT_bone_map_nla)
