@@ -13,6 +13,24 @@ def library_items(specs, args):
     return [spec_item(c.clip_spec(s, args.asf, c.crop_of(args), args.bone_map).check()) for s in specs]
 
 
+def recording_trims(items, trims):
+    """The items, each recording in ``trims[(key, clip name)]`` the trimmed range (``core.trim.trimmed_range``)
+    of the clips it reads in this run (a clip whose signature is cached is not read: its range stays unknown)."""
+    import dataclasses
+
+    from ..core.trim import trimmed_range
+
+    def wrap(item):
+        def load():
+            got = item.load()
+            for clip in [got] if hasattr(got, "rotations") else list(got):
+                trims[(item.key, clip.name)] = (trimmed_range(clip), clip)
+            return got
+        return dataclasses.replace(item, load=load)
+
+    return [wrap(it) for it in items]
+
+
 def run(args):
     from ..core import search
     from ..core.metrics import metric_label, parse_metric
@@ -28,7 +46,8 @@ def run(args):
     query = read_one(spec)
     # the query is keyed like the library: its signature is a cache hit when it was indexed before
     query_item = spec_item(spec, load=lambda _spec: query)
-    items = library_items(args.clips, args)
+    trims = {}
+    items = recording_trims(library_items(args.clips, args), trims)
     if not items:
         raise c.CommandError("no clips to rank")
     cache = search.SignatureCache(c.cache_dir(args, search))
@@ -60,17 +79,24 @@ def run(args):
         seen[r.key] = seen.get(r.key, 0) + (len(group) > 1)
         path = item.path if item is not None else None
         action = (item.action or r.name) if path and path.lower().endswith(".blend") else None
+        got = trims.get((r.key, r.name), ({"frames": None, "cut": None}, None))[0]
         rows.append({"clip": r.name, "distance": c.finite(r.distance), "elastic": c.finite(r.elastic),
-                     "path": path, "action": action, "coverage": r.coverage})
+                     "path": path, "action": action, "coverage": r.coverage,
+                     "trim": got["frames"], "trimmed": got["cut"]})
     label = metric_label(base, level)
     stats = dict(getattr(results, "stats", {}) or {})
-    out = {"query": query.name, "metric": label, "results": rows,
+    from ..core.trim import trim_note, trimmed_range
+
+    out = {"query": query.name, "metric": label, "results": rows, "query_trim": trimmed_range(query)["frames"],
+           "query_trimmed": trimmed_range(query)["cut"],
            "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}}
     lines = [f"query: {query.name}  metric: {label}"]
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
         dist = "nan" if r["distance"] is None else f"{r['distance']:.6g}"
         lines.append(f"{i:3d}. {r['clip']}  {dist}{el}")
+    shown = [trims[(r.key, r.name)][1] for r in results if (r.key, r.name) in trims]
+    lines += [n for n in map(trim_note, [query] + shown) if n]
     return out, "\n".join(lines)
 
 

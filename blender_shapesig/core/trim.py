@@ -34,7 +34,7 @@ from . import so3
 from .so3 import relative_rotvecs
 
 __all__ = ["TRIM_MODES", "START_RATIO", "REST_RATIO", "LEAVE_RATIO", "KEEP_RATIO", "MAX_SECONDS", "Trim", "step_ratios", "rest_ratios", "detect_trim",
-           "trim_clip"]
+           "trim_clip", "trimmed_range", "trim_note"]
 
 TRIM_MODES = ("auto", "none")
 START_RATIO = 4.0
@@ -115,3 +115,29 @@ def trim_clip(clip):
     read = (clip.frame_start, clip.frame_end)
     out = clip.crop(clip.frame_start + cut.head, clip.frame_end - cut.tail) if cut else clip
     return replace(out, meta=dict(out.meta, trim={"kept": (out.frame_start, out.frame_end), "read": read}))
+
+
+def trimmed_range(clip):
+    """``{"frames": [first, last], "cut": [head, tail]}``: the frames the clip holds (scene frame numbers,
+    inclusive: what a comparison reads) and how many frames the automatic trimming cut at each end, from
+    ``meta["trim"]`` (``trim_clip``); an end the clip no longer starts (ends) at, because an explicit
+    ``start`` / ``end`` cropped it there, counts no trimmed frame. A clip never trimmed: ``cut`` is [0, 0]."""
+    head = tail = 0
+    record = clip.meta.get("trim") if clip.meta else None
+    if record:
+        (kept0, kept1), (read0, read1) = record["kept"], record["read"]
+        head = kept0 - read0 if clip.frame_start == kept0 else 0
+        tail = read1 - kept1 if clip.frame_end == kept1 else 0
+    return {"frames": [int(clip.frame_start), int(clip.frame_end)], "cut": [int(head), int(tail)]}
+
+
+def trim_note(clip):
+    """One line saying what the automatic trimming cut from ``clip`` ("" when it cut nothing), for reports:
+    "07_01: trimmed 5 rest-pose / ramp frames at the start; frames 6..317 compared"."""
+    got = trimmed_range(clip)
+    head, tail = got["cut"]
+    if not head and not tail:
+        return ""
+    ends = [f"{n} at the {where}" for n, where in ((head, "start"), (tail, "end")) if n]
+    first, last = got["frames"]
+    return f"{clip.name}: trimmed {' and '.join(ends)} (rest pose / ramp); frames {first}..{last} compared"
