@@ -1,15 +1,22 @@
 #!/usr/bin/env python
-"""The same motion at 120 / 60 / 30 fps (issue 15, docs/evaluation.md "Time base"):
+"""The same motion at 120 / 60 / 30 fps (issue 15, docs/model.md "Time base", docs/evaluation.md "Time base"):
 
   .venv/bin/python tools/measure_time_base.py --data ../shared/data/cmu [--metrics sim3,elastic] [--raw]
+      [--span] [--trim-each] [--no-rank] [--json FILE]
 
 For every walk of the shared sets (the Daz BVH walks of tools/eval_sets/cmu_large.csv against its runs, the AMC
 walks of tools/eval_sets/cmu_amc.csv against its runs): the distance between the clip and its copy decimated to
-60 and 30 fps (every 2nd / 4th frame; the clip is first cut to a multiple of 4 frame intervals so that all three
-cover the same seconds; ``--whole``: not cut), divided by the distance from the clip to the nearest run. Distances are
-``core.metrics.clip_distance`` (the package's comparison, on the time base of ``core.prepare``; ``--raw``: on
-the curves as read). Prints one row per walk and the largest ratio per metric and rate; ``--json FILE`` saves
-them.
+60 and 30 fps (every 2nd / 4th frame from the first: a clip of N frames at 120 fps loses its last (N - 1) mod 4
+frames, up to 25 ms, at 30 fps), divided by the distance from the clip to the nearest run. Issue 15's bounds:
+below ``BOUNDS`` (0.05 for sim^3, 0.15 for d_S*) for every walk at both rates; and the 30 fps copy, as a query,
+has a walk of its set (not itself) nearer than every run ("ranks walks first"). Prints one row per walk with
+PASS / FAIL, the largest ratio per metric and rate, and the count of walks that pass.
+
+Distances are ``core.metrics.clip_distance`` (the package's comparison, on the time base of ``core.prepare``;
+``--raw``: on the curves as read). The clips are read as the evaluation reads them (rest-pose ramps trimmed at
+120 fps) and decimated after; ``--trim-each``: decimated as read and each copy trimmed at its own rate (the
+ramp's end is then cut at a 1/30 s resolution: see docs/model.md); ``--span``: every clip first cut to a
+multiple of 4 frame intervals (no frame lost; the measure before the lattice of core.prepare).
 """
 
 import argparse
@@ -25,8 +32,11 @@ if ROOT not in sys.path:
 from blender_shapesig import evaluation as ev  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
 from blender_shapesig.core.prepare import decimate_clip  # noqa: E402
+from blender_shapesig.core.trim import trim_clip  # noqa: E402
 
 SETS = ("cmu_large.csv", "cmu_amc.csv")
+BOUNDS = {"sim3": 0.05, "elastic": 0.15}  # issue 15: decimated copy / nearest other class
+RATES = ("60fps", "30fps")
 
 
 def same_span(clip, step=4):
@@ -36,29 +46,55 @@ def same_span(clip, step=4):
     return replace(clip, rotations=clip.rotations[:n], root_translation=root)
 
 
-def measure(data, metrics, time_base=True, say=print, whole=False):
+def copies(clip, raw, trim_each):
+    """(reference, {rate: copy}): the clip and its 60 / 30 fps copies. ``trim_each``: ``raw`` (as read, not
+    trimmed) decimated, and every clip trimmed at its own rate."""
+    if not trim_each:
+        return clip, {f"{int(round(clip.fps / s))}fps": decimate_clip(clip, s) for s in (2, 4)}
+    return trim_clip(raw), {f"{int(round(raw.fps / s))}fps": trim_clip(decimate_clip(raw, s)) for s in (2, 4)}
+
+
+def check(row, metrics, rank):
+    """PASS when every ratio is below its bound and (``rank``) the 30 fps copy ranks a walk first."""
+    ok = all(row[m][r] < BOUNDS.get(m, float("inf")) for m in metrics for r in RATES)
+    if rank:
+        ok = ok and all(row[m]["ranks_walks_first"] for m in metrics)
+    return ok
+
+
+def measure(data, metrics, time_base=True, say=print, span=False, trim_each=False, rank=True):
     rows = []
     for set_name in SETS:
         entries = ev.read_index(os.path.join(ROOT, "tools", "eval_sets", set_name))
         load = ev.entry_loader(data)
-        clips = [(e.label, load(e)) for e in entries]
-        runs = [c for label, c in clips if label == "run"]
-        for label, clip in clips:
+        load_raw = ev.entry_loader(data, trim="none")
+        clips = [(e.label, load(e), e) for e in entries]
+        runs = [c for label, c, _ in clips if label == "run"]
+        walks = [c for label, c, _ in clips if label == "walk"]
+        for label, clip, entry in clips:
             if label != "walk":
                 continue
-            clip = clip if whole else same_span(clip)
-            row = {"set": set_name, "clip": clip.name, "fps": clip.fps, "frames": clip.frames}
+            clip = same_span(clip) if span else clip
+            ref, low = copies(clip, load_raw(entry) if trim_each else None, trim_each)
+            row = {"set": set_name, "clip": ref.name, "fps": ref.fps, "frames": ref.frames,
+                   "lost": {r: ref.frames - 1 - (c.frames - 1) * int(round(ref.fps / c.fps)) for r, c in low.items()}}
             for m in metrics:
-                near = min(clip_distance(clip, r, m, time_base=time_base) for r in runs)
+                near = min(clip_distance(ref, r, m, time_base=time_base) for r in runs)
                 row[m] = {"nearest_run": near}
-                for step in (2, 4):
-                    d = clip_distance(clip, decimate_clip(clip, step), m, time_base=time_base)
-                    row[m][f"{int(round(clip.fps / step))}fps"] = d / near
+                for rate, c in low.items():
+                    row[m][rate] = clip_distance(ref, c, m, time_base=time_base) / near
+                if rank:
+                    q = low["30fps"]
+                    to_walk = min(clip_distance(q, w, m, time_base=time_base) for w in walks if w.name != ref.name)
+                    to_run = min(clip_distance(q, r, m, time_base=time_base) for r in runs)
+                    row[m]["ranks_walks_first"] = bool(to_walk < to_run)
+            row["pass"] = check(row, metrics, rank)
             rows.append(row)
-            say(f"{set_name:14s} {clip.name:8s} " + "  ".join(
+            say(f"{set_name:14s} {ref.name:8s} lost {row['lost']['60fps']}/{row['lost']['30fps']}  " + "  ".join(
                 f"{m}: run {row[m]['nearest_run']:.3f} 60 fps {row[m]['60fps']:.3f} 30 fps {row[m]['30fps']:.3f}"
-                for m in metrics))
-    worst = {m: {r: max(row[m][r] for row in rows) for r in ("60fps", "30fps")} for m in metrics}
+                + ("" if not rank else f" walks first {'yes' if row[m]['ranks_walks_first'] else 'NO'}")
+                for m in metrics) + f"  {'PASS' if row['pass'] else 'FAIL'}")
+    worst = {m: {r: max(row[m][r] for row in rows) for r in RATES} for m in metrics}
     return rows, worst
 
 
@@ -67,18 +103,27 @@ def main(argv=None):
     p.add_argument("--data", required=True, help="the shared CMU folder")
     p.add_argument("--metrics", default="sim3,elastic")
     p.add_argument("--raw", action="store_true", help="compare the curves as read (no time base)")
-    p.add_argument("--whole", action="store_true",
-                   help="keep every clip whole: its copies then lose up to 3 trailing frames (12-25 ms)")
+    p.add_argument("--span", action="store_true",
+                   help="cut every clip to a multiple of 4 frame intervals first (its copies then lose no frame)")
+    p.add_argument("--whole", action="store_true", help="(the default; kept for older command lines)")
+    p.add_argument("--trim-each", action="store_true",
+                   help="decimate the clips as read and trim every copy at its own rate")
+    p.add_argument("--no-rank", action="store_true", help="skip the check that a 30 fps walk ranks walks first")
     p.add_argument("--json", help="write the rows and the largest ratios to this file")
     args = p.parse_args(argv)
     metrics = [m.strip() for m in args.metrics.split(",") if m.strip()]
-    rows, worst = measure(args.data, metrics, time_base=not args.raw, whole=args.whole)
+    rows, worst = measure(args.data, metrics, time_base=not args.raw, span=args.span, trim_each=args.trim_each,
+                          rank=not args.no_rank)
     for m, w in worst.items():
-        print(f"largest ratio {m}: 60 fps {w['60fps']:.3f}, 30 fps {w['30fps']:.3f} ({len(rows)} walks)")
+        bound = f" (bound {BOUNDS[m]:g})" if m in BOUNDS else ""
+        print(f"largest ratio {m}: 60 fps {w['60fps']:.3f}, 30 fps {w['30fps']:.3f}{bound} ({len(rows)} walks)")
+    passed = sum(row["pass"] for row in rows)
+    print(f"{passed}/{len(rows)} walks pass")
     if args.json:
         with open(args.json, "w") as fh:
-            json.dump({"rows": rows, "largest": worst, "time_base": not args.raw}, fh, indent=1)
-    return 0
+            json.dump({"rows": rows, "largest": worst, "passed": passed, "time_base": not args.raw,
+                       "span": args.span, "trim_each": args.trim_each}, fh, indent=1)
+    return 0 if passed == len(rows) else 1
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ from . import common as c
 
 def run(args):
     from ..core.metrics import compare_clips, metric_label, parse_metric
+    from ..core.trim import trim_note, trimmed_range
 
     base, level = parse_metric(args.metric, args.level)
     a = c.load_one(args.a, args.asf, c.crop_of(args), args.bone_map)
@@ -16,7 +17,10 @@ def run(args):
            "bones": got["bones"], "coverage": got["coverage"]}
     if base == "elastic":
         out["depth"] = args.depth
-    text = f"{label}({a.name}, {b.name}) = {d:.6g}"
+    # the frames compared (scene numbers, inclusive) and what trimming cut (core.trim)
+    out["trim"] = {"a": trimmed_range(a)["frames"], "b": trimmed_range(b)["frames"]}
+    out["trimmed"] = {"a": trimmed_range(a)["cut"], "b": trimmed_range(b)["cut"]}
+    text = "\n".join([f"{label}({a.name}, {b.name}) = {d:.6g}"] + [n for n in map(trim_note, (a, b)) if n])
     return out, text
 
 

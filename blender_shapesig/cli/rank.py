@@ -49,6 +49,7 @@ def run(args):
     if args.explain < 0:
         raise c.CommandError("--explain must be 0 or more")
     from ..core.sources import read_one, spec_item
+    from ..core.trim import trim_note, trimmed_range
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
     query = read_one(spec)
@@ -89,15 +90,19 @@ def run(args):
         seen[r.key] = seen.get(r.key, 0) + (len(group) > 1)
         path = item.path if item is not None else None
         action = (item.action or r.name) if path and path.lower().endswith(".blend") else None
+        trim = trimmed_range(r.trimmed)  # trim: the frames compared (null: the whole clip); trimmed: [head, tail]
         rows.append({"clip": r.name, "distance": c.finite(r.distance), "elastic": c.finite(r.elastic),
-                     "path": path, "action": action, "coverage": r.coverage})
+                     "path": path, "action": action, "coverage": r.coverage,
+                     "trim": trim["frames"], "trimmed": trim["cut"]})
         if r.start is not None:
             rows[-1].update(start=r.start, end=r.end)
         if args.explain and len(rows) <= args.explain:
             rows[-1]["explain"] = _explanation(query, item, r, args)
     label = "sim2 windows" if args.windows else metric_label(base, level)
     stats = dict(getattr(results, "stats", {}) or {})
-    out = {"query": query.name, "metric": label, "results": rows,
+    notes = [trim_note(query)] + [trim_note(r.name, r.trimmed) for r in results]
+    out = {"query": query.name, "metric": label, "results": rows, "query_trim": trimmed_range(query)["frames"],
+           "query_trimmed": trimmed_range(query)["cut"],
            "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}}
     lines = [f"query: {query.name}  metric: {label}"]
     for i, r in enumerate(rows, 1):
@@ -109,6 +114,7 @@ def run(args):
             from ..core.explain import top_joints
 
             lines.append("       " + ", ".join(f"{n} {v:.0%}" for n, v in top_joints(r["explain"], 4)))
+    lines += [n for n in notes if n]
     return out, "\n".join(lines)
 
 

@@ -34,7 +34,7 @@ from . import so3
 from .so3 import relative_rotvecs
 
 __all__ = ["TRIM_MODES", "START_RATIO", "REST_RATIO", "LEAVE_RATIO", "KEEP_RATIO", "MAX_SECONDS", "Trim", "step_ratios", "rest_ratios", "detect_trim",
-           "trim_clip"]
+           "trim_clip", "trim_record", "trimmed_range", "trim_note"]
 
 TRIM_MODES = ("auto", "none")
 START_RATIO = 4.0
@@ -115,3 +115,43 @@ def trim_clip(clip):
     read = (clip.frame_start, clip.frame_end)
     out = clip.crop(clip.frame_start + cut.head, clip.frame_end - cut.tail) if cut else clip
     return replace(out, meta=dict(out.meta, trim={"kept": (out.frame_start, out.frame_end), "read": read}))
+
+
+def trim_record(clip):
+    """(first kept, last kept, first read, last read) when the automatic trimming (``trim_clip``) cut frames
+    from ``clip``, else (): scene frame numbers, inclusive. An end the clip no longer starts (ends) at, because an
+    explicit ``start`` / ``end`` cropped it there, counts no trimmed frame. Index entries keep this record
+    (``IndexEntry.trimmed``), so results name their trimmed range without reading the clip again."""
+    record = clip.meta.get("trim") if clip.meta else None
+    if not record:
+        return ()
+    (kept0, kept1), (read0, read1) = record["kept"], record["read"]
+    first, last = int(clip.frame_start), int(clip.frame_end)
+    head = kept0 - read0 if first == kept0 else 0
+    tail = read1 - kept1 if last == kept1 else 0
+    return (first, last, first - head, last + tail) if head or tail else ()
+
+
+def trimmed_range(record, frames=None):
+    """``{"frames": [first, last] | None, "cut": [head, tail]}`` (the JSON of results and reports) from a
+    ``trim_record`` (or a clip): the frames compared and how many frames the trimming cut at each end; nothing
+    cut: ``frames`` is the clip's own range (``None`` when only a record was given), ``cut`` [0, 0]."""
+    if hasattr(record, "rotations"):
+        record, frames = trim_record(record), [int(record.frame_start), int(record.frame_end)]
+    if not record:
+        return {"frames": frames, "cut": [0, 0]}
+    k0, k1, r0, r1 = record
+    return {"frames": [k0, k1], "cut": [k0 - r0, r1 - k1]}
+
+
+def trim_note(name, record=None):
+    """One line saying what the automatic trimming cut ("" when it cut nothing), for reports, from a clip or a
+    (name, ``trim_record``): "07_01: trimmed 5 at the start (rest pose / ramp); frames 6..317 compared"."""
+    if hasattr(name, "rotations"):
+        name, record = name.name, trim_record(name)
+    if not record:
+        return ""
+    got = trimmed_range(record)
+    ends = [f"{n} at the {where}" for n, where in zip(got["cut"], ("start", "end")) if n]
+    first, last = got["frames"]
+    return f"{name}: trimmed {' and '.join(ends)} (rest pose / ramp); frames {first}..{last} compared"

@@ -27,6 +27,7 @@ from ..clip import Clip, still_joints
 from ..curves import relative_rotvecs
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_LEVEL
+from ..trim import trim_record
 from .words import word_codes, sketch
 
 __all__ = ["IndexEntry", "make_entry", "entry_distance", "pair_increments", "sim_from_increments",
@@ -95,17 +96,7 @@ def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     return IndexEntry(name=clip.name, bones=tuple(clip.bones), moving=moving, frames=int(R.shape[0]),
                       level=level, norm=norm, direction=direction, increments=inc.astype(np.float32),
                       sketch=sketch(direction, len(clip.bones), moving, level), fps=float(clip.fps),
-                      source=clip.source, key=key, trimmed=_trimmed(clip))
-
-
-def _trimmed(clip: Clip) -> Tuple[int, ...]:
-    """``IndexEntry.trimmed`` of a clip: (first, last) of its frames (those compared) and (first, last) of the
-    frames read, when the trim rule cut something (``meta["trim"]``: kept != read), else ()."""
-    trim = clip.meta.get("trim") or {}
-    kept, read = tuple(trim.get("kept", ())), tuple(trim.get("read", ()))
-    if len(kept) != 2 or len(read) != 2 or kept == read:
-        return ()
-    return tuple(int(f) for f in (clip.frame_start, clip.frame_end) + read)
+                      source=clip.source, key=key, trimmed=trim_record(clip))
 
 
 def entry_distance(a: IndexEntry, b: IndexEntry) -> float:
