@@ -51,7 +51,7 @@ See docs/elastic.md for the measured cost.
 """
 
 import math
-from concurrent.futures import ThreadPoolExecutor, wait
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -281,33 +281,12 @@ class _Problem:
         return _dp_kernels.dp_numpy(*args, want_path=want_path)
 
 
-# Curves (arrays) of at least this many values have their SRVTs taken at the same time, the second one in a helper
-# thread (numpy releases the GIL in its array operations), so that 2 cores overlap them (wall time; the CPU time is
-# the same). Smaller ones are not worth the hand-off (~50 us). 18,000 values: 2,000 rotation matrices.
-OVERLAP_VALUES = 18_000
-_HELPER = []
-
-
-def _srvt_pair(R0, R1):
-    """((Q0, joints0), (Q1, joints1)) of ``_srvt_matrix``; the second in the helper thread for large arrays. Errors
-    as in sequence (R0's first)."""
-    if min(getattr(R0, "size", 0), getattr(R1, "size", 0)) < OVERLAP_VALUES:
-        return _srvt_matrix(R0, "R0"), _srvt_matrix(R1, "R1")
-    if not _HELPER:
-        _HELPER.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="shapesig-srvt"))
-    second = _HELPER[0].submit(_srvt_matrix, R1, "R1")
-    try:
-        first = _srvt_matrix(R0, "R0")
-    finally:
-        wait([second])
-    return first, second.result()
-
-
 def _align(R0, R1, depth, penalty, method, prune, want_path):
     depth = _check_depth(depth)
     penalty = _check_penalty(penalty)
     method = _check_method(method)
-    (Q0, j0), (Q1, j1) = _srvt_pair(R0, R1)
+    Q0, j0 = _srvt_matrix(R0, "R0")
+    Q1, j1 = _srvt_matrix(R1, "R1")
     if j0 != j1:
         raise CurveError(f"the curves have {j0} and {j1} joints")
     prob = _Problem(Q0, Q1, depth, penalty, prune)

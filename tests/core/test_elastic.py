@@ -469,23 +469,3 @@ def test_memory_guard_refuses_grids_beyond_the_limit(monkeypatch):
         el.elastic_distance(R0, R1)
     monkeypatch.setattr(el, "MAX_DP_BYTES", el.DP_BYTES_PER_NODE * 59 * 49)
     assert el.elastic_distance(R0, R1) == 0.0
-
-
-def test_srvts_in_a_helper_thread_change_nothing(monkeypatch):
-    """Large curves take their two SRVTs at the same time (elastic.OVERLAP_VALUES): the same distance and warp as in
-    sequence, and R0's error first when both curves are bad."""
-    from blender_shapesig.core import elastic
-
-    R0, R1 = random_curve(40, joints=3, seed=1), random_curve(35, joints=3, seed=2)
-    monkeypatch.setattr(elastic, "OVERLAP_VALUES", 10**12)
-    serial = elastic_align(R0, R1, depth=4, return_info=True)
-    monkeypatch.setattr(elastic, "OVERLAP_VALUES", 1)
-    both = elastic_align(R0, R1, depth=4, return_info=True)
-    assert both[1] == serial[1] and np.array_equal(both[0], serial[0])
-    bad0, bad1 = R0.copy(), R1.copy()
-    bad0[3, 1, 0, 0] = np.nan
-    bad1[:] = np.nan
-    with pytest.raises(CurveError, match="R0"):
-        elastic_distance(bad0, bad1)
-    with pytest.raises(CurveError, match="R1"):
-        elastic_distance(R0, bad1)
