@@ -11,8 +11,7 @@ Usage (from the repository root):
    whole ``elastic_distance`` / ``elastic_align`` calls. Times are the minimum over repeats of
    the thread's CPU time (``time.thread_time``, robust when other processes share the cores)
    and, for reference, of the wall time.
-   The whole ``elastic_distance`` is timed with the process CPU clock (its two SRVTs run in two threads) and
-   again with the SRVTs in sequence (same run). ``reads_per_node_depth_9``: the DP's G reads per node and the
+   ``reads_per_node_depth_9``: the DP's G reads per node and the
    fewest a prefix-sum scheme could need; ``--pruning-bound``: the multiply-adds a branch-and-bound would still
    need at best (both measured to decide against them, docs/elastic.md).
    Also the parts of the whole call (SRVT of both curves, Gram matrix) and the whole call's speed-up over the
@@ -55,12 +54,12 @@ ASF = {
 }
 
 
-def best_of(fn, repeat, clock=time.thread_time):
+def best_of(fn, repeat):
     cpu, wall = [], []
     for _ in range(repeat):
-        c0, w0 = clock(), time.perf_counter()
+        c0, w0 = time.thread_time(), time.perf_counter()
         fn()
-        cpu.append(clock() - c0)
+        cpu.append(time.thread_time() - c0)
         wall.append(time.perf_counter() - w0)
     return min(cpu), min(wall)
 
@@ -133,16 +132,7 @@ def pair_benchmark(repeat, pruning=False):
         out["numba_first_call_s"] = time.perf_counter() - t0  # JIT or on-disk cache load
         results["numba_dp"] = best_of(lambda: prob.solve("numba", want_path=False), repeat)
         results["numba_dp_path"] = best_of(lambda: prob.solve("numba", want_path=True), repeat)
-        # the whole call: CPU of the whole process (both SRVTs, one in the helper thread) and wall; then with the
-        # two SRVTs in sequence (elastic.OVERLAP_VALUES out of reach), same run
-        results["elastic_distance"] = best_of(lambda: elastic.elastic_distance(R0, R1), repeat, time.process_time)
-        overlap = elastic.OVERLAP_VALUES
-        elastic.OVERLAP_VALUES = 1 << 62
-        try:
-            results["elastic_distance_srvts_in_sequence"] = best_of(lambda: elastic.elastic_distance(R0, R1), repeat,
-                                                                    time.process_time)
-        finally:
-            elastic.OVERLAP_VALUES = overlap
+        results["elastic_distance"] = best_of(lambda: elastic.elastic_distance(R0, R1), repeat)
         results["elastic_align"] = best_of(lambda: elastic.elastic_align(R0, R1), repeat)
     results["numpy_dp"] = best_of(lambda: prob.solve("numpy", want_path=False), max(2, repeat // 5))
     results["srvt_and_G"] = best_of(
