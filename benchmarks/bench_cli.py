@@ -1,13 +1,14 @@
 """The command line at library scale: indexing BVH clips (our bpy-free reader) and a query over 1,000 cached clips,
 wall time of whole ``python -m blender_shapesig rank`` processes (start-up included).
 
-    .venv/bin/python benchmarks/bench_cli.py [--clips 1000] [--json OUT]
+    .venv/bin/python benchmarks/bench_cli.py [--clips 1000] [--baseline] [--json OUT]
 
 The library: ``--clips`` copies of the six tests/data BVH clips (131-337 frames, 43 bones), each made a distinct
 file (trailing blank lines: a new SHA-1, the same motion). Runs, each a fresh process with ``--cache`` a new folder:
 1. cold: every clip read and signed (indexing rate = clips / wall seconds, start-up included);
 2. warm: the same query again, every signature a cache hit (the target: < 1 s);
-3. for reference, ``python -c "import numpy"`` (the floor of any start-up) and the CLI's ``--help``.
+3. for reference, ``python -c "import numpy"`` (the floor of any start-up) and the CLI's ``--help``;
+4. with ``--baseline``: the cold run again with OpenBLAS's threads (one per core; the CLI now sets one thread).
 """
 
 import argparse
@@ -37,6 +38,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--clips", type=int, default=1000)
     ap.add_argument("--json", type=pathlib.Path)
+    ap.add_argument("--baseline", action="store_true",
+                    help="also index cold with one BLAS thread per core (the CLI's default before: the baseline)")
     args = ap.parse_args(argv)
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     env.pop("SHAPESIG_CACHE_DIR", None)
@@ -58,6 +61,15 @@ def main(argv=None):
         rank = ["-m", "blender_shapesig", "rank", query, *paths, "--cache", cache, "--top", "10", "--json",
                 "--no-progress"]
         cold, _ = run(rank, env)
+        if args.baseline:
+            # the same cold indexing with OpenBLAS's own threads (one per core: the default before the CLI set one),
+            # in a fresh cache folder: the baseline of the same run
+            threads = str(os.cpu_count())
+            benv = dict(env, OPENBLAS_NUM_THREADS=threads, OMP_NUM_THREADS=threads, MKL_NUM_THREADS=threads)
+            base_rank = [x if x != cache else cache + "_baseline" for x in rank]
+            base, _ = run(base_rank, benv)
+            out["baseline_blas_threads_index_wall_s"] = round(base, 2)
+            out["baseline_indexing_clips_per_s"] = round(args.clips / base, 1)
         warm = [run(rank, env)[0] for _ in range(3)]
         _, text = run(rank, env)
         res = json.loads(text)

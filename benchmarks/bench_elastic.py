@@ -2,7 +2,8 @@
 
 Usage (from the repository root):
 
-    .venv/bin/python benchmarks/bench_elastic.py [--data ../shared/data/cmu] [--repeat 15] [--json FILE]
+    .venv/bin/python benchmarks/bench_elastic.py [--data ../shared/data/cmu] [--repeat 15] [--skip-matrix]
+        [--pruning-bound] [--json FILE]
 
 1. One pair: two 300-frame, 31-joint real CMU curves (07_01 and 07_02 from tests/data, first
    300 frames, every bone), depth 9, penalty 0. Times the DP kernel alone (numba and the
@@ -10,6 +11,9 @@ Usage (from the repository root):
    whole ``elastic_distance`` / ``elastic_align`` calls. Times are the minimum over repeats of
    the thread's CPU time (``time.thread_time``, robust when other processes share the cores)
    and, for reference, of the wall time.
+   ``reads_per_node_depth_9``: the DP's G reads per node and the
+   fewest a prefix-sum scheme could need; ``--pruning-bound``: the multiply-adds a branch-and-bound would still
+   need at best (both measured to decide against them, docs/elastic.md).
    Also the parts of the whole call (SRVT of both curves, Gram matrix) and the whole call's speed-up over the
    numpy DP alone (the target of issue 16: >= 10x), and the first call in a fresh process (cache warm / cold).
 2. The all-pairs matrix of 27 clips (9 walks of subject 07, 8 walks of subject 08, 10 runs of
@@ -60,7 +64,54 @@ def best_of(fn, repeat):
     return min(cpu), min(wall)
 
 
-def pair_benchmark(repeat):
+def prefix_sum_reads(depth):
+    """G reads per DP node: the step table's entries, and the fewest any row- (or column-) prefix-sum scheme
+    needs (per row of the short axis: 2 reads of a primitive at each end, fractional ends 2 more; a whole-row
+    run 2): the bound on what prefix sums could save at this depth."""
+    table = elastic.step_table(depth)
+    entries = int(len(table["ea"]))
+    reads = 0
+    for a, b in zip(table["di"], table["dj"]):
+        short = min(int(a), int(b))
+        reads += 1 if a == b == 1 else (2 if short == 1 else 2 * short)
+    return {"entries": entries, "prefix_sum_reads_at_best": reads}
+
+
+def pruning_bound(prob):
+    """The fraction of the DP's multiply-adds a branch-and-bound could skip at best: a candidate (node, step)
+    needs its cross sum unless A[k, l] + (sqrt B0 - sqrt B1)^2 (a lower bound of its energy, Cauchy-Schwarz)
+    already reaches the node's final minimum. Computed with the numpy energies of every step (one pass)."""
+    t, G = prob.table, prob.G
+    n0, n1 = G.shape
+    A = np.full((n0 + 1, n1 + 1), np.inf)
+    A[0, 0] = 0.0
+    sB0, sB1 = np.sqrt(np.maximum(prob.B0, 0.0)), np.sqrt(np.maximum(prob.B1, 0.0))
+    E, LB = [], []
+    for s in range(len(t["di"])):
+        a, b = int(t["di"][s]), int(t["dj"][s])
+        X = np.zeros((n0 + 1 - a, n1 + 1 - b))
+        for e in range(int(t["start"][s]), int(t["start"][s + 1])):
+            ra, cb = int(t["ea"][e]), int(t["eb"][e])
+            X += prob.coef[e] * G[ra:ra + n0 + 1 - a, cb:cb + n1 + 1 - b]
+        E.append((prob.B0[a, a:][:, None] + prob.B1[b, b:][None, :]) - X)
+    for i in range(1, n0 + 1):
+        for s in range(len(t["di"])):
+            a, b = int(t["di"][s]), int(t["dj"][s])
+            if a <= i:
+                A[i, b:] = np.minimum(A[i, b:], A[i - a, :n1 + 1 - b] + E[s][i - a])
+    need = total = 0
+    for s in range(len(t["di"])):
+        a, b = int(t["di"][s]), int(t["dj"][s])
+        w = int(t["start"][s + 1] - t["start"][s])
+        prev = A[:n0 + 1 - a, :n1 + 1 - b]
+        lb = prev + (sB0[a, a:][:, None] - sB1[b, b:][None, :]) ** 2
+        ok = np.isfinite(prev) & np.isfinite(A[a:, b:])
+        total += w * int(ok.sum())
+        need += w * int((ok & (lb < A[a:, b:])).sum())
+    return {"multiply_adds_needed_fraction": round(need / total, 3)}
+
+
+def pair_benchmark(repeat, pruning=False):
     R0 = load_acclaim(TESTS / "07_01.amc", TESTS / "07-walk.asf").rotations[:300]
     R1 = load_acclaim(TESTS / "07_02.amc", TESTS / "07-walk.asf").rotations[:300]
     Q0, _ = elastic._srvt_matrix(R0, "R0")
@@ -113,6 +164,9 @@ def pair_benchmark(repeat):
         vn = prob.solve("numba")[0]
         vp = prob.solve("numpy")[0]
         out["kernels_identical"] = bool(vn == vp)
+    out["reads_per_node_depth_9"] = prefix_sum_reads(9)
+    if pruning:
+        out["pruning_bound"] = pruning_bound(prob)
     return out
 
 
@@ -210,12 +264,14 @@ def main(argv=None):
                     help="the shared CMU data folder (with uscresl_humanoid-gail/...)")
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--skip-matrix", action="store_true")
+    ap.add_argument("--pruning-bound", action="store_true",
+                    help="also measure what a branch-and-bound on the DP could skip at best (numpy, ~10 s)")
     ap.add_argument("--json", type=pathlib.Path, help="also write the results to this file")
     args = ap.parse_args(argv)
     res = {
         "machine": {"python": platform.python_version(), "numpy": np.__version__, "cpu_count": os.cpu_count(),
                     "numba": _dp_kernels.HAVE_NUMBA and __import__("numba").__version__},
-        "pair": pair_benchmark(args.repeat),
+        "pair": pair_benchmark(args.repeat, args.pruning_bound),
     }
     if _dp_kernels.HAVE_NUMBA:
         res["first_call_fresh_process"] = first_call_benchmark()

@@ -264,7 +264,7 @@ def test_rank_json_and_cache(capsys, amc, tmp_path):
     assert dists == sorted(dists)
     # The walk is nearer to the other walk than to the runs.
     assert names[0] == "07_02"
-    a, b = restrict_to_shared(_clip(amc["w1"]), _clip(amc["w2"]))
+    a, b = _compared(_clip(amc["w1"]), _clip(amc["w2"]), "sim")  # the index signs the compared curves
     # The index stores float32 directions: agreement to ~1e-7 relative.
     assert dists[0] == pytest.approx(signatures.normalized_distance(a.rotations, b.rotations, 2), rel=1e-6)
     assert any(cache.iterdir()), "the cache folder stays empty"
@@ -273,6 +273,23 @@ def test_rank_json_and_cache(capsys, amc, tmp_path):
     assert again["results"] == out["results"]
     # The second query finds every signature in the cache: nothing is recomputed.
     assert again["cache"]["misses"] == 0 and again["cache"]["hits"] >= 3
+
+
+def test_rank_sim_equals_distance_for_every_clip(capsys, amc, tmp_path):
+    """rank's sim3 of each library clip is ``distance --metric sim3`` of the same pair: the index signs the curve
+    the distance compares (the comparison time base), also for a BVH at another frame rate (60 fps, 120 fps
+    query) and across rigs (shared bones)."""
+    _need_search()
+    rig = ROOT / "tests" / "data" / "cross_rig"
+    lib = [amc["w2"], amc["r1"], str(rig / "002_03.bvh"), str(rig / "02_03.bvh")]
+    out, _ = run_json(capsys, ["rank", amc["w1"], *lib, "--metric", "sim3", "--cache", str(tmp_path / "c")])
+    ranked = {r["clip"]: r["distance"] for r in out["results"]}
+    assert set(ranked) == {"07_02", "09_02", "002_03", "02_03"}
+    for path in lib:
+        name = os.path.splitext(os.path.basename(path))[0]
+        pair, _ = run_json(capsys, ["distance", amc["w1"], path, "--metric", "sim3"])
+        # float32 directions in the index: ~1e-7 relative (before: up to 1e-2 apart for the 60 fps file)
+        assert ranked[name] == pytest.approx(pair["distance"], rel=2e-6, abs=1e-7), name
 
 
 def test_rank_default_cache_env_and_no_cache(capsys, amc, tmp_path, monkeypatch):
@@ -308,9 +325,10 @@ def test_rank_rerank_and_top(capsys, amc):
 
     names = {"07_01": amc["w1"], "07_02": amc["w2"], "09_03": amc["r2"]}
     first = out["results"][0]
-    a, b = restrict_to_shared(_clip(amc["r1"]), _clip(names[first["clip"]]))
-    # The index keeps float32 increments: agreement to ~1e-5 relative.
-    assert first["elastic"] == pytest.approx(elastic_distance(a.rotations, b.rotations), rel=1e-4)
+    a, b = _compared(_clip(amc["r1"]), _clip(names[first["clip"]]), "elastic")
+    # The index keeps float32 increments on the 30 fps time base and low-passes them there; `distance` low-passes
+    # the 120 fps curve before resampling: close, not equal (equal at 30 fps: tests/core/test_search.py).
+    assert first["elastic"] == pytest.approx(elastic_distance(a.rotations, b.rotations), rel=1e-2)
 
 
 def test_rank_results_carry_path_and_action(capsys, tmp_path):

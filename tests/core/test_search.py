@@ -15,6 +15,7 @@ from blender_shapesig.core.formats.acclaim import load_acclaim
 from blender_shapesig.core.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.metrics import clip_distance
+from blender_shapesig.core.prepare import decimate_clip, prepare_clip
 
 ACCLAIM = [("07_01", "07-walk", "walk"), ("07_02", "07-walk", "walk"), ("09_02", "09-run", "run"),
            ("09_03", "09-run", "run"), ("16_15", "16", "walk")]
@@ -66,7 +67,8 @@ def test_moving_joint_log_signature_is_the_full_one_restricted(clips):
     clip = dataclasses.replace(c, rotations=R)
     e = search.make_entry(clip, level=3)
     assert 2 not in e.moving and len(e.moving) >= 3
-    full = signatures.log_signature(R, 3)  # independent: all 6 joints, still one included
+    # independent: all 6 joints, still one included, of the curve the index signs (the comparison time base)
+    full = signatures.log_signature(prepare_clip(clip, smooth=0.0).rotations, 3)
     codes_full = search.word_codes(6, range(6), 3)
     codes_sub = search.word_codes(6, e.moving, 3)
     pos = {int(k): i for i, k in enumerate(codes_full)}
@@ -75,29 +77,31 @@ def test_moving_joint_log_signature_is_the_full_one_restricted(clips):
     rest = np.ones(full.size, bool)
     rest[idx] = False
     assert np.abs(full[rest]).max() < 1e-12 * max(1.0, e.norm)
-    assert e.increments.dtype == np.float32 and e.increments.shape == (clip.frames - 1, len(e.moving), 3)
+    frames = prepare_clip(clip, smooth=0.0).frames  # 30 fps: a quarter of the 120 fps clip's
+    assert e.frames == frames and frames < clip.frames
+    assert e.increments.dtype == np.float32 and e.increments.shape == (frames - 1, len(e.moving), 3)
 
 
 # ---------------------------------------------------------------------------------- rank_clips
 
 def test_rank_matches_clip_distance_and_walk_beats_runs(clips, mem):
-    # the index compares the curves as read (clip_distance(time_base=False)); see docs/search.md
+    # the index signs the curves on the comparison time base, as clip_distance prepares them; see docs/search.md
     q = clips["07_01"]
     lib = [clips[k] for k in ("09_02", "07_02", "16_15", "09_03")]
     res = search.rank_clips(q, lib, cache=mem)
     assert [r.name for r in res][:2] in (["07_02", "16_15"], ["16_15", "07_02"])
     assert {r.name for r in res[2:]} == {"09_02", "09_03"}
     for r in res:
-        truth = clip_distance(q, clips[r.name], "sim", 3, time_base=False)
+        truth = clip_distance(q, clips[r.name], "sim", 3)
         assert r.distance == pytest.approx(truth, rel=1e-5, abs=1e-6)
-        assert r.elastic is None and r.frames == clips[r.name].frames
+        assert r.elastic is None and r.frames == prepare_clip(clips[r.name], smooth=0.0).frames
     assert [r.distance for r in res] == sorted(r.distance for r in res)
 
 
 def test_level_from_metric_name_and_argument(clips, mem):
     q, other = clips["07_01"], clips["09_02"]
     d2 = search.rank_clips(q, [other], metric="sim2", cache=mem)[0].distance
-    assert d2 == pytest.approx(clip_distance(q, other, "sim", 2, time_base=False), rel=1e-5)
+    assert d2 == pytest.approx(clip_distance(q, other, "sim", 2), rel=1e-5)
     assert search.rank_clips(q, [other], level=2, cache=mem)[0].distance == pytest.approx(d2, rel=1e-12)
     assert abs(d2 - search.rank_clips(q, [other], cache=mem)[0].distance) > 1e-3
 
@@ -113,8 +117,8 @@ def test_different_still_joints_and_other_skeletons(clips, mem):
     res = search.rank_clips(q, [c1, c2, c3], cache=mem)
     got = {r.name: r for r in res}
     assert set(got) == {"frozen", "subset"}
-    assert got["frozen"].distance == pytest.approx(clip_distance(q, c1, "sim", 3, time_base=False), rel=1e-5)
-    assert got["subset"].distance == pytest.approx(clip_distance(q, c2, "sim", 3, time_base=False), rel=1e-5)
+    assert got["frozen"].distance == pytest.approx(clip_distance(q, c1, "sim", 3), rel=1e-5)
+    assert got["subset"].distance == pytest.approx(clip_distance(q, c2, "sim", 3), rel=1e-5)
     assert got["subset"].shared == 20 and got["frozen"].shared == len(q.bones)
     assert res.skipped == ["alien"]
     assert any("alien" in w and "no bones" in w for w in res.warnings)
@@ -141,8 +145,9 @@ def test_still_clip_is_at_distance_one(clips, mem):
 
 
 def test_rerank_orders_head_by_elastic_distance(clips):
-    q = clips["07_01"].crop(end=clips["07_01"].frame_start + 59)
-    lib = [c.crop(end=c.frame_start + 59) for k, c in clips.items() if k != "07_01"]
+    # clips at the comparison rate (30 fps): the entries' low-pass then equals clip_distance's exactly
+    q = decimate_clip(clips["07_01"].crop(end=clips["07_01"].frame_start + 239), 4)
+    lib = [decimate_clip(c.crop(end=c.frame_start + 239), 4) for k, c in clips.items() if k != "07_01"]
     plain = search.rank_clips(q, lib)
     res = search.rank_clips(q, lib, rerank=3)
     head, tail = res[:3], res[3:]
@@ -152,15 +157,16 @@ def test_rerank_orders_head_by_elastic_distance(clips):
     assert all(r.elastic is None for r in tail)
     by = {c.name: c for c in lib}
     for r in head:
-        assert r.elastic == pytest.approx(clip_distance(q, by[r.name], "elastic", time_base=False), rel=1e-4)
+        assert r.elastic == pytest.approx(clip_distance(q, by[r.name], "elastic"), rel=1e-4)
 
 
 def test_other_metrics_are_pairwise(clips, mem):
     q = clips["07_01"]
-    lib = [clips["09_02"], clips["07_02"]]
+    q, lib = decimate_clip(q, 4), [decimate_clip(clips["09_02"], 4), decimate_clip(clips["07_02"], 4)]  # 30 fps
     res = search.rank_clips(q, lib, metric="l2", cache=mem)
+    by = {c.name: c for c in lib}
     for r in res:
-        assert r.distance == pytest.approx(clip_distance(q, clips[r.name], "l2", time_base=False), rel=1e-4)
+        assert r.distance == pytest.approx(clip_distance(q, by[r.name], "l2"), rel=1e-4)
 
 
 def test_top_and_sketch_pool(clips, mem):
@@ -210,12 +216,12 @@ def test_cache_hits_across_instances_and_invalidation_after_an_edit(clips, tmp_p
     assert again.stats["misses"] == 0 and again.stats["disk_hits"] == 4
     assert [(r.name, r.distance) for r in again] == [(r.name, r.distance) for r in first]
     # edit one keyframe of one library clip: its key changes, it alone is recomputed
-    edited = _modified(clips["09_02"])
+    edited = _modified(clips["09_02"], frame=12)  # a frame the 30 fps time base keeps (every 4th at 120 fps)
     lib2 = [lib[0], edited, lib[2]]
     third = search.rank_clips(q, lib2, cache=search.SignatureCache(tmp_path))
     assert third.stats["misses"] == 1 and third.stats["disk_hits"] == 3
     d = {r.name: r.distance for r in third}
-    assert d["09_02"] == pytest.approx(clip_distance(q, edited, "sim", 3, time_base=False), rel=1e-5)
+    assert d["09_02"] == pytest.approx(clip_distance(q, edited, "sim", 3), rel=1e-5)
     assert d["09_02"] != pytest.approx({r.name: r.distance for r in first}["09_02"], rel=1e-6)
 
 

@@ -26,7 +26,8 @@ from .. import signatures, so3
 from ..clip import Clip, still_joints
 from ..curves import relative_rotvecs
 from ..errors import ShapeSigError
-from ..metrics import DEFAULT_LEVEL
+from ..metrics import DEFAULT_LEVEL, time_base_smoothing
+from ..prepare import COMPARE_FPS, prepare_clip, smooth_increments
 from ..trim import trim_record
 from .words import word_codes, sketch
 
@@ -79,8 +80,15 @@ def increments_log_signature(inc, level):
 
 
 def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
-    """Compute the index entry of a clip at ``level``."""
+    """Compute the index entry of a clip at ``level``, on the comparison time base.
+
+    The clip is first prepared exactly as ``metrics.clip_distance`` prepares it for sim (``prepare.prepare_clip``
+    with ``metrics.time_base_smoothing("sim")``: resampled to ``prepare.COMPARE_FPS``, no low-pass), so that the
+    index signs the curve the distance compares: a ranked sim equals ``clip_distance(query, clip, "sim")``.
+    ``frames``/``fps`` of the entry are those of the prepared curve (its increments)."""
     level = int(level)
+    trimmed = trim_record(clip)  # in the clip's own frame numbers
+    clip = prepare_clip(clip, smooth=time_base_smoothing("sim"))
     R = clip.rotations
     if R.shape[0] < 2:
         raise ShapeSigError(f"clip {clip.name!r} has {R.shape[0]} frame(s); at least two are needed")
@@ -96,7 +104,7 @@ def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     return IndexEntry(name=clip.name, bones=tuple(clip.bones), moving=moving, frames=int(R.shape[0]),
                       level=level, norm=norm, direction=direction, increments=inc.astype(np.float32),
                       sketch=sketch(direction, len(clip.bones), moving, level), fps=float(clip.fps),
-                      source=clip.source, key=key, trimmed=trim_record(clip))
+                      source=clip.source, key=key, trimmed=trimmed)
 
 
 def entry_distance(a: IndexEntry, b: IndexEntry) -> float:
@@ -125,9 +133,17 @@ def sketch_distance(a: IndexEntry, b: IndexEntry) -> float:
     return float(np.linalg.norm(a.sketch - b.sketch))
 
 
-def curve_from_increments(inc):
-    """A curve (frames, joints, 3, 3) starting at the identity with the given increments (``so3.integrate``)."""
-    return so3.integrate(np.asarray(inc, dtype=np.float64))
+def curve_from_increments(inc, base=None):
+    """A curve (frames, joints, 3, 3) starting at the identity with the given increments (``so3.integrate``).
+
+    ``base``: a metric base name (``metrics.parse_metric``): the increments, on the comparison time base already,
+    are first low-passed as that metric's time base does (``metrics.time_base_smoothing``, at COMPARE_FPS), so the
+    curve is the one ``metrics.clip_distance`` compares for a clip recorded at COMPARE_FPS (at other rates the
+    clip was resampled before this low-pass, where clip_distance low-passes first: close, not equal)."""
+    inc = np.asarray(inc, dtype=np.float64)
+    if base is not None and time_base_smoothing(base) > 0:
+        inc = smooth_increments(inc, COMPARE_FPS, time_base_smoothing(base))
+    return so3.integrate(inc)
 
 
 def increments_on(entry: IndexEntry, bones: Sequence[str]):

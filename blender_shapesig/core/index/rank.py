@@ -247,7 +247,8 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
         if base == "sim":
             d = sim_from_increments(a, b, sig_level)
         else:
-            d = curve_distance(curve_from_increments(a), curve_from_increments(b), base, level=level, depth=depth)
+            d = curve_distance(curve_from_increments(a, base), curve_from_increments(b, base), base, level=level,
+                               depth=depth)
         results.append(_result(e, d, len(shared), partial=partial, coverage=cov))
     return results
 
@@ -268,7 +269,8 @@ def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
         e = _loaded(e, item, store)
         bones = set(e.bones)
         a, b = pair_increments(q, e, [x for x in q.bones if x in bones])
-        r.elastic = float(elastic_distance(curve_from_increments(a), curve_from_increments(b), depth=depth))
+        r.elastic = float(elastic_distance(curve_from_increments(a, "elastic"), curve_from_increments(b, "elastic"),
+                                           depth=depth))
     head.sort(key=lambda r: (r.elastic, r.distance, r.name))
     results[:len(head)] = head
 

@@ -30,7 +30,9 @@ from .words import SKETCH_DIM
 __all__ = ["SignatureCache", "default_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "COMPACT_MAX_DIRECTION"]
 
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
-CACHE_FORMAT = 2  # 2: clips in armature space (Blender axes), see action_io.to_armature_space
+# 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
+# time base (entry.make_entry), as metrics.clip_distance prepares the curves
+CACHE_FORMAT = 3
 CACHE_ENV = "SHAPESIG_CACHE_DIR"
 # Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
 COMPACT_MAX_DIRECTION = 65_536
