@@ -1,0 +1,166 @@
+"""Choose what of each source is blended: frame ranges, one cycle (stride) of a periodic motion, and seamless loops.
+
+**Cycle detection** (``find_cycle``) by the self-similarity of the curve: for every lag tau (in seconds, 0.4 to
+2.5 s by default) the mean squared rotation angle between the poses ``R[k]`` and ``R[k + tau]`` over the clip
+(moving bones except the root, whose rotation carries the heading) on the comparison time base (30 fps, 0.05 s
+low-pass: ``prepare.prepare_rotations``). A periodic motion returns close to itself after one period: its
+self-distance D(tau) has minima at the period and its multiples. The period is the first local minimum whose
+depth is at least 60 % of the deepest one (a half stride of a gait is no minimum in joint rotations: the left and
+right legs swap). It is refined to the clip's own frames (+-1 / 30 s). Of all windows of one period the cycle
+is the one whose end pose is closest to its start pose (optionally: closest to a given pose as well, to start
+several clips at the same phase).
+
+**Loops** (``close_loop``): a blend of one cycle of each source ends near its first pose. The residual per joint,
+``C = log(B[M] B[0]^T)``, is spread linearly over the cycle (``B'[k] = exp(-k/M C) B[k]``), so the last frame
+equals the first exactly and the cycle's M distinct poses (frames 0..M-1) repeat with a regular step
+M-1 -> 0; the root height is closed the same way, the horizontal travel is kept as the cycle's offset (played
+with the Cycles modifier's "Repeat with Offset", the root velocity across the seam is the last frame's).
+"""
+
+import numpy as np
+
+from .. import so3
+from ..clip import Clip
+from ..errors import ShapeSigError
+from ..prepare import COMPARE_FPS, prepare_rotations
+
+__all__ = ["parse_range", "crop_range", "find_cycle", "one_cycle", "close_loop", "pose_steps"]
+
+
+def parse_range(text, label="range"):
+    """``"S:E"`` -> (S, E) integers, S <= E (frames, inclusive); None for None/empty."""
+    if text is None or (isinstance(text, str) and not text.strip()):
+        return None
+    if isinstance(text, (tuple, list)):
+        parts = list(text)
+    else:
+        parts = str(text).split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        s, e = (int(str(x).strip()) for x in parts)
+    except ValueError:
+        raise ShapeSigError(f"{label}: expected START:END frame numbers, got {text!r}") from None
+    if e <= s:
+        raise ShapeSigError(f"{label}: {s}:{e} must end after it starts (two frames at least)")
+    return s, e
+
+
+def crop_range(clip: Clip, rng, label="range") -> Clip:
+    """The clip cropped to frames S..E of its own numbering (inclusive); ShapeSigError when the range is not
+    inside the clip."""
+    rng = parse_range(rng, label)
+    if rng is None:
+        return clip
+    s, e = rng
+    if s < clip.frame_start or e > clip.frame_end:
+        raise ShapeSigError(f"{label} {s}:{e} is outside {clip.name!r} (frames {clip.frame_start}..{clip.frame_end})")
+    out = clip.crop(s, e)
+    out.meta = dict(out.meta, range=(s, e))
+    return out
+
+
+def _pose_bones(clip, bones=None):
+    """Indices of the moving bones (of ``bones`` when given) other than the root."""
+    still = set(clip.still_bones())
+    names = [b for b in (bones or clip.bones) if b not in still and b != clip.root_bone]
+    names = names or [b for b in (bones or clip.bones) if b != clip.root_bone] or list(clip.bones)
+    return [clip.bones.index(b) for b in names]
+
+
+def _pose_distance(A, B):
+    """Mean squared rotation angle between pose arrays A and B (..., joints, 3, 3) over the joints."""
+    return np.mean(np.sum(so3.log(A @ np.swapaxes(B, -1, -2)) ** 2, axis=-1), axis=-1)
+
+
+def _self_distance(R, lags):
+    return np.array([_pose_distance(R[lag:], R[:-lag]).mean() for lag in lags])
+
+
+def find_cycle(clip: Clip, min_seconds=0.4, max_seconds=2.5):
+    """The period of a cyclic clip: ``{"period": frames, "seconds": s, "score": D(period) / median D}`` (score
+    near 0: clearly periodic). ShapeSigError when the clip is too short or shows no cycle. See the module
+    docstring."""
+    fps = float(clip.fps)
+    cols = _pose_bones(clip)
+    R = prepare_rotations(clip.rotations[:, cols], fps)
+    rate = COMPARE_FPS
+    hi = min(int(max_seconds * rate), R.shape[0] - max(3, int(0.25 * rate)))
+    lo = max(2, int(min_seconds * rate))
+    if hi <= lo + 2:
+        raise ShapeSigError(f"clip {clip.name!r} is too short to find a cycle "
+                            f"({(clip.frames - 1) / fps:.2f} s; a cycle of {min_seconds:g} s or more needs more)")
+    lags = np.arange(lo, hi + 1)
+    D = _self_distance(R, lags)
+    minima = [i for i in range(1, len(D) - 1) if D[i] <= D[i - 1] and D[i] <= D[i + 1]]
+    med = float(np.median(D))
+    if not minima or med <= 0:
+        raise ShapeSigError(f"clip {clip.name!r} shows no cycle between {min_seconds:g} and {max_seconds:g} s")
+    deepest = min(D[i] for i in minima)
+    pick = next(i for i in minima if med - D[i] >= 0.6 * (med - deepest))
+    score = float(D[pick] / med)
+    if score > 0.5:
+        raise ShapeSigError(f"clip {clip.name!r} shows no clear cycle (best self-distance {score:.2f} of the median)")
+    # refine on the clip's own frames
+    Rc = clip.rotations[:, cols]
+    guess = int(round(lags[pick] / rate * fps))
+    near = [p for p in range(guess - int(np.ceil(fps / rate)), guess + int(np.ceil(fps / rate)) + 1)
+            if 2 <= p < clip.frames - 1]
+    period = near[int(np.argmin(_self_distance(Rc, near)))] if near else guess
+    return {"period": int(period), "seconds": period / fps, "score": score}
+
+
+def one_cycle(clip: Clip, like: Clip = None, period=None) -> Clip:
+    """The clip cropped to one cycle, frames s..s+P inclusive (``find_cycle``'s period P unless given): the
+    window whose end pose is closest to its start pose, plus, with ``like``, the distance of its start pose to
+    ``like``'s first pose (on the bones both share) so that clips start at the same phase.
+    ``meta["cycle"]`` records start, end, period and score."""
+    found = {"period": int(period), "score": None} if period else find_cycle(clip)
+    P = found["period"]
+    if P >= clip.frames:
+        raise ShapeSigError(f"clip {clip.name!r}: a cycle of {P} frames does not fit in its {clip.frames} frames")
+    cols = _pose_bones(clip)
+    R = clip.rotations[:, cols]
+    cost = _pose_distance(R[P:], R[:-P])
+    if like is not None:
+        shared = [b for b in like.bones if b in clip.bones]
+        ci = _pose_bones(clip, shared)
+        li = [like.bones.index(clip.bones[i]) for i in ci]
+        cost = cost + _pose_distance(clip.rotations[:-P][:, ci], like.rotations[0, li][None])
+    s = int(np.argmin(cost)) + clip.frame_start
+    out = clip.crop(s, s + P)
+    out.meta = dict(out.meta, cycle={"start": s, "end": s + P, "period": P, "score": found.get("score")})
+    return out
+
+
+def close_loop(clip: Clip) -> Clip:
+    """The clip (one cycle: its last frame is meant to repeat its first) closed into a seamless loop: see the
+    module docstring. ``meta["loop"]``: the distinct frames M, the root's offset per cycle and the residual
+    angle (degrees) spread over the cycle."""
+    M = clip.frames - 1
+    if M < 2:
+        raise ShapeSigError(f"clip {clip.name!r}: a loop needs at least three frames")
+    R = clip.rotations
+    C = so3.log(R[-1] @ np.swapaxes(R[0], -1, -2))  # (joints, 3)
+    s = np.arange(M + 1) / M
+    out = so3.exp(-s[:, None, None] * C[None]) @ R
+    out[-1] = R[0]
+    rt = clip.root_translation
+    offset = None
+    if rt is not None:
+        up = clip.meta.get("up_axis")
+        up = np.asarray(up, dtype=np.float64) if up is not None else np.eye(3)[int(np.argmin(np.ptp(rt, axis=0)))]
+        dh = (rt[-1] - rt[0]) @ up
+        rt = rt - np.outer(s * dh, up)
+        offset = rt[-1] - rt[0]
+    meta = dict(clip.meta, loop={"frames": int(M), "offset": None if offset is None else [float(x) for x in offset],
+                                 "closure_degrees": float(np.degrees(np.linalg.norm(C, axis=-1).max()))})
+    return Clip(name=clip.name, bones=clip.bones, rotations=out, fps=clip.fps, frame_start=clip.frame_start,
+                root_translation=rt, root_bone=clip.root_bone, rotation_modes=clip.rotation_modes,
+                source=clip.source, meta=meta)
+
+
+def pose_steps(rotations):
+    """Per frame step k -> k+1, the root mean square rotation angle over the joints (radians)."""
+    R = np.asarray(rotations)
+    return np.sqrt(_pose_distance(R[1:], R[:-1]))
