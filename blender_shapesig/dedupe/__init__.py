@@ -26,7 +26,7 @@ def library_items(paths, **options):
         try:
             items.append(sources.spec_item(sources.ClipSpec.parse(text, **options).check()))
         except (ShapeSigError, OSError) as exc:
-            skipped.append(f"{text}: {exc}")
+            skipped.append(str(exc) if text in str(exc) else f"{text}: {exc}")
     return items, skipped
 
 
