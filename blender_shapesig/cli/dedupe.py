@@ -1,0 +1,51 @@
+"""Near-duplicate clusters of a library: ``dedupe CLIP_OR_FOLDER... --out DIR [--threshold x] [--scheduler ADDRESS]``."""
+
+from . import common as c
+
+
+def run(args):
+    from ..core import search
+    from ..dedupe import dedupe_library
+    from ..dedupe.parallel import LOCAL_SCHEDULERS
+
+    if args.k < 1:
+        raise c.CommandError("--k must be 1 or more")
+    if args.threshold is not None and not args.threshold >= 0:
+        raise c.CommandError("--threshold must be 0 or more")
+    sched = args.scheduler
+    if sched and sched not in LOCAL_SCHEDULERS and "://" not in sched and ":" not in sched:
+        raise c.CommandError(f"--scheduler {sched!r}: give {', '.join(LOCAL_SCHEDULERS)} or an address "
+                             f"(tcp://host:8786)")
+    out = dedupe_library(args.paths, args.out, args.threshold, sched, k=args.k, level=args.level or c.DEFAULT_LEVEL,
+                         depth=args.depth, cache_dir=c.cache_dir(args, search), plots=not args.no_plots,
+                         asf=args.asf or None, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
+    lines = [f"{out['clips']} clips, {len(out['clusters'])} near-duplicate clusters; report: {out['report']}"]
+    for n, members in enumerate(out["clusters"], 1):
+        lines.append(f"{n:3d}. " + "  ".join(members))
+    return out, "\n".join(lines)
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "dedupe",
+        help="near-duplicate clusters of a library (HTML + JSON report)",
+        description="Find near-duplicate clips (renamed, other frame rate, trimmed or re-timed copies, the same "
+        "take in another format): a signature k-NN graph, then the elastic distance of the candidate pairs. "
+        "Writes DIR/report.html and DIR/report.json.",
+    )
+    p.add_argument("paths", metavar="CLIP_OR_FOLDER", nargs="+", help=c.CLIP_HELP + ", or a folder of them")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for report.html and report.json")
+    p.add_argument("--threshold", type=float, metavar="X",
+                   help="relative d_S* gate (default: half its median over a sample of the k-NN pairs)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a Dask cluster's scheduler address (tcp://host:8786), or a local scheduler: threads "
+                        "(default), processes, sync")
+    p.add_argument("--k", type=int, default=8, help="neighbours per clip in the signature graph (default 8)")
+    p.add_argument("--level", type=int, help=f"signature level (default {c.DEFAULT_LEVEL})")
+    p.add_argument("--depth", type=int, default=c.DEFAULT_DEPTH, help="elastic DP depth")
+    p.add_argument("--no-plots", action="store_true", help="no PNG plots in the report")
+    p.add_argument("--cache", metavar="DIR",
+                   help="signature cache folder (default $SHAPESIG_CACHE_DIR, else the per-user cache folder)")
+    p.add_argument("--no-cache", action="store_true", help="do not read or write a signature cache")
+    c.add_common(p, crop=False)
+    p.set_defaults(func=run)

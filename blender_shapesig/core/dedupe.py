@@ -1,0 +1,311 @@
+"""Near-duplicate clusters of a library: the pure logic of ``dedupe`` (never imports bpy, dask or matplotlib).
+
+Two stages, as in the search (``core.index``):
+
+1. **The signature k-NN graph.** Every clip's index entry (``index.make_entry``: the unit log-signature
+   direction of its moving joints) is put on one *common bone tuple* (``common_entry``): clips mapped into the
+   comparison space (``rigs.apply_bone_map``) all name their joints in the canonical order ``rigs.JOINTS``, so
+   an entry on a subset of them is the same direction on all of them, with the missing joints still (their
+   letters have zero coordinates, ``index.entry``). The count sketches then shortlist ``pool`` neighbours per
+   clip (one matrix product), the exact sim^n (``index.entry_distance``) keeps the ``k`` nearest, and the union
+   of these edges is the candidate graph (``knn_graph``): about k n pairs instead of n^2 / 2.
+2. **The elastic check.** Only candidate pairs get the elastic distance d_S* (``check_pairs``), through
+   ``metrics.clip_distance`` on the comparison time base (``prepare``: one rate in seconds and the SRVT
+   low-pass), on curves rebuilt from the entries' increments (no file is read again).
+
+**Threshold** (``relative_threshold``): a pair is a near-duplicate when d_S* <= tau, by default
+``tau = THRESHOLD_RATIO * median(d_S* of the checked candidate pairs)``. The candidate pairs are each clip's
+k nearest takes, so with k larger than a typical cluster their median is the distance between *different* takes
+of similar motions (a walk and the next walk); a copy is far below it. The ratio was chosen by measurement
+(docs/search.md, "Library report").
+
+**Clusters** (``clusters``): confirmed edges are merged in order of increasing distance, *complete linkage*:
+two groups join only when every pair across them is within tau (pairs that were not candidates are checked
+on demand). Connected components alone chain: A ~ B ~ C puts A and C together even when they differ by more
+than tau, and in a library of one subject's walks (a take, its BVH and AMC copies, the next take) a chain can
+swallow the whole class; docs/search.md measures both rules.
+"""
+
+from dataclasses import dataclass, field, replace
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .clip import Clip
+from .errors import ShapeSigError
+from .index.entry import IndexEntry, curve_from_increments, entry_distance, pair_increments
+from . import so3
+from .metrics import DEFAULT_DEPTH, clip_distance, time_base_smoothing
+from .prepare import prepare_clip
+from .rigs import JOINTS
+
+__all__ = ["DEFAULT_K", "SIM_RATIO", "THRESHOLD_RATIO", "Edge", "DedupeResult", "common_entry", "knn_graph",
+           "pair_curves", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
+           "chain_components", "complete_linkage", "find_duplicates", "serial_map"]
+
+# neighbours per clip in the signature graph, and the sketch shortlist per clip (exact sim on these only)
+DEFAULT_K = 8
+POOL_FACTOR = 4
+# the gates (measured: docs/search.md, "Library report"): sim^n <= SIM_RATIO * median sim^n of the k-NN edges,
+# relative d_S* <= THRESHOLD_RATIO * its median over a sample of DISTRIBUTION_SAMPLE k-NN edges
+SIM_RATIO = 0.3
+THRESHOLD_RATIO = 0.5
+DISTRIBUTION_SAMPLE = 100
+# pairs up to CHECK_FACTOR * the sim gate get the elastic check (the near misses are shown in the report)
+CHECK_FACTOR = 1.5
+
+
+@dataclass(frozen=True)
+class Edge:
+    """A candidate pair ``i < j`` (indices into the library's entries) with its sim^n and, once checked, d_S*."""
+
+    i: int
+    j: int
+    sim: float
+    elastic: Optional[float] = None
+    relative: Optional[float] = None  # d_S* / sqrt(|q_i|^2 + |q_j|^2) (``elastic_check``)
+
+
+@dataclass
+class DedupeResult:
+    """``clusters``: lists of entry indices (two or more members, largest first); ``edges``: the k-NN graph
+    (checked pairs carry d_S*); ``sim_threshold``, ``threshold``: the two gates (sim^n, relative d_S*);
+    ``rule``: how they were set; ``extra``: pairs checked on demand by the linkage; ``components``: the
+    connected components of the confirmed pairs (what chaining would give, for the report)."""
+
+    clusters: List[List[int]]
+    edges: List[Edge]
+    sim_threshold: float
+    threshold: float
+    rule: str
+    extra: List[Edge] = field(default_factory=list)
+    components: List[List[int]] = field(default_factory=list)
+
+    def confirmed(self, e: Edge) -> bool:
+        return (e.relative is not None and e.sim <= self.sim_threshold and e.relative <= self.threshold)
+
+
+# ---------------------------------------------------------------------------------------- stage 1
+
+def _canonical_positions(bones) -> Optional[Tuple[int, ...]]:
+    """Positions of ``bones`` in ``rigs.JOINTS`` when they are canonical joints in canonical order, else None."""
+    where = {j: i for i, j in enumerate(JOINTS)}
+    pos = [where.get(b) for b in bones]
+    if any(p is None for p in pos) or any(b <= a for a, b in zip(pos, pos[1:])):
+        return None
+    return tuple(pos)
+
+
+def common_entry(entry: IndexEntry) -> IndexEntry:
+    """The entry on the common bone tuple ``rigs.JOINTS`` when its bones are canonical joints (see the module
+    docstring: the direction is unchanged, only the moving joints' indices move), else the entry itself.
+    The sketch is recomputed on the common tuple, so sketches of all mapped rigs are comparable."""
+    from .index.words import sketch
+
+    pos = _canonical_positions(entry.bones)
+    if pos is None or entry.bones == JOINTS:
+        return entry
+    moving = tuple(pos[j] for j in entry.moving)
+    sk = entry.sketch if entry.direction is None else sketch(entry.direction, len(JOINTS), moving, entry.level)
+    return replace(entry, bones=JOINTS, moving=moving, sketch=sk)
+
+
+def _sketch_shortlist(group_entries, pool):
+    """For each entry of one bone tuple, the indices (into the group) of its ``pool`` nearest by sketch."""
+    S = np.stack([e.sketch for e in group_entries]).astype(np.float64)
+    sq = (S * S).sum(axis=1)
+    D = sq[:, None] + sq[None, :] - 2.0 * (S @ S.T)
+    np.fill_diagonal(D, np.inf)
+    pool = min(pool, len(group_entries) - 1)
+    return np.argpartition(D, pool - 1, axis=1)[:, :pool]
+
+
+def knn_graph(entries: Sequence[IndexEntry], k=DEFAULT_K, pool=None) -> List[Edge]:
+    """The candidate graph: for every entry its ``k`` nearest others by exact sim^n among its ``pool``
+    (default ``POOL_FACTOR k``) nearest by sketch; entries are compared only within one bone tuple (after
+    ``common_entry``), the union of the k-NN edges as Edges ``i < j``, sorted by sim. Entries must be loaded
+    (direction in memory)."""
+    k = int(k)
+    if k < 1:
+        raise ShapeSigError(f"k must be at least 1, got {k}")
+    pool = max(int(pool or POOL_FACTOR * k), k)
+    common = [common_entry(e) for e in entries]
+    groups: Dict[tuple, List[int]] = {}
+    for n, e in enumerate(common):
+        groups.setdefault(e.bones, []).append(n)
+    best: Dict[Tuple[int, int], float] = {}
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        short = _sketch_shortlist([common[n] for n in members], pool)
+        for a, row in enumerate(short):
+            i = members[a]
+            dist = sorted((entry_distance(common[i], common[members[b]]), members[b]) for b in row)
+            for d, j in dist[:k]:
+                best[(min(i, j), max(i, j))] = d
+    return sorted((Edge(i, j, d) for (i, j), d in best.items()), key=lambda e: (e.sim, e.i, e.j))
+
+
+# ---------------------------------------------------------------------------------------- stage 2
+
+def pair_curves(a: IndexEntry, b: IndexEntry) -> Tuple[Clip, Clip]:
+    """Two clips rebuilt from the entries' increments on the bones both have (in ``a``'s order; bones still in
+    both dropped), each at its own frame rate."""
+    in_b = set(b.bones)
+    shared = [x for x in a.bones if x in in_b]
+    if not shared:
+        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share no bones")
+    ia, ib = pair_increments(a, b, shared)
+    moving = {a.bones[j] for j in a.moving} | {b.bones[j] for j in b.moving}
+    kept = [x for x in shared if x in moving] or shared  # pair_increments' columns (all when nothing moves)
+    return (Clip(a.name, kept, curve_from_increments(ia), fps=a.fps),
+            Clip(b.name, kept, curve_from_increments(ib), fps=b.fps))
+
+
+def srvt_energy(R) -> float:
+    """|q|^2 of a curve's SRVT (per-joint norm): sum over joints of the integral of |eta|, i.e. the total angle
+    its joints turn through (independent of the parametrization)."""
+    return float(np.linalg.norm(so3.relative_rotvecs(R), axis=-1).sum())
+
+
+def elastic_check(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[float, float]:
+    """``(d, r)``: d_S* of two entries (increments loaded) on the comparison time base (``prepare.prepare_clip``
+    with the elastic low-pass, then ``metrics.clip_distance``) and the *relative* distance
+    r = d / sqrt(|q_a|^2 + |q_b|^2) (``srvt_energy`` of the prepared curves). r is scale-free (0 for a copy,
+    about 1 for unrelated motions; d_S* itself grows with how much the clips move), so one threshold fits
+    short runs and long takes. (inf, inf) when the two share no moving bone."""
+    try:
+        ca, cb = pair_curves(a, b)
+    except ShapeSigError:
+        return float("inf"), float("inf")
+    smooth = time_base_smoothing("elastic")
+    pa, pb = prepare_clip(ca, smooth=smooth), prepare_clip(cb, smooth=smooth)
+    d = float(clip_distance(pa, pb, "elastic", depth=depth, time_base=False))
+    energy = srvt_energy(pa.rotations) + srvt_energy(pb.rotations)
+    return d, (d / np.sqrt(energy) if energy > 0 else (0.0 if d == 0 else float("inf")))
+
+
+def check_pairs(pairs, depth=DEFAULT_DEPTH) -> List[Tuple[float, float]]:
+    """``elastic_check`` of each ``(a, b)`` pair of entries: one task of the parallel check."""
+    return [elastic_check(a, b, depth) for a, b in pairs]
+
+
+def relative_threshold(values, ratio) -> float:
+    """``ratio`` * the median of the finite values (0 when there are none)."""
+    v = np.asarray([x for x in values if x is not None and np.isfinite(x)], np.float64)
+    return float(ratio * np.median(v)) if v.size else 0.0
+
+
+def sample_edges(edges: Sequence[Edge], size=DISTRIBUTION_SAMPLE, seed=0) -> List[Edge]:
+    """A reproducible sample of ``size`` edges (all when there are fewer): the elastic distribution's estimate."""
+    if len(edges) <= size:
+        return list(edges)
+    pick = np.random.default_rng(seed).choice(len(edges), size, replace=False)
+    return [edges[i] for i in sorted(pick)]
+
+
+# ---------------------------------------------------------------------------------------- clusters
+
+def chain_components(n, linked_pairs) -> List[List[int]]:
+    """Connected components of the confirmed pairs ``(i, j)``: the chaining rule (for comparison)."""
+    parent = list(range(n))
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for i, j in linked_pairs:
+        parent[find(i)] = find(j)
+    out: Dict[int, List[int]] = {}
+    for x in range(n):
+        out.setdefault(find(x), []).append(x)
+    return _largest_first(out.values())
+
+
+def _largest_first(groups):
+    return sorted((sorted(g) for g in groups if len(g) > 1), key=lambda g: (-len(g), g[0]))
+
+
+def complete_linkage(n, linked_pairs, linked: Callable[[int, int], bool]) -> List[List[int]]:
+    """Clusters by complete linkage on the confirmed pairs (in the given order, best first): groups A and B
+    merge only when ``linked(x, y)`` holds for every x in A, y in B (``linked`` checks pairs that were not
+    candidates on demand). Guards against chaining (module docstring)."""
+    member = {x: [x] for x in range(n)}
+    for i, j in linked_pairs:
+        A, B = member[i], member[j]
+        if A is B or not all(linked(x, y) for x in A for y in B):
+            continue
+        A.extend(B)
+        for y in B:
+            member[y] = A
+    return _largest_first({id(g): g for g in member.values()}.values())
+
+
+# ---------------------------------------------------------------------------------------- the search
+
+def serial_map(fn, args):
+    """The sequential mapper: ``[fn(a) for a in args]`` (the Dask layer passes a parallel one)."""
+    return [fn(a) for a in args]
+
+
+def _slim(e: IndexEntry) -> IndexEntry:
+    """What a worker needs for the elastic check: the increments (not the direction, up to a MB)."""
+    return replace(e, direction=None, sketch=np.zeros(0, np.float32))
+
+
+def _check_chunk(task):
+    pairs, depth = task
+    return check_pairs(pairs, depth)
+
+
+def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, *, depth=DEFAULT_DEPTH,
+                    sim_ratio=SIM_RATIO, ratio=THRESHOLD_RATIO, mapper=serial_map, chunk=16,
+                    sample=DISTRIBUTION_SAMPLE) -> DedupeResult:
+    """Near-duplicate clusters of loaded entries (indices into ``entries``), the two stages of the module
+    docstring: the k-NN graph; the sim gate ``sim_ratio`` * median sim^n of its edges; the elastic check of
+    the pairs up to ``CHECK_FACTOR`` times the gate and of a sample of ``sample`` edges (``mapper(fn, tasks)``
+    runs the checks, in chunks of ``chunk`` pairs); the relative-d_S* gate ``threshold`` (default ``ratio``
+    * its median over the sample); complete-linkage clusters of the pairs that pass both gates."""
+    edges = knn_graph(entries, k)
+    sim_tau = relative_threshold([e.sim for e in edges], sim_ratio)
+    picked = sample_edges(edges, sample)
+    todo = {(e.i, e.j): e for e in edges if e.sim <= CHECK_FACTOR * sim_tau}
+    todo.update(((e.i, e.j), e) for e in picked)
+    todo = sorted(todo.values(), key=lambda e: (e.sim, e.i, e.j))
+    tasks = [([(_slim(entries[e.i]), _slim(entries[e.j])) for e in todo[s:s + chunk]], depth)
+             for s in range(0, len(todo), max(int(chunk), 1))]
+    results = [dr for part in mapper(_check_chunk, tasks) for dr in part]
+    checked = {(e.i, e.j): replace(e, elastic=d, relative=r) for e, (d, r) in zip(todo, results)}
+    edges = [checked.get((e.i, e.j), e) for e in edges]
+    if threshold is None:
+        tau = relative_threshold([checked[(e.i, e.j)].relative for e in picked], ratio)
+        rule = (f"sim{entries[0].level if entries else ''} <= {sim_ratio:g} x median over the k-NN edges "
+                f"({sim_tau:.4g}); relative d_S* <= {ratio:g} x median over {len(picked)} sampled k-NN edges "
+                f"({tau:.4g})")
+    else:
+        tau = float(threshold)
+        rule = f"sim <= {sim_ratio:g} x median over the k-NN edges ({sim_tau:.4g}); relative d_S* <= {tau:g} (given)"
+    out = DedupeResult([], edges, sim_tau, tau, rule)
+    known = {(e.i, e.j): out.confirmed(e) for e in edges if e.relative is not None}
+    common = {}
+
+    def linked(i, j):
+        key = (min(i, j), max(i, j))
+        if key not in known:  # not a candidate: checked now (both gates)
+            for x in key:
+                common.setdefault(x, common_entry(entries[x]))
+            a, b = common[key[0]], common[key[1]]
+            sim = entry_distance(a, b) if a.bones == b.bones else float("inf")
+            d, r = elastic_check(entries[key[0]], entries[key[1]], depth) if sim <= sim_tau else (None, None)
+            e = Edge(key[0], key[1], sim, d, r)
+            out.extra.append(e)
+            known[key] = out.confirmed(e)
+        return known[key]
+
+    confirmed = [(e.i, e.j) for e in sorted((e for e in edges if known.get((e.i, e.j))),
+                                             key=lambda e: (e.relative, e.i, e.j))]
+    out.clusters = complete_linkage(len(entries), confirmed, linked)
+    out.components = chain_components(len(entries), confirmed)
+    return out

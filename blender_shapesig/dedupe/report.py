@@ -1,0 +1,126 @@
+"""The library report of ``dedupe``: ``report.json`` and a self-contained ``report.html`` (the clusters, the
+distances of every pair in each, one PNG per cluster embedded as a data URI, the near misses, the skipped
+sources). matplotlib (Agg, through ``evaluation.plots.pyplot``) is imported only when plots are drawn."""
+
+import base64
+import html
+import io
+import json
+import os
+
+import numpy as np
+
+__all__ = ["write_report", "clip_label", "speed_trace"]
+
+NEAR_MISSES = 20
+
+
+def clip_label(item, entry):
+    """The path of a clip as given (``FILE.blend#ACTION`` for an action of a whole .blend)."""
+    text = item.source or item.path or entry.name
+    if item.path and item.path.lower().endswith(".blend") and item.action is None:
+        return f"{item.path}#{entry.name}"
+    return text
+
+
+def speed_trace(entry):
+    """``(seconds, speed)``: the clip's summed joint angular speed (rad/s) per frame interval, from its
+    increments: a time signature of the motion that re-timed and trimmed copies share up to a warp."""
+    inc = np.asarray(entry.increments, np.float64)
+    speed = np.linalg.norm(inc, axis=-1).sum(axis=1) * entry.fps
+    t = (np.arange(speed.size) + 0.5) / entry.fps
+    return t, speed
+
+
+def _cluster_png(members, entries, labels):
+    from ..evaluation.plots import pyplot
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(6.4, 2.6))
+    for n in members:
+        t, s = speed_trace(entries[n])
+        ax.plot(t, s, lw=1.0, label=os.path.basename(labels[n])[:40])
+    ax.set_xlabel("seconds")
+    ax.set_ylabel("joint speed (rad/s)")
+    ax.legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=80)
+    plt.close(fig)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _pair_row(e, labels, result):
+    return {"a": labels[e.i], "b": labels[e.j], "sim": _num(e.sim), "elastic": _num(e.elastic),
+            "relative": _num(e.relative), "confirmed": bool(result.confirmed(e))}
+
+
+def _num(x):
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+def _fmt(x):
+    return "-" if x is None else f"{x:.4g}"
+
+
+def write_report(out_dir, pairs, entries, result, info, plots=True):
+    """Write ``report.json`` and ``report.html`` into ``out_dir``; returns the JSON dict (with the paths)."""
+    labels = [clip_label(item, e) for item, e in pairs]
+    pair_of = {(e.i, e.j): e for e in list(result.edges) + list(result.extra) if e.relative is not None}
+    html_path = os.path.join(out_dir, "report.html")
+    clusters = []
+    for members in result.clusters:
+        inside = [pair_of[(a, b)] for x, a in enumerate(members) for b in members[x + 1:] if (a, b) in pair_of]
+        clusters.append({"members": [labels[n] for n in members],
+                         "pairs": [_pair_row(e, labels, result) for e in inside]})
+    checked = sorted(pair_of.values(), key=lambda e: (e.relative, e.sim))
+    misses = [_pair_row(e, labels, result) for e in checked if not result.confirmed(e)][:NEAR_MISSES]
+    biggest = max((len(c) for c in result.clusters), default=0)
+    out = {"clusters": [c["members"] for c in clusters], "report": html_path,
+           "json": os.path.join(out_dir, "report.json"), "clips": len(entries),
+           "largest_cluster_share": biggest / len(entries) if entries else 0.0,
+           "sim_threshold": result.sim_threshold, "threshold": result.threshold, "rule": result.rule,
+           "checked_pairs": len(pair_of), "graph_edges": len(result.edges),
+           "chain_components": [[labels[n] for n in c] for c in result.components],
+           "cluster_pairs": [c["pairs"] for c in clusters], "near_misses": misses, **info}
+    with open(out["json"], "w", encoding="utf-8") as f:
+        json.dump(out, f, indent=1)
+    images = [_cluster_png(m, entries, labels) if plots else None for m in result.clusters]
+    with open(html_path, "w", encoding="utf-8") as f:
+        f.write(_html(out, clusters, images))
+    return out
+
+
+def _table(rows):
+    head = "<tr><th>a</th><th>b</th><th>sim</th><th>d_S*</th><th>relative d_S*</th><th>near-duplicate</th></tr>"
+    body = "".join(f"<tr><td>{html.escape(r['a'])}</td><td>{html.escape(r['b'])}</td><td>{_fmt(r['sim'])}</td>"
+                   f"<td>{_fmt(r['elastic'])}</td><td>{_fmt(r['relative'])}</td>"
+                   f"<td>{'yes' if r['confirmed'] else 'no'}</td></tr>" for r in rows)
+    return f"<table>{head}{body}</table>"
+
+
+def _html(out, clusters, images):
+    e = html.escape
+    secs = ", ".join(f"{k} {v:.1f} s" for k, v in out["seconds"].items())
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Library report</title><style>"
+        "body{font-family:sans-serif;margin:2em;max-width:70em}table{border-collapse:collapse;margin:.5em 0}"
+        "td,th{border:1px solid #ccc;padding:2px 6px;font-size:90%}th{background:#eee}</style></head><body>",
+        "<h1>Library report: near-duplicates</h1>",
+        f"<p>{out['clips']} clips, {len(clusters)} clusters (largest: {out['largest_cluster_share']:.0%} of the "
+        f"library), {out['graph_edges']} k-NN edges (k = {out['k']}), {out['checked_pairs']} pairs checked "
+        f"by d_S*. Scheduler: {e(out['scheduler'])}; {secs}.</p>",
+        f"<p>Rule: {e(out['rule'])}. Clusters: complete linkage (every pair in a cluster passes both gates).</p>",
+    ]
+    for n, (c, img) in enumerate(zip(clusters, images), 1):
+        parts.append(f"<h2>Cluster {n} ({len(c['members'])} clips)</h2><ul>"
+                     + "".join(f"<li>{e(m)}</li>" for m in c["members"]) + "</ul>")
+        if img:
+            parts.append(f"<img alt='joint speed of each member' src='data:image/png;base64,{img}'>")
+        parts.append(_table(c["pairs"]))
+    parts.append("<h2>Near misses (checked, not near-duplicates)</h2>" + _table(out["near_misses"]))
+    if out["skipped"]:
+        parts.append("<h2>Skipped sources</h2><ul>" + "".join(f"<li>{e(s)}</li>" for s in out["skipped"])
+                     + "</ul>")
+    parts.append("</body></html>")
+    return "\n".join(parts)

@@ -1,0 +1,150 @@
+"""``dedupe`` on the bundled CMU clips: planted copies (renamed, half the frame rate, trimmed and re-timed) land in
+their original's cluster, no cluster swallows more than 30 % of the library, the same results on a Dask
+LocalCluster through ``--scheduler``; the pure parts of ``core.dedupe`` (common bone tuple, linkage)."""
+
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from blender_shapesig import cli
+from blender_shapesig.core import dedupe, sources
+from blender_shapesig.core.clip import Clip
+from blender_shapesig.core.index import entry_distance, make_entry
+from blender_shapesig.core.rigs import JOINTS
+from blender_shapesig.dedupe import planted
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+DATA = ROOT / "tests" / "data"
+
+
+@pytest.fixture(scope="module")
+def library(tmp_path_factory):
+    """tests/data's BVH clips (two rigs), 16_15 as AMC (its .asf alone beside it) and the three planted copies."""
+    base = tmp_path_factory.mktemp("library")
+    shutil.copytree(DATA / "bvh", base / "bvh")
+    shutil.copytree(DATA / "cross_rig", base / "cross_rig")
+    (base / "acclaim").mkdir()
+    for f in ("16.asf", "16_15.amc", "16_15.bvh"):
+        shutil.copy(DATA / "acclaim" / f, base / "acclaim" / f)
+    copies = planted.plant(base / "planted", base / "bvh" / "07_01.bvh", base / "bvh" / "09_02.bvh",
+                           base / "bvh" / "13_32.bvh")
+    return base, copies
+
+
+def run_json(capsys, args):
+    code = cli.main(args + ["--json", "--no-progress", "--no-cache"])
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    return json.loads(out)
+
+
+def cluster_of(result, path):
+    path = os.path.abspath(path)
+    return next((set(map(os.path.abspath, c)) for c in result["clusters"] if path in map(os.path.abspath, c)),
+                set())
+
+
+def check_planted(result, library):
+    base, copies = library
+    for copy, original in copies.items():
+        assert copy in cluster_of(result, original), (copy, result["clusters"], result["near_misses"][:5])
+    n = result["clips"]
+    assert n == len(list(base.rglob("*.bvh"))) + 1
+    assert max(len(c) for c in result["clusters"]) <= 0.3 * n
+    # the same take in another format (AMC and its BVH conversion) is found too
+    assert str(base / "acclaim" / "16_15.bvh") in cluster_of(result, base / "acclaim" / "16_15.amc")
+
+
+def test_planted_copies_join_their_originals(capsys, library, tmp_path):
+    base, _ = library
+    out = run_json(capsys, ["dedupe", str(base), "--out", str(tmp_path / "report")])
+    check_planted(out, library)
+    assert out["report"] == str(tmp_path / "report" / "report.html")
+    page = (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
+    assert page.count("data:image/png;base64,") == len(out["clusters"])  # self-contained: the plots inline
+    saved = json.loads((tmp_path / "report" / "report.json").read_text(encoding="utf-8"))
+    assert saved["clusters"] == out["clusters"]
+    for pairs in saved["cluster_pairs"]:  # complete linkage: every pair inside a cluster passed both gates
+        assert pairs and all(p["confirmed"] and p["relative"] <= out["threshold"] for p in pairs)
+    assert out["scheduler"] == "threads"
+
+
+def test_dask_local_cluster_gives_the_same_clusters(capsys, library, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    base, _ = library
+    plain = run_json(capsys, ["dedupe", str(base), "--out", str(tmp_path / "a"), "--no-plots",
+                              "--scheduler", "sync"])
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster:
+        out = run_json(capsys, ["dedupe", str(base), "--out", str(tmp_path / "b"), "--no-plots",
+                                "--scheduler", cluster.scheduler_address])
+    assert out["scheduler"].startswith(("tcp://", "inproc://"))
+    assert out["clusters"] == plain["clusters"]
+    assert out["threshold"] == pytest.approx(plain["threshold"])
+    check_planted(out, library)
+
+
+def test_threshold_zero_keeps_exact_copies_only(capsys, library, tmp_path):
+    base, copies = library
+    out = run_json(capsys, ["dedupe", str(base), "--out", str(tmp_path), "--threshold", "0", "--no-plots"])
+    renamed = next(c for c in copies if c.endswith("planted_renamed.bvh"))
+    assert out["threshold"] == 0.0
+    assert [sorted(map(os.path.abspath, c)) for c in out["clusters"]] == [sorted([renamed, copies[renamed]])]
+
+
+def test_bad_scheduler_is_one_line(capsys, library, tmp_path):
+    code = cli.main(["dedupe", str(library[0]), "--out", str(tmp_path), "--scheduler", "nonsense"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "--scheduler" in err
+
+
+def test_dask_is_imported_only_by_a_dedupe_run():
+    code = ("import sys, blender_shapesig.cli, blender_shapesig.dedupe, blender_shapesig.core.dedupe; "
+            "sys.exit('dask' in sys.modules or 'distributed' in sys.modules)")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    assert subprocess.run([sys.executable, "-c", code], env=env).returncode == 0
+
+
+# ------------------------------------------------------------------------------------------ core
+
+def test_common_entry_is_the_same_direction_on_all_joints():
+    """An entry on a subset of the canonical joints, moved to rigs.JOINTS, compares exactly like the clip
+    with the missing joints held still (their letters have zero coordinates)."""
+    a = sources.read_one(str(DATA / "acclaim" / "16_15.bvh"))  # MotionBuilder rig (spine_mid present)
+    b = sources.read_one(str(DATA / "bvh" / "07_01.bvh"))      # Daz rig (no spine_mid)
+    assert a.bones != b.bones and set(b.bones) < set(JOINTS)
+
+    def on_all_joints(c):
+        R = np.broadcast_to(np.eye(3), (c.frames, len(JOINTS), 3, 3)).copy()
+        for k, bone in enumerate(c.bones):
+            R[:, JOINTS.index(bone)] = c.rotations[:, k]
+        return make_entry(Clip(c.name, JOINTS, R, fps=c.fps))
+
+    ea, eb = make_entry(a), make_entry(b)
+    ca, cb = dedupe.common_entry(ea), dedupe.common_entry(eb)
+    assert ca.bones == cb.bones == JOINTS
+    assert entry_distance(ca, cb) == pytest.approx(entry_distance(on_all_joints(a), on_all_joints(b)), abs=1e-5)
+    np.testing.assert_allclose(cb.sketch, on_all_joints(b).sketch, atol=1e-5)
+
+
+def test_complete_linkage_does_not_chain():
+    """A ~ B ~ C ~ D in a row, but only neighbours are close: components chain all four, linkage does not."""
+    pairs = [(0, 1), (1, 2), (2, 3)]
+    close = set(pairs)
+    assert dedupe.chain_components(5, pairs) == [[0, 1, 2, 3]]
+    assert dedupe.complete_linkage(5, pairs, lambda i, j: (min(i, j), max(i, j)) in close) == [[0, 1], [2, 3]]
+    assert dedupe.complete_linkage(5, pairs, lambda i, j: True) == [[0, 1, 2, 3]]
+
+
+def test_relative_threshold_and_sample():
+    assert dedupe.relative_threshold([1.0, 2.0, 3.0, float("inf"), None], 0.5) == 1.0
+    assert dedupe.relative_threshold([], 0.5) == 0.0
+    edges = [dedupe.Edge(i, i + 1, float(i)) for i in range(300)]
+    s1, s2 = dedupe.sample_edges(edges, 50), dedupe.sample_edges(edges, 50)
+    assert s1 == s2 and len(s1) == 50 and len(set(s1)) == 50
