@@ -6,11 +6,13 @@ import pathlib
 import shutil
 
 import numpy as np
+
 import pytest
 
 from blender_shapesig import cli
 from blender_shapesig.core import so3, sources
 from blender_shapesig.core.elastic import elastic_align, elastic_distance, required_depth
+from blender_shapesig.core.prepare import lattice_frames
 from blender_shapesig.core.explain import explain_clips, explain_path, joint_group
 from blender_shapesig.core.index.windows import (clip_windows, prefix_signatures, rank_windows, retimed_excerpt,
                                                  window_log_signatures)
@@ -158,7 +160,8 @@ def test_explanation_of_a_moment(library):
     best = rank_windows(query, [take, library["07_02"]], rerank=2, explain=True)[0]
     ex = best.explain
     assert sum(ex["joints"].values()) == pytest.approx(1.0, abs=1e-12)
-    assert len(ex["cost_over_time"]) == round((query.frames - 1) / query.fps * ex["fps"])
+    # one cost per interval of the query on the comparison lattice (core.prepare: floor, anchored at frame 1)
+    assert len(ex["cost_over_time"]) == lattice_frames(query.frames, query.fps, ex["fps"]) - 1
     assert joint_group("thigh.R") == "right leg" and joint_group("Hips") is None
     with pytest.raises(Exception):
         explain_path(query.rotations, query.rotations, np.array([[0, 0], [1, 0]]), ["a"], same_spacing=True)

@@ -55,6 +55,8 @@ class IndexEntry:
     exact: bool = True                # False: the direction is not stored (compact index), sketch only
     # (first kept, last kept, first read, last read) when trimming cut frames (core.trim: meta["trim"]), else ()
     trimmed: Tuple[int, ...] = ()
+    # frames of the clip as read (its own rate, what results show); ``frames`` counts the prepared curve's samples
+    clip_frames: int = 0
 
     @property
     def nbytes(self):
@@ -87,7 +89,7 @@ def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     index signs the curve the distance compares: a ranked sim equals ``clip_distance(query, clip, "sim")``.
     ``frames``/``fps`` of the entry are those of the prepared curve (its increments)."""
     level = int(level)
-    trimmed = trim_record(clip)  # in the clip's own frame numbers
+    trimmed, clip_frames = trim_record(clip), int(clip.frames)  # in the clip's own frame numbers
     clip = prepare_clip(clip, smooth=time_base_smoothing("sim"))
     R = clip.rotations
     if R.shape[0] < 2:
@@ -104,7 +106,7 @@ def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     return IndexEntry(name=clip.name, bones=tuple(clip.bones), moving=moving, frames=int(R.shape[0]),
                       level=level, norm=norm, direction=direction, increments=inc.astype(np.float32),
                       sketch=sketch(direction, len(clip.bones), moving, level), fps=float(clip.fps),
-                      source=clip.source, key=key, trimmed=trimmed)
+                      source=clip.source, key=key, trimmed=trimmed, clip_frames=clip_frames)
 
 
 def entry_distance(a: IndexEntry, b: IndexEntry) -> float:

@@ -186,7 +186,7 @@ def _query_entry(query, level, store):
 
 
 def _result(e, d, shared, approximate=False, partial=False, coverage=1.0):
-    return RankResult(name=e.name, distance=float(d), frames=e.frames, key=e.key, source=e.source,
+    return RankResult(name=e.name, distance=float(d), frames=e.clip_frames or e.frames, key=e.key, source=e.source,
                       shared=shared, approximate=approximate, partial=partial, coverage=coverage,
                       trimmed=e.trimmed)
 

@@ -31,15 +31,16 @@ __all__ = ["SignatureCache", "default_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "
 
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
 # 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
-# time base (entry.make_entry), as metrics.clip_distance prepares the curves
-CACHE_FORMAT = 3
+# time base (entry.make_entry), as metrics.clip_distance prepares the curves; 4: entries record the clip's own frame
+# count (clip_frames) beside the prepared curve's
+CACHE_FORMAT = 4
 CACHE_ENV = "SHAPESIG_CACHE_DIR"
 # Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
 COMPACT_MAX_DIRECTION = 65_536
 
 _PACK = "light_pack.bin"  # the light pack's file name (see SignatureCache.save_pack)
 _ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact",
-                 "trimmed")
+                 "trimmed", "clip_frames")
 
 
 def default_cache_dir() -> str:
@@ -58,7 +59,7 @@ def _entry_from_meta(m, key, sketch):
     return IndexEntry(name=m["name"], bones=tuple(m["bones"]), moving=tuple(m["moving"]), frames=int(m["frames"]),
                       level=int(m["level"]), norm=float(m["norm"]), fps=float(m["fps"]), source=m["source"],
                       key=key, direction=None, increments=None, sketch=sketch, exact=bool(m["exact"]),
-                      trimmed=tuple(int(f) for f in m.get("trimmed", ())))
+                      trimmed=tuple(int(f) for f in m.get("trimmed", ())), clip_frames=int(m.get("clip_frames", 0)))
 
 
 def _load_heavy(e: IndexEntry, z, i):
