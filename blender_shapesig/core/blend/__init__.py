@@ -9,6 +9,8 @@ verb-named modules; everything is importable from ``blender_shapesig.core.blend`
 * ``mask``: per-bone-group weights through the canonical joints (``GROUPS``, ``bone_weights``).
 * ``cycle``: frame ranges, cycle detection (one stride) and seamless loops (``find_cycle``, ``one_cycle``,
   ``close_loop``).
+* ``make``: ``make_blends``, the one recipe of the command line and the operator: ranges, cycles, the blend,
+  back onto the rig, planted feet (``core.feet``), loops.
 
 See docs/blending.md.
 """
@@ -27,6 +29,7 @@ from .combine import (  # noqa: F401
 )
 from .cycle import close_loop, crop_range, find_cycle, one_cycle, parse_range, pose_steps
 from .mask import GROUPS, bone_weights, parse_groups, parse_mask
+from .make import FEET_MODES, make_blends
 from .mix import blend_clip_series, blend_clips, blend_fps, blend_many
 from .move_root import estimate_up_axis
 
@@ -55,4 +58,6 @@ __all__ = [
     "one_cycle",
     "close_loop",
     "pose_steps",
+    "make_blends",
+    "FEET_MODES",
 ]

@@ -149,7 +149,10 @@ def close_loop(clip: Clip) -> Clip:
     offset = None
     if rt is not None:
         up = clip.meta.get("up_axis")
+        if isinstance(up, str):
+            up = np.eye(3)["XYZ".index(up.upper())]
         up = np.asarray(up, dtype=np.float64) if up is not None else np.eye(3)[int(np.argmin(np.ptp(rt, axis=0)))]
+        up = up / np.linalg.norm(up)
         dh = (rt[-1] - rt[0]) @ up
         rt = rt - np.outer(s * dh, up)
         offset = rt[-1] - rt[0]

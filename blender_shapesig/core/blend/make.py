@@ -1,0 +1,128 @@
+"""Make blends an animator can use, in one call shared by the command line and the Blend operator (issue 18):
+frame ranges, one cycle and seamless loops, masks, two or more clips, planted feet.
+
+``make_blends(clips, weights, ...)`` runs, in order:
+
+1. **Ranges**: each source cropped to its frames S..E (its own numbering, inclusive: ``cycle.crop_range``).
+2. **Cycles** (``loop``): each source cropped to one cycle (``cycle.one_cycle``; the others start at the phase
+   of the first, so the strides match instead of being squeezed by the warp).
+3. **Blend**: two clips through ``mix.blend_clip_series`` (one warp for every weight; a mask of per-bone-group
+   weights), more through ``mix.blend_many`` (every clip aligned to the first; later weight vectors reuse the
+   first one's warps).
+4. **Back onto the rig**: blends of several rigs are made in the comparison space and written back by ``back``
+   (``rigs.onto_rig`` for the command line, ``rigmap.back_onto_armature`` in Blender).
+5. **Planted feet** (``feet="lock"``): ``feet.lock_feet(blend, sources)`` with the sources on their own rigs.
+6. **Loop**: ``cycle.close_loop`` (the last frame equals the first, the residual spread over the cycle). It comes
+   after the feet so the seam stays closed.
+
+Durations are the weighted average in seconds (whatever the frame rates); only ``loop`` and ranges change what
+is blended.
+"""
+
+from ..errors import ShapeSigError
+from ..metrics import DEFAULT_DEPTH
+from .combine import check_weights
+from .cycle import close_loop, crop_range, one_cycle
+from .mix import blend_clip_series, blend_many
+
+__all__ = ["make_blends", "FEET_MODES"]
+
+FEET_MODES = ("lock", "none")
+
+
+def _labels(n):
+    return [f"range of clip {chr(65 + i) if i < 26 else i + 1}" for i in range(n)]
+
+
+def _select(own, mapped, ranges, loop):
+    """(own, mapped, source notes): ranges and cycles applied to both versions of each clip (same frames)."""
+    own, mapped = list(own), (list(mapped) if mapped is not None else None)
+    ranges = list(ranges or ())
+    if len(ranges) > len(own):
+        raise ShapeSigError(f"ranges: {len(ranges)} ranges for {len(own)} clips")
+    notes = [{"name": c.name, "range": None, "cycle": None} for c in own]
+    for i, (rng, label) in enumerate(zip(ranges, _labels(len(own)))):
+        if rng is None:
+            continue
+        own[i] = crop_range(own[i], rng, label)
+        notes[i]["range"] = list(own[i].meta["range"])
+        if mapped is not None:
+            mapped[i] = mapped[i].crop(*own[i].meta["range"])
+    if loop:
+        work = mapped if mapped is not None else own
+        first = one_cycle(work[0])
+        cycles = [first] + [one_cycle(c, like=first) for c in work[1:]]
+        for i, cyc in enumerate(cycles):
+            info = cyc.meta["cycle"]
+            notes[i]["cycle"] = {k: info[k] for k in ("start", "end", "period")}
+            notes[i]["cycle"]["seconds"] = info["period"] / float(cyc.fps)
+            own[i] = own[i].crop(info["start"], info["end"])
+            if mapped is not None:
+                mapped[i] = cyc
+    return own, mapped, notes
+
+
+def _blend(work, weights, kw, progress):
+    """Step 3: one Clip per weight vector."""
+    if len(work) == 2:
+        return blend_clip_series(work[0], work[1], [w[1] for w in weights], progress=progress, **kw)
+    if kw.pop("mask", None):
+        raise ShapeSigError("a mask needs exactly two clips (its weights are B's); blend more clips without one")
+    kw.pop("groups", None)
+    out = []
+    for i, w in enumerate(weights):
+        warps = out[0].meta["warps"] if out else None
+        if out and not out[0].meta["aligned"]:
+            warps = None
+        out.append(blend_many(work, w, warps=warps, **kw))
+        if out[0].meta["aligned"] and i:
+            out[-1].meta["elastic_distances"] = out[0].meta["elastic_distances"]
+            out[-1].meta["elastic_distance"] = out[0].meta["elastic_distance"]
+        if progress is not None:
+            progress(i + 1, len(weights))
+    return out
+
+
+def make_blends(clips, weights, *, mapped=None, back=None, ranges=None, loop=False, feet="lock",
+                feet_required=True, mask=None, groups=None, align=True, depth=DEFAULT_DEPTH, frames=None,
+                bones=None, root="blend", up_axis=None, progress=None):
+    """(blends, info): the module docstring's steps for ``clips`` (each on its own rig) and ``weights`` (a list of
+    weight vectors, one weight per clip each, summing to 1; one blend per vector).
+
+    ``mapped``: the clips in the comparison space (several rigs), ``back(blend, rig_clip, mapped_clip)`` writes a
+    blend back onto the first clip's rig. ``ranges``: per clip None or ``"S:E"``/(S, E). ``feet``: "lock" or
+    "none"; with ``feet_required=False`` a blend whose rig has no legs (or no rest skeleton) is kept unplanted and
+    its report says why (``{"skipped": reason}``). ``mask``/``groups``: per-bone-group weights of B (two clips).
+    ``info``: ``{"sources": [{"name", "range", "cycle"}], "feet": [report per blend] or None, "loop": [meta loop]
+    or None}``."""
+    if feet not in FEET_MODES:
+        raise ShapeSigError(f"feet: expected one of {', '.join(FEET_MODES)}, got {feet!r}")
+    n = len(clips)
+    weights = [check_weights(w, n) for w in weights]
+    if not weights:
+        raise ShapeSigError("weights: at least one weight vector is needed")
+    own, mapped, notes = _select(clips, mapped, ranges, loop)
+    work = mapped if mapped is not None else own
+    kw = dict(align=align, depth=depth, frames=frames, bones=bones, root=root, up_axis=up_axis, mask=mask,
+              groups=groups)
+    blends = _blend(work, weights, kw, progress)
+    if back is not None:
+        blends = [back(x, own[0], work[0]) for x in blends]
+    reports = None
+    if feet == "lock":
+        from ..feet import lock_feet
+
+        reports = []
+        for i, x in enumerate(blends):
+            try:
+                blends[i], report = lock_feet(x, own)
+            except ShapeSigError as exc:
+                if feet_required:
+                    raise
+                report = {"skipped": str(exc)}
+            reports.append(report)
+    loops = None
+    if loop:
+        blends = [close_loop(x) for x in blends]
+        loops = [x.meta["loop"] for x in blends]
+    return blends, {"sources": notes, "feet": reports, "loop": loops}
