@@ -263,14 +263,15 @@ def _soft_reach(dist, free, length):
     ``length`` exponentially (a leg straightens smoothly instead of snapping straight; the foot falls short)."""
     soft = np.minimum(np.maximum(SOFT_REACH * length, free), length)
     room = np.maximum(length - soft, 1e-12)
-    return np.where(dist <= soft, dist, soft + room * (1.0 - np.exp(-(dist - soft) / room)))
+    return np.where(dist <= soft, dist, soft + room * (1.0 - np.exp(-np.maximum(dist - soft, 0.0) / room)))
 
 
 def _solve_leg(hip, knee, target, l1, l2, forward, free):
     """The new knee (frames, 3): in the plane of hip, target and the blended knee, |knee - hip| = l1,
     |target - knee| = l2 (``_soft_reach``; ``free``: the blended leg's hip-ankle vector). A straight blended leg
-    has no plane: the knee then bends towards ``forward`` (the foot's direction): a bias of 1% of l1, fading out
-    as the knee leaves the hip-target line by 2% of l1 (a leg bent more keeps its plane exactly)."""
+    has no plane: the knee then bends towards ``forward`` (the foot's direction): the pole (the blended knee's
+    offset from the hip-target line) is lifted to at least 2% of l1 ahead of the line (a leg bent forward more
+    keeps its plane exactly)."""
     d = target - hip
     dist = np.linalg.norm(d, axis=1, keepdims=True)
     dn = d / np.maximum(dist, 1e-12)
@@ -279,9 +280,12 @@ def _solve_leg(hip, knee, target, l1, l2, forward, free):
         return v - np.sum(v * dn, axis=1, keepdims=True) * dn
 
     bent = across(knee - hip)
-    bias = across(forward)
-    bias *= 0.01 * l1 / np.maximum(np.linalg.norm(bias, axis=1, keepdims=True), 1e-12)
-    pole = bent + bias * np.clip(1.0 - np.linalg.norm(bent, axis=1, keepdims=True) / (0.02 * l1), 0.0, 1.0)
+    ahead = across(forward)
+    ahead /= np.maximum(np.linalg.norm(ahead, axis=1, keepdims=True), 1e-12)
+    # a knee bends forward: the pole keeps at least 2% of l1 ahead of the hip-target line (max(): continuous, and
+    # never zero, so the knee cannot flip through the line from one frame to the next)
+    lift = np.maximum(0.02 * l1 - np.sum(bent * ahead, axis=1, keepdims=True), 0.0)
+    pole = bent + lift * ahead
     pn = np.linalg.norm(pole, axis=1, keepdims=True)
     pole = pole / np.maximum(pn, 1e-12)
     dist = _soft_reach(dist, np.linalg.norm(free, axis=1, keepdims=True), l1 + l2)

@@ -13,7 +13,10 @@ several clips at the same phase).
 **Loops** (``close_loop``): a blend of one cycle of each source ends near its first pose. The residual per joint,
 ``C = log(B[M] B[0]^T)``, is spread linearly over the cycle (``B'[k] = exp(-k/M C) B[k]``), so the last frame
 equals the first exactly and the cycle's M distinct poses (frames 0..M-1) repeat with a regular step
-M-1 -> 0; the root height is closed the same way, the horizontal travel is kept as the cycle's offset (played
+M-1 -> 0 (the seam eased by a local circular low-pass over +-SEAM_SMOOTH s, fading out over three times that,
+so the seam is no rougher than the capture's own frame-to-frame noise), and the cycle is turned to start
+after its quietest step (the seam where the motion is slowest: ``meta["loop"]["seam"]``, frames of the blend
+moved from the start to the end); the root height is closed the same way, the horizontal travel is kept as the cycle's offset (played
 with the Cycles modifier's "Repeat with Offset", the root velocity across the seam is the last frame's).
 """
 
@@ -23,6 +26,9 @@ from .. import so3
 from ..clip import Clip
 from ..errors import ShapeSigError
 from ..prepare import COMPARE_FPS, prepare_rotations
+
+# the loop's seam is eased over this window (seconds each side; see _ease_seam)
+SEAM_SMOOTH = 0.025
 
 __all__ = ["parse_range", "crop_range", "find_cycle", "one_cycle", "close_loop", "pose_steps"]
 
@@ -144,7 +150,8 @@ def close_loop(clip: Clip) -> Clip:
     C = so3.log(R[-1] @ np.swapaxes(R[0], -1, -2))  # (joints, 3)
     s = np.arange(M + 1) / M
     out = so3.exp(-s[:, None, None] * C[None]) @ R
-    out[-1] = R[0]
+    out[:M] = _ease_seam(out[:M], clip.fps)
+    out[-1] = out[0]
     rt = clip.root_translation
     offset = None
     if rt is not None:
@@ -156,11 +163,38 @@ def close_loop(clip: Clip) -> Clip:
         dh = (rt[-1] - rt[0]) @ up
         rt = rt - np.outer(s * dh, up)
         offset = rt[-1] - rt[0]
+    # the seam where the motion is quietest: the cycle turned to start after its smallest step
+    seam = (int(np.argmin(pose_steps(out))) + 1) % M
+    if seam:
+        out = np.concatenate([out[seam:M], out[:seam + 1]])
+        if rt is not None:
+            rt = np.concatenate([rt[seam:M], rt[:seam + 1] + offset])
     meta = dict(clip.meta, loop={"frames": int(M), "offset": None if offset is None else [float(x) for x in offset],
-                                 "closure_degrees": float(np.degrees(np.linalg.norm(C, axis=-1).max()))})
+                                 "closure_degrees": float(np.degrees(np.linalg.norm(C, axis=-1).max())),
+                                 "seam": seam})
     return Clip(name=clip.name, bones=clip.bones, rotations=out, fps=clip.fps, frame_start=clip.frame_start,
                 root_translation=rt, root_bone=clip.root_bone, rotation_modes=clip.rotation_modes,
                 source=clip.source, meta=meta)
+
+
+def _ease_seam(R, fps):
+    """The cycle's M poses (periodic: M-1 is followed by 0) with the seam eased: each pose moved towards the
+    circular mean of its neighbours within SEAM_SMOOTH seconds (``exp(mean_j log(R[k+j] R[k]^T)) R[k]``), fully
+    at the seam, fading linearly to nothing 3 SEAM_SMOOTH away. Capture noise then makes the step M-1 -> 0 no
+    rougher than the cycle's typical step; the rest of the cycle is untouched."""
+    M = len(R)
+    h = max(1, int(round(SEAM_SMOOTH * fps)))
+    if M < 6 * h + 2:
+        return R
+    k = np.arange(M)
+    d = np.minimum(k + 0.5, M - 0.5 - k) - 0.5  # frames from the seam (0 for frames 0 and M-1)
+    alpha = np.clip(1.0 - (d - h) / (2.0 * h), 0.0, 1.0)
+    near = np.flatnonzero(alpha > 0)
+    Rt = np.swapaxes(R[near], -1, -2)
+    xi = sum(so3.log(R[(near + j) % M] @ Rt) for j in range(-h, h + 1)) / (2 * h + 1)
+    out = R.copy()
+    out[near] = so3.exp(alpha[near, None, None] * xi) @ R[near]
+    return out
 
 
 def pose_steps(rotations):
