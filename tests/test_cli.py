@@ -391,6 +391,7 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     bpy = pytest.importorskip("bpy")
     from blender_shapesig.core.sources import read as load_clips
     from blender_shapesig.core.blend import blend_clips
+    from blender_shapesig.core.feet import lock_feet
 
     bvh = ROOT / "tests" / "data" / "bvh"
     out = tmp_path / "walk_run.blend"
@@ -398,7 +399,7 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
                         "--weight", "0.25", "--start", "2", "--frames", "120", "--out", str(out), "--json",
                         "--no-progress"], capture_output=True, text=True, env=_env(), cwd=str(ROOT), timeout=600)
     assert p.returncode == 0, p.stderr
-    report = json.loads(p.stdout)  # Blender's importer output went to stderr, not here
+    report = report_json = json.loads(p.stdout)  # Blender's importer output went to stderr, not here
     assert report["out"] == str(out) and report["frames"] == [120]
     assert report["actions"] == ["07_01_x_09_02_0.25"]
     assert out.exists()
@@ -408,7 +409,9 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     a = load_clips(str(bvh / "07_01.bvh"), start=2, bone_map="none")[0]  # an explicit start wins over --trim
     b = load_clips(str(bvh / "09_02.bvh"), start=2, bone_map="none")[0]
     assert (a.frame_start, b.frame_start) == (2, 2)
-    want = blend_clips(a, b, 0.25, align=False, frames=120)
+    # planted feet by default (--feet lock): the blend's legs through core.feet.lock_feet on the sources
+    want, report = lock_feet(blend_clips(a, b, 0.25, align=False, frames=120), [a, b])
+    assert report["feet"] and report_json["feet"][0]["feet"] == report["feet"]
     assert got.frames == 120
     idx = [want.bones.index(n) for n in got.bones]
     # Keys are stored as float32 channels: agreement to ~1e-5 per matrix entry.

@@ -270,8 +270,8 @@ def _solve_leg(hip, knee, target, l1, l2, forward, free):
     """The new knee (frames, 3): in the plane of hip, target and the blended knee, |knee - hip| = l1,
     |target - knee| = l2 (``_soft_reach``; ``free``: the blended leg's hip-ankle vector). A straight blended leg
     has no plane: the knee then bends towards ``forward`` (the foot's direction): the pole (the blended knee's
-    offset from the hip-target line) is lifted to at least 2% of l1 ahead of the line (a leg bent forward more
-    keeps its plane exactly)."""
+    offset from the hip-target line) is lifted to at least 2% of l1 ahead of the line where the ankle is moved by 2%
+    of l1 or more, in proportion below (a leg bent forward more, or not moved, keeps its plane exactly)."""
     d = target - hip
     dist = np.linalg.norm(d, axis=1, keepdims=True)
     dn = d / np.maximum(dist, 1e-12)
@@ -285,7 +285,9 @@ def _solve_leg(hip, knee, target, l1, l2, forward, free):
     # a knee bends forward: the pole keeps at least 2% of l1 ahead of the hip-target line (max(): continuous, and
     # never zero, so the knee cannot flip through the line from one frame to the next)
     lift = np.maximum(0.02 * l1 - np.sum(bent * ahead, axis=1, keepdims=True), 0.0)
-    pole = bent + lift * ahead
+    # only where the ankle is moved (fully from 2% of l1 on): an uncorrected leg keeps its blended knee
+    moved = np.linalg.norm(target - (hip + free), axis=1, keepdims=True)
+    pole = bent + lift * np.clip(moved / (0.02 * l1), 0.0, 1.0) * ahead
     pn = np.linalg.norm(pole, axis=1, keepdims=True)
     pole = pole / np.maximum(pn, 1e-12)
     dist = _soft_reach(dist, np.linalg.norm(free, axis=1, keepdims=True), l1 + l2)
