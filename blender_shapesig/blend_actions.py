@@ -1,24 +1,31 @@
-"""Blend two actions of an armature into new actions: the Blender half of ``core.blend`` (issue 6).
+"""Blend two or more actions of an armature into new actions: the Blender half of ``core.blend`` (issues 6, 18).
 
-``blend_actions(armature, action_a, action_b, weights, ...)`` reads both actions (keyed bones only, in
-armature space), blends them with ``core.blend.blend_clip_series`` (one elastic warp for every in-between),
-writes each blend as a new action ``<A>_x_<B>_<weight>`` with a fake user and returns them. A and B are never
-modified; on any error nothing is created. The operator ``shapesig.blend_actions`` only parses its
-properties, calls this and reports. See docs/blending.md.
+``blend_actions(armature, action_a, action_b, weights, ...)`` reads the actions (keyed bones only), blends them
+with ``core.blend.make_blends`` (ranges, one cycle and loops, masks, more clips, planted feet; one elastic warp
+for every in-between), writes each blend as a new action ``<A>_x_<B>_<weight>`` with a fake user and returns
+them. With ``timing="nla"`` each blend is written as its pose curve on A's parameter (an action) played by an NLA
+strip whose animated Strip Time is the blended clock (``core.blend.editable_timing``): the animator nudges the
+alignment in the Graph Editor; ``bake_strip`` bakes such a strip into a plain action. Sources are never
+modified; on any error nothing is created. The operators only parse their properties, call these and report.
+See docs/blending.md.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import List, Optional, Sequence
 
 import bpy
 import numpy as np
 
 from . import action_io, compat, rigmap
-from .core.blend import blend_clip_series
+from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
 
-__all__ = ["BlendResult", "blend_actions", "armature_up_axis", "unique_action_name", "selected_bone_names"]
+__all__ = ["BlendResult", "blend_actions", "armature_up_axis", "unique_action_name", "selected_bone_names",
+           "bake_strip", "timed_strips", "TIMING_TRACK"]
+
+TIMING_TRACK = "ShapeSig Timing"  # the NLA track of a blend written with editable timing
+TIMED = "shapesig_timed_blend"    # the custom property marking such a blend's action (its fps)
 
 
 @dataclass
@@ -29,6 +36,8 @@ class BlendResult:
     actions: List["bpy.types.Action"]
     clips: list
     unmatched: Sequence[str] = field(default_factory=tuple)
+    info: dict = field(default_factory=dict)
+    strips: list = field(default_factory=list)
 
 
 def armature_up_axis(armature, bone_name):
@@ -61,46 +70,155 @@ def selected_bone_names(armature):
     return [pb.name for pb in armature.pose.bones if compat.pose_bone_selected(pb)]
 
 
-def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DEFAULT_DEPTH, frames=None,
-                  bones: Optional[Sequence[str]] = None, root="blend", progress=None) -> BlendResult:
-    """Blend ``action_a`` towards ``action_b`` at each weight into new actions on ``armature``.
-
-    ``bones``: blend only these (the others keep A's motion); each must be animated in both actions.
-    ``root``: "blend" (root displacements blended in the heading frame) or "a" (A's root path).
-    ``progress(done, total)``: called after each blend and each written action (2 per weight)."""
-    if action_a == action_b:
-        raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
-    # B of another rig (issue 14): both through their armatures' bone maps (rigmap.bone_map_of), back onto A's rig
+def _read_all(armature, actions, bones):
+    """(clips on their own rigs, clips in the comparison space or None, bones, across): every action read with the
+    armature that plays it; through the bone maps when one is of another rig (``rigmap``)."""
+    from .core.rigs import apply_bone_map
     from .library import owner_armature
 
-    other = owner_armature(action_b, armature)
-    across = rigmap.across_rigs(armature, other)
+    owners = [armature] + [owner_armature(act, armature) for act in actions[1:]]
+    across = any(rigmap.across_rigs(armature, o) for o in owners[1:])
     space = "armature" if across else "pose"
-    a = action_io.read_action(action_a, armature=armature, exclude_unkeyed=True, space=space)
-    b = action_io.read_action(action_b, armature=other if across else armature, exclude_unkeyed=True, space=space)
+    own = [action_io.read_action(act, armature=o if across else armature, exclude_unkeyed=True, space=space)
+           for act, o in zip(actions, owners)]
+    mapped = None
     if across:
-        a_rig, (a, b, bones) = a, rigmap.onto_comparison(a, armature, b, other, bones)
+        ma, mb, bones = rigmap.onto_comparison(own[0], armature, own[1], owners[1], bones)
+        mapped = [ma, mb] + [apply_bone_map(x, rigmap.bone_map_of(o)) for x, o in zip(own[2:], owners[2:])]
+    work = mapped or own
     if bones is not None:
-        shared = set(a.bones) & set(b.bones)
+        shared = set(work[0].bones).intersection(*(x.bones for x in work[1:]))
         missing = [x for x in bones if x not in shared]
         if missing:
-            raise ShapeSigError(f"bone(s) {', '.join(missing[:5])} are not animated in both {action_a.name!r} "
-                                f"and {action_b.name!r}")
-    n = len(weights)
-    clips = blend_clip_series(a, b, weights, align=align, depth=depth, frames=frames, bones=bones, root=root,
-                              up_axis=None if across else armature_up_axis(armature, a.root_bone),
-                              progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
-    if across:
-        clips = [rigmap.back_onto_armature(x, a_rig, a) for x in clips]
-    created, names = [], []
+            names = " and ".join(repr(a.name) for a in actions)
+            raise ShapeSigError(f"bone(s) {', '.join(missing[:5])} are not animated in "
+                                f"{'both' if len(actions) == 2 else 'all of'} {names}")
+    return own, mapped, bones, across
+
+
+def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DEFAULT_DEPTH, frames=None,
+                  bones: Optional[Sequence[str]] = None, root="blend", progress=None, extra=(), ranges=None,
+                  loop=False, feet="none", mask=None, groups=None, timing="bake") -> BlendResult:
+    """Blend ``action_a`` towards ``action_b`` at each weight into new actions on ``armature``.
+
+    ``weights``: B's weight per blend (two actions); with ``extra`` (pairs (action, weight)) one blend whose
+    weights are A: 1 - B's - the extras', B, the extras. ``bones``: blend only these (the others keep A's motion);
+    each must be animated in every action. ``root``: "blend" or "a" (A's root path). ``ranges``: (A's, B's) frame
+    ranges ((S, E) or None, the actions' own frames). ``loop``, ``feet`` ("lock"/"none"; a rig without legs is
+    kept unplanted, said in ``info``), ``mask``/``groups``: see ``core.blend.make_blends``. ``timing``: "bake"
+    (the blended timing in the keys) or "nla" (editable, see the module docstring). ``progress(done, total)``:
+    called after each blend and each written action (2 per blend)."""
+    if action_a == action_b:
+        raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
+    actions = [action_a, action_b] + [act for act, _w in extra]
+    for i, act in enumerate(actions):
+        if act in actions[:i]:
+            raise ShapeSigError(f"the action {act.name!r} is chosen twice; choose different actions")
+    if extra:
+        if len(weights) != 1:
+            raise ShapeSigError("in-betweens blend two actions; with extra actions make one blend")
+        ws = [float(weights[0])] + [float(w) for _a, w in extra]
+        vectors = [(1.0 - sum(ws), *ws)]
+        if vectors[0][0] < -1e-9:
+            raise ShapeSigError(f"the weights of B and the extra actions sum to {sum(ws):g}: more than 1 leaves "
+                                f"A a negative weight")
+        vectors = [(max(vectors[0][0], 0.0),) + vectors[0][1:]]
+    else:
+        vectors = [(1.0 - float(w), float(w)) for w in weights]
+    if timing not in ("bake", "nla"):
+        raise ShapeSigError(f"timing: expected 'bake' or 'nla', got {timing!r}")
+    if timing == "nla" and loop:
+        raise ShapeSigError("a loop is written baked: choose Bake timing or switch Loop off")
+    own, mapped, bones, across = _read_all(armature, actions, bones)
+    n = len(vectors)
+    clips, info = make_blends(
+        own, vectors, mapped=mapped, back=rigmap.back_onto_armature if across else None, ranges=ranges,
+        loop=loop, feet=feet, feet_required=False, mask=mask, groups=groups, align=align, depth=depth,
+        frames=frames, bones=bones, root=root,
+        up_axis=None if across else armature_up_axis(armature, own[0].root_bone),
+        progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
+    created, names, strips = [], [], []
     try:
         for i, clip in enumerate(clips):
             names.append(unique_action_name(clip.name, names))
-            created.append(action_io.write_action(clip, armature=armature, name=names[-1], fake_user=True))
+            if timing == "nla":
+                act, strip = _write_timed(clip, armature, names[-1])
+                created.append(act)
+                strips.append(strip)
+            else:
+                created.append(action_io.write_action(clip, armature=armature, name=names[-1], fake_user=True))
             if progress:
                 progress(n + i + 1, 2 * n)
     except BaseException:
+        for strip in strips:
+            _remove_strip(armature, strip)
         for act in created:
             compat.remove_action(act)
         raise
-    return BlendResult(created, clips, tuple(clips[0].meta.get("kept_bones" if across else "unmatched_a", ())))
+    unmatched = tuple(clips[0].meta.get("kept_bones" if across else "unmatched_a", ()))
+    return BlendResult(created, clips, unmatched, info, strips)
+
+
+def _write_timed(clip, armature, name):
+    """(the action of the pose curve, the NLA strip playing it with the blended clock as animated Strip Time)."""
+    from .core.blend import editable_timing
+
+    curve, keys = editable_timing(clip)
+    action = action_io.write_action(curve, armature=armature, name=name, fake_user=True)
+    action[TIMED] = float(clip.fps)
+    ad = armature.animation_data or armature.animation_data_create()
+    track = ad.nla_tracks.new()
+    track.name = TIMING_TRACK
+    try:
+        strip = track.strips.new(name, int(clip.frame_start), action)
+        if hasattr(strip, "action_slot") and strip.action_slot is None and len(getattr(action, "slots", ())):
+            strip.action_slot = action.slots[0]
+        strip.extrapolation = "HOLD_FORWARD"
+        strip.use_animated_time = True
+        fc = strip.fcurves.find("strip_time")
+        fc.keyframe_points.clear()
+        fc.keyframe_points.add(len(keys))
+        co = np.empty(2 * len(keys), dtype=np.float32)
+        co[0::2] = keys[:, 0] + clip.frame_start
+        co[1::2] = keys[:, 1] + clip.frame_start
+        fc.keyframe_points.foreach_set("co", co)
+        fc.keyframe_points.foreach_set("interpolation", np.full(len(keys), 1, dtype=np.int32))  # LINEAR
+        fc.update()
+    except BaseException:
+        ad.nla_tracks.remove(track)
+        compat.remove_action(action)
+        raise
+    return action, strip
+
+
+def _remove_strip(armature, strip):
+    ad = armature.animation_data
+    for track in list(ad.nla_tracks) if ad is not None else ():
+        if any(s == strip for s in track.strips):
+            ad.nla_tracks.remove(track)
+            return
+
+
+def timed_strips(armature):
+    """The NLA strips of ``armature`` that play a blend written with editable timing (animated Strip Time)."""
+    ad = armature.animation_data if armature is not None else None
+    if ad is None:
+        return []
+    return [s for t in ad.nla_tracks for s in t.strips
+            if s.action is not None and s.action.get(TIMED) is not None and s.use_animated_time]
+
+
+def bake_strip(armature, strip, name=None):
+    """A new action (fake user) holding what ``strip`` plays: its action's pose curve at the Strip Time of every
+    scene frame of the strip (``core.blend.sample_at``). The strip and its action are left as they are."""
+    from .core.blend import sample_at
+
+    fc = strip.fcurves.find("strip_time")
+    if fc is None:
+        raise ShapeSigError(f"strip {strip.name!r} has no animated Strip Time")
+    curve = action_io.read_action(strip.action, armature=armature, exclude_unkeyed=True)
+    first, last = int(round(strip.frame_start)), int(round(strip.frame_end))
+    at = np.array([fc.evaluate(f) for f in range(first, last + 1)], dtype=np.float64) - curve.frame_start
+    baked = replace(sample_at(curve, at, name=unique_action_name(name or f"{strip.action.name}_baked")),
+                    frame_start=first)
+    return action_io.write_action(baked, armature=armature, name=baked.name, fake_user=True)

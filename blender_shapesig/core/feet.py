@@ -373,11 +373,16 @@ def _working_clip(blend, sources):
     rig = sources[0]
     if blend.bones != rig.bones and "rest_heads" not in blend.meta:
         raise ShapeSigError(f"blend {blend.name!r} is not on the rig of {rig.name!r} (other bones)")
-    keep = ("rest_heads", "rest_tails", "parents", "rest_rotations", "unit_meters", "up_axis", "rotation_space")
+    keep = ("rest_heads", "rest_tails", "parents", "rest_rotations", "unit_meters", "rotation_space")
     meta = dict(blend.meta)
     for k in keep:
         if k not in meta and k in rig.meta:
             meta[k] = rig.meta[k]
+    # positions are in the rig's world-aligned axes: the world's up is the rig's (a blend's meta up_axis is the
+    # root translation's up, in the root's parent space: another frame for a pose-space blend)
+    meta.pop("up_axis", None)
+    if "up_axis" in rig.meta:
+        meta["up_axis"] = rig.meta["up_axis"]
     return replace(blend, meta=meta)
 
 

@@ -1,18 +1,38 @@
-"""``shapesig.blend_actions``: time-aligned SRVT geodesic blends of two actions (issue 6).
+"""``shapesig.blend_actions``: time-aligned SRVT geodesic blends of two or more actions (issues 6, 18), and
+``shapesig.bake_blend_timing``: a blend written with editable timing baked into a plain action.
 
-A thin operator: it parses its properties, calls ``blend_actions.blend_actions`` (read both actions, blend,
-write new actions ``<A>_x_<B>_<weight>`` with a fake user; nothing is created on error), optionally assigns the
-first blend, and reports. See docs/blending.md.
+Thin operators: they parse their properties, call ``blend_actions.blend_actions`` / ``bake_strip`` (read, blend,
+write new actions with a fake user; nothing is created on error), optionally assign the first blend, and report.
+See docs/blending.md.
 """
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, IntVectorProperty, StringProperty
 
 from ..core.blend import blend_weights
 from ..core.errors import MAX_INBETWEENS, ShapeSigError, check_integer, check_weight
 from ..core.metrics import DEFAULT_DEPTH
 
-__all__ = ["SHAPESIG_OT_blend_actions", "classes"]
+__all__ = ["SHAPESIG_OT_blend_actions", "SHAPESIG_OT_bake_blend_timing", "classes", "parse_extra"]
+
+
+def parse_extra(text):
+    """``"jog=0.2, skip=0.1"`` -> [("jog", 0.2), ("skip", 0.1)] (a name may hold '='; the last one splits);
+    ShapeSigError (one line) on an entry without a weight."""
+    out = []
+    for part in str(text or "").split(","):
+        part = part.strip()
+        if not part:
+            continue
+        name, sep, value = part.rpartition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            out.append((name.strip(), check_weight(float(value), f"weight of {name.strip()!r}")))
+        except ValueError:
+            raise ShapeSigError(f"extra actions: expected NAME=WEIGHT entries separated by commas, got {part!r}") \
+                from None
+    return out
 
 
 class SHAPESIG_OT_blend_actions(bpy.types.Operator):
@@ -59,8 +79,38 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
             ("A", "Keep A", "Keep A's root path (in the blended timing)"),
         ),
         default="BLEND")
+    range_a: IntVectorProperty(
+        name="A Frames", description="Frames of A to blend (first, last, inclusive); 0, 0: all of A", size=2,
+        default=(0, 0))
+    range_b: IntVectorProperty(
+        name="B Frames", description="Frames of B to blend (first, last, inclusive); 0, 0: all of B", size=2,
+        default=(0, 0))
+    extra: StringProperty(
+        name="More Actions", description="More actions to blend and their weights: NAME=WEIGHT, ... (A's weight "
+        "is 1 - B's - theirs; one blend)")
+    loop: BoolProperty(
+        name="Loop", description="A seamless cycle: one stride of each action (cycle detection), aligned, closed",
+        default=False)
+    feet: EnumProperty(
+        name="Feet", description="Feet planted in the sources stay planted in the blend",
+        items=(("LOCK", "Lock", "Keep planted feet planted (two-bone IK on the legs)"),
+               ("NONE", "None", "As blended")),
+        default="LOCK")
+    mask: StringProperty(
+        name="Mask", description="Per-bone-group weights of B: GROUP=WEIGHT, ... with groups upper, legs, arms, "
+        "spine, head, left_arm, right_arm, left_leg, right_leg, a canonical joint, a bone or a custom group; "
+        "root motion follows the legs")
+    groups: StringProperty(
+        name="Groups", description="Custom groups for the mask: NAME=JOINT+JOINT; ... (joints or bone names)")
+    timing: EnumProperty(
+        name="Timing", description="How the blended timing is written",
+        items=(("BAKE", "Bake", "The blended timing in the keys of the new action"),
+               ("NLA", "Editable (NLA)", "The pose curve on A's time, played by an NLA strip whose animated Strip "
+                "Time is the blended clock: nudge it in the Graph Editor, then Bake Blend Timing")),
+        default="BAKE")
     assign: BoolProperty(
-        name="Assign Result", description="Make the (first) blend the armature's active action",
+        name="Assign Result", description="Make the (first) blend the armature's active action (Editable timing: "
+        "clear the active action so the strip plays)",
         default=True)
 
     @classmethod
@@ -105,6 +155,17 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         if self.bone_subset == "LIST":
             layout.prop(self, "bone_list")
         layout.prop(self, "root")
+        layout.prop(self, "range_a")
+        layout.prop(self, "range_b")
+        layout.prop(self, "extra")
+        layout.prop(self, "mask")
+        if self.mask:
+            layout.prop(self, "groups")
+        layout.prop(self, "loop")
+        layout.prop(self, "feet", expand=True)
+        row = layout.row()
+        row.enabled = not self.loop
+        row.prop(self, "timing", expand=True)
         layout.prop(self, "assign")
 
     def _fail(self, message):
@@ -136,8 +197,27 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
             check_integer(self.frames, "length", minimum=2)
         return blend_weights(self.inbetweens, self.weight)  # in-betweens within 1..MAX_INBETWEENS
 
+    def _options(self):
+        """The issue-18 options as ``blend_actions`` keywords (ranges, extra actions, mask, groups, loop, feet,
+        timing); ShapeSigError (one line) on bad input."""
+        from ..core.blend import parse_groups, parse_mask, parse_range
+
+        ranges = [None if tuple(r) == (0, 0) else parse_range(tuple(r), label)
+                  for r, label in ((self.range_a, "A Frames"), (self.range_b, "B Frames"))]
+        extra = []
+        for name, w in parse_extra(self.extra):
+            act = bpy.data.actions.get(name)
+            if act is None:
+                raise ShapeSigError(f"no action named {name!r} (More Actions)")
+            extra.append((act, w))
+        if extra and self.inbetweens != 1:
+            raise ShapeSigError("More Actions make one blend: set In-betweens to 1")
+        return dict(ranges=ranges, extra=extra, loop=self.loop, feet=self.feet.lower(),
+                    mask=parse_mask(self.mask) if self.mask.strip() else None,
+                    groups=parse_groups([g for g in self.groups.split(";") if g.strip()]) or None,
+                    timing="nla" if self.timing == "NLA" else "bake")
+
     def execute(self, context):
-        from .. import action_io
         from ..blend_actions import blend_actions
 
         obj = context.active_object
@@ -150,6 +230,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                 if act is None:
                     raise ShapeSigError(f"no action named {name!r}")
             weights = self._weights()
+            options = self._options()
             show = wm is not None and len(weights) > 1
             if show:
                 wm.progress_begin(0, 2 * len(weights))
@@ -157,19 +238,93 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                 result = blend_actions(obj, acts[0], acts[1], weights, align=self.align, depth=self.depth,
                                        frames=self.frames or None, bones=self._bones(obj),
                                        root="a" if self.root == "A" else "blend",
-                                       progress=(lambda i, n: wm.progress_update(i)) if show else None)
+                                       progress=(lambda i, n: wm.progress_update(i)) if show else None, **options)
             finally:
                 if show:
                     wm.progress_end()
         except ShapeSigError as exc:
             return self._fail(str(exc))
         if self.assign:
+            self._assign(obj, result)
+        self.report({"INFO"}, f"Blend Actions: {_summary(result)}")
+        return {"FINISHED"}
+
+    def _assign(self, obj, result):
+        from .. import action_io, compat
+
+        if not result.strips:
             action_io.assign_action(obj, result.actions[0])
-        note = ""
-        if result.unmatched:
-            note = f"; {len(result.unmatched)} bone(s) animated only in A keep A's motion"
-        names = ", ".join(act.name for act in result.actions)
-        self.report({"INFO"}, f"Blend Actions: created {len(result.actions)} action(s): {names}{note}")
+            return
+        previous = obj.animation_data.action
+        if previous is not None and not previous.use_fake_user and previous.users <= 1:
+            compat.stash_action(obj, previous)  # never left without users
+        compat.assign_action(obj, None)  # the strip plays
+
+
+def _summary(result):
+    """The report line: the new actions, bones that kept A's motion, planted feet and loops."""
+    names = ", ".join(act.name for act in result.actions)
+    text = f"created {len(result.actions)} action(s): {names}"
+    if result.strips:
+        from ..blend_actions import TIMING_TRACK
+
+        text += f" (editable timing: NLA track '{TIMING_TRACK}')"
+    if result.unmatched:
+        text += f"; {len(result.unmatched)} bone(s) animated only in A keep A's motion"
+    reports = result.info.get("feet") or []
+    planted = sum(len(f["drift_after"]) for r in reports if "feet" in r for f in r["feet"])
+    if planted:
+        text += f"; {planted} planted contact(s)"
+    skipped = [r["skipped"] for r in reports if "skipped" in r]
+    if skipped:
+        text += f"; feet not planted: {skipped[0]}"
+    if result.info.get("loop"):
+        text += f"; loop of {result.info['loop'][0]['frames']} frames"
+    return text
+
+
+class SHAPESIG_OT_bake_blend_timing(bpy.types.Operator):
+    """Bake the blend strips of the active armature written with editable timing (NLA, animated Strip Time) into
+    plain actions"""
+
+    bl_idname = "shapesig.bake_blend_timing"
+    bl_label = "Bake Blend Timing"
+    bl_options = {"REGISTER", "UNDO"}
+
+    assign: BoolProperty(name="Assign Result", description="Make the (first) baked action the active action",
+                         default=False)
+
+    @classmethod
+    def poll(cls, context):
+        from ..blend_actions import timed_strips
+
+        obj = context.active_object
+        if obj is None or obj.type != "ARMATURE":
+            cls.poll_message_set("The active object must be an armature")
+            return False
+        if not timed_strips(obj):
+            cls.poll_message_set("The armature has no blend strip with editable timing (Blend Actions, Timing: "
+                                 "Editable)")
+            return False
+        return True
+
+    def execute(self, context):
+        from .. import action_io, compat
+        from ..blend_actions import bake_strip, timed_strips
+
+        obj = context.active_object
+        made = []
+        try:
+            for strip in timed_strips(obj):
+                made.append(bake_strip(obj, strip))
+        except ShapeSigError as exc:
+            for act in made:
+                compat.remove_action(act)
+            self.report({"ERROR"}, f"Bake Blend Timing: {exc}")
+            return {"CANCELLED"}
+        if self.assign:
+            action_io.assign_action(obj, made[0])
+        self.report({"INFO"}, f"Bake Blend Timing: created {', '.join(a.name for a in made)}")
         return {"FINISHED"}
 
 
@@ -194,4 +349,4 @@ def menu_unregister():
             menu.remove(menu_func)
 
 
-classes = (SHAPESIG_OT_blend_actions,)
+classes = (SHAPESIG_OT_blend_actions, SHAPESIG_OT_bake_blend_timing)

@@ -18,6 +18,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, default_frames  # noqa: E402
+from blender_shapesig.core.feet import lock_feet  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
 
@@ -114,8 +115,8 @@ def test_blend_writes_a_new_action(rig):
         fc.keyframe_points.foreach_get("co", co)
         assert np.array_equal(co[0::2], np.arange(1, n + 1, dtype=np.float32))
 
-    # Content: the core blend of the two actions as read (float32 keys: ~1e-6).
-    expected = blend_clips(walk, run, 0.5, up_axis=_up(arm, walk.root_bone))
+    # Content: the core blend of the two actions as read, feet planted by default (float32 keys: ~1e-6).
+    expected, _report = lock_feet(blend_clips(walk, run, 0.5, up_axis=_up(arm, walk.root_bone)), [walk, run])
     got = _read("walk_x_run_0.50", arm)
     assert got.bones == expected.bones
     assert _angle(got.rotations, expected.rotations) < 1e-5
@@ -166,7 +167,8 @@ def test_bone_list_blends_only_the_subset(rig):
                                             bone_subset="LIST", bone_list=", ".join(upper))
     assert result == {"FINISHED"}
     walk, run = _read("walk", arm), _read("run", arm)
-    expected = blend_clips(walk, run, 0.5, bones=upper, up_axis=_up(arm, walk.root_bone))
+    expected, _report = lock_feet(blend_clips(walk, run, 0.5, bones=upper, up_axis=_up(arm, walk.root_bone)),
+                                  [walk, run])
     got = _read("walk_x_run_0.50", arm)
     assert _angle(got.rotations, expected.rotations) < 1e-5
     # A lower-body bone is the walk's own motion in the blended timing, not the full blend.
@@ -244,8 +246,8 @@ def test_selected_pose_bones_subset(rig):
                                             bone_subset="SELECTED", align=False)
     assert result == {"FINISHED"}
     walk, run = _read("walk", arm), _read("run", arm)
-    expected = blend_clips(walk, run, 0.4, align=False, bones=sorted(chosen),
-                           up_axis=_up(arm, walk.root_bone))
+    expected, _report = lock_feet(blend_clips(walk, run, 0.4, align=False, bones=sorted(chosen),
+                                              up_axis=_up(arm, walk.root_bone)), [walk, run])
     got = _read("walk_x_run_0.40", arm)
     assert _angle(got.rotations, expected.rotations) < 1e-5
 

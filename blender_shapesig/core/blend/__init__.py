@@ -29,7 +29,7 @@ from .combine import (  # noqa: F401
 )
 from .cycle import close_loop, crop_range, find_cycle, one_cycle, parse_range, pose_steps
 from .mask import GROUPS, bone_weights, parse_groups, parse_mask
-from .make import FEET_MODES, make_blends
+from .make import FEET_MODES, editable_timing, make_blends, sample_at
 from .mix import blend_clip_series, blend_clips, blend_fps, blend_many
 from .move_root import estimate_up_axis
 
@@ -60,4 +60,6 @@ __all__ = [
     "pose_steps",
     "make_blends",
     "FEET_MODES",
+    "editable_timing",
+    "sample_at",
 ]

@@ -17,15 +17,27 @@ frame ranges, one cycle and seamless loops, masks, two or more clips, planted fe
 
 Durations are the weighted average in seconds (whatever the frame rates); only ``loop`` and ranges change what
 is blended.
+
+**Editable timing** (``editable_timing``): a blend is a pose curve on the reference's parameter u played with the
+blended clock (``meta["time_map"]``: u of every frame, piecewise linear in time with knots at the warps' nodes).
+Split into the pose curve sampled uniformly in u (an action) and the clock as keys (scene frame, action frame) at
+the warps' nodes, the clock can be edited (an NLA strip's animated Strip Time in Blender) and baked again
+(``sample_at``: the action at the clock's frames). Baking the unedited keys gives the blend back, up to the two
+geodesic resamplings (a fraction of a frame's step).
 """
 
+from dataclasses import replace
+
+import numpy as np
+
+from ..curves import geodesic_interpolate, uniform_times
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH
 from .combine import check_weights
 from .cycle import close_loop, crop_range, one_cycle
 from .mix import blend_clip_series, blend_many
 
-__all__ = ["make_blends", "FEET_MODES"]
+__all__ = ["make_blends", "FEET_MODES", "sample_at", "editable_timing"]
 
 FEET_MODES = ("lock", "none")
 
@@ -126,3 +138,38 @@ def make_blends(clips, weights, *, mapped=None, back=None, ranges=None, loop=Fal
         blends = [close_loop(x) for x in blends]
         loops = [x.meta["loop"] for x in blends]
     return blends, {"sources": notes, "feet": reports, "loop": loops}
+
+
+def sample_at(clip, positions, name=None):
+    """The clip at fractional frame ``positions`` (0 = its first frame): rotations along geodesics (eq. 5.8), the
+    root path linearly; positions are clamped to the clip."""
+    n = clip.frames
+    x = np.clip(np.asarray(positions, dtype=np.float64), 0.0, n - 1) / (n - 1)
+    rot = geodesic_interpolate(clip.rotations, uniform_times(n), x)
+    rt = clip.root_translation
+    if rt is not None:
+        rt = np.stack([np.interp(x, uniform_times(n), rt[:, i]) for i in range(rt.shape[1])], axis=1)
+    return replace(clip, name=name or clip.name, rotations=rot, root_translation=rt)
+
+
+def editable_timing(blend):
+    """(the pose curve, keys): ``blend`` (a result of ``make_blends`` or ``blend_clips``) split as the module
+    docstring says: the clip sampled uniformly in the reference's parameter u (the same frame count), and the clock
+    as an array (nodes, 2) of (frame of the blend, frame of the pose curve), both from 0, at every warp node.
+    ShapeSigError for a loop (its frames are turned to the quietest seam: it is written baked)."""
+    if blend.meta.get("loop"):
+        raise ShapeSigError(f"blend {blend.name!r} is a loop: its timing is written baked (no editable timing)")
+    u_out = blend.meta.get("time_map")
+    if u_out is None:
+        raise ShapeSigError(f"blend {blend.name!r} has no time map (meta time_map)")
+    u_out = np.maximum.accumulate(np.asarray(u_out, dtype=np.float64))
+    n = blend.frames
+    frames = np.arange(n, dtype=np.float64)
+    curve = sample_at(blend, np.interp(uniform_times(n), u_out, frames))
+    curve.meta = dict(blend.meta, timing="editable")
+    nodes = np.array([0.0, 1.0])
+    for warp in blend.meta.get("warps") or [blend.meta.get("warp")]:
+        if warp is not None:
+            nodes = np.union1d(nodes, np.clip(np.asarray(warp, dtype=np.float64)[:, 0], 0.0, 1.0))
+    keys = np.stack([np.interp(nodes, u_out, frames), nodes * (n - 1)], axis=1)
+    return curve, keys
