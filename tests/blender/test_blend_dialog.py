@@ -1,0 +1,162 @@
+"""The Blend dialog for animators (issue 18), headless on real CMU clips imported with Blender's BVH importer:
+A/B frame ranges, more actions with weights, loops, planted feet, masks, editable timing (an NLA strip with
+animated Strip Time) and its bake; sources untouched, nothing orphaned through save and a fresh process, bad input
+refused in one line creating nothing."""
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.blend_actions import TIMING_TRACK, timed_strips  # noqa: E402
+from blender_shapesig.core.blend import pose_steps  # noqa: E402
+
+from test_blend_operator import _angle, _buffer_hash, _import_bvh, _read, _reopen  # noqa: E402
+
+
+@pytest.fixture
+def rig(empty_file):
+    """The walk 07_01's armature (active action 'walk'), and the actions 'run' (09_02) and 'walk2' (07_02) of
+    the same skeleton (their armatures deleted; fake users), in a 120 fps scene."""
+    bpy.context.scene.render.fps = 120  # the clips' rate (the importer leaves the scene's alone)
+    arm = _import_bvh("07_01.bvh", "walk")
+    for file, name in (("09_02.bvh", "run"), ("07_02.bvh", "walk2")):
+        other = _import_bvh(file, name)
+        bpy.data.actions[name].use_fake_user = True
+        bpy.data.objects.remove(other)
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    return arm
+
+
+def _hashes():
+    return {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run", "walk2")}
+
+
+def test_ranges_and_planted_feet(rig):
+    before = _hashes()
+    # one stride each (the AMC strides 125-253 and 36-126; the BVH numbers frames from 1 with a rest frame first)
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(126, 254),
+                                          range_b=(37, 127)) == {"FINISHED"}
+    out = bpy.data.actions["walk_x_run_0.50"]
+    assert out.use_fake_user and _hashes() == before
+    assert tuple(out.frame_range) == (126.0, 126.0 + round(0.5 * 128 + 0.5 * 90))
+    got = _read("walk_x_run_0.50", rig)
+    unplanted = rig.animation_data.action
+    assert unplanted == out
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(126, 254),
+                                          range_b=(37, 127), feet="NONE") == {"FINISHED"}
+    free = _read("walk_x_run_0.50_2", rig)
+    legs = [got.bones.index(b) for b in ("lShin", "rShin")]
+    arms = [got.bones.index(b) for b in ("lForeArm", "rForeArm")]
+    assert _angle(got.rotations[:, legs], free.rotations[:, legs]) > 0.05  # the knees work to plant the feet
+    assert _angle(got.rotations[:, arms], free.rotations[:, arms]) < 1e-5  # the arms are the blend's
+
+
+def test_three_actions(rig):
+    before = _hashes()
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.0, extra="walk2=0",
+                                          feet="NONE") == {"FINISHED"}
+    name = "walk_x_run_x_walk2_1.00_0.00_0.00"
+    walk = _read("walk", rig)
+    got = _read(name, rig)
+    assert got.frames == walk.frames and _angle(got.rotations, walk.rotations) < 1e-5
+    third = 1 / 3
+    for b, c in (("run", "walk2"), ("walk2", "run")):
+        assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b=b, weight=third, extra=f"{c}={third}",
+                                              assign=False) == {"FINISHED"}
+    x = _read("walk_x_run_x_walk2_0.33_0.33_0.33", rig)
+    y = _read("walk_x_walk2_x_run_0.33_0.33_0.33", rig)
+    assert x.frames == y.frames and _angle(x.rotations, y.rotations) < 1e-4  # float32 keys
+    assert _hashes() == before
+
+
+def test_loop(rig):
+    # the ranges leave out the BVH conversion's rest frame and ramp (frames 1-6)
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, loop=True, range_a=(7, 317),
+                                          range_b=(7, 131)) == {"FINISHED"}
+    got = _read("walk_x_run_0.50", rig)
+    R = got.rotations
+    assert _angle(R[-1], R[0]) < 1e-4
+    steps = pose_steps(R[:-1])
+    assert pose_steps(np.stack([R[-2], R[0]]))[0] <= np.median(steps)
+
+
+def test_mask_keeps_the_legs_of_a(rig):
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=1.0, mask="legs=0",
+                                          feet="NONE", align=False) == {"FINISHED"}
+    walk, got = _read("walk", rig), _read("walk_x_run_1.00", rig)
+    assert got.frames == walk.frames  # the timing follows the legs
+    legs = [walk.bones.index(b) for b in ("lThigh", "lShin", "rThigh", "rShin")]
+    assert _angle(got.rotations[:, legs], walk.rotations[:, legs]) < 1e-5
+    j = walk.bones.index("rForeArm")
+    assert _angle(got.rotations[:, j], walk.rotations[:, j]) > 0.05
+
+
+def test_editable_timing_strip_bake_and_save(rig, tmp_path):
+    before = _hashes()
+    walk = bpy.data.actions["walk"]
+    assert bpy.ops.shapesig.blend_actions("EXEC_DEFAULT", True, action_a="walk", action_b="run", weight=0.5,
+                                          range_a=(126, 254), range_b=(37, 127), timing="NLA") == {"FINISHED"}
+    ad = rig.animation_data
+    assert ad.action is None  # the strip plays
+    strips = timed_strips(rig)
+    assert len(strips) == 1 and strips[0].action.name == "walk_x_run_0.50"
+    track = [t for t in ad.nla_tracks if t.name == TIMING_TRACK]
+    assert len(track) == 1
+    fc = strips[0].fcurves.find("strip_time")
+    assert fc is not None and 2 < len(fc.keyframe_points) < 200  # one key per warp node: something to nudge
+    stash = [t for t in ad.nla_tracks if t.name == compat.STASH_TRACK]
+    assert stash and stash[0].strips[0].action == walk  # the replaced active action is kept
+    # bake the unedited clock: the baked blend, up to one more geodesic resampling
+    assert bpy.ops.shapesig.bake_blend_timing() == {"FINISHED"}
+    baked = _read("walk_x_run_0.50_baked", rig)
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(126, 254),
+                                          range_b=(37, 127), assign=False) == {"FINISHED"}
+    direct = _read("walk_x_run_0.50_2", rig)
+    assert baked.frames == direct.frames and baked.frame_start == direct.frame_start
+    err = np.linalg.norm(baked.rotations - direct.rotations, axis=(-2, -1))
+    assert np.median(err) < 2e-3 and np.median(pose_steps(direct.rotations)) > 5 * np.median(err)
+    # nudge the clock: the bake follows it
+    keys = fc.keyframe_points
+    k = len(keys) // 2
+    keys[k].co.y += 3.0
+    fc.update()
+    assert bpy.ops.shapesig.bake_blend_timing() == {"FINISHED"}
+    nudged = _read("walk_x_run_0.50_baked_2", rig)
+    assert _angle(nudged.rotations, baked.rotations) > 0.02
+    assert _hashes() == before
+    # save, reopen in a fresh process: every action is there, the sources unchanged
+    names = {a.name for a in bpy.data.actions}
+    path = tmp_path / "timed.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    after = _reopen(path)
+    assert set(after) == names
+    for name, digest in before.items():
+        assert after[name] == digest
+
+
+def test_bake_needs_a_timed_strip(rig):
+    assert not bpy.ops.shapesig.bake_blend_timing.poll()
+
+
+@pytest.mark.parametrize("kw,message", [
+    (dict(extra="nope=0.2"), "no action named 'nope'"),
+    (dict(extra="walk2"), "NAME=WEIGHT"),
+    (dict(extra="walk2=0.8"), "more than 1"),
+    (dict(extra="walk2=0.1", inbetweens=2), "In-betweens to 1"),
+    (dict(extra="run=0.1"), "chosen twice"),
+    (dict(mask="legs=2"), "mask weight"),
+    (dict(mask="wings=1"), "no group"),
+    (dict(range_a=(500, 600)), "outside"),
+    (dict(range_b=(40, 30)), "must end after"),
+    (dict(loop=True, timing="NLA"), "written baked"),
+])
+def test_bad_input_is_refused_creating_nothing(rig, kw, message):
+    names = sorted(a.name for a in bpy.data.actions)
+    tracks = len(rig.animation_data.nla_tracks)
+    with pytest.raises(RuntimeError, match=message):
+        bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, **kw)
+    assert sorted(a.name for a in bpy.data.actions) == names
+    assert len(rig.animation_data.nla_tracks) == tracks and rig.animation_data.action.name == "walk"
