@@ -1,8 +1,12 @@
 """Benchmark of planted feet (issue 18): stance drift of walk x run blends before and after ``core.feet.lock_feet``.
 
-Usage (from the repository root; no Blender needed):
+Usage (from the repository root; no Blender needed, except for ``--cli``):
 
-    .venv/bin/python benchmarks/bench_foot_drift.py --data ../shared/data/cmu [--json OUT.json]
+    .venv/bin/python benchmarks/bench_foot_drift.py --data ../shared/data/cmu [--json OUT.json] [--cli]
+
+``--cli`` also runs every blend through the command line (``python -m blender_shapesig blend A B --range-a S:E
+--range-b S:E --weight w --align --json``, feet locked by default; it writes a .blend with bpy) and checks the
+criterion on the stance drifts its JSON reports.
 
 Data: real CMU takes found through the data folder's INDEX.md, one stride each (right heel strike to the next,
 frames picked by hand from the contacts ``core.feet.find_contacts`` reports on the whole take):
@@ -104,6 +108,58 @@ def run(data):
     return rows
 
 
+def run_cli(data):
+    """The same blends through the command line (each clip linked into a folder with its own skeleton, so the
+    reader finds it): rows of the criterion on the JSON's feet report and the command's wall seconds."""
+    import subprocess
+    import tempfile
+
+    rows = []
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = {}
+        for label, (path, asf, first, last) in CLIPS.items():
+            folder = os.path.join(tmp, label)
+            os.makedirs(folder)
+            for f in (path, asf) if asf else (path,):
+                os.symlink(os.path.join(os.path.abspath(data), f), os.path.join(folder, os.path.basename(f)))
+            paths[label] = (os.path.join(folder, os.path.basename(path)), f"{first}:{last}")
+        for la, lb in PAIRS:
+            a, b = load(data, la), load(data, lb)
+            da, db = source_drifts(a), source_drifts(b)
+            for w in WEIGHTS:
+                cmd = [sys.executable, "-m", "blender_shapesig", "blend", paths[la][0], paths[lb][0], "--weight",
+                       str(w), "--range-a", paths[la][1], "--range-b", paths[lb][1], "--align", "--json",
+                       "--no-progress", "--out", os.path.join(tmp, f"{la}_{lb}_{w}.blend")]
+                t0 = time.perf_counter()
+                p = subprocess.run(cmd, capture_output=True, text=True, cwd=root, timeout=600)
+                seconds = time.perf_counter() - t0
+                if p.returncode:
+                    raise SystemExit(p.stderr.strip().splitlines()[-1])
+                report = json.loads(p.stdout)["feet"][0]
+                after = [d for f in report["feet"] for d in f["drift_after"]]
+                rows.append({
+                    "a": la, "b": lb, "weight": w, "planted": len(after),
+                    "after_median": float(np.median(after)), "after_max": float(max(after)),
+                    "limit_median": max(np.median(da), np.median(db)) + 0.02,
+                    "limit_max": max(max(da), max(db)) + 0.05, "seconds": seconds,
+                })
+                r = rows[-1]
+                r["pass"] = bool(r["after_median"] <= r["limit_median"] + 1e-9 and r["after_max"] <= r["limit_max"] + 1e-9)
+    return rows
+
+
+def cli_table(rows):
+    cm = lambda x: f"{100 * x:.1f}"  # noqa: E731
+    lines = ["| A x B (command line) | w | planted | after median / limit (cm) | after max / limit (cm) | "
+             "command wall time | pass |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['a']} x {r['b']} | {r['weight']:g} | {r['planted']} | {cm(r['after_median'])} / "
+                     f"{cm(r['limit_median'])} | {cm(r['after_max'])} / {cm(r['limit_max'])} | {r['seconds']:.1f} s | "
+                     f"{'yes' if r['pass'] else 'NO'} |")
+    return "\n".join(lines)
+
+
 def table(rows):
     cm = lambda x: f"{100 * x:.1f}"  # noqa: E731
     lines = ["| A x B | w | planted | sources median (cm) | sources max (cm) | before median / max | "
@@ -125,11 +181,17 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", required=True, help="the CMU data folder (the one with INDEX.md)")
     parser.add_argument("--json", help="also write the rows as JSON here")
+    parser.add_argument("--cli", action="store_true", help="also run the blends through the command line")
     args = parser.parse_args(argv)
     if not os.path.isfile(os.path.join(args.data, "INDEX.md")):
         parser.error(f"no INDEX.md in {args.data}")
     rows = run(args.data)
     print(table(rows))
+    if args.cli:
+        cli_rows = run_cli(args.data)
+        print()
+        print(cli_table(cli_rows))
+        rows = rows + cli_rows
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(rows, fh, indent=1)
