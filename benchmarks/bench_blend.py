@@ -20,6 +20,16 @@ Timed, each the median over ``--repeat`` runs after one warm-up, as the process 
 * ``core_blend_aligned``: ``core.blend.blend_clips`` on the clips already read (warp included);
 * ``elastic_align``: the warp alone (core.elastic).
 
+Issue 18's options (the operator entries above are timed with Feet: None, as before the option existed):
+
+* ``operator_feet_lock``: the aligned operator with planted feet (the bench armature is a line of bones, so
+  its rest skeleton is not a body: the figure to read is ``core_lock_feet``);
+* ``operator_three``: three actions (A, B and C = 07_02 resampled to 400 frames, weights 0.5, 0.25, 0.25);
+* ``operator_loop``: ``loop=True`` (cycle detection in both, one stride each, closed loop);
+* ``operator_editable``: ``timing="NLA"``: the pose curve and an NLA strip with animated Strip Time;
+* ``core_lock_feet``: ``core.feet.lock_feet`` on the aligned core blend (ASF rest skeletons);
+* ``core_three_aligned``: ``core.blend.blend_many`` of the three clips (two warps).
+
 Ratios are against ``baseline`` in the same run, so they do not depend on the machine. Nothing is
 asserted.
 """
@@ -42,7 +52,8 @@ import bpy  # noqa: E402
 import blender_shapesig  # noqa: E402
 from blender_shapesig import action_io  # noqa: E402
 from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
-from blender_shapesig.core.blend import blend_clips  # noqa: E402
+from blender_shapesig.core.blend import blend_clips, blend_many  # noqa: E402
+from blender_shapesig.core.feet import lock_feet  # noqa: E402
 from blender_shapesig.core.clip import Clip  # noqa: E402
 from blender_shapesig.core.curves import geodesic_interpolate, uniform_times  # noqa: E402
 from blender_shapesig.core.elastic import elastic_align  # noqa: E402
@@ -62,7 +73,12 @@ def _clips():
     b = Clip(name="walk07", bones=b0.bones, rotations=rot, fps=b0.fps, root_translation=root,
              root_bone=b0.root_bone, meta=dict(b0.meta))
     a.name = "walk16"
-    return a, b
+    c0 = load_acclaim(str(ACC / "07_02.amc"), str(ACC / "07-walk.asf"))
+    src = uniform_times(c0.frames)
+    c = Clip(name="walk07b", bones=c0.bones, rotations=geodesic_interpolate(c0.rotations, None, t), fps=c0.fps,
+             root_translation=np.stack([np.interp(t, src, c0.root_translation[:, i]) for i in range(3)], axis=1),
+             root_bone=c0.root_bone, meta=dict(c0.meta))
+    return a, b, c
 
 
 def _armature(bones):
@@ -104,13 +120,17 @@ def main(argv=None):
 
     blender_shapesig.register()
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    a, b = _clips()
+    a, b, c = _clips()
     obj = _armature(a.bones)
     act_a = action_io.write_action(a, armature=obj, name="walk16")
     act_b = action_io.write_action(b, armature=obj, name="walk07")
-    keep = {act_a.name, act_b.name}
+    act_c = action_io.write_action(c, armature=obj, name="walk07b")
+    keep = {act_a.name, act_b.name, act_c.name}
 
     def cleanup():
+        ad = obj.animation_data
+        for track in list(ad.nla_tracks) if ad is not None else ():
+            ad.nla_tracks.remove(track)
         for act in [x for x in bpy.data.actions if x.name not in keep]:
             bpy.data.actions.remove(act)
 
@@ -118,13 +138,16 @@ def main(argv=None):
         clip = action_io.read_action(act_a, armature=obj, exclude_unkeyed=True)
         action_io.write_action(clip, armature=obj, name="copy")
 
-    def op(align):
+    def op(align, **kw):
+        kw.setdefault("feet", "NONE")
+        kw.setdefault("weight", 0.5)
+
         def run():
-            r = bpy.ops.shapesig.blend_actions(action_a="walk16", action_b="walk07", weight=0.5,
-                                               align=align, assign=False)
+            r = bpy.ops.shapesig.blend_actions(action_a="walk16", action_b="walk07", align=align, assign=False, **kw)
             assert r == {"FINISHED"}
         return run
 
+    blended = blend_clips(a, b, 0.5)
     ra = action_io.read_action(act_a, armature=obj, exclude_unkeyed=True)
     rb = action_io.read_action(act_b, armature=obj, exclude_unkeyed=True)
     results = {
@@ -133,6 +156,12 @@ def main(argv=None):
         "operator_unaligned": _time(op(False), args.repeat, cleanup),
         "core_blend_aligned": _time(lambda: blend_clips(ra, rb, 0.5), args.repeat),
         "elastic_align": _time(lambda: elastic_align(ra.rotations, rb.rotations), args.repeat),
+        "operator_feet_lock": _time(op(True, feet="LOCK"), args.repeat, cleanup),
+        "operator_three": _time(op(True, weight=0.25, extra="walk07b=0.25"), args.repeat, cleanup),
+        "operator_loop": _time(op(True, loop=True), args.repeat, cleanup),
+        "operator_editable": _time(op(True, timing="NLA"), args.repeat, cleanup),
+        "core_lock_feet": _time(lambda: lock_feet(blended, [a, b]), args.repeat),
+        "core_three_aligned": _time(lambda: blend_many([a, b, c], (0.5, 0.25, 0.25)), args.repeat),
     }
     base = results["baseline"]["cpu_s"]
     for r in results.values():
