@@ -61,16 +61,6 @@ def load(data, label):
     return clip.crop(first, last)
 
 
-def source_drifts(clip):
-    """Stance drifts (m) of every contact of every foot point of a source."""
-    legs = feet.legs_of(clip)
-    contacts = feet.find_contacts(clip, legs)
-    pos = feet.feet_positions(clip, legs)
-    unit = feet.unit_meters(clip, [(t, f) for t, _s, f in legs.values()])
-    return [d * unit for side in contacts for p in feet.POINTS
-            for d in feet.stance_drift(pos[side][p], contacts[side][p])]
-
-
 def blend_pair(a, b, weight):
     """The blend on A's rig (through the canonical joints when the rigs differ), its timing in meta."""
     if a.bones == b.bones:
@@ -83,7 +73,7 @@ def run(data):
     rows = []
     for la, lb in PAIRS:
         a, b = load(data, la), load(data, lb)
-        da, db = source_drifts(a), source_drifts(b)
+        da, db = feet.source_drifts(a), feet.source_drifts(b)
         med_limit = max(np.median(da), np.median(db)) + 0.02
         max_limit = max(max(da), max(db)) + 0.05
         feet.lock_feet(blend_pair(a, b, WEIGHTS[0]), [a, b])  # warm-up (numba compiles the DP once), not timed
@@ -126,7 +116,7 @@ def run_cli(data):
             paths[label] = (os.path.join(folder, os.path.basename(path)), f"{first}:{last}")
         for la, lb in PAIRS:
             a, b = load(data, la), load(data, lb)
-            da, db = source_drifts(a), source_drifts(b)
+            da, db = feet.source_drifts(a), feet.source_drifts(b)
             for w in WEIGHTS:
                 cmd = [sys.executable, "-m", "blender_shapesig", "blend", paths[la][0], paths[lb][0], "--weight",
                        str(w), "--range-a", paths[la][1], "--range-b", paths[lb][1], "--align", "--json",

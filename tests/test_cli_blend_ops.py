@@ -66,14 +66,6 @@ def test_three_clips_weight_on_the_first_reproduces_it(amc, tmp_path):
     assert report["feet"][0]["root_lowered"] == 0.0
 
 
-def _source_drifts(clip):
-    legs = feet.legs_of(clip)
-    contacts = feet.find_contacts(clip, legs)
-    pos = feet.feet_positions(clip, legs)
-    unit = feet.unit_meters(clip, [(t, f) for t, _s, f in legs.values()])
-    return [d * unit for s in contacts for p in feet.POINTS for d in feet.stance_drift(pos[s][p], contacts[s][p])]
-
-
 @pytest.mark.parametrize("weight", [0.25, 0.5])
 def test_ranges_and_planted_feet_meet_the_issue_bounds(amc, tmp_path, weight):
     """07_01 x 09_02, one stride each through --range-a/--range-b, --feet lock by default: the median stance drift
@@ -87,7 +79,7 @@ def test_ranges_and_planted_feet_meet_the_issue_bounds(amc, tmp_path, weight):
     assert report["seconds"][0] == pytest.approx((1 - weight) * 128 / 120 + weight * 90 / 120, abs=0.5 / 120)
     a = load_acclaim(amc["w1"], str(ACC / "07-walk.asf"), axes="blender").crop(125, 253)
     b = load_acclaim(amc["r1"], str(ACC / "09-run.asf"), axes="blender").crop(36, 126)
-    da, db = _source_drifts(a), _source_drifts(b)
+    da, db = feet.source_drifts(a), feet.source_drifts(b)
     after = [d for f in report["feet"][0]["feet"] for d in f["drift_after"]]
     before = [d for f in report["feet"][0]["feet"] for d in f["drift_before"]]
     assert len(after) >= 4

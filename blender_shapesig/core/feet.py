@@ -53,7 +53,7 @@ from .skeleton import (
 )
 
 __all__ = ["FEET_MODES", "lock_feet", "find_contacts", "legs_of", "source_times", "blend_contacts", "intervals",
-           "stance_drift", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
+           "stance_drift", "source_drifts", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
            "SOFT_REACH", "MAX_LOWER", "POINTS"]
 
 FEET_MODES = ("lock", "none")
@@ -364,6 +364,17 @@ def stance_drift(positions, mask):
         p = positions[a:b + 1]
         out.append(float(np.max(np.linalg.norm(p[:, None] - p[None], axis=-1))))
     return out
+
+
+def source_drifts(clip):
+    """The stance drifts (metres) of every contact run of every foot point of a clip on its own contacts
+    (``find_contacts``): the sources' side of the planted-feet criterion (benchmarks and tests)."""
+    legs = legs_of(clip)
+    fk = forward_kinematics(clip)
+    contacts = find_contacts(clip, legs, fk)
+    pos = feet_positions(clip, legs, fk)
+    unit = unit_meters(clip, [(t, f) for t, _s, f in legs.values()])
+    return [d * unit for side in contacts for p in POINTS for d in stance_drift(pos[side][p], contacts[side][p])]
 
 
 def _working_clip(blend, sources):

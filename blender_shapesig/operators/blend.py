@@ -35,6 +35,15 @@ def parse_extra(text):
     return out
 
 
+def _armature_or_message(cls, context):
+    """The active object when it is an armature, else None with the poll message set."""
+    obj = context.active_object
+    if obj is None or obj.type != "ARMATURE":
+        cls.poll_message_set("The active object must be an armature")
+        return None
+    return obj
+
+
 class SHAPESIG_OT_blend_actions(bpy.types.Operator):
     """Blend two actions of the active armature along the SRVT geodesic (time-aligned) into new actions"""
 
@@ -115,9 +124,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = context.active_object
-        if obj is None or obj.type != "ARMATURE":
-            cls.poll_message_set("The active object must be an armature")
+        if _armature_or_message(cls, context) is None:
             return False
         if len(bpy.data.actions) < 2:
             cls.poll_message_set("Blending needs two actions in the file")
@@ -298,9 +305,8 @@ class SHAPESIG_OT_bake_blend_timing(bpy.types.Operator):
     def poll(cls, context):
         from ..blend_actions import timed_strips
 
-        obj = context.active_object
-        if obj is None or obj.type != "ARMATURE":
-            cls.poll_message_set("The active object must be an armature")
+        obj = _armature_or_message(cls, context)
+        if obj is None:
             return False
         if not timed_strips(obj):
             cls.poll_message_set("The armature has no blend strip with editable timing (Blend Actions, Timing: "

@@ -153,14 +153,6 @@ def test_mask_upper_body_keeps_the_legs_and_the_travel_of_a():
 
 # ------------------------------------------------------------------------------------------------ feet
 
-def _source_drifts(clip):
-    legs = feet.legs_of(clip)
-    contacts = feet.find_contacts(clip, legs)
-    pos = feet.feet_positions(clip, legs)
-    unit = feet.unit_meters(clip, [(t, f) for t, _s, f in legs.values()])
-    return [d * unit for s in contacts for p in feet.POINTS for d in feet.stance_drift(pos[s][p], contacts[s][p])]
-
-
 @pytest.mark.parametrize("order,weights", [("ab", (0.5, 0.5)), ("ab", (0.25, 0.75)), ("ba", (0.5, 0.5)),
                                            ("abc", (0.4, 0.3, 0.3))])
 @pytest.mark.parametrize("feet_mode", ["lock", "none"])
@@ -184,7 +176,7 @@ def test_feet_lock_across_rigs_as_the_command_line(weight):
     b = load_acclaim(str(ACC / "09_05.amc"), str(ACC / "09-run.asf"), axes="blender")
     (got,), info = make_blends([a, b], [(1 - weight, weight)], mapped=[apply_bone_map(a), apply_bone_map(b)],
                                back=onto_rig, ranges=["147:269", "42:132"])
-    da, db = _source_drifts(a.crop(147, 269)), _source_drifts(b.crop(42, 132))
+    da, db = feet.source_drifts(a.crop(147, 269)), feet.source_drifts(b.crop(42, 132))
     report = info["feet"][0]
     after = [d for f in report["feet"] for d in f["drift_after"]]
     before = [d for f in report["feet"] for d in f["drift_before"]]
