@@ -173,13 +173,19 @@ def elastic_check(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[fl
     with the elastic low-pass, then ``metrics.clip_distance``) and the *relative* distance
     r = d / sqrt(|q_a|^2 + |q_b|^2) (``srvt_energy`` of the prepared curves). r is scale-free (0 for a copy,
     about 1 for unrelated motions; d_S* itself grows with how much the clips move), so one threshold fits
-    short runs and long takes. (inf, inf) when the two share no moving bone."""
+    short runs and long takes. (inf, inf) when the two share no moving bone.
+
+    Identical prepared curves (an exact copy under another name) give (0, 0) without the DP: the DP sums
+    |q_a|^2 + |q_b|^2 - 2 <q_a, q_b> along the path, and that cancellation leaves a rounding residue of
+    about sqrt(eps) |q| (1e-8 relative, 30 fps lattice) instead of 0, so ``--threshold 0`` would keep nothing."""
     try:
         ca, cb = pair_curves(a, b)
     except ShapeSigError:
         return float("inf"), float("inf")
     smooth = time_base_smoothing("elastic")
     pa, pb = prepare_clip(ca, smooth=smooth), prepare_clip(cb, smooth=smooth)
+    if pa.rotations.shape == pb.rotations.shape and np.array_equal(pa.rotations, pb.rotations):
+        return 0.0, 0.0  # the same curve: d_S* = 0 exactly (the DP's energy form leaves ~sqrt(eps |q|^2))
     d = float(clip_distance(pa, pb, "elastic", depth=depth, time_base=False))
     energy = srvt_energy(pa.rotations) + srvt_energy(pb.rotations)
     return d, (d / np.sqrt(energy) if energy > 0 else (0.0 if d == 0 else float("inf")))

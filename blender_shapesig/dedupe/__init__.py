@@ -56,19 +56,22 @@ def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_ded
                    level=DEFAULT_LEVEL, depth=DEFAULT_DEPTH, cache_dir=None, plots=True, **options):
     """Deduplicate the clips in ``paths`` (files, folders, ``FILE.blend#ACTION``) and write the report into
     ``out_dir``. ``threshold``: the relative-d_S* gate (default: relative to the library, ``core.dedupe``);
-    ``scheduler``: a local Dask scheduler name or a cluster address; ``cache_dir``: the signature cache folder
-    (None: memory only). ``options``: ClipSpec fields (asf, fps, trim, bone_map). Returns the report dict."""
+    ``scheduler``: None (a thread pool, no Dask), a local Dask scheduler name or a cluster address;
+    ``cache_dir``: the signature cache folder (None: memory only). ``options``: ClipSpec fields (asf, fps,
+    trim, bone_map). Returns the report dict."""
     from ..core.index import SignatureCache
     from .report import write_report
 
     t0 = time.perf_counter()
+    if scheduler:
+        parallel.require_dask(scheduler)  # before any clip is read
     items, skipped = library_items(paths, **options)
     if not items:
         raise ShapeSigError("no readable clip found in " + ", ".join(map(str, paths)))
     store = SignatureCache(cache_dir, memory_limit=1 << 40)  # every entry stays loaded for the graph
     timings = {}
     with parallel.scheduler(scheduler) as sched:
-        mapper = parallel.dask_mapper(sched)
+        mapper = parallel.mapper_for(sched)
         t = time.perf_counter()
         pairs, errors, signed = sign_library(items, level, store, mapper)
         timings["signing"] = time.perf_counter() - t
@@ -78,6 +81,6 @@ def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_ded
         timings["search"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     os.makedirs(out_dir, exist_ok=True)
-    info = {"scheduler": str(scheduler or "threads"), "level": level, "k": k, "signed": signed,
-            "skipped": skipped + errors, "seconds": timings}
+    info = {"scheduler": str(scheduler or parallel.DEFAULT_SCHEDULER), "dask": bool(scheduler), "level": level,
+            "k": k, "signed": signed, "skipped": skipped + errors, "seconds": timings}
     return write_report(out_dir, pairs, entries, result, info, plots=plots)
