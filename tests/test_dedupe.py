@@ -158,6 +158,10 @@ def test_common_entry_is_the_same_direction_on_all_joints():
     ca, cb = dedupe.common_entry(ea), dedupe.common_entry(eb)
     assert ca.bones == cb.bones == JOINTS
     assert entry_distance(ca, cb) == pytest.approx(entry_distance(on_all_joints(a), on_all_joints(b)), abs=1e-5)
+    assert ca.moving != cb.moving  # pair_sim's scatter into all joints' coordinates is the same sim
+    assert dedupe.pair_sim(ca, cb) == pytest.approx(entry_distance(ca, cb), abs=1e-5)
+    assert dedupe.pair_sim(ca, cb) == pytest.approx(dedupe.pair_sim(cb, ca), abs=1e-7)
+    assert dedupe.pair_sim(ca, ca) == 0.0
     np.testing.assert_allclose(cb.sketch, on_all_joints(b).sketch, atol=1e-5)
 
 

@@ -80,7 +80,7 @@ def write_report(out_dir, pairs, entries, result, info, plots=True):
            "json": os.path.join(out_dir, "report.json"), "clips": len(entries),
            "largest_cluster_share": biggest / len(entries) if entries else 0.0,
            "sim_threshold": result.sim_threshold, "threshold": result.threshold, "rule": result.rule,
-           "checked_pairs": len(pair_of), "graph_edges": len(result.edges),
+           "checked_pairs": len(pair_of), "graph_edges": len(result.edges), "linkage_checks": len(result.extra),
            "chain_components": [[labels[n] for n in c] for c in result.components],
            "cluster_pairs": [c["pairs"] for c in clusters], "near_misses": misses, **info}
     with open(out["json"], "w", encoding="utf-8") as f:
