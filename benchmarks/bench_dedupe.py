@@ -5,9 +5,11 @@ with the stage's complexity.
         [--scheduler NAME] [--json OUT]
 
 The simulated library: ``max(--sizes)`` BVH files, each a ``planted.variant`` of one of the shared BVH clips (all
-rigs; round robin, so every prefix of the list has the same mix): a random window of 50-100 % of the take,
+rigs; round robin, so every prefix of the list has the same mix): a random window of 50-100 % of the take (2 s at least),
 played 0.8-1.25 x as fast, every rotation channel's swing scaled by 0.7-1.3. Variants of one source are like
 takes of one actor (about ``size / sources`` per source: at 2,600 that is 43, the "50 almost identical walks").
+Every 20th file is a planted copy (renamed, half the rate, trimmed and re-timed, in turn) of an earlier file, so
+the checks and the linkage see real clusters (5 % duplicates); the run counts how many land with their original.
 Each size runs ``dedupe_library`` on the first n files (no signature cache, no plots), the command's own code.
 
 The stages and the model each is extrapolated with (n clips, k = 8 neighbours):
@@ -15,8 +17,8 @@ The stages and the model each is extrapolated with (n clips, k = 8 neighbours):
 * signing (read + log-signature, one per clip): a n;
 * graph (sketch distances n x n in one matrix product, exact sim^n on 4 k candidates per clip): a n + b n^2,
   least squares over the sizes;
-* checks (elastic d_S* of the candidate pairs under the gate plus a sample of 100): (pairs per clip) x n x
-  (seconds per pair), pairs per clip and seconds per pair from the largest size;
+* checks (elastic d_S* of the candidate pairs under the gate plus a sample of 100): (c0 + c1 n) pairs
+  (least squares over the sizes) x the seconds per pair of the largest size;
 * linkage (complete linkage; pairs outside the graph checked on demand): a n (least squares).
 
 Memory: the graph keeps every clip's entry loaded (the log-signature direction and the increments). The peak
@@ -41,12 +43,35 @@ sys.path.insert(0, str(ROOT))
 from blender_shapesig.dedupe import dedupe_library, planted  # noqa: E402
 
 
+COPY_EVERY = 20
+COPIES = (planted.renamed, planted.rate, planted.trimmed_retimed)
+
+
 def simulate(sources, n, folder, seed=0):
-    """``n`` variant files of ``sources`` in ``folder`` (round robin over the sources), sorted as made."""
+    """``(files, copies)``: ``n`` files in ``folder``, made in order (every prefix is a smaller library of the
+    same mix): every ``COPY_EVERY``-th a planted copy (renamed, half rate, trimmed and re-timed in turn) of an
+    earlier file, the others variants of ``sources`` (round robin); ``copies``: {copy: original}."""
     rng = np.random.default_rng(seed)
     os.makedirs(folder, exist_ok=True)
-    return [planted.variant(str(sources[i % len(sources)]), os.path.join(folder, f"sim_{i:05d}.bvh"), rng)
-            for i in range(n)]
+    files, copies = [], {}
+    for i in range(n):
+        path = os.path.join(folder, f"sim_{i:05d}.bvh")
+        if i % COPY_EVERY == COPY_EVERY - 1:
+            original = files[int(rng.integers(0, len(files)))]
+            while original in copies:
+                original = copies[original]
+            copies[COPIES[(i // COPY_EVERY) % len(COPIES)](original, path)] = original
+        else:
+            planted.variant(str(sources[i % len(sources)]), path, rng)
+        files.append(path)
+    return files, copies
+
+
+def found(result, copies):
+    """How many planted copies share a cluster with their original (among the copies in this library)."""
+    where = {m: n for n, c in enumerate(result["clusters"]) for m in c}
+    present = [(c, o) for c, o in copies.items() if c in result["_files"]]
+    return sum(1 for c, o in present if c in where and where.get(o) == where[c]), len(present)
 
 
 def fit(sizes, seconds, powers):
@@ -61,18 +86,19 @@ def extrapolate(runs, target):
     sec = {s: [r["seconds"][s] for r in runs] for s in ("signing", "graph", "checks", "linkage")}
     big = runs[-1]
     per_pair = big["seconds"]["checks"] / max(big["checked_pairs"], 1)
-    pairs_per_clip = big["checked_pairs"] / big["clips"]
+    c0, c1 = fit(sizes, [r["checked_pairs"] for r in runs], (0, 1))
+    pairs = c0 + c1 * target
     out = {
         "signing": fit(sizes, sec["signing"], (1,))[0] * target,
         "graph": float(np.dot(fit(sizes, sec["graph"], (1, 2)), [target, target ** 2])),
-        "checks": pairs_per_clip * target * per_pair,
+        "checks": pairs * per_pair,
         "linkage": fit(sizes, sec["linkage"], (1,))[0] * target,
     }
     out["total"] = sum(out.values())
     a, b = runs[-2] if len(runs) > 1 else runs[-1], runs[-1]
     per_clip_mb = (b["peak_rss_mb"] - a["peak_rss_mb"]) / max(b["clips"] - a["clips"], 1)
     memory = b["peak_rss_mb"] + per_clip_mb * (target - b["clips"]) + 8.0 * (target ** 2 - b["clips"] ** 2) / 2 ** 20
-    return out, {"seconds_per_pair": per_pair, "pairs_per_clip": pairs_per_clip, "mb_per_clip": per_clip_mb,
+    return out, {"seconds_per_pair": per_pair, "checked_pairs": pairs, "mb_per_clip": per_clip_mb,
                  "peak_rss_mb": memory}
 
 
@@ -89,26 +115,29 @@ def main(argv=None):
     out = {"sources": len(sources), "load_average_1min_start": os.getloadavg()[0], "runs": []}
     with tempfile.TemporaryDirectory() as tmp:
         t = time.perf_counter()
-        files = simulate(sources, sizes[-1], os.path.join(tmp, "lib"))
+        files, copies = simulate(sources, sizes[-1], os.path.join(tmp, "lib"))
         out["simulate_seconds"] = time.perf_counter() - t
         for n in sizes:
             res = dedupe_library(files[:n], os.path.join(tmp, f"report_{n}"), None, args.scheduler, plots=False)
+            res["_files"] = set(files[:n])
             run = {"clips": res["clips"], "seconds": res["seconds"], "graph_edges": res["graph_edges"],
                    "checked_pairs": res["checked_pairs"], "linkage_checks": res["linkage_checks"],
                    "clusters": len(res["clusters"]), "largest_cluster_share": res["largest_cluster_share"],
+                   "copies_found": found(res, copies),
                    "load_average_1min": os.getloadavg()[0],
                    "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
             out["runs"].append(run)
             s = run["seconds"]
             print(f"n={n:5d}: signing {s['signing']:6.1f} s, graph {s['graph']:5.2f} s, checks {s['checks']:6.1f} s "
                   f"({run['checked_pairs']} pairs), linkage {s['linkage']:5.2f} s ({run['linkage_checks']} on demand), "
-                  f"total {s['total']:6.1f} s; {run['clusters']} clusters, largest "
+                  f"total {s['total']:6.1f} s; {run['clusters']} clusters, copies found "
+                  f"{run['copies_found'][0]}/{run['copies_found'][1]}, largest "
                   f"{run['largest_cluster_share']:.1%}; peak {run['peak_rss_mb']:.0f} MB; load "
                   f"{run['load_average_1min']:.1f}", flush=True)
     est, model = extrapolate(out["runs"], args.target)
     out["extrapolated"] = {"clips": args.target, "seconds": est, **model}
     print(f"extrapolated to {args.target} clips: " + ", ".join(f"{k} {v:.0f} s" for k, v in est.items())
-          + f" ({model['pairs_per_clip']:.2f} checked pairs per clip, {model['seconds_per_pair'] * 1e3:.0f} ms per pair);"
+          + f" ({model['checked_pairs']:.0f} checked pairs, {model['seconds_per_pair'] * 1e3:.0f} ms per pair);"
           f" peak memory {model['peak_rss_mb']:.0f} MB ({model['mb_per_clip']:.2f} MB per clip)")
     if args.json:
         args.json.write_text(json.dumps(out, indent=1))

@@ -82,6 +82,21 @@ def check(result, copies):
     return out
 
 
+def same_take_pairs(result):
+    """``(found, pairs)``: pairs of files of one CMU trial (the name's ``SS_TT``, leading zeros dropped: the same
+    take in another format, rig or source) and how many of them share a cluster. Not a check: copies on
+    different rigs (retargeted, converted) differ by more than a copy (docs/search.md)."""
+    take = {}
+    for label in [m for c in result["clusters"] for m in c] + result.get("all_clips", []):
+        m = re.match(r"0*(\d+)_0*(\d+)", os.path.basename(label))
+        if m:
+            take[label] = m.groups()
+    cluster = {m: n for n, c in enumerate(result["clusters"]) for m in c}
+    labels = sorted(take)
+    pairs = [(a, b) for x, a in enumerate(labels) for b in labels[x + 1:] if take[a] == take[b]]
+    return [p for p in pairs if p[0] in cluster and cluster[p[0]] == cluster.get(p[1])], pairs
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", required=True, type=pathlib.Path, help="the shared CMU folder")
@@ -111,6 +126,11 @@ def main(argv=None):
         print("  cluster:", "  ".join(os.path.relpath(m, data) if str(data) in m else m for m in members))
     print("  seconds:", json.dumps({k: round(v, 2) for k, v in result["seconds"].items()}),
           "scheduler:", result["scheduler"])
+    hit, pairs = same_take_pairs(result)
+    print(f"INFO same CMU take in two files (another format, rig or source): {len(hit)} of {len(pairs)} pairs "
+          "clustered")
+    for a, b in pairs:
+        print(("  found  " if (a, b) in hit else "  missed ") + f"{os.path.relpath(a, data)}  {os.path.relpath(b, data)}")
     results = check(result, copies)
     for ok, text in results:
         print(("PASS " if ok else "FAIL ") + text)

@@ -43,7 +43,7 @@ from .prepare import prepare_clip
 from .rigs import JOINTS
 
 __all__ = ["DEFAULT_K", "SIM_RATIO", "THRESHOLD_RATIO", "Edge", "DedupeResult", "common_entry", "pair_sim", "knn_graph",
-           "pair_curves", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
+           "pair_curves", "prepared_pair", "time_map", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
            "chain_components", "complete_linkage", "find_duplicates", "serial_map"]
 
 # neighbours per clip in the signature graph, and the sketch shortlist per clip (exact sim on these only)
@@ -196,6 +196,24 @@ def srvt_energy(R) -> float:
     return float(np.linalg.norm(so3.relative_rotvecs(R), axis=-1).sum())
 
 
+def prepared_pair(a: IndexEntry, b: IndexEntry) -> Tuple[Clip, Clip]:
+    """``pair_curves`` on the comparison time base with the elastic low-pass (what ``elastic_check`` compares).
+    ShapeSigError when the two share no bones."""
+    smooth = time_base_smoothing("elastic")
+    ca, cb = pair_curves(a, b)
+    return prepare_clip(ca, smooth=smooth), prepare_clip(cb, smooth=smooth)
+
+
+def time_map(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[np.ndarray, np.ndarray]:
+    """``(ta, tb)``: the optimal alignment of ``b`` onto ``a`` (``elastic.elastic_align`` of the prepared pair)
+    as matching times in seconds of each clip (the diagonal for a copy, a curve for a re-timed one)."""
+    from .elastic import elastic_align
+
+    pa, pb = prepared_pair(a, b)
+    warp, _ = elastic_align(pa.rotations, pb.rotations, depth=depth)
+    return warp[:, 0] * (pa.frames - 1) / pa.fps, warp[:, 1] * (pb.frames - 1) / pb.fps
+
+
 def elastic_check(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[float, float]:
     """``(d, r)``: d_S* of two entries (increments loaded) on the comparison time base (``prepare.prepare_clip``
     with the elastic low-pass, then ``metrics.clip_distance``) and the *relative* distance
@@ -207,11 +225,9 @@ def elastic_check(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[fl
     |q_a|^2 + |q_b|^2 - 2 <q_a, q_b> along the path, and that cancellation leaves a rounding residue of
     about sqrt(eps) |q| (1e-8 relative, 30 fps lattice) instead of 0, so ``--threshold 0`` would keep nothing."""
     try:
-        ca, cb = pair_curves(a, b)
+        pa, pb = prepared_pair(a, b)
     except ShapeSigError:
         return float("inf"), float("inf")
-    smooth = time_base_smoothing("elastic")
-    pa, pb = prepare_clip(ca, smooth=smooth), prepare_clip(cb, smooth=smooth)
     if pa.rotations.shape == pb.rotations.shape and np.array_equal(pa.rotations, pb.rotations):
         return 0.0, 0.0  # the same curve: d_S* = 0 exactly (the DP's energy form leaves ~sqrt(eps |q|^2))
     d = float(clip_distance(pa, pb, "elastic", depth=depth, time_base=False))

@@ -66,14 +66,15 @@ def trimmed_retimed(source, path, trim=0.1, amplitude=0.06, stretch=1.15):
     return _write(path, source, _resample(values, _rotation_columns(joints), where), frame_time)
 
 
-def variant(source, path, rng, keep=(0.5, 1.0), speed=(0.8, 1.25), scale=(0.7, 1.3)):
+def variant(source, path, rng, keep=(0.5, 1.0), speed=(0.8, 1.25), scale=(0.7, 1.3), shortest=2.0):
     """A *different* take made from ``source`` for simulated libraries (benchmarks/bench_dedupe.py): a random
-    window of a fraction ``keep`` of the frames, played ``speed`` times as fast, every rotation channel's
+    window of a fraction ``keep`` of the frames (at least ``shortest`` seconds, or the whole take when it is
+    shorter), played ``speed`` times as fast, every rotation channel's
     swing about its mean scaled by a random factor in ``scale`` (so variants of one source differ in
     amplitude per joint and axis, as takes of one actor do). ``rng``: a numpy Generator."""
     joints, frame_time, values = parse_bvh(source)
     n = len(values)
-    length = max(int(rng.uniform(*keep) * n), 8)
+    length = min(max(int(rng.uniform(*keep) * n), int(shortest / frame_time), 8), n)
     a = int(rng.integers(0, n - length + 1))
     where = np.arange(a, a + length - 1, rng.uniform(*speed))
     rot = _rotation_columns(joints)
