@@ -14,12 +14,13 @@ Each size runs ``dedupe_library`` on the first n files (no signature cache, no p
 
 The stages and the model each is extrapolated with (n clips, k = 8 neighbours):
 
-* signing (read + log-signature, one per clip): a n;
-* graph (sketch distances n x n in one matrix product, exact sim^n on 4 k candidates per clip): a n + b n^2,
-  least squares over the sizes;
+* signing (read + log-signature, one per clip): c + a n;
+* graph (sketch distances n x n in one matrix product, exact sim^n on 4 k candidates per clip): c + a n + b n^2;
 * checks (elastic d_S* of the candidate pairs under the gate plus a sample of 100): (c0 + c1 n) pairs
   (least squares over the sizes) x the seconds per pair of the largest size;
-* linkage (complete linkage; pairs outside the graph checked on demand): a n (least squares).
+* linkage (complete linkage; pairs outside the graph checked on demand): c + a n;
+
+non-negative least squares over the sizes (a quadratic term the data cannot see stays 0).
 
 Memory: the graph keeps every clip's entry loaded (the log-signature direction and the increments). The peak
 resident size after each size (it only grows: sizes run smallest first) gives the bytes per added clip (the
@@ -75,10 +76,11 @@ def found(result, copies):
 
 
 def fit(sizes, seconds, powers):
-    """Least-squares coefficients of seconds ~ sum_p c_p n^p (non-negative: a negative fit is clipped to 0)."""
+    """Non-negative least-squares coefficients of seconds ~ sum_p c_p n^p (scipy's nnls)."""
+    from scipy.optimize import nnls
+
     A = np.array([[float(n) ** p for p in powers] for n in sizes])
-    c, *_ = np.linalg.lstsq(A, np.asarray(seconds, float), rcond=None)
-    return np.maximum(c, 0.0)
+    return nnls(A, np.asarray(seconds, float))[0]
 
 
 def extrapolate(runs, target):
@@ -89,10 +91,10 @@ def extrapolate(runs, target):
     c0, c1 = fit(sizes, [r["checked_pairs"] for r in runs], (0, 1))
     pairs = c0 + c1 * target
     out = {
-        "signing": fit(sizes, sec["signing"], (1,))[0] * target,
-        "graph": float(np.dot(fit(sizes, sec["graph"], (1, 2)), [target, target ** 2])),
+        "signing": float(np.dot(fit(sizes, sec["signing"], (0, 1)), [1, target])),
+        "graph": float(np.dot(fit(sizes, sec["graph"], (0, 1, 2)), [1, target, target ** 2])),
         "checks": pairs * per_pair,
-        "linkage": fit(sizes, sec["linkage"], (1,))[0] * target,
+        "linkage": float(np.dot(fit(sizes, sec["linkage"], (0, 1)), [1, target])),
     }
     out["total"] = sum(out.values())
     a, b = runs[-2] if len(runs) > 1 else runs[-1], runs[-1]
@@ -109,7 +111,13 @@ def main(argv=None):
     ap.add_argument("--target", type=int, default=2600)
     ap.add_argument("--scheduler", help="as dedupe --scheduler (default: the thread pool, no Dask)")
     ap.add_argument("--json", type=pathlib.Path)
+    ap.add_argument("--refit", type=pathlib.Path, help="only extrapolate the runs of an earlier --json file")
     args = ap.parse_args(argv)
+    if args.refit:
+        out = json.loads(args.refit.read_text())
+        est, model = extrapolate(out["runs"], args.target)
+        print(json.dumps({"seconds": est, **model}, indent=1))
+        return 0
     sizes = sorted(int(s) for s in args.sizes.split(","))
     sources = sorted(args.data.rglob("*.bvh"))
     out = {"sources": len(sources), "load_average_1min_start": os.getloadavg()[0], "runs": []}
