@@ -9,7 +9,8 @@ rigs; round robin, so every prefix of the list has the same mix): a random windo
 played 0.8-1.25 x as fast, every rotation channel's swing scaled by 0.7-1.3. Variants of one source are like
 takes of one actor (about ``size / sources`` per source: at 2,600 that is 43, the "50 almost identical walks").
 Every 20th file is a planted copy (renamed, half the rate, trimmed and re-timed, in turn) of an earlier file, so
-the checks and the linkage see real clusters (5 % duplicates); the run counts how many land with their original.
+the checks and the linkage see real clusters (5 % duplicates); the run counts how many land with their original,
+in all and per kind of copy (the kind is the suffix of the copy's file name).
 Each size runs ``dedupe_library`` on the first n files (no signature cache, no plots), the command's own code.
 
 The stages and the model each is extrapolated with (n clips, k = 8 neighbours):
@@ -61,7 +62,9 @@ def simulate(sources, n, folder, seed=0):
             original = files[int(rng.integers(0, len(files)))]
             while original in copies:
                 original = copies[original]
-            copies[COPIES[(i // COPY_EVERY) % len(COPIES)](original, path)] = original
+            make = COPIES[(i // COPY_EVERY) % len(COPIES)]
+            path = path[:-4] + f"_{make.__name__}.bvh"  # the kind of copy in its name
+            copies[make(original, path)] = original
         else:
             planted.variant(str(sources[i % len(sources)]), path, rng)
         files.append(path)
@@ -69,10 +72,16 @@ def simulate(sources, n, folder, seed=0):
 
 
 def found(result, copies):
-    """How many planted copies share a cluster with their original (among the copies in this library)."""
+    """``(found, present, {kind: [found, present]})``: how many planted copies (among those in this library)
+    share a cluster with their original, in all and per kind of copy (the suffix of the copy's name)."""
     where = {m: n for n, c in enumerate(result["clusters"]) for m in c}
     present = [(c, o) for c, o in copies.items() if c in result["_files"]]
-    return sum(1 for c, o in present if c in where and where.get(o) == where[c]), len(present)
+    kinds = {}
+    for c, o in present:
+        tally = kinds.setdefault(os.path.basename(c)[10:-4], [0, 0])
+        tally[0] += c in where and where.get(o) == where[c]
+        tally[1] += 1
+    return sum(t[0] for t in kinds.values()), len(present), kinds
 
 
 def fit(sizes, seconds, powers):
@@ -139,7 +148,7 @@ def main(argv=None):
             print(f"n={n:5d}: signing {s['signing']:6.1f} s, graph {s['graph']:5.2f} s, checks {s['checks']:6.1f} s "
                   f"({run['checked_pairs']} pairs), linkage {s['linkage']:5.2f} s ({run['linkage_checks']} on demand), "
                   f"total {s['total']:6.1f} s; {run['clusters']} clusters, copies found "
-                  f"{run['copies_found'][0]}/{run['copies_found'][1]}, largest "
+                  f"{run['copies_found'][0]}/{run['copies_found'][1]} {run['copies_found'][2]}, largest "
                   f"{run['largest_cluster_share']:.1%}; peak {run['peak_rss_mb']:.0f} MB; load "
                   f"{run['load_average_1min']:.1f}", flush=True)
     est, model = extrapolate(out["runs"], args.target)
