@@ -72,7 +72,7 @@ def test_planted_copies_join_their_originals(capsys, library, tmp_path):
     assert saved["clusters"] == out["clusters"]
     for pairs in saved["cluster_pairs"]:  # complete linkage: every pair inside a cluster passed both gates
         assert pairs and all(p["confirmed"] and p["relative"] <= out["threshold"] for p in pairs)
-    assert out["scheduler"] == "threads"
+    assert out["scheduler"] == "threads" and out["dask"] is False
 
 
 def test_dask_local_cluster_gives_the_same_clusters(capsys, library, tmp_path):
@@ -111,6 +111,34 @@ def test_dask_is_imported_only_by_a_dedupe_run():
     assert subprocess.run([sys.executable, "-c", code], env=env).returncode == 0
 
 
+def test_without_dask_the_default_runs_and_a_scheduler_is_one_line(tmp_path):
+    """Dask is optional: with it made unimportable, a run without --scheduler works (thread pool) and
+    --scheduler (a local name or an address) stops with one line, before any clip is read."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for f in ("07_01.bvh", "09_02.bvh"):
+        shutil.copy(DATA / "bvh" / f, lib / f)
+    planted.renamed(lib / "07_01.bvh", lib / "copy.bvh")
+    code = ("import sys; sys.modules['dask'] = sys.modules['distributed'] = None; "
+            "from blender_shapesig import cli; sys.exit(cli.main(sys.argv[1:]))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+
+    def run(*extra):
+        return subprocess.run([sys.executable, "-c", code, "dedupe", str(lib), "--out", str(tmp_path / "out"),
+                               "--no-plots", "--no-cache", "--no-progress", "--json", *extra],
+                              env=env, capture_output=True, text=True)
+
+    plain = run()
+    assert plain.returncode == 0, plain.stderr
+    out = json.loads(plain.stdout)
+    assert out["scheduler"] == "threads" and out["dask"] is False
+    assert [sorted(map(os.path.basename, c)) for c in out["clusters"]] == [["07_01.bvh", "copy.bvh"]]
+    for sched in ("threads", "tcp://127.0.0.1:8786"):
+        p = run("--scheduler", sched)
+        assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
+        assert "--scheduler" in p.stderr and "dask" in p.stderr and "Traceback" not in p.stderr
+
+
 # ------------------------------------------------------------------------------------------ core
 
 def test_common_entry_is_the_same_direction_on_all_joints():
@@ -130,6 +158,10 @@ def test_common_entry_is_the_same_direction_on_all_joints():
     ca, cb = dedupe.common_entry(ea), dedupe.common_entry(eb)
     assert ca.bones == cb.bones == JOINTS
     assert entry_distance(ca, cb) == pytest.approx(entry_distance(on_all_joints(a), on_all_joints(b)), abs=1e-5)
+    assert ca.moving != cb.moving  # pair_sim's scatter into all joints' coordinates is the same sim
+    assert dedupe.pair_sim(ca, cb) == pytest.approx(entry_distance(ca, cb), abs=1e-5)
+    assert dedupe.pair_sim(ca, cb) == pytest.approx(dedupe.pair_sim(cb, ca), abs=1e-7)
+    assert dedupe.pair_sim(ca, ca) == 0.0
     np.testing.assert_allclose(cb.sketch, on_all_joints(b).sketch, atol=1e-5)
 
 

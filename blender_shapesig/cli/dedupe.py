@@ -38,8 +38,8 @@ def add_parser(sub):
     p.add_argument("--threshold", type=float, metavar="X",
                    help="relative d_S* gate (default: half its median over a sample of the k-NN pairs)")
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="a Dask cluster's scheduler address (tcp://host:8786), or a local scheduler: threads "
-                        "(default), processes, sync")
+                   help="run on Dask (optional package): a cluster's scheduler address (tcp://host:8786) or a "
+                        "local Dask scheduler: threads, processes, sync (default: a thread pool, no Dask)")
     p.add_argument("--k", type=int, default=8, help="neighbours per clip in the signature graph (default 8)")
     p.add_argument("--level", type=int, help=f"signature level (default {c.DEFAULT_LEVEL})")
     p.add_argument("--depth", type=int, default=c.DEFAULT_DEPTH, help="elastic DP depth")

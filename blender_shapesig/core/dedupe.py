@@ -7,8 +7,8 @@ Two stages, as in the search (``core.index``):
    comparison space (``rigs.apply_bone_map``) all name their joints in the canonical order ``rigs.JOINTS``, so
    an entry on a subset of them is the same direction on all of them, with the missing joints still (their
    letters have zero coordinates, ``index.entry``). The count sketches then shortlist ``pool`` neighbours per
-   clip (one matrix product), the exact sim^n (``index.entry_distance``) keeps the ``k`` nearest, and the union
-   of these edges is the candidate graph (``knn_graph``): about k n pairs instead of n^2 / 2.
+   clip (one matrix product), the exact sim^n (``pair_sim``, equal to ``index.entry_distance``) keeps the ``k``
+   nearest, and the union of these edges is the candidate graph (``knn_graph``): about k n pairs, not n^2 / 2.
 2. **The elastic check.** Only candidate pairs get the elastic distance d_S* (``check_pairs``), through
    ``metrics.clip_distance`` on the comparison time base (``prepare``: one rate in seconds and the SRVT
    low-pass), on curves rebuilt from the entries' increments (no file is read again).
@@ -26,7 +26,9 @@ than tau, and in a library of one subject's walks (a take, its BVH and AMC copie
 swallow the whole class; docs/search.md measures both rules.
 """
 
+import time
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -34,13 +36,14 @@ import numpy as np
 from .clip import Clip
 from .errors import ShapeSigError
 from .index.entry import IndexEntry, curve_from_increments, entry_distance, pair_increments
+from .index.words import word_codes
 from . import so3
 from .metrics import DEFAULT_DEPTH, clip_distance, time_base_smoothing
 from .prepare import prepare_clip
 from .rigs import JOINTS
 
-__all__ = ["DEFAULT_K", "SIM_RATIO", "THRESHOLD_RATIO", "Edge", "DedupeResult", "common_entry", "knn_graph",
-           "pair_curves", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
+__all__ = ["DEFAULT_K", "SIM_RATIO", "THRESHOLD_RATIO", "Edge", "DedupeResult", "common_entry", "pair_sim", "knn_graph",
+           "pair_curves", "prepared_pair", "time_map", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
            "chain_components", "complete_linkage", "find_duplicates", "serial_map"]
 
 # neighbours per clip in the signature graph, and the sketch shortlist per clip (exact sim on these only)
@@ -120,6 +123,31 @@ def _sketch_shortlist(group_entries, pool):
     return np.argpartition(D, pool - 1, axis=1)[:, :pool]
 
 
+@lru_cache(maxsize=64)
+def _word_positions(n_bones, moving, level) -> np.ndarray:
+    """Where the log-signature coordinates of ``moving`` sit among those of all ``n_bones`` joints: a word's
+    global code (``index.words.word_codes``) does not depend on which other joints move, and a Lyndon word
+    over a subset of the letters (kept in order) is one over all of them."""
+    full = word_codes(n_bones, tuple(range(n_bones)), level)
+    order = np.argsort(full, kind="stable")
+    return order[np.searchsorted(full[order], word_codes(n_bones, moving, level))]
+
+
+def pair_sim(a: IndexEntry, b: IndexEntry) -> float:
+    """sim^n of two entries of one bone tuple, equal to ``index.entry_distance``. Entries with other moving
+    joints are compared by scattering both directions into the coordinates of all joints (one subtraction,
+    positions cached per moving tuple) instead of intersecting their word codes per pair (tens of ms at
+    22 joints, level 3): the k-NN graph of a library of several rigs compares thousands of such pairs."""
+    if a.moving == b.moving or a.norm == 0.0 or b.norm == 0.0 or a.bones != b.bones:
+        return entry_distance(a, b)
+    n = len(a.bones)
+    pa, pb = _word_positions(n, a.moving, a.level), _word_positions(n, b.moving, b.level)
+    diff = np.zeros(len(word_codes(n, tuple(range(n)), a.level)))
+    diff[pa] = a.direction
+    diff[pb] -= b.direction
+    return float(np.linalg.norm(diff))
+
+
 def knn_graph(entries: Sequence[IndexEntry], k=DEFAULT_K, pool=None) -> List[Edge]:
     """The candidate graph: for every entry its ``k`` nearest others by exact sim^n among its ``pool``
     (default ``POOL_FACTOR k``) nearest by sketch; entries are compared only within one bone tuple (after
@@ -140,7 +168,7 @@ def knn_graph(entries: Sequence[IndexEntry], k=DEFAULT_K, pool=None) -> List[Edg
         short = _sketch_shortlist([common[n] for n in members], pool)
         for a, row in enumerate(short):
             i = members[a]
-            dist = sorted((entry_distance(common[i], common[members[b]]), members[b]) for b in row)
+            dist = sorted((pair_sim(common[i], common[members[b]]), members[b]) for b in row)
             for d, j in dist[:k]:
                 best[(min(i, j), max(i, j))] = d
     return sorted((Edge(i, j, d) for (i, j), d in best.items()), key=lambda e: (e.sim, e.i, e.j))
@@ -168,18 +196,40 @@ def srvt_energy(R) -> float:
     return float(np.linalg.norm(so3.relative_rotvecs(R), axis=-1).sum())
 
 
+def prepared_pair(a: IndexEntry, b: IndexEntry) -> Tuple[Clip, Clip]:
+    """``pair_curves`` on the comparison time base with the elastic low-pass (what ``elastic_check`` compares).
+    ShapeSigError when the two share no bones."""
+    smooth = time_base_smoothing("elastic")
+    ca, cb = pair_curves(a, b)
+    return prepare_clip(ca, smooth=smooth), prepare_clip(cb, smooth=smooth)
+
+
+def time_map(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[np.ndarray, np.ndarray]:
+    """``(ta, tb)``: the optimal alignment of ``b`` onto ``a`` (``elastic.elastic_align`` of the prepared pair)
+    as matching times in seconds of each clip (the diagonal for a copy, a curve for a re-timed one)."""
+    from .elastic import elastic_align
+
+    pa, pb = prepared_pair(a, b)
+    warp, _ = elastic_align(pa.rotations, pb.rotations, depth=depth)
+    return warp[:, 0] * (pa.frames - 1) / pa.fps, warp[:, 1] * (pb.frames - 1) / pb.fps
+
+
 def elastic_check(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[float, float]:
     """``(d, r)``: d_S* of two entries (increments loaded) on the comparison time base (``prepare.prepare_clip``
     with the elastic low-pass, then ``metrics.clip_distance``) and the *relative* distance
     r = d / sqrt(|q_a|^2 + |q_b|^2) (``srvt_energy`` of the prepared curves). r is scale-free (0 for a copy,
     about 1 for unrelated motions; d_S* itself grows with how much the clips move), so one threshold fits
-    short runs and long takes. (inf, inf) when the two share no moving bone."""
+    short runs and long takes. (inf, inf) when the two share no moving bone.
+
+    Identical prepared curves (an exact copy under another name) give (0, 0) without the DP: the DP sums
+    |q_a|^2 + |q_b|^2 - 2 <q_a, q_b> along the path, and that cancellation leaves a rounding residue of
+    about sqrt(eps) |q| (1e-8 relative, 30 fps lattice) instead of 0, so ``--threshold 0`` would keep nothing."""
     try:
-        ca, cb = pair_curves(a, b)
+        pa, pb = prepared_pair(a, b)
     except ShapeSigError:
         return float("inf"), float("inf")
-    smooth = time_base_smoothing("elastic")
-    pa, pb = prepare_clip(ca, smooth=smooth), prepare_clip(cb, smooth=smooth)
+    if pa.rotations.shape == pb.rotations.shape and np.array_equal(pa.rotations, pb.rotations):
+        return 0.0, 0.0  # the same curve: d_S* = 0 exactly (the DP's energy form leaves ~sqrt(eps |q|^2))
     d = float(clip_distance(pa, pb, "elastic", depth=depth, time_base=False))
     energy = srvt_energy(pa.rotations) + srvt_energy(pb.rotations)
     return d, (d / np.sqrt(energy) if energy > 0 else (0.0 if d == 0 else float("inf")))
@@ -262,13 +312,17 @@ def _check_chunk(task):
 
 def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, *, depth=DEFAULT_DEPTH,
                     sim_ratio=SIM_RATIO, ratio=THRESHOLD_RATIO, mapper=serial_map, chunk=16,
-                    sample=DISTRIBUTION_SAMPLE) -> DedupeResult:
+                    sample=DISTRIBUTION_SAMPLE, timings=None) -> DedupeResult:
     """Near-duplicate clusters of loaded entries (indices into ``entries``), the two stages of the module
     docstring: the k-NN graph; the sim gate ``sim_ratio`` * median sim^n of its edges; the elastic check of
     the pairs up to ``CHECK_FACTOR`` times the gate and of a sample of ``sample`` edges (``mapper(fn, tasks)``
     runs the checks, in chunks of ``chunk`` pairs); the relative-d_S* gate ``threshold`` (default ``ratio``
-    * its median over the sample); complete-linkage clusters of the pairs that pass both gates."""
+    * its median over the sample); complete-linkage clusters of the pairs that pass both gates. ``timings``:
+    a dict that receives the seconds of the three stages ("graph", "checks", "linkage")."""
+    timings = {} if timings is None else timings
+    t0 = time.perf_counter()
     edges = knn_graph(entries, k)
+    timings["graph"] = time.perf_counter() - t0
     sim_tau = relative_threshold([e.sim for e in edges], sim_ratio)
     picked = sample_edges(edges, sample)
     todo = {(e.i, e.j): e for e in edges if e.sim <= CHECK_FACTOR * sim_tau}
@@ -276,7 +330,9 @@ def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, 
     todo = sorted(todo.values(), key=lambda e: (e.sim, e.i, e.j))
     tasks = [([(_slim(entries[e.i]), _slim(entries[e.j])) for e in todo[s:s + chunk]], depth)
              for s in range(0, len(todo), max(int(chunk), 1))]
+    t0 = time.perf_counter()
     results = [dr for part in mapper(_check_chunk, tasks) for dr in part]
+    timings["checks"] = time.perf_counter() - t0
     checked = {(e.i, e.j): replace(e, elastic=d, relative=r) for e, (d, r) in zip(todo, results)}
     edges = [checked.get((e.i, e.j), e) for e in edges]
     if threshold is None:
@@ -297,15 +353,17 @@ def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, 
             for x in key:
                 common.setdefault(x, common_entry(entries[x]))
             a, b = common[key[0]], common[key[1]]
-            sim = entry_distance(a, b) if a.bones == b.bones else float("inf")
+            sim = pair_sim(a, b) if a.bones == b.bones else float("inf")
             d, r = elastic_check(entries[key[0]], entries[key[1]], depth) if sim <= sim_tau else (None, None)
             e = Edge(key[0], key[1], sim, d, r)
             out.extra.append(e)
             known[key] = out.confirmed(e)
         return known[key]
 
+    t0 = time.perf_counter()
     confirmed = [(e.i, e.j) for e in sorted((e for e in edges if known.get((e.i, e.j))),
                                              key=lambda e: (e.relative, e.i, e.j))]
     out.clusters = complete_linkage(len(entries), confirmed, linked)
     out.components = chain_components(len(entries), confirmed)
+    timings["linkage"] = time.perf_counter() - t0
     return out

@@ -17,16 +17,25 @@ __all__ = ["dedupe_library", "library_items"]
 
 
 def library_items(paths, **options):
-    """``(items, skipped)``: a LibraryItem per clip source found in ``paths`` (``sources.discover``), and a
-    one-line reason for each source whose key cannot be made (an .amc without a unique .asf, a missing file)."""
+    """``(items, skipped)``: a LibraryItem per clip source found in ``paths`` (``sources.discover``; a
+    ``ClipSpec`` in ``paths`` is taken as it is, e.g. an .amc with its own skeleton), and a one-line reason
+    for each source whose key cannot be made (an .amc without a unique .asf, a missing file)."""
     from ..core import sources
 
+    given = [p for p in paths if isinstance(p, sources.ClipSpec)]
+    names = [p for p in paths if not isinstance(p, sources.ClipSpec)]
+    specs = list(given)
     items, skipped = [], []
-    for text in sources.discover(paths):
+    for text in (sources.discover(names) if names else []):
         try:
-            items.append(sources.spec_item(sources.ClipSpec.parse(text, **options).check()))
+            specs.append(sources.ClipSpec.parse(text, **options))
         except (ShapeSigError, OSError) as exc:
-            skipped.append(str(exc) if text in str(exc) else f"{text}: {exc}")
+            skipped.append(f"{text}: {exc}")
+    for spec in specs:
+        try:
+            items.append(sources.spec_item(spec.check()))
+        except (ShapeSigError, OSError) as exc:
+            skipped.append(str(exc) if spec.text in str(exc) else f"{spec.text}: {exc}")
     return items, skipped
 
 
@@ -54,30 +63,33 @@ def sign_library(items, level, store, mapper, chunk=8):
 
 def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_dedupe.DEFAULT_K,
                    level=DEFAULT_LEVEL, depth=DEFAULT_DEPTH, cache_dir=None, plots=True, **options):
-    """Deduplicate the clips in ``paths`` (files, folders, ``FILE.blend#ACTION``) and write the report into
+    """Deduplicate the clips in ``paths`` (files, folders, ``FILE.blend#ACTION``, ClipSpecs) and write the report into
     ``out_dir``. ``threshold``: the relative-d_S* gate (default: relative to the library, ``core.dedupe``);
-    ``scheduler``: a local Dask scheduler name or a cluster address; ``cache_dir``: the signature cache folder
-    (None: memory only). ``options``: ClipSpec fields (asf, fps, trim, bone_map). Returns the report dict."""
+    ``scheduler``: None (a thread pool, no Dask), a local Dask scheduler name or a cluster address;
+    ``cache_dir``: the signature cache folder (None: memory only). ``options``: ClipSpec fields (asf, fps,
+    trim, bone_map). Returns the report dict."""
     from ..core.index import SignatureCache
     from .report import write_report
 
     t0 = time.perf_counter()
+    if scheduler:
+        parallel.require_dask(scheduler)  # before any clip is read
     items, skipped = library_items(paths, **options)
     if not items:
         raise ShapeSigError("no readable clip found in " + ", ".join(map(str, paths)))
     store = SignatureCache(cache_dir, memory_limit=1 << 40)  # every entry stays loaded for the graph
     timings = {}
     with parallel.scheduler(scheduler) as sched:
-        mapper = parallel.dask_mapper(sched)
+        mapper = parallel.mapper_for(sched)
         t = time.perf_counter()
         pairs, errors, signed = sign_library(items, level, store, mapper)
         timings["signing"] = time.perf_counter() - t
         entries = [store.heavy(e) or e for _, e in pairs]
         t = time.perf_counter()
-        result = core_dedupe.find_duplicates(entries, k, threshold, depth=depth, mapper=mapper)
+        result = core_dedupe.find_duplicates(entries, k, threshold, depth=depth, mapper=mapper, timings=timings)
         timings["search"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     os.makedirs(out_dir, exist_ok=True)
-    info = {"scheduler": str(scheduler or "threads"), "level": level, "k": k, "signed": signed,
-            "skipped": skipped + errors, "seconds": timings}
+    info = {"scheduler": str(scheduler or parallel.DEFAULT_SCHEDULER), "dask": bool(scheduler), "level": level,
+            "k": k, "signed": signed, "skipped": skipped + errors, "seconds": timings}
     return write_report(out_dir, pairs, entries, result, info, plots=plots)

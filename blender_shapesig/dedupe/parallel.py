@@ -1,42 +1,79 @@
-"""The parallel parts of ``dedupe`` on Dask: signing the clips the cache lacks and the elastic checks.
+"""The parallel parts of ``dedupe``: signing the clips the cache lacks and the elastic checks.
 
-The same code runs on a local Dask scheduler (``threads``, the default; ``processes``; ``sync``) and, with an
-address (``tcp://host:8786``), on a ``dask.distributed`` cluster through a ``Client``: ``dask.compute`` takes
-either as its ``scheduler``. Dask is imported here only, and only when a library is deduplicated (the Blender
-extension never needs it). A cluster's workers read the clip files by the paths given, so they must see the
-same file system (or run on this machine).
+Without ``--scheduler`` they run in a pool of threads of this process (``concurrent.futures``: no Dask
+needed; Dask is an optional dependency). With ``--scheduler`` the same tasks go through ``dask.compute``:
+a local Dask scheduler (``threads``, ``processes``, ``sync``) or, with an address (``tcp://host:8786``), a
+``dask.distributed`` cluster through a ``Client`` (``dask.compute`` takes either as its ``scheduler``). Dask
+is imported here only, and only when a scheduler is given (the Blender extension never needs it); when it
+is missing the command stops at once with one line (``require_dask``). A cluster's workers read the clip
+files by the paths given, so they must see the same file system (or run on this machine).
 
 Why threads by default: the elastic DP (numba, ``nogil``) runs in parallel in threads, and a process pool
 costs a start-up and the pickling of the increments. Signing (BVH parsing in Python) holds the GIL; with many
-misses ``--scheduler processes`` signs in parallel (docs/search.md, "Library report", measures both).
+misses ``--scheduler processes`` signs in parallel (docs/search.md, "Library report (dedupe)").
 """
 
 import contextlib
+import os
 
-__all__ = ["LOCAL_SCHEDULERS", "scheduler", "dask_mapper", "sign_item"]
+__all__ = ["LOCAL_SCHEDULERS", "DEFAULT_SCHEDULER", "require_dask", "scheduler", "dask_mapper", "thread_mapper",
+           "mapper_for", "sign_item"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "sync")
+DEFAULT_SCHEDULER = "threads"  # the label of the run without --scheduler (a thread pool, no Dask)
+
+
+def require_dask(name):
+    """Import what scheduler ``name`` needs (``dask``; ``distributed`` for an address) or raise a one-line
+    ShapeSigError naming the missing package. Called before any clip is read."""
+    from ..core.errors import ShapeSigError
+
+    package = "dask" if name in LOCAL_SCHEDULERS else "distributed"
+    try:
+        import dask  # noqa: F401
+
+        if package == "distributed":
+            import distributed  # noqa: F401
+    except ImportError as exc:
+        raise ShapeSigError(f"--scheduler {name} needs the optional package {package!r} "
+                            f"(pip install 'dask[distributed]'): {exc}") from None
 
 
 @contextlib.contextmanager
 def scheduler(name=None):
-    """What ``dask.compute`` takes as ``scheduler``: a local scheduler's name (None: threads), or a
-    ``distributed.Client`` connected to the address ``name`` (closed on exit)."""
-    name = name or "threads"
+    """What ``mapper_for`` takes: None without a scheduler (threads, no Dask), a local Dask scheduler's
+    name, or a ``distributed.Client`` connected to the address ``name`` (closed on exit)."""
+    if not name:
+        yield None
+        return
+    require_dask(name)
     if name in LOCAL_SCHEDULERS:
         yield name
         return
-    try:
-        from distributed import Client
-    except ImportError as exc:  # pragma: no cover - a dev requirement
-        from ..core.errors import ShapeSigError
+    from distributed import Client
 
-        raise ShapeSigError(f"--scheduler {name} needs dask.distributed (pip install distributed): {exc}") from None
     client = Client(name, set_as_default=False)
     try:
         yield client
     finally:
         client.close()
+
+
+def thread_mapper(workers=None):
+    """``mapper(fn, tasks) -> [fn(t) for t in tasks]`` on a pool of ``workers`` threads (default: one per
+    core), results in task order."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    workers = int(workers or os.cpu_count() or 1)
+
+    def mapper(fn, tasks):
+        tasks = list(tasks)
+        if workers == 1 or len(tasks) < 2:
+            return [fn(t) for t in tasks]
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            return list(pool.map(fn, tasks))
+
+    return mapper
 
 
 def dask_mapper(sched):
@@ -52,6 +89,11 @@ def dask_mapper(sched):
         return list(dask.compute(*jobs, scheduler=sched))
 
     return mapper
+
+
+def mapper_for(sched):
+    """The mapper of a ``scheduler()`` value: threads without Dask for None, else Dask."""
+    return thread_mapper() if sched is None else dask_mapper(sched)
 
 
 def sign_item(task):

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core.formats.bvh import bvh_text, parse_bvh
 
-__all__ = ["renamed", "rate", "trimmed_retimed", "plant"]
+__all__ = ["renamed", "rate", "trimmed_retimed", "variant", "plant"]
 
 
 def _write(path, source, values, frame_time):
@@ -38,19 +38,47 @@ def rate(source, path, step=2):
     return _write(path, source, values[::step], frame_time * step)
 
 
+def _rotation_columns(joints):
+    return sorted(c for j in joints for c in j.columns("rotation").values())
+
+
+def _resample(values, rot, where, gain=None):
+    """The channels at fractional frames ``where`` (linear interpolation; rotation columns ``rot`` unwrapped
+    first, their swing about the mean multiplied by ``gain`` (one factor per column) if given, wrapped back to
+    [-180, 180) last)."""
+    unwrapped = values.copy()
+    unwrapped[:, rot] = np.degrees(np.unwrap(np.radians(values[:, rot]), axis=0))
+    x = np.arange(len(values))
+    out = np.stack([np.interp(where, x, unwrapped[:, c]) for c in range(values.shape[1])], axis=1)
+    if gain is not None:
+        mean = out[:, rot].mean(axis=0)
+        out[:, rot] = mean + (out[:, rot] - mean) * gain
+    out[:, rot] = (out[:, rot] + 180.0) % 360.0 - 180.0
+    return out
+
+
 def trimmed_retimed(source, path, trim=0.1, amplitude=0.06, stretch=1.15):
     joints, frame_time, values = parse_bvh(source)
     n = len(values)
     a, b = int(round(trim * n)), int(round((1.0 - trim) * n)) - 1
-    rot = sorted(c for j in joints for c in j.columns("rotation").values())
-    unwrapped = values.copy()
-    unwrapped[:, rot] = np.degrees(np.unwrap(np.radians(values[:, rot]), axis=0))
     u = np.linspace(0.0, 1.0, int(round((b - a + 1) * stretch)))
     where = a + (b - a) * (u + amplitude * np.sin(2.0 * np.pi * u))
-    x = np.arange(n)
-    out = np.stack([np.interp(where, x, unwrapped[:, c]) for c in range(values.shape[1])], axis=1)
-    out[:, rot] = (out[:, rot] + 180.0) % 360.0 - 180.0
-    return _write(path, source, out, frame_time)
+    return _write(path, source, _resample(values, _rotation_columns(joints), where), frame_time)
+
+
+def variant(source, path, rng, keep=(0.5, 1.0), speed=(0.8, 1.25), scale=(0.7, 1.3), shortest=2.0):
+    """A *different* take made from ``source`` for simulated libraries (benchmarks/bench_dedupe.py): a random
+    window of a fraction ``keep`` of the frames (at least ``shortest`` seconds, or the whole take when it is
+    shorter), played ``speed`` times as fast, every rotation channel's
+    swing about its mean scaled by a random factor in ``scale`` (so variants of one source differ in
+    amplitude per joint and axis, as takes of one actor do). ``rng``: a numpy Generator."""
+    joints, frame_time, values = parse_bvh(source)
+    n = len(values)
+    length = min(max(int(rng.uniform(*keep) * n), int(shortest / frame_time), 8), n)
+    a = int(rng.integers(0, n - length + 1))
+    where = np.arange(a, a + length - 1, rng.uniform(*speed))
+    rot = _rotation_columns(joints)
+    return _write(path, source, _resample(values, rot, where, rng.uniform(*scale, size=len(rot))), frame_time)
 
 
 def plant(folder, walk, run, jump):

@@ -33,16 +33,29 @@ def speed_trace(entry):
 
 
 def _cluster_png(members, entries, labels):
+    """Two panels: each member's joint speed on its own seconds, and its time map onto the first member
+    (``core.dedupe.time_map``: the diagonal for a copy, a curve for a re-timed or trimmed one)."""
+    from ..core.dedupe import time_map
+    from ..core.errors import ShapeSigError
     from ..evaluation.plots import pyplot
 
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 2.6))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(9.6, 2.8), gridspec_kw={"width_ratios": [2, 1]})
+    first = members[0]
     for n in members:
         t, s = speed_trace(entries[n])
-        ax.plot(t, s, lw=1.0, label=os.path.basename(labels[n])[:40])
+        line, = ax.plot(t, s, lw=1.0, label=os.path.basename(labels[n])[:40])
+        try:
+            ta, tb = time_map(entries[first], entries[n])
+        except ShapeSigError:
+            continue
+        bx.plot(ta, tb, lw=1.2, color=line.get_color())
     ax.set_xlabel("seconds")
     ax.set_ylabel("joint speed (rad/s)")
     ax.legend(fontsize=7, loc="upper right")
+    bx.set_xlabel(f"seconds of {os.path.basename(labels[first])[:24]}")
+    bx.set_ylabel("matched seconds")
+    bx.set_title("time map (elastic alignment)", fontsize=8)
     fig.tight_layout()
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80)
@@ -77,48 +90,70 @@ def write_report(out_dir, pairs, entries, result, info, plots=True):
     misses = [_pair_row(e, labels, result) for e in checked if not result.confirmed(e)][:NEAR_MISSES]
     biggest = max((len(c) for c in result.clusters), default=0)
     out = {"clusters": [c["members"] for c in clusters], "report": html_path,
-           "json": os.path.join(out_dir, "report.json"), "clips": len(entries),
+           "json": os.path.join(out_dir, "report.json"), "clips": len(entries), "all_clips": labels,
            "largest_cluster_share": biggest / len(entries) if entries else 0.0,
            "sim_threshold": result.sim_threshold, "threshold": result.threshold, "rule": result.rule,
-           "checked_pairs": len(pair_of), "graph_edges": len(result.edges),
+           "checked_pairs": len(pair_of), "graph_edges": len(result.edges), "linkage_checks": len(result.extra),
            "chain_components": [[labels[n] for n in c] for c in result.components],
            "cluster_pairs": [c["pairs"] for c in clusters], "near_misses": misses, **info}
     with open(out["json"], "w", encoding="utf-8") as f:
         json.dump(out, f, indent=1)
     images = [_cluster_png(m, entries, labels) if plots else None for m in result.clusters]
     with open(html_path, "w", encoding="utf-8") as f:
-        f.write(_html(out, clusters, images))
+        f.write(_html(out, clusters, images, labels))
     return out
 
 
-def _table(rows):
-    head = "<tr><th>a</th><th>b</th><th>sim</th><th>d_S*</th><th>relative d_S*</th><th>near-duplicate</th></tr>"
-    body = "".join(f"<tr><td>{html.escape(r['a'])}</td><td>{html.escape(r['b'])}</td><td>{_fmt(r['sim'])}</td>"
-                   f"<td>{_fmt(r['elastic'])}</td><td>{_fmt(r['relative'])}</td>"
+def _shortener(labels):
+    """``short(label)``: the label relative to the folder all labels share (the report names it once)."""
+    files = [os.path.abspath(x.split("#")[0]) for x in labels]
+    try:
+        root = os.path.commonpath(files) if len(files) > 1 else os.path.dirname(files[0]) if files else ""
+    except ValueError:  # paths on different drives
+        root = ""
+    if root in files:
+        root = os.path.dirname(root)
+
+    def short(label):
+        path = os.path.abspath(label.split("#")[0])
+        return os.path.relpath(path, root) + label[len(label.split("#")[0]):] if root else label
+
+    return root, short
+
+
+def _table(rows, short):
+    head = ("<tr><th>a</th><th>b</th><th>sim</th><th>d_S*</th><th>relative d_S*</th>"
+            "<th>near-duplicate</th></tr>")
+    body = "".join(f"<tr><td>{html.escape(short(r['a']))}</td><td>{html.escape(short(r['b']))}</td>"
+                   f"<td>{_fmt(r['sim'])}</td><td>{_fmt(r['elastic'])}</td><td>{_fmt(r['relative'])}</td>"
                    f"<td>{'yes' if r['confirmed'] else 'no'}</td></tr>" for r in rows)
     return f"<table>{head}{body}</table>"
 
 
-def _html(out, clusters, images):
+def _html(out, clusters, images, labels):
     e = html.escape
+    root, short = _shortener(labels)
     secs = ", ".join(f"{k} {v:.1f} s" for k, v in out["seconds"].items())
     parts = [
         "<!DOCTYPE html><html><head><meta charset='utf-8'><title>Library report</title><style>"
         "body{font-family:sans-serif;margin:2em;max-width:70em}table{border-collapse:collapse;margin:.5em 0}"
         "td,th{border:1px solid #ccc;padding:2px 6px;font-size:90%}th{background:#eee}</style></head><body>",
         "<h1>Library report: near-duplicates</h1>",
-        f"<p>{out['clips']} clips, {len(clusters)} clusters (largest: {out['largest_cluster_share']:.0%} of the "
-        f"library), {out['graph_edges']} k-NN edges (k = {out['k']}), {out['checked_pairs']} pairs checked "
-        f"by d_S*. Scheduler: {e(out['scheduler'])}; {secs}.</p>",
-        f"<p>Rule: {e(out['rule'])}. Clusters: complete linkage (every pair in a cluster passes both gates).</p>",
+        f"<p>{out['clips']} clips in <code>{e(root)}</code> (paths below are relative to it), {len(clusters)} "
+        f"clusters (largest: {out['largest_cluster_share']:.0%} of the library), {out['graph_edges']} k-NN edges "
+        f"(k = {out['k']}), {out['checked_pairs']} pairs checked by d_S*. Scheduler: {e(out['scheduler'])}; "
+        f"{secs}.</p>",
+        f"<p>Rule: {e(out['rule'])}. Clusters: complete linkage (every pair in a cluster passes both gates). "
+        "Plots: each member's joint speed over its own seconds, and its time map onto the first member (the "
+        "elastic alignment: a straight line for a copy, a curve for a re-timed one).</p>",
     ]
     for n, (c, img) in enumerate(zip(clusters, images), 1):
         parts.append(f"<h2>Cluster {n} ({len(c['members'])} clips)</h2><ul>"
-                     + "".join(f"<li>{e(m)}</li>" for m in c["members"]) + "</ul>")
+                     + "".join(f"<li>{e(short(m))}</li>" for m in c["members"]) + "</ul>")
         if img:
-            parts.append(f"<img alt='joint speed of each member' src='data:image/png;base64,{img}'>")
-        parts.append(_table(c["pairs"]))
-    parts.append("<h2>Near misses (checked, not near-duplicates)</h2>" + _table(out["near_misses"]))
+            parts.append(f"<img alt='joint speed and time map of each member' src='data:image/png;base64,{img}'>")
+        parts.append(_table(c["pairs"], short))
+    parts.append("<h2>Near misses (checked, not near-duplicates)</h2>" + _table(out["near_misses"], short))
     if out["skipped"]:
         parts.append("<h2>Skipped sources</h2><ul>" + "".join(f"<li>{e(s)}</li>" for s in out["skipped"])
                      + "</ul>")
