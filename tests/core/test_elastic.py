@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import _dp_kernels
+from blender_shapesig.core import _dp_kernels, elastic
 from blender_shapesig.core.curves import l2_distance, move_to_identity, srvt
 from blender_shapesig.core.elastic import (
     elastic_align,
@@ -321,6 +321,24 @@ def test_kernels_identical(f0, f1, penalty):
     assert ia["energy"] == ib["energy"]
     assert da == db
     assert np.array_equal(wa, wb)
+
+
+@pytest.mark.skipif(not _dp_kernels.HAVE_NUMBA, reason="numba not installed")
+@pytest.mark.parametrize("penalty", [0.0, 0.7])
+@pytest.mark.parametrize("f0, f1", [(180, 180), (230, 150), (100, 500)])
+def test_two_threads_identical(f0, f1, penalty):
+    """The numba DP on two threads (column halves of each row block) gives the serial values and warps bit for bit."""
+    R0 = random_curve(f0, joints=2, seed=93, scale=0.15)
+    R1 = random_curve(f1, joints=2, seed=94, scale=0.15)
+    band = elastic._band(f0 - 1, f1 - 1, *elastic._max_steps(f0 - 1, f1 - 1, 9))
+    assert int(np.sum(band[1] - band[0] + 1)) >= _dp_kernels.PARALLEL_MIN_NODES  # the two-thread path runs
+    wa, da, ia = elastic_align(R0, R1, penalty=penalty, method="numba", return_info=True, threads=1)
+    wb, db, ib = elastic_align(R0, R1, penalty=penalty, method="numba", return_info=True, threads=2)
+    assert ia["energy"] == ib["energy"] and da == db
+    assert np.array_equal(wa, wb)
+    assert elastic_distance(R0, R1, penalty=penalty, threads=2) == da
+    with pytest.raises(ShapeSigError):
+        elastic_distance(R0, R1, threads=0)
 
 
 @pytest.mark.skipif(not _dp_kernels.HAVE_NUMBA, reason="numba not installed")
