@@ -23,7 +23,6 @@ import math
 from functools import lru_cache
 
 import numpy as np
-import scipy.sparse as sp
 
 from .errors import ShapeSigError
 
@@ -380,6 +379,8 @@ def _bracket_matrix(dim, m):
             rows.append(letters[:, list(positions)] @ powers)
             cols.append(idx)
             vals.append(np.full(idx.size, float(sign)))
+    import scipy.sparse as sp  # imported when first needed: ~0.2 s of every command line's start otherwise
+
     mat = sp.csr_matrix(
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(dim ** m, codes.size)
     )
@@ -394,6 +395,8 @@ def _projection_level(dim, m):
     codes = lyndon_words(dim, m)
     mat = _bracket_matrix(dim, m)[codes].tocsr()  # rows restricted to Lyndon words: unit triangular
     n = codes.size
+    import scipy.sparse as sp
+
     eye = sp.identity(n, format="csr")
     if n == 0:
         return eye
