@@ -434,6 +434,15 @@ def lyndon_coordinates(t, dim):
     return np.concatenate(out) if out else np.zeros(0)
 
 
+@lru_cache(maxsize=None)
+def _lyndon3_letters(dim):
+    """Letters (a, b, c) of the Lyndon words of length 3 in code order: a <= b, a < c (read-only arrays)."""
+    out = tuple(np.ascontiguousarray(x) for x in _letters(lyndon_words(dim, 3), dim, 3).T)
+    for x in out:
+        x.setflags(write=False)
+    return out
+
+
 def lyndon_log_signature(dx, level):
     """Lyndon coordinates (``lyndon_coordinates``' order) of the log-signature at ``level`` <= 3 of the
     piecewise-linear path with increments ``dx`` (m, d), by matrix products.
@@ -477,16 +486,18 @@ def lyndon_log_signature(dx, level):
         rest = np.zeros_like(dx)
         if m > 1:
             np.cumsum(dx[:0:-1], axis=0, out=rest[-2::-1])
-        third = s1 / 3.0
-        blocks = []
-        for a in range(d - 1):
-            v = mk[:, a:a + 1] * rest[:, a + 1:] + uk[:, a:a + 1] * dx[:, a + 1:]
-            s3 = dx[:, a:].T @ v  # S3[a, b >= a, c > a]
-            s3 -= 0.5 * (s1[a] * s2[a:, a + 1:] + np.multiply.outer(s2[a, a:], s1[a + 1:]))
-            s3 += s1[a] * np.multiply.outer(s1[a:], third[a + 1:])
-            blocks.append(s3.reshape(-1))
-        l3 = np.concatenate(blocks) if blocks else np.zeros(0)
-        out.append(_projection_level(d, 3) @ l3)
+        la, lb, lc = _lyndon3_letters(d)
+        s3 = np.empty(la.size)
+        pos = 0
+        for a in range(d - 1):  # S3[a, b >= a, c > a], in the order of the Lyndon codes
+            v = mk[:, a:a + 1] * rest[:, a + 1:]
+            v += uk[:, a:a + 1] * dx[:, a + 1:]
+            size = (d - a) * (d - a - 1)
+            np.matmul(dx[:, a:].T, v, out=s3[pos:pos + size].reshape(d - a, d - a - 1))
+            pos += size
+        # log at level 3 on the Lyndon words: S3 - (S1 ⊗ S2 + S2 ⊗ S1)/2 + S1^3/3
+        s3 -= s1[la] * (0.5 * s2[lb, lc] - s1[lb] * s1[lc] / 3.0) + 0.5 * s2[la, lb] * s1[lc]
+        out.append(_projection_level(d, 3) @ s3)
     return np.concatenate(out)
 
 
