@@ -9,7 +9,7 @@ ranking with the built index; the one-off index build; the index's memory.
    1,000 distinct contents). Saved to ``--blend`` (built once,
    reused when it exists).
 2. Index build (the one-off cost): ``library.library_items`` + ``core.index.build_index`` into a fresh folder:
-   actions per second.
+   actions per second; the same-run baseline: the build again into another folder with OpenBLAS's own threads.
 3. A click (what the search operator does, without writing the UI results): the query item,
    ``library.library_items`` (change detection through ``action_io.action_fingerprint``) and
    ``core.index.rank_clips`` with the built index (re-rank off). Cold: the first click of a session (every
@@ -40,7 +40,7 @@ import blender_shapesig  # noqa: E402
 import dataclasses  # noqa: E402
 
 from blender_shapesig import action_changes, action_io, library  # noqa: E402
-from blender_shapesig.core import index  # noqa: E402
+from blender_shapesig.core import blas, index  # noqa: E402
 from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 
@@ -90,6 +90,21 @@ def click(context, settings, cache):
     t2, c2 = time.perf_counter(), time.process_time()
     return {"wall_ms": (t2 - t0) * 1e3, "cpu_ms": (c2 - c0) * 1e3, "items_ms": (t1 - t0) * 1e3,
             "rank_ms": (t2 - t1) * 1e3, "results": len(res)}
+
+
+def build_with_blas_threads(items):
+    """The same-run baseline of the build: read and sign every item again into a fresh folder with OpenBLAS's own
+    threads (one per core), as before ``core.blas.one_blas_thread``; seconds and actions per second."""
+    saved = list(blas._API)
+    blas._API[:] = [None]  # one_blas_thread does nothing
+    try:
+        with tempfile.TemporaryDirectory() as other:
+            t0 = time.perf_counter()
+            index.build_index(items, cache=index.SignatureCache(other))
+            seconds = time.perf_counter() - t0
+    finally:
+        blas._API[:] = saved
+    return {"build_s": round(seconds, 2), "blas_threads": blas.blas_threads()}
 
 
 def operator_clicks(context, folder, repeat):
@@ -167,6 +182,7 @@ def main(argv=None):
         out["index_build"] = {"items": len(items), "items_s": round(t1 - t0, 2), "build_s": round(t2 - t1, 2),
                               "entries_computed": cache.stats["misses"],
                               "actions_per_s": round(len(items) / (t2 - t0), 1)}
+        out["index_build_blas_threads_baseline"] = build_with_blas_threads(items)
         tracemalloc.start()
         fresh = index.SignatureCache(folder)
         index.build_index(items, cache=fresh)  # every entry loaded from the folder into memory
