@@ -5,7 +5,8 @@ wall time of whole ``python -m blender_shapesig rank`` processes (start-up inclu
 
 The library: ``--clips`` copies of the six tests/data BVH clips (131-337 frames, 43 bones), each made a distinct
 file (trailing blank lines: a new SHA-1, the same motion). Runs, each a fresh process with ``--cache`` a new folder:
-1. cold: every clip read and signed (indexing rate = clips / wall seconds, start-up included);
+1. cold: every clip read and signed (indexing rate = clips / wall seconds, start-up included; also per CPU second
+   of the process, user + system, which the other jobs of a shared machine do not inflate);
 2. warm: the same query again, every signature a cache hit (the target: < 1 s);
 3. for reference, ``python -c "import numpy"`` (the floor of any start-up) and the CLI's ``--help``;
 4. with ``--baseline``: the cold run again with OpenBLAS's threads (one per core; the CLI now sets one thread).
@@ -15,6 +16,7 @@ import argparse
 import json
 import os
 import pathlib
+import resource
 import shutil
 import subprocess
 import sys
@@ -25,10 +27,16 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 BVH = ROOT / "tests" / "data" / "bvh"
 
 
+CPU = {}  # the CPU seconds (user + system) of the last run: robust to the other jobs on a shared machine
+
+
 def run(args, env):
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, *args], env=env, capture_output=True, text=True, cwd=str(ROOT))
     wall = time.perf_counter() - t0
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    CPU["last"] = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     if p.returncode != 0:
         raise SystemExit(p.stderr)
     return wall, p.stdout
@@ -61,6 +69,7 @@ def main(argv=None):
         rank = ["-m", "blender_shapesig", "rank", query, *paths, "--cache", cache, "--top", "10", "--json",
                 "--no-progress"]
         cold, _ = run(rank, env)
+        cold_cpu = CPU["last"]
         if args.baseline:
             # the same cold indexing with OpenBLAS's own threads (one per core: the default before the CLI set one),
             # in a fresh cache folder: the baseline of the same run
@@ -70,12 +79,18 @@ def main(argv=None):
             base, _ = run(base_rank, benv)
             out["baseline_blas_threads_index_wall_s"] = round(base, 2)
             out["baseline_indexing_clips_per_s"] = round(args.clips / base, 1)
-        warm = [run(rank, env)[0] for _ in range(3)]
+        warm, warm_cpu = [], []
+        for _ in range(3):
+            warm.append(run(rank, env)[0])
+            warm_cpu.append(CPU["last"])
         _, text = run(rank, env)
         res = json.loads(text)
         out["cold_index_wall_s"] = round(cold, 2)
         out["indexing_clips_per_s"] = round(args.clips / cold, 1)
+        out["cold_index_cpu_s"] = round(cold_cpu, 2)
+        out["indexing_clips_per_cpu_s"] = round(args.clips / cold_cpu, 1)
         out["warm_query_wall_s"] = round(min(warm), 3)
+        out["warm_query_cpu_s"] = round(min(warm_cpu), 3)
         out["warm_cache"] = res["cache"]
         out["top3"] = [r["clip"] for r in res["results"][:3]]
     out["python_import_numpy_s"] = round(min(run(["-c", "import numpy"], env)[0] for _ in range(3)), 3)

@@ -14,7 +14,9 @@ Usage (from the repository root):
    ``reads_per_node_depth_9``: the DP's G reads per node and the
    fewest a prefix-sum scheme could need; ``--pruning-bound``: the multiply-adds a branch-and-bound would still
    need at best (both measured to decide against them, docs/elastic.md).
-   Also the parts of the whole call (SRVT of both curves, Gram matrix) and the whole call's speed-up over the
+   The numba DP and the whole call on two threads (``threads=2``: process CPU of both threads and wall time;
+   the second core is often busy on the shared machine). Also the parts of the whole call (SRVT of both
+   curves, Gram matrix) and the whole call's speed-up over the
    numpy DP alone (the target of issue 16: >= 10x), and the first call in a fresh process (cache warm / cold).
 2. The all-pairs matrix of 27 clips (9 walks of subject 07, 8 walks of subject 08, 10 runs of
    subject 09; ASF/AMC from ``--data``/uscresl_humanoid-gail, 128-417 frames, 31 bones) with
@@ -60,6 +62,17 @@ def best_of(fn, repeat):
         c0, w0 = time.thread_time(), time.perf_counter()
         fn()
         cpu.append(time.thread_time() - c0)
+        wall.append(time.perf_counter() - w0)
+    return min(cpu), min(wall)
+
+
+def best_of_process(fn, repeat):
+    """(minimum process CPU time, minimum wall time) over repeats: for work on two threads."""
+    cpu, wall = [], []
+    for _ in range(repeat):
+        c0, w0 = time.process_time(), time.perf_counter()
+        fn()
+        cpu.append(time.process_time() - c0)
         wall.append(time.perf_counter() - w0)
     return min(cpu), min(wall)
 
@@ -111,6 +124,12 @@ def pruning_bound(prob):
     return {"multiply_adds_needed_fraction": round(need / total, 3)}
 
 
+def prob_args(prob):
+    t = prob.table
+    return (prob.G, prob.B0, prob.B1, prob.h0, prob.h1, prob.penalty, t["di"], t["dj"], t["start"], t["ea"],
+            t["eb"], prob.coef, prob.lo, prob.hi)
+
+
 def pair_benchmark(repeat, pruning=False):
     R0 = load_acclaim(TESTS / "07_01.amc", TESTS / "07-walk.asf").rotations[:300]
     R1 = load_acclaim(TESTS / "07_02.amc", TESTS / "07-walk.asf").rotations[:300]
@@ -132,8 +151,14 @@ def pair_benchmark(repeat, pruning=False):
         out["numba_first_call_s"] = time.perf_counter() - t0  # JIT or on-disk cache load
         results["numba_dp"] = best_of(lambda: prob.solve("numba", want_path=False), repeat)
         results["numba_dp_path"] = best_of(lambda: prob.solve("numba", want_path=True), repeat)
-        results["elastic_distance"] = best_of(lambda: elastic.elastic_distance(R0, R1), repeat)
-        results["elastic_align"] = best_of(lambda: elastic.elastic_align(R0, R1), repeat)
+        results["elastic_distance"] = best_of(lambda: elastic.elastic_distance(R0, R1, threads=1), repeat)
+        results["elastic_align"] = best_of(lambda: elastic.elastic_align(R0, R1, threads=1), repeat)
+        # the same on two threads (column halves of row blocks): process CPU (both threads) and wall
+        two = lambda: _dp_kernels.dp_numba(*prob_args(prob), want_path=False, threads=2)  # noqa: E731
+        results["numba_dp_two_threads"] = best_of_process(two, repeat)
+        results["elastic_distance_two_threads"] = best_of_process(
+            lambda: elastic.elastic_distance(R0, R1, threads=2), repeat)
+        out["two_threads_identical"] = bool(two()[0] == prob.solve("numba", want_path=False)[0])
     results["numpy_dp"] = best_of(lambda: prob.solve("numpy", want_path=False), max(2, repeat // 5))
     results["srvt_and_G"] = best_of(
         lambda: elastic._Problem(elastic._srvt_matrix(R0, "R0")[0], elastic._srvt_matrix(R1, "R1")[0], 9, 0.0),
@@ -149,6 +174,8 @@ def pair_benchmark(repeat, pruning=False):
         out["speedup_whole_call_vs_numpy_dp"] = {
             "cpu": round(results["numpy_dp"][0] / results["elastic_distance"][0], 1),
             "wall": round(results["numpy_dp"][1] / results["elastic_distance"][1], 1)}
+        out["speedup_whole_call_two_threads_vs_numpy_dp_wall"] = round(
+            results["numpy_dp"][1] / results["elastic_distance_two_threads"][1], 1)
     if _dp_kernels.HAVE_NUMBA:
         by_depth = {}
         for depth in (3, 6, 9, 12):

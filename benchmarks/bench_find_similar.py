@@ -9,12 +9,14 @@ ranking with the built index; the one-off index build; the index's memory.
    1,000 distinct contents). Saved to ``--blend`` (built once,
    reused when it exists).
 2. Index build (the one-off cost): ``library.library_items`` + ``core.index.build_index`` into a fresh folder:
-   actions per second.
-3. A click (what the search operator does, without writing the UI results, which is issue 17's): the query item,
+   actions per second; the same-run baseline: the build again into another folder with OpenBLAS's own threads.
+3. A click (what the search operator does, without writing the UI results): the query item,
    ``library.library_items`` (change detection through ``action_io.action_fingerprint``) and
    ``core.index.rank_clips`` with the built index (re-rank off). Cold: the first click of a session (every
    action's fingerprint computed: the baseline ``action_io.action_hash`` of every action, as every click paid
-   before); warm: later clicks (best of ``--repeat``) and a click after one action was edited.
+   before); warm: later clicks (best of ``--repeat``) and a click after one action was edited. Then the click as
+   the UI runs it, ``bpy.ops.shapesig.rank()`` (results written to the window manager, no undo step), beside the
+   same run's baseline of one whole-file undo push (what each click cost when the operator was an UNDO one).
 4. Memory: the index in memory (numpy arrays and Python objects; tracemalloc) after loading every entry from the
    folder and ranking with every clip compared exactly, per clip and scaled to 2,600 (the store also caps the
    directions it holds at its ``memory_limit``).
@@ -38,7 +40,7 @@ import blender_shapesig  # noqa: E402
 import dataclasses  # noqa: E402
 
 from blender_shapesig import action_changes, action_io, library  # noqa: E402
-from blender_shapesig.core import index  # noqa: E402
+from blender_shapesig.core import blas, index  # noqa: E402
 from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 
@@ -90,6 +92,50 @@ def click(context, settings, cache):
             "rank_ms": (t2 - t1) * 1e3, "results": len(res)}
 
 
+def build_with_blas_threads(items):
+    """The same-run baseline of the build: read and sign every item again into a fresh folder with OpenBLAS's own
+    threads (one per core), as before ``core.blas.one_blas_thread``; seconds and actions per second."""
+    saved = list(blas._API)
+    blas._API[:] = [None]  # one_blas_thread does nothing
+    try:
+        with tempfile.TemporaryDirectory() as other:
+            t0 = time.perf_counter()
+            index.build_index(items, cache=index.SignatureCache(other))
+            seconds = time.perf_counter() - t0
+    finally:
+        blas._API[:] = saved
+    return {"build_s": round(seconds, 2), "blas_threads": blas.blas_threads()}
+
+
+def operator_clicks(context, folder, repeat):
+    """The click as the UI runs it: ``bpy.ops.shapesig.rank()`` (its synchronous path: the same RankJob the modal
+    one steps), results written to the window manager, the index in ``folder``; the panel's own report of the
+    click (``seconds``). Baseline, the same run: one whole-file undo push (what the click cost when ``shapesig.rank``
+    was an UNDO operator; None when the headless module keeps no undo stack)."""
+    os.environ[index.CACHE_ENV] = folder  # get_cache: the benchmark's index, not the user's
+    library.CACHES.clear()
+    bpy.ops.shapesig.rank()  # first: the folder's entries loaded into the session's cache
+    walls = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        bpy.ops.shapesig.rank()
+        walls.append((time.perf_counter() - t0) * 1e3)
+    res = library.results_of(context)
+    out = {"wall_ms_best": min(walls), "wall_ms_median": sorted(walls)[len(walls) // 2],
+           "panel_reports_ms": res.seconds * 1e3, "rows": len(res.results)}
+    try:
+        pushes = []
+        for _ in range(3):  # the first push of a session writes the whole file; later ones share unchanged data
+            t0 = time.perf_counter()
+            bpy.ops.ed.undo_push(message="bench")
+            pushes.append((time.perf_counter() - t0) * 1e3)
+        out["baseline_undo_push_ms"] = {"first": pushes[0], "later_best": min(pushes[1:])}
+    except RuntimeError as exc:  # no undo stack without a window
+        out["baseline_undo_push_ms"] = None
+        out["undo_push_error"] = str(exc).splitlines()[0]
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--actions", type=int, default=1000)
@@ -136,6 +182,7 @@ def main(argv=None):
         out["index_build"] = {"items": len(items), "items_s": round(t1 - t0, 2), "build_s": round(t2 - t1, 2),
                               "entries_computed": cache.stats["misses"],
                               "actions_per_s": round(len(items) / (t2 - t0), 1)}
+        out["index_build_blas_threads_baseline"] = build_with_blas_threads(items)
         tracemalloc.start()
         fresh = index.SignatureCache(folder)
         index.build_index(items, cache=fresh)  # every entry loaded from the folder into memory
@@ -155,6 +202,7 @@ def main(argv=None):
         fc.keyframe_points[10].co.y += 0.1
         context.view_layer.update()
         out["click_after_one_edit"] = click(context, settings, cache)
+        out["operator_click"] = operator_clicks(context, folder, args.repeat)
     for k, v in list(out.items()):
         if isinstance(v, dict):
             out[k] = {kk: (round(vv, 2) if isinstance(vv, float) else vv) for kk, vv in v.items()}

@@ -110,6 +110,12 @@ def main(argv=None):
             timed(lambda: sg.path_signature(path, n, method="numpy"), args.repeat))
         row("numpy path_log_signature (Lyndon, points given)",
             timed(lambda: sg.path_log_signature(path, n, method="numpy"), args.repeat))
+        if n <= 3:  # the general route the matrix-product one (tensor.lyndon_log_signature) replaces at n <= 3
+            row("numpy Lyndon log-signature by the general route (signature, tensor log, projection)",
+                timed(lambda: tensor.lyndon_coordinates(tensor.log(tensor.signature_from_increments(dx, n)), d),
+                      args.repeat))
+            row("numpy Lyndon log-signature by matrix products (tensor.lyndon_log_signature)",
+                timed(lambda: tensor.lyndon_log_signature(dx, n), args.repeat))
         row("numpy signature", timed(lambda: sg.signature(R0, n, method="numpy"), args.repeat))
         row("numpy log_signature (Lyndon)", timed(lambda: sg.log_signature(R0, n, method="numpy"), args.repeat))
         row("numpy log_signature (tensor)",

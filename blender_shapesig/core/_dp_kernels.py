@@ -143,16 +143,18 @@ if HAVE_NUMBA:
                 cr[t] += (c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t])
 
     @_numba.njit(cache=True, nogil=True)
-    def _dp_values(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, rr, P1, P2):
-        n0, n1 = G.shape
+    def _dp_rows(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, rr, P1, P2, row0, row1, col0, col1):
+        """A[i, j] for the rows row0 <= i < row1 and the columns col0 <= j <= col1 of the band; reads A[k, l] of earlier
+        rows only (l < j), so column blocks of one row are independent (``dp_numba``'s two threads)."""
+        n1 = G.shape[1]
         S = di.shape[0]
-        A = np.full((n0 + 1, n1 + 1), np.inf)
-        A[0, 0] = 0.0
         cross = np.zeros(n1 + 1)
         best = np.empty(n1 + 1)
-        for i in range(1, n0 + 1):
-            jl = lo[i]
-            jh = hi[i]
+        for i in range(row0, row1):
+            jl = max(lo[i], col0)
+            jh = min(hi[i], col1)
+            if jl > jh:
+                continue
             for j in range(jl, jh + 1):
                 best[j] = np.inf
             for s in range(S):
@@ -252,7 +254,6 @@ if HAVE_NUMBA:
 
             for j in range(jl, jh + 1):
                 A[i, j] = best[j]
-        return A
 
     @_numba.njit(cache=True, nogil=True)
     def _gram_numba(Q0, Q1T):
@@ -378,13 +379,71 @@ def gram(Q0, Q1):
     return Q0 @ Q1.T
 
 
-def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True):
+# Two threads for one DP only above this many band nodes (below, starting the second thread costs more than
+# it saves); ``_ROW_BLOCK`` rows per hand-over between them.
+PARALLEL_MIN_NODES = 20_000
+_ROW_BLOCK = 12
+_POOL = []
+
+
+def _column_split(lo, hi, n1, share=0.5):
+    """The column s with a ``share`` of the band's nodes before it (the columns j < s to the helper thread, the
+    others to the calling one)."""
+    count = np.zeros(n1 + 2, dtype=np.int64)
+    np.add.at(count, lo[1:], 1)
+    np.add.at(count, hi[1:] + 1, -1)
+    per_column = np.cumsum(count)[:n1 + 1]
+    total = np.cumsum(per_column)
+    return int(np.searchsorted(total, total[-1] * share)) + 1
+
+
+def _dp_two_threads(A, args, n0, n1, split):
+    """Rows of the DP in blocks on two threads: the left columns (j < split) depend only on left columns of earlier
+    rows, so a helper thread runs through them freely; this thread computes the right columns of a block of rows
+    once the helper has finished the left columns of that block (a node reads rows before its own only). Every
+    node is computed by the same code as in one thread: the values are bit-identical."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    if not _POOL:
+        _POOL.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="shapesig-dp"))
+    blocks = list(range(1, n0 + 1, _ROW_BLOCK)) + [n0 + 1]
+    done = [threading.Event() for _ in blocks[:-1]]
+
+    def left():
+        for b in range(len(done)):
+            _dp_rows(A, *args, blocks[b], blocks[b + 1], 0, split - 1)
+            done[b].set()
+
+    fut = _POOL[0].submit(left)
+    try:
+        for b in range(len(done)):
+            while not done[b].wait(0.05):
+                if fut.done():  # the helper failed: re-raise its error
+                    fut.result()
+            _dp_rows(A, *args, blocks[b], blocks[b + 1], split, n1)
+    finally:
+        fut.result()
+
+
+def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True, threads=1):
+    """``threads`` = 2: the rows' column halves on two threads (``_dp_two_threads``) when the band has at least
+    ``PARALLEL_MIN_NODES`` nodes; the result is the same bit for bit."""
     if not HAVE_NUMBA:
         raise RuntimeError("numba is not available")
     r, P1, P2 = _penalty_terms(di, dj, h0, h1)
     G = np.ascontiguousarray(G, dtype=np.float64)
     h0, h1, lam = float(h0), float(h1), float(lam)
-    A = _dp_values(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, r, P1, P2)
+    n0, n1 = G.shape
+    A = np.full((n0 + 1, n1 + 1), np.inf)
+    A[0, 0] = 0.0
+    args = (G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, r, P1, P2)
+    nodes = int(np.sum(hi - lo + 1))
+    split = _column_split(lo, hi, n1) if threads > 1 and nodes >= PARALLEL_MIN_NODES and n0 > _ROW_BLOCK else 0
+    if 0 < split <= n1:
+        _dp_two_threads(A, args, n0, n1, split)
+    else:
+        _dp_rows(A, *args, 1, n0 + 1, 0, n1)
     value = float(A[-1, -1])
     if not want_path:
         return value, None

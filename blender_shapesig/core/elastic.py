@@ -51,6 +51,7 @@ See docs/elastic.md for the measured cost.
 """
 
 import math
+import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -271,18 +272,27 @@ class _Problem:
         self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, mj)
         self.lo, self.hi = _band(n0, n1, mi, mj)
 
-    def solve(self, method, want_path=True):
-        """(DP minimum, path nodes (count, 2) from (0, 0) to (n0, n1) or None)."""
+    def solve(self, method, want_path=True, threads=1):
+        """(DP minimum, path nodes (count, 2) from (0, 0) to (n0, n1) or None); ``threads``: numba only."""
         t = self.table
         args = (self.G, self.B0, self.B1, self.h0, self.h1, self.penalty,
                 t["di"], t["dj"], t["start"], t["ea"], t["eb"], self.coef, self.lo, self.hi)
         if method == "numba":
-            return _dp_kernels.dp_numba(*args, want_path=want_path)
+            return _dp_kernels.dp_numba(*args, want_path=want_path, threads=threads)
         return _dp_kernels.dp_numpy(*args, want_path=want_path)
 
 
-def _align(R0, R1, depth, penalty, method, prune, want_path):
+def _check_threads(threads):
+    """Threads for one DP: None is 2 on machines with at least 4 CPUs (a second core is then likely free; on a
+    busy one, two threads only cost more CPU: docs/elastic.md), else 1."""
+    if threads is None:
+        return 2 if (os.cpu_count() or 1) >= 4 else 1
+    return check_integer(threads, "threads", minimum=1)
+
+
+def _align(R0, R1, depth, penalty, method, prune, want_path, threads=1):
     depth = _check_depth(depth)
+    threads = _check_threads(threads)
     penalty = _check_penalty(penalty)
     method = _check_method(method)
     Q0, j0 = _srvt_matrix(R0, "R0")
@@ -290,11 +300,12 @@ def _align(R0, R1, depth, penalty, method, prune, want_path):
     if j0 != j1:
         raise CurveError(f"the curves have {j0} and {j1} joints")
     prob = _Problem(Q0, Q1, depth, penalty, prune)
-    value, nodes = prob.solve(method, want_path)
+    value, nodes = prob.solve(method, want_path, threads)
     return prob, value, nodes
 
 
-def elastic_align(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", prune=True, return_info=False):
+def elastic_align(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", prune=True, return_info=False,
+                  threads=None):
     """The DP reparametrization of R1 onto R0 (sec. 4.3) and the elastic distance d_S*.
 
     ``R0``, ``R1``: curves (frames, joints, 3, 3) or quaternions (frames, joints, 4) on uniform
@@ -304,14 +315,15 @@ def elastic_align(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", pr
     'numpy'), ``prune`` (drop the redundant non-coprime steps; the result is the same),
     ``return_info`` (also return a dict with 'depth' (the depth used), 'max_step' (the largest
     step on curve 0's and on curve 1's axis), 'energy' (the DP minimum), 'method', 'nodes' (the
-    path's grid nodes)).
+    path's grid nodes)), ``threads`` (1 or 2 threads for the numba DP of a large pair, the same result bit for
+    bit; None: 2 on machines with at least 4 CPUs).
 
     Returns ``(warp, distance)``: ``warp`` is an array (nodes, 2) of matching times (t0, t1)
     from (0, 0) to (1, 1), strictly increasing in both columns (the vertices of the
     piecewise-linear phi with R1(phi(t0)) matched to R0(t0)); ``distance`` is the square root
     of the DP minimum.
     """
-    prob, value, nodes = _align(R0, R1, depth, penalty, method, prune, True)
+    prob, value, nodes = _align(R0, R1, depth, penalty, method, prune, True, threads)
     warp = np.column_stack([nodes[:, 0] / prob.n0, nodes[:, 1] / prob.n1])
     warp[-1] = (1.0, 1.0)
     dist = float(np.sqrt(max(value, 0.0)))
@@ -322,9 +334,9 @@ def elastic_align(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", pr
     return warp, dist
 
 
-def elastic_distance(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", prune=True):
+def elastic_distance(R0, R1, depth=DEFAULT_DEPTH, penalty=0.0, *, method="auto", prune=True, threads=None):
     """d_S*(R0, R1): the square root of the DP minimum of ``elastic_align`` (no backtracking)."""
-    _, value, _ = _align(R0, R1, depth, penalty, method, prune, False)
+    _, value, _ = _align(R0, R1, depth, penalty, method, prune, False, threads)
     return float(np.sqrt(max(value, 0.0)))
 
 

@@ -10,7 +10,8 @@ as the thesis' public code did, computes the signature of a different path.
 
 Two implementations give one answer: ``method="iisignature"`` (the reference, optional at import
 time) and ``method="numpy"`` (``tensor.py``: Chen's identity with the top level as one matrix product,
-closed-form truncated logarithm, exact projection onto the Lyndon basis). ``method="auto"`` uses
+closed-form truncated logarithm, exact projection onto the Lyndon basis; Lyndon coordinates at levels <= 3
+straight from the increments by ``tensor.lyndon_log_signature``, a third of the level-3 products). ``method="auto"`` uses
 numpy, which is the faster of the two in ``benchmarks/bench_signatures.py`` for every operation here
 (see docs/signatures.md) and is the only one when iisignature is missing.
 
@@ -58,7 +59,8 @@ __all__ = [
     "normalized_distance",
     "HAVE_IISIGNATURE", "ZERO_NORM", "METHODS", "BASES",
     "development", "development_increments",
-    "path_signature", "path_log_signature", "path_group_distance", "path_concat_distance",
+    "path_signature", "path_log_signature", "increments_log_signature", "path_group_distance",
+    "path_concat_distance",
     "path_linear_distance", "path_normalized_distance",
     "signature_dim", "log_signature_dim", "normalized_difference", "group_norm",
     "group_distance_from_signatures", "concat_distance_from_signatures",
@@ -195,6 +197,8 @@ def _logsig_numpy_from_sig(sig_t, dim, basis):
 
 def _logsig_flat(dx, level, method, basis):
     d = dx.shape[1]
+    if method == "numpy" and basis == "lyndon" and level <= 3:
+        return tensor.lyndon_log_signature(dx, level)  # the same coordinates, by matrix products
     if method == "iisignature":
         s = prepare(d, level, basis)
         return np.asarray(_iisig.logsig(_points(dx), s, _ii_method(level, basis)), dtype=np.float64)
@@ -216,6 +220,15 @@ def path_log_signature(path, level, *, basis="lyndon", method="auto"):
     level = _check_level(level)
     basis = _check_basis(basis)
     return _logsig_flat(np.diff(x, axis=0), level, resolve_method(method, x.shape[1], log=True), basis)
+
+
+def increments_log_signature(dx, level, *, basis="lyndon", method="auto"):
+    """``path_log_signature`` of the path starting at 0 with the increments ``dx`` (steps, dim), without
+    forming its points (the index signs a clip's development from its increments)."""
+    x = _as_path(dx, "increments")
+    level = _check_level(level)
+    basis = _check_basis(basis)
+    return _logsig_flat(x, level, resolve_method(method, x.shape[1], log=True), basis)
 
 
 # --- path level: measures ----------------------------------------------------------------------------

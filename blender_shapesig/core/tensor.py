@@ -10,6 +10,8 @@ Contents:
 * products, the exponential, the logarithm (closed-form truncated series) and inverses;
 * ``signature_from_increments``: the signature of a piecewise-linear path by Chen's identity, the
   levels below the top as cumulative sums over time and the top level as one matrix product over time;
+* ``lyndon_log_signature``: the Lyndon coordinates of the log-signature at levels <= 3 straight from the
+  increments by matrix products (no level-3 tensor, no running level-2 sums);
 * Lyndon words, their standard bracketings and the projection of a Lie element (a log-signature in
   tensor form) onto the Lyndon basis, giving the same coordinates as ``iisignature.logsig``;
 * the Witt formula for the dimension of the truncated free Lie algebra.
@@ -21,7 +23,6 @@ import math
 from functools import lru_cache
 
 import numpy as np
-import scipy.sparse as sp
 
 from .errors import ShapeSigError
 
@@ -43,6 +44,7 @@ __all__ = [
     "lyndon_words",
     "lyndon_projection",
     "lyndon_coordinates",
+    "lyndon_log_signature",
     "lyndon_to_tensor",
     "log_signature_dim",
     "lyndon_level_sizes",
@@ -377,6 +379,8 @@ def _bracket_matrix(dim, m):
             rows.append(letters[:, list(positions)] @ powers)
             cols.append(idx)
             vals.append(np.full(idx.size, float(sign)))
+    import scipy.sparse as sp  # imported when first needed: ~0.2 s of every command line's start otherwise
+
     mat = sp.csr_matrix(
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(dim ** m, codes.size)
     )
@@ -391,6 +395,8 @@ def _projection_level(dim, m):
     codes = lyndon_words(dim, m)
     mat = _bracket_matrix(dim, m)[codes].tocsr()  # rows restricted to Lyndon words: unit triangular
     n = codes.size
+    import scipy.sparse as sp
+
     eye = sp.identity(n, format="csr")
     if n == 0:
         return eye
@@ -426,6 +432,73 @@ def lyndon_coordinates(t, dim):
         lm = np.asarray(t[m]).reshape(-1)
         out.append(_projection_level(dim, m) @ lm[lyndon_words(dim, m)])
     return np.concatenate(out) if out else np.zeros(0)
+
+
+@lru_cache(maxsize=None)
+def _lyndon3_letters(dim):
+    """Letters (a, b, c) of the Lyndon words of length 3 in code order: a <= b, a < c (read-only arrays)."""
+    out = tuple(np.ascontiguousarray(x) for x in _letters(lyndon_words(dim, 3), dim, 3).T)
+    for x in out:
+        x.setflags(write=False)
+    return out
+
+
+def lyndon_log_signature(dx, level):
+    """Lyndon coordinates (``lyndon_coordinates``' order) of the log-signature at ``level`` <= 3 of the
+    piecewise-linear path with increments ``dx`` (m, d), by matrix products.
+
+    With P_k = dx_0 + ... + dx_(k-1) (the point before step k), Y_k = dx_(k+1) + ... + dx_(m-1) (what is left
+    after it), M_k = P_k + dx_k/2 and U_k = P_k/2 + dx_k/6, Chen's identity (``_signature_chunk``) gives
+
+        S1 = sum_k dx_k,     S2 = sum_k M_k ⊗ dx_k = M^T dx,
+        S3 = sum_k (S2[<k] + P_k ⊗ dx_k/2 + dx_k ⊗ dx_k/6) ⊗ dx_k,
+
+    and summing by parts, sum_k S2[<k] ⊗ dx_k = sum_l (M_l ⊗ dx_l) ⊗ Y_l, so
+
+        S3[a, b, c] = sum_k dx_k[b] (M_k[a] Y_k[c] + U_k[a] dx_k[c]):
+
+    one matrix product per first letter a, without the (m, d^2) table of running level-2 sums. The projection
+    onto the Lyndon basis reads only the Lyndon words' coordinates of the tensor logarithm, and a word abc is
+    Lyndon iff a <= b and a < c, so for each a only the block b >= a, c > a is formed (a third of S3): with
+    log = S - (S1 ⊗ S2 + S2 ⊗ S1)/2 + S1^3/3 at level 3 (``log``, closed form), the block's coordinates are
+    read in the order of the Lyndon codes. Level 2: S2 - S1 ⊗ S1 / 2 on the words a < b.
+    """
+    dx = np.asarray(dx, dtype=np.float64)
+    if dx.ndim != 2:
+        raise ShapeSigError(f"increments must have shape (steps, dim), got {dx.shape}")
+    if not 1 <= level <= 3:
+        raise ShapeSigError(f"lyndon_log_signature needs a level from 1 to 3, got {level}")
+    m, d = dx.shape
+    check_size(d, level)
+    s1 = dx.sum(axis=0)
+    out = [_projection_level(d, 1) @ s1]
+    if level == 1:
+        return out[0]
+    prev = np.zeros_like(dx)
+    if m > 1:
+        np.cumsum(dx[:-1], axis=0, out=prev[1:])
+    s2 = (prev + 0.5 * dx).T @ dx
+    l2 = s2 - 0.5 * np.multiply.outer(s1, s1)
+    out.append(_projection_level(d, 2) @ l2.reshape(-1)[lyndon_words(d, 2)])
+    if level == 3:
+        mk = prev + 0.5 * dx
+        uk = 0.5 * prev + dx / 6.0
+        rest = np.zeros_like(dx)
+        if m > 1:
+            np.cumsum(dx[:0:-1], axis=0, out=rest[-2::-1])
+        la, lb, lc = _lyndon3_letters(d)
+        s3 = np.empty(la.size)
+        pos = 0
+        for a in range(d - 1):  # S3[a, b >= a, c > a], in the order of the Lyndon codes
+            v = mk[:, a:a + 1] * rest[:, a + 1:]
+            v += uk[:, a:a + 1] * dx[:, a + 1:]
+            size = (d - a) * (d - a - 1)
+            np.matmul(dx[:, a:].T, v, out=s3[pos:pos + size].reshape(d - a, d - a - 1))
+            pos += size
+        # log at level 3 on the Lyndon words: S3 - (S1 ⊗ S2 + S2 ⊗ S1)/2 + S1^3/3
+        s3 -= s1[la] * (0.5 * s2[lb, lc] - s1[lb] * s1[lc] / 3.0) + 0.5 * s2[la, lb] * s1[lc]
+        out.append(_projection_level(d, 3) @ s3)
+    return np.concatenate(out)
 
 
 def lyndon_to_tensor(c, dim, level):

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import _dp_kernels
+from blender_shapesig.core import _dp_kernels, elastic
 from blender_shapesig.core.curves import l2_distance, move_to_identity, srvt
 from blender_shapesig.core.elastic import (
     elastic_align,
@@ -321,6 +321,57 @@ def test_kernels_identical(f0, f1, penalty):
     assert ia["energy"] == ib["energy"]
     assert da == db
     assert np.array_equal(wa, wb)
+
+
+@pytest.mark.skipif(not _dp_kernels.HAVE_NUMBA, reason="numba not installed")
+@pytest.mark.parametrize("penalty", [0.0, 0.7])
+@pytest.mark.parametrize("f0, f1", [(180, 180), (230, 150), (100, 500)])
+def test_two_threads_identical(f0, f1, penalty):
+    """The numba DP on two threads (column halves of each row block) gives the serial values and warps bit for bit."""
+    R0 = random_curve(f0, joints=2, seed=93, scale=0.15)
+    R1 = random_curve(f1, joints=2, seed=94, scale=0.15)
+    band = elastic._band(f0 - 1, f1 - 1, *elastic._max_steps(f0 - 1, f1 - 1, 9))
+    assert int(np.sum(band[1] - band[0] + 1)) >= _dp_kernels.PARALLEL_MIN_NODES  # the two-thread path runs
+    wa, da, ia = elastic_align(R0, R1, penalty=penalty, method="numba", return_info=True, threads=1)
+    wb, db, ib = elastic_align(R0, R1, penalty=penalty, method="numba", return_info=True, threads=2)
+    assert ia["energy"] == ib["energy"] and da == db
+    assert np.array_equal(wa, wb)
+    assert elastic_distance(R0, R1, penalty=penalty, threads=2) == da
+    with pytest.raises(ShapeSigError):
+        elastic_distance(R0, R1, threads=0)
+
+
+@pytest.mark.skipif(not _dp_kernels.HAVE_NUMBA, reason="numba not installed")
+@pytest.mark.parametrize("penalty", [0.0, 0.7])
+def test_two_threads_identical_dp_table_large_pair(penalty):
+    """On the benchmark's size (300 x 300 frames, 31 joints), the whole DP value table filled on two threads equals
+    the one-thread table bit for bit (not only its last entry), and elastic_align's warps are identical."""
+    R0 = random_curve(300, joints=31, seed=95, scale=0.05)
+    R1 = random_curve(300, joints=31, seed=96, scale=0.05)
+    Q0, _ = elastic._srvt_matrix(R0, "R0")
+    Q1, _ = elastic._srvt_matrix(R1, "R1")
+    prob = elastic._Problem(Q0, Q1, elastic.DEFAULT_DEPTH, penalty)
+    t = prob.table
+    r, P1, P2 = _dp_kernels._penalty_terms(t["di"], t["dj"], prob.h0, prob.h1)
+    args = (prob.G, prob.B0, prob.B1, prob.h0, prob.h1, float(penalty), t["di"], t["dj"], t["start"], t["ea"],
+            t["eb"], prob.coef, prob.lo, prob.hi, r, P1, P2)
+    n0, n1 = prob.G.shape
+    assert int(np.sum(prob.hi - prob.lo + 1)) >= _dp_kernels.PARALLEL_MIN_NODES
+    split = _dp_kernels._column_split(prob.lo, prob.hi, n1)
+    assert 0 < split <= n1
+    one = np.full((n0 + 1, n1 + 1), np.inf)
+    one[0, 0] = 0.0
+    two = one.copy()
+    _dp_kernels._dp_rows(one, *args, 1, n0 + 1, 0, n1)
+    _dp_kernels._dp_two_threads(two, args, n0, n1, split)
+    assert np.isfinite(one[-1, -1])
+    assert np.array_equal(one, two)  # inf where unreachable in both, every finite value bit for bit
+    wa, da, ia = elastic_align(R0, R1, penalty=penalty, method="numba", return_info=True, threads=1)
+    wb, db, ib = elastic_align(R0, R1, penalty=penalty, method="numba", return_info=True, threads=2)
+    assert ia["energy"] == ib["energy"] and da == db
+    assert np.array_equal(wa, wb)
+    assert elastic_distance(R0, R1, penalty=penalty, threads=2) == elastic_distance(R0, R1, penalty=penalty,
+                                                                                  threads=1) == da
 
 
 @pytest.mark.skipif(not _dp_kernels.HAVE_NUMBA, reason="numba not installed")

@@ -658,3 +658,23 @@ def test_property_signature_log_and_inverse(d, n, pts):
     log_t = tensor.log(sig)
     back = tensor.lyndon_to_tensor(tensor.lyndon_coordinates(log_t, d), d, n)
     np.testing.assert_allclose(tensor.flatten(back), tensor.flatten(log_t), rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("d,m", [(1, 4), (2, 1), (3, 30), (7, 50), (51, 40)])
+def test_lyndon_log_signature_by_products_equals_the_tensor_route_and_iisignature(d, m):
+    """tensor.lyndon_log_signature (levels <= 3 from the increments by matrix products) gives the coordinates of
+    the general route (signature, tensor log, Lyndon projection) and of iisignature, to 1e-12."""
+    rng = np.random.default_rng(40 + d + m)
+    dx = rng.normal(size=(m, d)) * 0.3
+    x = np.vstack([np.zeros((1, d)), np.cumsum(dx, axis=0)])
+    for n in (1, 2, 3):
+        fast = tensor.lyndon_log_signature(dx, n)
+        general = tensor.lyndon_coordinates(tensor.log(tensor.signature_from_increments(dx, n)), d)
+        scale = max(1.0, float(np.abs(general).max()))
+        np.testing.assert_allclose(fast, general, rtol=0, atol=1e-12 * scale)
+        np.testing.assert_allclose(sg.increments_log_signature(dx, n), general, rtol=0, atol=1e-12 * scale)
+        if iisignature is not None and d >= 2:
+            ref = iisignature.logsig(x, iisignature.prepare(d, n, "S"), "S")
+            np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-12 * scale)
+    with pytest.raises(ShapeSigError):
+        tensor.lyndon_log_signature(dx, 4)

@@ -77,8 +77,7 @@ def increments_log_signature(inc, level):
     """Log-signature at ``level`` of the path in R^(3 joints) whose steps are the rotation-vector increments
     ``inc`` (steps, joints, 3) (the development of the curve, started at 0)."""
     dx = np.asarray(inc, np.float64).reshape(inc.shape[0], -1)
-    path = np.vstack([np.zeros((1, dx.shape[1])), np.cumsum(dx, axis=0)])
-    return signatures.path_log_signature(path, level)
+    return signatures.increments_log_signature(dx, level)
 
 
 def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:

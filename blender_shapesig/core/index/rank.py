@@ -21,6 +21,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..blas import one_blas_thread
 from ..clip import Clip
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, curve_distance, parse_metric
@@ -99,6 +100,7 @@ def folder_library(paths, load=None, asf=None, start=None, recursive=True, end=N
 
 # -------------------------------------------------------------------------------------------- index
 
+@one_blas_thread()  # small products: OpenBLAS threads only wait for each other (core/blas.py)
 def item_entries(item: LibraryItem, level, store: SignatureCache) -> List[IndexEntry]:
     """The item's entries: from the store, else computed (its clips loaded) and put in the store."""
     level = int(level)
@@ -275,6 +277,7 @@ def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
     results[:len(head)] = head
 
 
+@one_blas_thread()
 def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cache=None, *,
                depth=DEFAULT_DEPTH, progress=None, exclude=(), pool=None, allow_partial=True) -> RankList:
     """Rank ``library`` (Clips or LibraryItems) by their distance to ``query`` (a Clip), best first.

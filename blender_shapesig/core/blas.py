@@ -1,0 +1,78 @@
+"""One BLAS thread for a block of work, also where numpy was imported before us (Blender).
+
+A clip's index entry needs small matrix products (the Lyndon log-signature, a 45,526-coordinate norm): OpenBLAS's
+own threads, one per core, only wait for each other there, and on a busy machine much longer than the products take
+(benchmarks/bench_find_similar.py: the index build 2.8x faster, a warm click 2x, with one thread; docs/search.md).
+The command line sets ``OPENBLAS_NUM_THREADS=1`` before importing numpy (``__main__``); Blender imports numpy before
+any add-on, so there the count is lowered through OpenBLAS's own ``openblas_set_num_threads`` (the library numpy's
+wheel ships, already loaded: ``ctypes`` finds the same one) and restored afterwards. Nothing happens when numpy
+uses another BLAS (Accelerate, MKL) or when the library is not found: results are those of the same products.
+"""
+
+import contextlib
+import ctypes
+import glob
+import os
+
+__all__ = ["one_blas_thread", "blas_threads"]
+
+# (set, get) symbol pairs of numpy's OpenBLAS builds: scipy-openblas (numpy >= 2), openblas64_ (numpy 1.26), plain.
+_SYMBOLS = (
+    ("scipy_openblas_set_num_threads64_", "scipy_openblas_get_num_threads64_"),
+    ("scipy_openblas_set_num_threads", "scipy_openblas_get_num_threads"),
+    ("openblas_set_num_threads64_", "openblas_get_num_threads64_"),
+    ("openblas_set_num_threads", "openblas_get_num_threads"),
+)
+_API = []  # [None] or [(set, get)] after the first look-up
+
+
+def _find():
+    import numpy
+
+    base = os.path.dirname(numpy.__file__)
+    paths = []
+    for pattern in (os.path.join(base, os.pardir, "numpy.libs", "*openblas*"),
+                    os.path.join(base, ".dylibs", "*openblas*")):
+        paths.extend(sorted(glob.glob(pattern)))
+    for path in paths:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for set_name, get_name in _SYMBOLS:
+            setter, getter = getattr(lib, set_name, None), getattr(lib, get_name, None)
+            if setter is not None and getter is not None:
+                setter.argtypes, setter.restype = [ctypes.c_int], None
+                getter.argtypes, getter.restype = [], ctypes.c_int
+                return setter, getter
+    return None
+
+
+def _api():
+    if not _API:
+        try:
+            _API.append(_find())
+        except Exception:  # noqa: BLE001 - any failure: leave BLAS as it is
+            _API.append(None)
+    return _API[0]
+
+
+def blas_threads():
+    """OpenBLAS's current thread count, or None when numpy's OpenBLAS was not found."""
+    api = _api()
+    return None if api is None else int(api[1]())
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """Run the block (or, as a decorator, the function) with one OpenBLAS thread; the count before is restored."""
+    api = _api()
+    before = int(api[1]()) if api is not None else 1
+    if before <= 1:
+        yield
+        return
+    api[0](1)
+    try:
+        yield
+    finally:
+        api[0](before)
