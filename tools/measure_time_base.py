@@ -2,7 +2,7 @@
 """The same motion at 120 / 60 / 30 fps (issue 15, docs/model.md "Time base", docs/evaluation.md "Time base"):
 
   .venv/bin/python tools/measure_time_base.py --data ../shared/data/cmu [--metrics sim3,elastic] [--raw]
-      [--span] [--trim-each] [--no-rank] [--json FILE]
+      [--span] [--trim-each] [--no-rank] [--smooth SECONDS] [--json FILE]
 
 For every walk of the shared sets (the Daz BVH walks of tools/eval_sets/cmu_large.csv against its runs, the AMC
 walks of tools/eval_sets/cmu_amc.csv against its runs): the distance between the clip and its copy decimated to
@@ -32,6 +32,7 @@ if ROOT not in sys.path:
 
 from blender_shapesig import evaluation as ev  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
+from blender_shapesig.core import prepare  # noqa: E402
 from blender_shapesig.core.prepare import decimate_clip  # noqa: E402
 from blender_shapesig.core.trim import trim_clip  # noqa: E402
 
@@ -118,7 +119,11 @@ def main(argv=None):
                    help="decimate the clips as read and trim every copy at its own rate")
     p.add_argument("--no-rank", action="store_true", help="skip the check that a 30 fps walk ranks walks first")
     p.add_argument("--json", help="write the rows and the largest ratios to this file")
+    p.add_argument("--smooth", type=float,
+                   help="the SRVT measures' low-pass in seconds (default core.prepare.SMOOTH_SECONDS; the sweep)")
     args = p.parse_args(argv)
+    if args.smooth is not None:
+        prepare.SMOOTH_SECONDS = args.smooth  # read by metrics.time_base_smoothing at every comparison
     metrics = [m.strip() for m in args.metrics.split(",") if m.strip()]
     rows, worst = measure(args.data, metrics, time_base=not args.raw, span=args.span, trim_each=args.trim_each,
                           rank=not args.no_rank)
@@ -132,6 +137,7 @@ def main(argv=None):
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"rows": rows, "largest": worst, "passed": passed, "same": same, "time_base": not args.raw,
+                       "smooth": prepare.SMOOTH_SECONDS,
                        "span": args.span, "trim_each": args.trim_each}, fh, indent=1)
     return 0 if passed + same == len(rows) else 1
 
