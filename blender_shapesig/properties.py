@@ -106,9 +106,8 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     asf: StringProperty(name="Skeleton", description="The .asf skeleton of the folders' AMC files (empty: the "
                         "only .asf beside each .amc)", default="", subtype="FILE_PATH")
     crop_start: IntProperty(name="Crop Start", description="Ignore the frames before this one in every clip "
-                            "(library actions, folder clips and the query unless it has a frame range): 7 for "
-                            "CMU 'Daz-friendly' BVH files (frame 1 is a rest pose, frames 2-6 a ramp from it); "
-                            "0 keeps all",
+                            "(library actions, folder clips and the query unless it has a frame range); rest-pose "
+                            "and ramp frames need none (Trim: Auto). 0 keeps all",
                             default=0, soft_min=0)
     # issue 15: how every clip is read (query, file actions, folder clips); part of each clip's index key
     trim: EnumProperty(

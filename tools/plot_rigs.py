@@ -4,8 +4,8 @@
   .venv/bin/python tools/plot_rigs.py --data ../shared/data/cmu --out docs/img/rigs_same_take.png
 
 CMU 02_01 (walk) as the cgspeed Daz BVH (hip, abdomen, chest, lThigh, ...; 120 fps, T-pose rest) and as the
-iClone / Character Creator BVH (CC_Base_*; 60 fps, 101 bones with twist and share bones). Crops: the Daz file's
-rest frame and ramp (start 7), the iClone T-pose frame (start 2). Top row: stick figures by forward kinematics
+iClone / Character Creator BVH (CC_Base_*; 60 fps, 101 bones with twist and share bones), read as a user reads
+them (``--trim auto``: the Daz file's rest frame and ramp and the iClone T-pose frame are dropped). Top row: stick figures by forward kinematics
 (each rig's own rest offsets and rotations) at three moments, as the files place them (before) and in the
 comparison frame (after: heading removed, hips at the origin, scaled to the same height). Bottom row: the
 rotation angle from the first frame, |log(R_k R_0^T)|, of corresponding bones: the clips' local rotations in
@@ -25,8 +25,8 @@ if ROOT not in sys.path:
 from blender_shapesig.core import rigs, so3, sources  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
 
-PAIR = (("Daz BVH", "Przestr_motion-capture/data/02/02_01.bvh", 7),
-        ("iClone BVH", "DragonForgedTheArtist_IClone-CMU-Mocap/All_BVH/subjects/002/002_01.bvh", 2))
+PAIR = (("Daz BVH", "Przestr_motion-capture/data/02/02_01.bvh"),
+        ("iClone BVH", "DragonForgedTheArtist_IClone-CMU-Mocap/All_BVH/subjects/002/002_01.bvh"))
 CURVES = ("thigh.L", "shin.L", "upper_arm.R", "chest")
 
 
@@ -71,9 +71,9 @@ def segments(mapped):
     return out
 
 
-def load(data, path, start):
+def load(data, path):
     full = os.path.join(data, path)
-    raw = sources.read_one(sources.ClipSpec(full, start=start, bone_map="none"))
+    raw = sources.read_one(sources.ClipSpec(full, bone_map="none"))
     mapped = rigs.apply_bone_map(raw, "auto")
     heads = rest_heads(full)
     W = rigs.world_rotations(raw)
@@ -95,11 +95,11 @@ def main(argv=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rigs_ = [load(args.data, path, start) for _label, path, start in PAIR]
+    rigs_ = [load(args.data, path) for _label, path in PAIR]
     colors = ("tab:blue", "tab:orange")
     fig, axes = plt.subplots(2, 2, figsize=(12, 8.5))
     moments = (0.15, 0.4, 0.65)
-    for k, ((label, _p, _s), (raw, mapped, P)) in enumerate(zip(PAIR, rigs_)):
+    for k, ((label, _p), (raw, mapped, P)) in enumerate(zip(PAIR, rigs_)):
         bm = mapped.meta["bone_map"]
         index = {b: i for i, b in enumerate(raw.bones)}
         H = rigs.heading(rigs.world_rotations(raw)[:, index[bm["hips"]]], raw.root_translation)

@@ -8,10 +8,9 @@ BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02
 MotionBuilder BVH. Every clip queries the library (``core.index.rank_clips``, sim3, through ``core.sources``);
 the script prints each query's first result and whether it is the same take, and the count.
 
-Crops (explicit, until automatic trimming lands): the Daz BVH files start with a rest-pose frame and a 5-frame
-ramp (start = 7), which replaces the first 5 AMC frames, so the AMC takes start at frame 6 to cover the same
-moments; the iClone files start with a T-pose frame (start = 2). 16_15 is not cropped (both files hold the same
-471 frames).
+No crops: every clip is read as a user reads it (``--trim auto``, ``core.trim``), which drops the Daz BVH files'
+rest-pose frame and the converter's ramp and the iClone files' T-pose frame; the AMC originals and 16_15 (both
+files hold the same 471 frames) have nothing to trim.
 """
 
 import argparse
@@ -33,26 +32,26 @@ _IMU = "martinling_imusim/imusim/tests/io"
 
 
 def takes():
-    """[(label, take, path, asf, start)] of the shared clips."""
+    """[(label, take, path, asf)] of the shared clips."""
     out = []
     for t in ("07_01", "07_02", "07_03"):
-        out += [("amc", t, f"{_AMC}/{t}.amc", f"{_ASF}/07-walk.asf", 6), ("daz", t, f"{_DAZ}/07/{t}.bvh", None, 7)]
+        out += [("amc", t, f"{_AMC}/{t}.amc", f"{_ASF}/07-walk.asf"), ("daz", t, f"{_DAZ}/07/{t}.bvh", None)]
     for t in ("09_01", "09_02", "09_03"):
-        out += [("amc", t, f"{_AMC}/running/{t}.amc", f"{_ASF}/09-run.asf", 6),
-                ("daz", t, f"{_DAZ}/09/{t}.bvh", None, 7)]
+        out += [("amc", t, f"{_AMC}/running/{t}.amc", f"{_ASF}/09-run.asf"),
+                ("daz", t, f"{_DAZ}/09/{t}.bvh", None)]
     for t in ("02_01", "02_02", "02_03"):
-        out += [("iclone", t, f"{_ICL}/0{t}.bvh", None, 2), ("daz", t, f"{_DAZ}/02/{t}.bvh", None, 7)]
-    out += [("amc", "16_15", f"{_IMU}/16_15.amc", f"{_IMU}/16.asf", None),
-            ("mb", "16_15", f"{_IMU}/16_15.bvh", None, None)]
+        out += [("iclone", t, f"{_ICL}/0{t}.bvh", None), ("daz", t, f"{_DAZ}/02/{t}.bvh", None)]
+    out += [("amc", "16_15", f"{_IMU}/16_15.amc", f"{_IMU}/16.asf"),
+            ("mb", "16_15", f"{_IMU}/16_15.bvh", None)]
     return out
 
 
 def library(data, bone_map="auto"):
     """(items, takes): one LibraryItem per shared clip, named ``format:take``."""
     items, names = [], []
-    for fmt, take, path, asf, start in takes():
+    for fmt, take, path, asf in takes():
         spec = sources.ClipSpec(os.path.join(data, path), asf=None if asf is None else os.path.join(data, asf),
-                                start=start, bone_map=bone_map)
+                                bone_map=bone_map)
         item = sources.spec_item(spec)
         item.name = f"{fmt}:{take}"
         loader = item.load
