@@ -2,6 +2,7 @@
 """The same take in other formats and skeletons ranks first (issue 14), and the comparison-space measurement.
 
   .venv/bin/python tools/rank_across_rigs.py --data ../shared/data/cmu [--bone-map auto|none] [--rerank K]
+      [--metric sim3|linear3|elastic|...] [--joints]
 
 A library of the shared CMU takes in two formats each: AMC 07_01-07_03 and 09_01-09_03 with their cgspeed Daz
 BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02_03, AMC 16_15 with its
@@ -11,6 +12,11 @@ the script prints each query's first result and whether it is the same take, and
 No crops: every clip is read as a user reads it (``--trim auto``, ``core.trim``), which drops the Daz BVH files'
 rest-pose frame and the converter's ramp and the iClone files' T-pose frame; the AMC originals and 16_15 (both
 files hold the same 471 frames) have nothing to trim.
+
+``--joints``: for every same-take pair, how far the two files are the same motion, joint by joint: each joint's
+rotation over 1/15 s in the comparison space (``log(R[k+s] R[k]^T)``, which no rest pose, bone axis or roll
+changes), low-passed as the comparison does, at the frame offset that matches the files best, and the relative
+difference |w_a - w_b| / |w_a| per joint (0: the same motion; about 1.4: unrelated motions of the same size).
 """
 
 import argparse
@@ -22,7 +28,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from blender_shapesig.core import index, sources  # noqa: E402
+import numpy as np  # noqa: E402
+
+from blender_shapesig.core import index, prepare, so3, sources  # noqa: E402
 
 _AMC = "uscresl_humanoid-gail/mocap/animations"
 _ASF = "Jiaqi-Zuo_CSCI520-Motion-Capture-Interpolation/mocapPlayer-starter"
@@ -61,14 +69,60 @@ def library(data, bone_map="auto"):
     return items, names
 
 
+def _motion(clip, joints, seconds=1 / 15):
+    """Per joint, its rotation over ``seconds`` (rotation vectors, comparison space) at every frame of the clip
+    low-passed as the comparison does (``core.prepare``, at the clip's own rate), the first and last 0.1 s left
+    out (take starts and converter ramps)."""
+    R = prepare.prepare_rotations(clip.rotations[:, [clip.bones.index(j) for j in joints]], clip.fps, None)
+    s, cut = max(1, round(seconds * clip.fps)), round(0.1 * clip.fps)
+    return so3.log(R[s:] @ np.swapaxes(R[:-s], -1, -2))[cut:-cut or None]
+
+
+def joint_agreement(a, b, max_offset=15):
+    """(offset, {joint: relative difference}) of two clips of one take at one frame rate (see --joints), b's
+    frames shifted by the offset in -max_offset..max_offset that matches all joints best (a's frame k + offset
+    with b's frame k)."""
+    joints = [j for j in a.bones if j in b.bones]
+    wa, wb = _motion(a, joints), _motion(b, joints)
+
+    def pair(off):
+        x, y = (wa[off:], wb) if off >= 0 else (wa, wb[-off:])
+        n = min(len(x), len(y))
+        return x[:n], y[:n]
+
+    off = min(range(-max_offset, max_offset + 1),
+              key=lambda o: np.linalg.norm(np.subtract(*pair(o))) / np.linalg.norm(pair(o)[0]))
+    x, y = pair(off)
+    return off, {j: float(np.linalg.norm(x[:, i] - y[:, i]) / max(np.linalg.norm(x[:, i]), 1e-12))
+                 for i, j in enumerate(joints)}
+
+
+def print_joint_agreement(items, take_of):
+    by_take = {}
+    for item, take in zip(items, take_of):
+        by_take.setdefault(take, []).append(item)
+    for take, (a, b) in by_take.items():
+        ca, cb = a.clips()[0], b.clips()[0]
+        if ca.fps != cb.fps:  # the iClone files (60 fps): at the lower rate, by every n-th frame of the other
+            ca, cb = sorted((ca, cb), key=lambda c: c.fps)
+            cb = prepare.decimate_clip(cb, round(cb.fps / ca.fps))
+        off, rel = joint_agreement(ca, cb)
+        print(f"{a.name} vs {b.name} (offset {off:+d} frames): "
+              + ", ".join(f"{j} {v:.2f}" for j, v in rel.items()))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", required=True, help="the shared CMU folder")
     ap.add_argument("--bone-map", default="auto")
     ap.add_argument("--metric", default="sim3")
     ap.add_argument("--rerank", type=int, default=0)
+    ap.add_argument("--joints", action="store_true", help="per same-take pair, how far the files' joints agree")
     args = ap.parse_args(argv)
     items, take_of = library(args.data, args.bone_map)
+    if args.joints:
+        print_joint_agreement(items, take_of)
+        return 0
     cache = index.SignatureCache()
     ok = 0
     for i, q in enumerate(items):
