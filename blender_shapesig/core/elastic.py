@@ -56,7 +56,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import _dp_kernels
+from . import _dp_kernels, _srvt_kernel, curves
 from .curves import as_curve, as_times, geodesic_interpolate, srvt
 from .errors import CurveError, ShapeSigError, check_integer, check_number
 from .metrics import DEFAULT_DEPTH
@@ -106,6 +106,9 @@ def _srvt_matrix(R, name):
     R = as_curve(R, name)
     if R.shape[0] < 2:
         raise CurveError(f"{name}: needs at least two frames for an elastic distance, got {R.shape[0]}")
+    if _dp_kernels.HAVE_NUMBA and _srvt_kernel.HAVE_NUMBA and curves.DEFAULT_SRVT_NORM == "joint":
+        # one compiled pass, the same operations as srvt (to an ulp or so; docs/elastic.md, fourth pass)
+        return _srvt_kernel.srvt_rows(R, np.diff(as_times(None, R.shape[0])), curves.ZERO_STEP), R.shape[1]
     q = srvt(R)
     return np.ascontiguousarray(q.reshape(q.shape[0], -1)), R.shape[1]
 
