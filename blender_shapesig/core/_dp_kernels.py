@@ -257,39 +257,34 @@ if HAVE_NUMBA:
 
     @_numba.njit(cache=True, nogil=True)
     def _gram_numba(Q0, Q1T):
-        """G = Q0 Q1^T (Q0 with an even number of rows), each entry summed as ((x0 q0 + x1 q1) + (x2 q2 + x3 q3))
-        per group of four columns, then the rest one by one. Two rows of G per pass, so that each row of Q1^T
-        loaded serves both."""
+        """G = Q0 Q1^T (Q0 with a multiple of four rows), each entry summed as ((x0 q0 + x1 q1) + (x2 q2 + x3 q3))
+        per group of four columns, then the rest one by one. Four rows of G per pass, so that each value of Q1^T
+        loaded serves all four; indexed as 2-D arrays, not as row slices (LLVM then vectorizes the loop over b
+        without runtime alias checks between six row pointers: 0.38 instead of 0.67 ms at 299 x 93 x 299)."""
         n0, c = Q0.shape
         n1 = Q1T.shape[1]
         G = np.zeros((n0, n1))
         c4 = c - c % 4
-        for a in range(0, n0 - 1, 2):
-            g = G[a]
-            h = G[a + 1]
+        for a in range(0, n0 - 3, 4):
             for r in range(0, c4, 4):
-                x0 = Q0[a, r]
-                x1 = Q0[a, r + 1]
-                x2 = Q0[a, r + 2]
-                x3 = Q0[a, r + 3]
-                y0 = Q0[a + 1, r]
-                y1 = Q0[a + 1, r + 1]
-                y2 = Q0[a + 1, r + 2]
-                y3 = Q0[a + 1, r + 3]
-                q0 = Q1T[r]
-                q1 = Q1T[r + 1]
-                q2 = Q1T[r + 2]
-                q3 = Q1T[r + 3]
+                x0, x1, x2, x3 = Q0[a, r], Q0[a, r + 1], Q0[a, r + 2], Q0[a, r + 3]
+                y0, y1, y2, y3 = Q0[a + 1, r], Q0[a + 1, r + 1], Q0[a + 1, r + 2], Q0[a + 1, r + 3]
+                u0, u1, u2, u3 = Q0[a + 2, r], Q0[a + 2, r + 1], Q0[a + 2, r + 2], Q0[a + 2, r + 3]
+                v0, v1, v2, v3 = Q0[a + 3, r], Q0[a + 3, r + 1], Q0[a + 3, r + 2], Q0[a + 3, r + 3]
                 for b in range(n1):
-                    g[b] += (x0 * q0[b] + x1 * q1[b]) + (x2 * q2[b] + x3 * q3[b])
-                    h[b] += (y0 * q0[b] + y1 * q1[b]) + (y2 * q2[b] + y3 * q3[b])
+                    q0, q1, q2, q3 = Q1T[r, b], Q1T[r + 1, b], Q1T[r + 2, b], Q1T[r + 3, b]
+                    G[a, b] += (x0 * q0 + x1 * q1) + (x2 * q2 + x3 * q3)
+                    G[a + 1, b] += (y0 * q0 + y1 * q1) + (y2 * q2 + y3 * q3)
+                    G[a + 2, b] += (u0 * q0 + u1 * q1) + (u2 * q2 + u3 * q3)
+                    G[a + 3, b] += (v0 * q0 + v1 * q1) + (v2 * q2 + v3 * q3)
             for r in range(c4, c):
-                x = Q0[a, r]
-                y = Q0[a + 1, r]
-                q = Q1T[r]
+                x, y, u, v = Q0[a, r], Q0[a + 1, r], Q0[a + 2, r], Q0[a + 3, r]
                 for b in range(n1):
-                    g[b] += x * q[b]
-                    h[b] += y * q[b]
+                    q = Q1T[r, b]
+                    G[a, b] += x * q
+                    G[a + 1, b] += y * q
+                    G[a + 2, b] += u * q
+                    G[a + 3, b] += v * q
         return G
 
     @_numba.njit(cache=True, nogil=True)
@@ -373,8 +368,8 @@ def gram(Q0, Q1):
     if HAVE_NUMBA:
         n0 = Q0.shape[0]
         Q0 = np.ascontiguousarray(Q0, dtype=np.float64)
-        if n0 % 2:  # a zero row to pair the last one with (rows are computed independently)
-            Q0 = np.concatenate([Q0, np.zeros((1, Q0.shape[1]))])
+        if n0 % 4:  # zero rows to group the last ones with (rows are computed independently)
+            Q0 = np.concatenate([Q0, np.zeros((4 - n0 % 4, Q0.shape[1]))])
         return _gram_numba(Q0, np.ascontiguousarray(Q1.T, dtype=np.float64))[:n0]
     return Q0 @ Q1.T
 

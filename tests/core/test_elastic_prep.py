@@ -1,6 +1,7 @@
-"""The compiled SRVT pass of the elastic DP (core._srvt_kernel) against the numpy route (curves.srvt): the same
-values to ~1e-14 relative, including steps near 0, at the ZERO_STEP threshold, near and at pi, and still joints;
-the numpy route for norm="group" and without numba."""
+"""The preparation of the elastic DP. The compiled SRVT pass (core._srvt_kernel) against the numpy route
+(curves.srvt): the same values to ~1e-14 relative, including steps near 0, at the ZERO_STEP threshold, near and at
+pi, and still joints; the numpy route for norm="group" and without numba. The Gram matrix: its summation contract
+(groups of four columns, then the rest), bit for bit, for any row count."""
 
 import pathlib
 
@@ -85,3 +86,28 @@ def test_numpy_route_without_numba(monkeypatch):
     monkeypatch.setattr(_dp_kernels, "HAVE_NUMBA", False)
     got, _ = elastic._srvt_matrix(R, "R")
     assert np.array_equal(got, numpy_route(R))
+
+
+def gram_contract(Q0, Q1):
+    """G = Q0 Q1^T summed as _dp_kernels.gram documents: ((x0 q0 + x1 q1) + (x2 q2 + x3 q3)) per group of four
+    columns, added left to right, then the remaining columns one by one."""
+    c = Q0.shape[1]
+    c4 = c - c % 4
+    G = np.zeros((Q0.shape[0], Q1.shape[0]))
+    o = [np.outer(Q0[:, r], Q1[:, r]) for r in range(c)]
+    for r in range(0, c4, 4):
+        G += (o[r] + o[r + 1]) + (o[r + 2] + o[r + 3])
+    for r in range(c4, c):
+        G += o[r]
+    return G
+
+
+@pytest.mark.parametrize("n0, n1, c", [(1, 1, 3), (2, 5, 6), (3, 7, 9), (5, 4, 93), (8, 9, 4), (301, 17, 11)])
+def test_gram_contract_bit_for_bit(n0, n1, c):
+    rng = np.random.default_rng(n0 * 1000 + n1)
+    Q0, Q1 = rng.normal(size=(n0, c)), rng.normal(size=(n1, c))
+    G = _dp_kernels.gram(Q0, Q1)
+    if _dp_kernels.HAVE_NUMBA:
+        assert np.array_equal(G, gram_contract(Q0, Q1))
+    else:  # numpy's matmul: the same to rounding
+        np.testing.assert_allclose(G, gram_contract(Q0, Q1), rtol=1e-12, atol=1e-12)
