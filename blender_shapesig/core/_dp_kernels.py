@@ -13,7 +13,16 @@ where the step's entries (in table order) are cut into chunks of four (the last 
 a chunk is ((c1 g1 + c2 g2) + (c3 g3 + c4 g4)) with g = G[k + ea, l + eb] (shorter chunks drop
 the missing terms: c1 g1, (c1 g1 + c2 g2), ((c1 g1 + c2 g2) + c3 g3)), and P = -(penalty * pen)
 is there only when the penalty is non-zero, with pen = (di d^2 + r P1 d) + r^2 P2,
-d = l h1 - k h0. Ties go to the first step in table order. ``B0[d, i]`` is the integral of |q0|^2
+d = l h1 - k h0. Ties go to the first step in table order.
+
+Thin steps (di, 1) and (1, dj) are the exception: all their entries have one coefficient c (weight 1), and
+their cross sum is a single chunk c * run, with run the running sum from the node's corner outwards,
+
+    (a, 1):  run = ((G[i-1, j-1] + G[i-2, j-1]) + G[i-3, j-1]) + ... + G[i-a, j-1]
+    (1, b):  run = ((G[i-1, j-1] + G[i-1, j-2]) + G[i-1, j-3]) + ... + G[i-1, j-b]
+
+so x = P + c * run (x = c * run without a penalty). Each kernel builds run incrementally over a (and over
+b), one load of G per thin step and node instead of a (or b): 89 of the 475 weights per node at D = 9. ``B0[d, i]`` is the integral of |q0|^2
 over the d intervals before node i (summed locally, not as a difference of cumulative sums, which
 would cost accuracy on long curves); ``B1`` likewise.
 
@@ -92,12 +101,25 @@ def dp_numpy(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_p
                 cb = D - b + int(eb[e])
                 return coef[e] * Gp[ra:ra + nb, cb:cb + n1 + 1]
 
+            def shifted(da, db):  # G[i - da, j - db] for the block's rows i and all columns j
+                return Gp[r0 - da + D:r0 - da + D + nb, D - db:D - db + n1 + 1]
+
             x = None
             if lam != 0.0:
                 delta = (cols[None, :] - b) * h1 - (rows[:, None] - a) * h0
                 pen = (fdi[s] * delta * delta + r[s] * P1[s] * delta) + r[s] * r[s] * P2[s]
                 x = -(lam * pen)
+            if b == 1:  # thin steps (a, 1), a = 1, 2, ... in table order: G[i-1, j-1] + ... + G[i-a, j-1]
+                col_run = shifted(1, 1) if a == 1 else col_run + shifted(a, 1)
+                chunk = coef[start[s]] * col_run
+                x = chunk if x is None else x + chunk
+            elif a == 1:  # thin steps (1, b), b = 2, 3, ...: G[i-1, j-1] + ... + G[i-1, j-b]
+                row_run = (shifted(1, 1) if b == 2 else row_run) + shifted(1, b)
+                chunk = coef[start[s]] * row_run
+                x = chunk if x is None else x + chunk
             for e in range(int(start[s]), int(start[s + 1]), 4):
+                if a == 1 or b == 1:
+                    break
                 chunk = _chunk_value([g(f) for f in range(e, min(e + 4, int(start[s + 1])))])
                 x = chunk if x is None else x + chunk
             E[s, :nb] = (B0[a, r0:r1][:, None] + B1[b][None, :]) - x
@@ -142,14 +164,84 @@ if HAVE_NUMBA:
             for t in range(m):
                 cr[t] += (c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t])
 
+    @_numba.njit(cache=True, nogil=True, inline="always")
+    def _thin_min(best, A, run, B1, k, b, j0, j1, b0, c, lam, fa, r_s, p1, p2, h0, h1):
+        """The candidates of a thin step (di, 1) or (1, b) into the nodes j0..j1 of a row: x = P + c run[j]."""
+        m = j1 + 1 - j0
+        Ak = A[k, j0 - b:j1 + 1 - b]
+        B1a = B1[b, j0:j1 + 1]
+        bs = best[j0:j1 + 1]
+        rt = run[j0:j1 + 1]
+        if lam != 0.0:
+            for t in range(m):
+                delta = (j0 - b + t) * h1 - k * h0
+                x = -(lam * ((fa * delta * delta + r_s * p1 * delta) + r_s * r_s * p2)) + c * rt[t]
+                cand = Ak[t] + ((b0 + B1a[t]) - x)
+                if cand < bs[t]:
+                    bs[t] = cand
+        else:
+            for t in range(m):
+                cand = Ak[t] + ((b0 + B1a[t]) - c * rt[t])
+                if cand < bs[t]:
+                    bs[t] = cand
+
+    @_numba.njit(cache=True, nogil=True, inline="always")
+    def _thin_steps(A, G, B0, B1, h0, h1, lam, coef, start, lo, hi, rr, P1, P2, col_step, row_step, i, jl, jh,
+                    col_run, row_run, best):
+        """The thin steps into the nodes jl..jh of row i, from running sums (the module docstring): (a, 1) for
+        a = 1, 2, ... with col_run[j] = G[i-1, j-1] + ... + G[i-a, j-1], then (1, b) for b = 2, 3, ... with
+        row_run[j] = G[i-1, j-1] + ... + G[i-1, j-b]. One load of G per step and node instead of a or b."""
+        js = max(jl, 1)
+        n = jh + 1 - js
+        cv = col_run[js:jh + 1]
+        for a in range(1, col_step.shape[0]):
+            s = col_step[a]
+            k = i - a
+            if s < 0 or k < 0:
+                break
+            g = G[k, js - 1:jh]
+            if a == 1:
+                for t in range(n):
+                    cv[t] = g[t]
+            else:
+                for t in range(n):
+                    cv[t] += g[t]
+            j0 = max(jl, lo[k] + 1)
+            j1 = min(jh, hi[k] + 1)
+            if j0 <= j1:
+                _thin_min(best, A, col_run, B1, k, 1, j0, j1, B0[a, i], coef[start[s]], lam, np.float64(a), rr[s],
+                          P1[s], P2[s], h0, h1)
+        k = i - 1
+        rv = row_run[js:jh + 1]
+        g = G[k, js - 1:jh]
+        for t in range(n):
+            rv[t] = g[t]
+        for b in range(2, row_step.shape[0]):
+            s = row_step[b]
+            jb = max(jl, b)
+            if s < 0 or jb > jh:
+                break
+            rb = row_run[jb:jh + 1]
+            g = G[k, jb - b:jh + 1 - b]
+            for t in range(jh + 1 - jb):
+                rb[t] += g[t]
+            j0 = max(jl, lo[k] + b)
+            j1 = min(jh, hi[k] + b)
+            if j0 <= j1:
+                _thin_min(best, A, row_run, B1, k, b, j0, j1, B0[1, i], coef[start[s]], lam, 1.0, rr[s], P1[s],
+                          P2[s], h0, h1)
+
     @_numba.njit(cache=True, nogil=True)
-    def _dp_rows(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, rr, P1, P2, row0, row1, col0, col1):
+    def _dp_rows(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, rr, P1, P2, col_step, row_step,
+                 row0, row1, col0, col1):
         """A[i, j] for the rows row0 <= i < row1 and the columns col0 <= j <= col1 of the band; reads A[k, l] of earlier
         rows only (l < j), so column blocks of one row are independent (``dp_numba``'s two threads)."""
         n1 = G.shape[1]
         S = di.shape[0]
         cross = np.zeros(n1 + 1)
         best = np.empty(n1 + 1)
+        col_run = np.empty(n1 + 1)
+        row_run = np.empty(n1 + 1)
         for i in range(row0, row1):
             jl = max(lo[i], col0)
             jh = min(hi[i], col1)
@@ -157,11 +249,13 @@ if HAVE_NUMBA:
                 continue
             for j in range(jl, jh + 1):
                 best[j] = np.inf
+            _thin_steps(A, G, B0, B1, h0, h1, lam, coef, start, lo, hi, rr, P1, P2, col_step, row_step, i, jl, jh,
+                        col_run, row_run, best)
             for s in range(S):
                 a = di[s]
                 b = dj[s]
                 k = i - a
-                if k < 0:
+                if k < 0 or a == 1 or b == 1:  # thin steps: done above
                     continue
                 j0 = max(jl, lo[k] + b)
                 j1 = min(jh, hi[k] + b)
@@ -289,7 +383,7 @@ if HAVE_NUMBA:
 
     @_numba.njit(cache=True, nogil=True)
     def _candidate(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, rr, P1, P2, i, j, s):
-        """The DP candidate of step s into node (i, j), exactly as _dp_values computes it."""
+        """The DP candidate of step s into node (i, j), exactly as _dp_rows computes it."""
         a = di[s]
         b = dj[s]
         k = i - a
@@ -303,6 +397,13 @@ if HAVE_NUMBA:
             pen = (np.float64(a) * delta * delta + rr[s] * P1[s] * delta) + rr[s] * rr[s] * P2[s]
             x = -(lam * pen)
             has_prev = True
+        if a == 1 or b == 1:  # a thin step: the running sum of its column or row, times its one coefficient
+            run = G[i - 1, j - 1]
+            for d in range(2, max(a, b) + 1):
+                run += G[i - d, j - 1] if b == 1 else G[i - 1, j - d]
+            c = coef[e] * run
+            x = x + c if has_prev else c
+            e = eend
         while e < eend:
             n = min(4, eend - e)
             v1 = coef[e] * G[k + ea[e], l + eb[e]]
@@ -421,6 +522,17 @@ def _dp_two_threads(A, args, n0, n1, split):
         fut.result()
 
 
+def _thin_index(di, dj):
+    """Table indices of the thin steps: col_step[a] of (a, 1), row_step[b] of (1, b) (-1: none)."""
+    col_step = np.full(int(di.max()) + 1, -1, dtype=np.int64)
+    row_step = np.full(int(dj.max()) + 1, -1, dtype=np.int64)
+    for s in np.flatnonzero(dj == 1):
+        col_step[di[s]] = s
+    for s in np.flatnonzero(di == 1):
+        row_step[dj[s]] = s
+    return col_step, row_step
+
+
 def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True, threads=1):
     """``threads`` = 2: the rows' column halves on two threads (``_dp_two_threads``) when the band has at least
     ``PARALLEL_MIN_NODES`` nodes; the result is the same bit for bit."""
@@ -432,7 +544,8 @@ def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_p
     n0, n1 = G.shape
     A = np.full((n0 + 1, n1 + 1), np.inf)
     A[0, 0] = 0.0
-    args = (G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, r, P1, P2)
+    col_step, row_step = _thin_index(di, dj)
+    args = (G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, r, P1, P2, col_step, row_step)
     nodes = int(np.sum(hi - lo + 1))
     split = _column_split(lo, hi, n1) if threads > 1 and nodes >= PARALLEL_MIN_NODES and n0 > _ROW_BLOCK else 0
     if 0 < split <= n1:
