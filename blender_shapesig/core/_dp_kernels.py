@@ -239,7 +239,6 @@ if HAVE_NUMBA:
         n1 = G.shape[1]
         S = di.shape[0]
         cross = np.zeros(n1 + 1)
-        best = np.empty(n1 + 1)
         col_run = np.empty(n1 + 1)
         row_run = np.empty(n1 + 1)
         for i in range(row0, row1):
@@ -247,8 +246,7 @@ if HAVE_NUMBA:
             jh = min(hi[i], col1)
             if jl > jh:
                 continue
-            for j in range(jl, jh + 1):
-                best[j] = np.inf
+            best = A[i]  # +inf until this row is computed; the candidates only read earlier rows
             _thin_steps(A, G, B0, B1, h0, h1, lam, coef, start, lo, hi, rr, P1, P2, col_step, row_step, i, jl, jh,
                         col_run, row_run, best)
             for s in range(S):
@@ -345,9 +343,6 @@ if HAVE_NUMBA:
                             cand = Ak[t] + ((b0 + B1a[t]) - (((c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t]))))
                             if cand < bs[t]:
                                 bs[t] = cand
-
-            for j in range(jl, jh + 1):
-                A[i, j] = best[j]
 
     @_numba.njit(cache=True, nogil=True)
     def _gram_numba(Q0, Q1T):
