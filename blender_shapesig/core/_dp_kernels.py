@@ -35,6 +35,8 @@ per DP row.
 
 import numpy as np
 
+from . import _workspace
+
 try:  # numba is optional: Blender's Python does not ship it
     import numba as _numba
 except Exception:  # pragma: no cover - exercised by monkeypatching in the tests
@@ -345,14 +347,14 @@ if HAVE_NUMBA:
                                 bs[t] = cand
 
     @_numba.njit(cache=True, nogil=True)
-    def _gram_numba(Q0, Q1T):
+    def _gram_numba(Q0, Q1T, G):
         """G = Q0 Q1^T (Q0 with a multiple of four rows), each entry summed as ((x0 q0 + x1 q1) + (x2 q2 + x3 q3))
         per group of four columns, then the rest one by one. Four rows of G per pass, so that each value of Q1^T
         loaded serves all four; indexed as 2-D arrays, not as row slices (LLVM then vectorizes the loop over b
         without runtime alias checks between six row pointers: 0.38 instead of 0.67 ms at 299 x 93 x 299)."""
         n0, c = Q0.shape
         n1 = Q1T.shape[1]
-        G = np.zeros((n0, n1))
+        G[:, :] = 0.0
         c4 = c - c % 4
         for a in range(0, n0 - 3, 4):
             for r in range(0, c4, 4):
@@ -374,7 +376,6 @@ if HAVE_NUMBA:
                     G[a + 1, b] += y * q
                     G[a + 2, b] += u * q
                     G[a + 3, b] += v * q
-        return G
 
     @_numba.njit(cache=True, nogil=True)
     def _candidate(A, G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, rr, P1, P2, i, j, s):
@@ -455,19 +456,30 @@ if HAVE_NUMBA:
         return out[:count][::-1].copy()
 
 
-def gram(Q0, Q1):
+def gram(Q0, Q1, work=False):
     """G = Q0 Q1^T (inner products of all pairs of rows).
 
     With numba: a single-threaded loop that releases the GIL (BLAS would start its own threads
-    inside every worker thread of elastic_distance_matrix); without it: numpy's matmul.
+    inside every worker thread of elastic_distance_matrix); without it: numpy's matmul. ``work``: G and
+    the kernel's inputs in this thread's reused arrays (``_workspace``), for a G that does not outlive the call.
     """
-    if HAVE_NUMBA:
-        n0 = Q0.shape[0]
-        Q0 = np.ascontiguousarray(Q0, dtype=np.float64)
-        if n0 % 4:  # zero rows to group the last ones with (rows are computed independently)
-            Q0 = np.concatenate([Q0, np.zeros((4 - n0 % 4, Q0.shape[1]))])
-        return _gram_numba(Q0, np.ascontiguousarray(Q1.T, dtype=np.float64))[:n0]
-    return Q0 @ Q1.T
+    if not HAVE_NUMBA:
+        return Q0 @ Q1.T
+    n0, c = Q0.shape
+    n1 = Q1.shape[0]
+    rows = n0 + (-n0) % 4  # zero rows to group the last ones with (rows are computed independently)
+
+    def new(shape, name):
+        return _workspace.array(name, shape) if work else np.empty(shape)
+
+    Q0p = new((rows, c), "gram_Q0")
+    Q0p[:n0] = Q0
+    Q0p[n0:] = 0.0
+    Q1T = new((c, n1), "gram_Q1T")
+    Q1T[:] = Q1.T
+    G = new((rows, n1), "G")
+    _gram_numba(Q0p, Q1T, G)
+    return G[:n0]
 
 
 # Two threads for one DP only above this many band nodes (below, starting the second thread costs more than
@@ -528,16 +540,18 @@ def _thin_index(di, dj):
     return col_step, row_step
 
 
-def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True, threads=1):
+def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True, threads=1, work=False):
     """``threads`` = 2: the rows' column halves on two threads (``_dp_two_threads``) when the band has at least
-    ``PARALLEL_MIN_NODES`` nodes; the result is the same bit for bit."""
+    ``PARALLEL_MIN_NODES`` nodes; the result is the same bit for bit. ``work``: the DP values in this thread's
+    reused array (``_workspace``)."""
     if not HAVE_NUMBA:
         raise RuntimeError("numba is not available")
     r, P1, P2 = _penalty_terms(di, dj, h0, h1)
     G = np.ascontiguousarray(G, dtype=np.float64)
     h0, h1, lam = float(h0), float(h1), float(lam)
     n0, n1 = G.shape
-    A = np.full((n0 + 1, n1 + 1), np.inf)
+    A = _workspace.array("A", (n0 + 1, n1 + 1)) if work else np.empty((n0 + 1, n1 + 1))
+    A.fill(np.inf)
     A[0, 0] = 0.0
     col_step, row_step = _thin_index(di, dj)
     args = (G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, r, P1, P2, col_step, row_step)

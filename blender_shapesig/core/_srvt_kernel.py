@@ -20,6 +20,8 @@ on a 300-frame, 31-joint curve (docs/elastic.md, fourth pass). ``HAVE_NUMBA`` Fa
 
 import numpy as np
 
+from . import _workspace
+
 try:  # numba is optional, as for the DP kernels
     import numba as _numba
 except Exception:  # pragma: no cover - Blender's Python
@@ -50,12 +52,9 @@ if HAVE_NUMBA:
         return m00, m01, m02, m10, m11, m12, m20, m21, m22
 
     @_numba.njit(cache=True, nogil=True)
-    def _axial_and_cos(R):
+    def _axial_and_cos(R, w, s, c):
         """Per increment (row k * joints + j): w (3 rows), |w| and c = (tr M - 1) / 2 (so3._axial_and_cos)."""
         F, J = R.shape[0], R.shape[1]
-        w = np.empty((3, (F - 1) * J))
-        s = np.empty((F - 1) * J)
-        c = np.empty((F - 1) * J)
         for k in range(F - 1):
             for j in range(J):
                 m00, m01, m02, m10, m11, m12, m20, m21, m22 = _increment(R, k, j)
@@ -68,12 +67,10 @@ if HAVE_NUMBA:
                 w[2, r] = w2
                 s[r] = np.sqrt((w0 * w0 + w1 * w1) + w2 * w2)
                 c[r] = (((m00 + m11) + m22) - 1.0) * 0.5
-        return w, s, c
 
     @_numba.njit(cache=True, nogil=True)
-    def _srvt_from_angles(R, w, s, c, theta, dt, zero2):
+    def _srvt_from_angles(R, w, s, c, theta, dt, zero2, Q):
         F, J = R.shape[0], R.shape[1]
-        Q = np.empty((F - 1, 3 * J))
         for k in range(F - 1):
             h = dt[k]
             for j in range(J):
@@ -115,12 +112,21 @@ if HAVE_NUMBA:
                     Q[k, o] = 0.0
                     Q[k, o + 1] = 0.0
                     Q[k, o + 2] = 0.0
-        return Q
 
-    def srvt_rows(R, dt, zero_step):
-        """Q (frames-1, 3 joints) of a curve R (frames, joints, 3, 3) with frames >= 2 and intervals ``dt``."""
+    def srvt_rows(R, dt, zero_step, work=None):
+        """Q (frames-1, 3 joints) of a curve R (frames, joints, 3, 3) with frames >= 2 and intervals ``dt``.
+        ``work``: None, or the name of this thread's reused array for Q (``_workspace``; its temporaries too)."""
         R = np.ascontiguousarray(R, dtype=np.float64)
-        w, s, c = _axial_and_cos(R)
-        theta = np.arctan2(s, c)  # numpy's vectorized arctan2, the one so3.log uses
-        return _srvt_from_angles(R, w, s, c, theta, np.ascontiguousarray(dt, dtype=np.float64),
-                                 float(zero_step) * float(zero_step))
+        F, J = R.shape[0], R.shape[1]
+        n = (F - 1) * J
+
+        def new(shape, name):
+            return np.empty(shape) if work is None else _workspace.array(name, shape)
+
+        w, s, c, theta = new((3, n), "srvt_w"), new((n,), "srvt_s"), new((n,), "srvt_c"), new((n,), "srvt_theta")
+        _axial_and_cos(R, w, s, c)
+        np.arctan2(s, c, out=theta)  # numpy's vectorized arctan2, the one so3.log uses
+        Q = new((F - 1, 3 * J), work)
+        _srvt_from_angles(R, w, s, c, theta, np.ascontiguousarray(dt, dtype=np.float64),
+                          float(zero_step) * float(zero_step), Q)
+        return Q

@@ -111,3 +111,39 @@ def test_gram_contract_bit_for_bit(n0, n1, c):
         assert np.array_equal(G, gram_contract(Q0, Q1))
     else:  # numpy's matmul: the same to rounding
         np.testing.assert_allclose(G, gram_contract(Q0, Q1), rtol=1e-12, atol=1e-12)
+
+
+# ------------------------------------------------------------------------------------ reused work arrays
+
+
+def fresh_distance(R0, R1, **kw):
+    """elastic_distance without the reused work arrays (the distance matrix's route)."""
+    return float(elastic.elastic_distance_matrix([R0, R1], workers=1, **kw)[0, 1])
+
+
+def test_reused_work_arrays_give_the_same_values_across_sizes(monkeypatch):
+    """Successive calls of different sizes (the arrays grow, then serve smaller problems) equal fresh arrays bit
+    for bit, also with every array above MAX_BYTES (allocated per call) and after release()."""
+    from blender_shapesig.core import _workspace
+
+    pairs = [(steps_of_angles([0.1, 0.4, 2.0], joints=j, frames=f, seed=f) for f in (f0, f1)) for j, f0, f1 in
+             ((3, 40, 37), (5, 61, 64), (2, 9, 12), (5, 61, 64), (1, 2, 3))]
+    pairs = [tuple(p) for p in pairs]
+    want = [fresh_distance(R0, R1) for R0, R1 in pairs]
+    assert [elastic.elastic_distance(R0, R1) for R0, R1 in pairs] == want
+    _workspace.release()
+    monkeypatch.setattr(_workspace, "MAX_BYTES", 64)
+    assert [elastic.elastic_distance(R0, R1) for R0, R1 in pairs] == want
+    warp, d = elastic.elastic_align(*pairs[1])
+    assert d == want[1] and warp[0].tolist() == [0.0, 0.0]
+
+
+def test_reused_work_arrays_are_per_thread():
+    from concurrent.futures import ThreadPoolExecutor
+
+    pairs = [(steps_of_angles([0.2, 1.0], joints=4, frames=30 + n, seed=n),
+              steps_of_angles([0.3, 0.6], joints=4, frames=35 - n, seed=50 + n)) for n in range(6)]
+    want = [elastic.elastic_distance(R0, R1) for R0, R1 in pairs]
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        for _ in range(3):
+            assert list(pool.map(lambda p: elastic.elastic_distance(*p), pairs)) == want
