@@ -529,8 +529,20 @@ def _dp_two_threads(A, args, n0, n1, split):
         fut.result()
 
 
+_THIN = {}
+
+
 def _thin_index(di, dj):
-    """Table indices of the thin steps: col_step[a] of (a, 1), row_step[b] of (1, b) (-1: none)."""
+    """Table indices of the thin steps: col_step[a] of (a, 1), row_step[b] of (1, b) (-1: none); once per table."""
+    key = (di.tobytes(), dj.tobytes())
+    if key not in _THIN:
+        if len(_THIN) >= 256:
+            _THIN.clear()
+        _THIN[key] = _make_thin_index(di, dj)
+    return _THIN[key]
+
+
+def _make_thin_index(di, dj):
     col_step = np.full(int(di.max()) + 1, -1, dtype=np.int64)
     row_step = np.full(int(dj.max()) + 1, -1, dtype=np.int64)
     for s in np.flatnonzero(dj == 1):

@@ -109,10 +109,24 @@ def _srvt_matrix(R, name, work=None):
         raise CurveError(f"{name}: needs at least two frames for an elastic distance, got {R.shape[0]}")
     if _dp_kernels.HAVE_NUMBA and _srvt_kernel.HAVE_NUMBA and curves.DEFAULT_SRVT_NORM == "joint":
         # one compiled pass, the same operations as srvt (to an ulp or so; docs/elastic.md, fourth pass)
-        dt = np.diff(as_times(None, R.shape[0]))
+        dt = _memo(("dt", R.shape[0]), lambda: np.diff(as_times(None, R.shape[0])))
         return _srvt_kernel.srvt_rows(R, dt, curves.ZERO_STEP, work), R.shape[1]
     q = srvt(R)
     return np.ascontiguousarray(q.reshape(q.shape[0], -1)), R.shape[1]
+
+
+_MEMO = {}
+
+
+def _memo(key, make):
+    """A small table that depends only on the frame counts and the depth (time steps, entry coefficients, band),
+    made once per key (all are dropped beyond 1024 keys). Callers must not modify it."""
+    value = _MEMO.get(key)
+    if value is None:
+        if len(_MEMO) >= 1024:
+            _MEMO.clear()
+        value = _MEMO[key] = make()
+    return value
 
 
 def required_depth(frames0, frames1):
@@ -271,12 +285,12 @@ class _Problem:
         self.penalty = penalty
         self.h0, self.h1 = 1.0 / n0, 1.0 / n1
         self.table = _step_table(mi, mj, prune)
-        self.coef = _entry_coefficients(self.table, self.h0, self.h1)
+        self.coef = _memo(("coef", mi, mj, prune, n0, n1), lambda: _entry_coefficients(self.table, self.h0, self.h1))
         self.work = work  # G and the DP values in this thread's reused arrays (_workspace): not kept past the call
         self.G = _dp_kernels.gram(Q0, Q1, work)
         self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, mi)
         self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, mj)
-        self.lo, self.hi = _band(n0, n1, mi, mj)
+        self.lo, self.hi = _memo(("band", n0, n1, mi, mj), lambda: _band(n0, n1, mi, mj))
 
     def solve(self, method, want_path=True, threads=1):
         """(DP minimum, path nodes (count, 2) from (0, 0) to (n0, n1) or None); ``threads``: numba only."""
