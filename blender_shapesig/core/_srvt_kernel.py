@@ -1,6 +1,6 @@
 """One compiled pass from rotation matrices to the flattened SRVT of the elastic DP (numba, optional).
 
-``srvt_rows(R, dt)`` returns ``Q`` (frames-1, 3 joints) with ``Q[k, 3 j: 3 j + 3]`` the per-joint SRVT
+``srvt_rows(R, dt, zero_step)`` returns ``Q`` (frames-1, 3 joints) with ``Q[k, 3 j: 3 j + 3]`` the per-joint SRVT
 (``curves.srvt(R, norm="joint")``, the default norm) of the step from frame k to k+1:
 
 1. the increment ``M = R[k+1, j] R[k, j]^T``, each entry summed ``(a0 b0 + a1 b1) + a2 b2`` as
@@ -9,13 +9,16 @@
    ``c = (tr M - 1) / 2``, ``theta = arctan2(|w|, c)``; the axis ``w / |w|`` while c >= 0 (``w`` times
    theta / sin theta, 1 at the identity), beyond pi/2 the column of the symmetric part ``(M + M^T)/2 - c I``
    with the largest diagonal (the first on ties), normalized, its sign taken from ``w``;
-3. the SRVT zero rule of ``curves.srvt_of_velocity``: ``eta = step / dt[k]``, q = 0 where the step's angle is
-   at most ``ZERO_STEP`` (its squared length at most ``zero2``) or eta is 0, else ``eta / sqrt(|eta|)``.
+3. the SRVT zero rule of ``curves.srvt_of_velocity``: ``eta = step * (1 / dt[k])``, q = 0 where the step's angle
+   is at most ``ZERO_STEP`` (its squared length at most ``zero2``) or eta is 0, else ``eta / sqrt(|eta|)``
+   (as ``eta * (1 / sqrt(|eta|))``).
 
-Same operations in the same order as the numpy route, so the two agree to the last bits (only ``arctan2``,
-``sqrt`` and the sums of three squares may round differently by an ulp: tests/core/test_elastic.py checks
-1e-14 relative, also for steps near 0 and pi and still joints). About 5 times faster than the numpy route
-on a 300-frame, 31-joint curve (docs/elastic.md, fourth pass). ``HAVE_NUMBA`` False: ``srvt_rows`` is None.
+The same operations as the numpy route, nearly all in the same order, so the two agree to an ulp or two: numpy's
+``arctan2`` is used for theta (between two compiled passes); ``eta`` is the step times 1 / dt (one division per
+frame, numpy divides) and the sums of three squares are taken left to right (numpy's einsum may pair them
+otherwise). tests/core/test_elastic_prep.py checks 1e-14 relative, also for steps near 0 and pi, at the ZERO_STEP
+threshold and for still joints. About three times faster than the numpy route on a 300-frame, 31-joint curve
+(0.19 against 0.63 ms; docs/elastic.md, fourth pass). ``HAVE_NUMBA`` False: ``srvt_rows`` is None.
 """
 
 import numpy as np
@@ -72,7 +75,7 @@ if HAVE_NUMBA:
     def _srvt_from_angles(R, w, s, c, theta, dt, zero2, Q):
         F, J = R.shape[0], R.shape[1]
         for k in range(F - 1):
-            h = dt[k]
+            inv = 1.0 / dt[k]  # one division per frame, not three per joint
             for j in range(J):
                 r = k * J + j
                 t = theta[r]
@@ -100,7 +103,7 @@ if HAVE_NUMBA:
                 else:
                     ratio = t / s[r] if s[r] > 0.0 else 1.0
                     v0, v1, v2 = w[0, r] * ratio, w[1, r] * ratio, w[2, r] * ratio
-                e0, e1, e2 = v0 / h, v1 / h, v2 / h
+                e0, e1, e2 = v0 * inv, v1 * inv, v2 * inv
                 size = np.sqrt((e0 * e0 + e1 * e1) + e2 * e2)
                 o = 3 * j
                 if (v0 * v0 + v1 * v1) + v2 * v2 > zero2 and size > 0.0:  # the SRVT zero rule
