@@ -595,6 +595,8 @@ def warm_up():
     steps = np.linspace(0.01, 0.05, 6 * 2 * 3).reshape(6, 2, 3)
     R0, R1 = integrate(steps), integrate(steps[::-1])
     elastic_distance(R0, R1, depth=3)
+    R0.setflags(write=False)  # read-only curves (e.g. cached arrays) are another type for the SRVT kernels
+    elastic_distance(R0, R1, depth=3)
     elastic_align(R0, R1, depth=3)
     elastic_align(R0, R1, depth=3, penalty=0.1)
     return True
