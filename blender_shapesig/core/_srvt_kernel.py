@@ -71,7 +71,7 @@ if HAVE_NUMBA:
                 s[r] = np.sqrt((w0 * w0 + w1 * w1) + w2 * w2)
                 c[r] = (((m00 + m11) + m22) - 1.0) * 0.5
 
-    @_numba.njit(cache=True, nogil=True)
+    @_numba.njit(cache=True, nogil=True, error_model="numpy")  # IEEE division: every divisor is checked > 0
     def _srvt_from_angles(R, w, s, c, theta, dt, zero2, Q):
         F, J = R.shape[0], R.shape[1]
         for k in range(F - 1):
