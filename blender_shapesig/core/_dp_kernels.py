@@ -187,7 +187,7 @@ if HAVE_NUMBA:
                 if cand < bs[t]:
                     bs[t] = cand
 
-    @_numba.njit(cache=True, nogil=True, inline="always")
+    @_numba.njit(cache=True, nogil=True)
     def _thin_steps(A, G, B0, B1, h0, h1, lam, coef, start, lo, hi, rr, P1, P2, col_step, row_step, i, jl, jh,
                     col_run, row_run, best):
         """The thin steps into the nodes jl..jh of row i, from running sums (the module docstring): (a, 1) for

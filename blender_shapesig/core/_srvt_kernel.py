@@ -38,7 +38,7 @@ srvt_rows = None
 
 if HAVE_NUMBA:
 
-    @_numba.njit(cache=True, nogil=True, inline="always")
+    @_numba.njit(cache=True, nogil=True)
     def _increment(R, k, j):
         """The nine entries of M = R[k+1, j] R[k, j]^T, each summed (a0 b0 + a1 b1) + a2 b2 (so3._mul_transpose)."""
         A = R[k + 1, j]
