@@ -56,7 +56,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import _dp_kernels
+from . import _dp_kernels, _srvt_kernel, curves
 from .curves import as_curve, as_times, geodesic_interpolate, srvt
 from .errors import CurveError, ShapeSigError, check_integer, check_number
 from .metrics import DEFAULT_DEPTH
@@ -97,17 +97,36 @@ def _check_method(method):
     return method
 
 
-def _srvt_matrix(R, name):
+def _srvt_matrix(R, name, work=None):
     """Flattened SRVT (frames-1, 3 joints) of a curve moved to P*, on the uniform grid.
 
     The SRVT depends only on the increments R[k+1] R[k]^T, which a right translation leaves unchanged, so
     the curve is not moved explicitly (that product cost a third of a whole 300-frame call; the result
-    differs only in rounding)."""
+    differs only in rounding). ``work``: None, or the name of this thread's reused array for the result
+    (``_workspace``: only for a result that does not outlive the call; compiled route only)."""
     R = as_curve(R, name)
     if R.shape[0] < 2:
         raise CurveError(f"{name}: needs at least two frames for an elastic distance, got {R.shape[0]}")
+    if _dp_kernels.HAVE_NUMBA and _srvt_kernel.HAVE_NUMBA and curves.DEFAULT_SRVT_NORM == "joint":
+        # one compiled pass, the same operations as srvt (to an ulp or so; docs/elastic.md, fourth pass)
+        dt = _memo(("dt", R.shape[0]), lambda: np.diff(as_times(None, R.shape[0])))
+        return _srvt_kernel.srvt_rows(R, dt, curves.ZERO_STEP, work), R.shape[1]
     q = srvt(R)
     return np.ascontiguousarray(q.reshape(q.shape[0], -1)), R.shape[1]
+
+
+_MEMO = {}
+
+
+def _memo(key, make):
+    """A small table that depends only on the frame counts and the depth (time steps, entry coefficients, band),
+    made once per key (all are dropped beyond 1024 keys). Callers must not modify it."""
+    value = _MEMO.get(key)
+    if value is None:
+        if len(_MEMO) >= 1024:
+            _MEMO.clear()
+        value = _MEMO[key] = make()
+    return value
 
 
 def required_depth(frames0, frames1):
@@ -251,7 +270,7 @@ MAX_DP_BYTES = 4 * 2**30
 class _Problem:
     """Everything the kernels need for one pair of curves (uniform grids)."""
 
-    def __init__(self, Q0, Q1, depth, penalty, prune=True):
+    def __init__(self, Q0, Q1, depth, penalty, prune=True, work=False):
         n0, n1 = Q0.shape[0], Q1.shape[0]
         need = DP_BYTES_PER_NODE * n0 * n1
         if need > MAX_DP_BYTES:
@@ -266,11 +285,12 @@ class _Problem:
         self.penalty = penalty
         self.h0, self.h1 = 1.0 / n0, 1.0 / n1
         self.table = _step_table(mi, mj, prune)
-        self.coef = _entry_coefficients(self.table, self.h0, self.h1)
-        self.G = _dp_kernels.gram(Q0, Q1)
+        self.coef = _memo(("coef", mi, mj, prune, n0, n1), lambda: _entry_coefficients(self.table, self.h0, self.h1))
+        self.work = work  # G and the DP values in this thread's reused arrays (_workspace): not kept past the call
+        self.G = _dp_kernels.gram(Q0, Q1, work)
         self.B0 = _window_sums(np.einsum("ij,ij->i", Q0, Q0) * self.h0, mi)
         self.B1 = _window_sums(np.einsum("ij,ij->i", Q1, Q1) * self.h1, mj)
-        self.lo, self.hi = _band(n0, n1, mi, mj)
+        self.lo, self.hi = _memo(("band", n0, n1, mi, mj), lambda: _band(n0, n1, mi, mj))
 
     def solve(self, method, want_path=True, threads=1):
         """(DP minimum, path nodes (count, 2) from (0, 0) to (n0, n1) or None); ``threads``: numba only."""
@@ -278,7 +298,7 @@ class _Problem:
         args = (self.G, self.B0, self.B1, self.h0, self.h1, self.penalty,
                 t["di"], t["dj"], t["start"], t["ea"], t["eb"], self.coef, self.lo, self.hi)
         if method == "numba":
-            return _dp_kernels.dp_numba(*args, want_path=want_path, threads=threads)
+            return _dp_kernels.dp_numba(*args, want_path=want_path, threads=threads, work=self.work)
         return _dp_kernels.dp_numpy(*args, want_path=want_path)
 
 
@@ -295,11 +315,11 @@ def _align(R0, R1, depth, penalty, method, prune, want_path, threads=1):
     threads = _check_threads(threads)
     penalty = _check_penalty(penalty)
     method = _check_method(method)
-    Q0, j0 = _srvt_matrix(R0, "R0")
-    Q1, j1 = _srvt_matrix(R1, "R1")
+    Q0, j0 = _srvt_matrix(R0, "R0", "Q0")
+    Q1, j1 = _srvt_matrix(R1, "R1", "Q1")
     if j0 != j1:
         raise CurveError(f"the curves have {j0} and {j1} joints")
-    prob = _Problem(Q0, Q1, depth, penalty, prune)
+    prob = _Problem(Q0, Q1, depth, penalty, prune, work=True)
     value, nodes = prob.solve(method, want_path, threads)
     return prob, value, nodes
 

@@ -354,7 +354,7 @@ def test_two_threads_identical_dp_table_large_pair(penalty):
     t = prob.table
     r, P1, P2 = _dp_kernels._penalty_terms(t["di"], t["dj"], prob.h0, prob.h1)
     args = (prob.G, prob.B0, prob.B1, prob.h0, prob.h1, float(penalty), t["di"], t["dj"], t["start"], t["ea"],
-            t["eb"], prob.coef, prob.lo, prob.hi, r, P1, P2)
+            t["eb"], prob.coef, prob.lo, prob.hi, r, P1, P2) + _dp_kernels._thin_index(t["di"], t["dj"])
     n0, n1 = prob.G.shape
     assert int(np.sum(prob.hi - prob.lo + 1)) >= _dp_kernels.PARALLEL_MIN_NODES
     split = _dp_kernels._column_split(prob.lo, prob.hi, n1)
