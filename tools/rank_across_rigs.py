@@ -2,7 +2,7 @@
 """The same take in other formats and skeletons ranks first (issue 14), and the comparison-space measurement.
 
   .venv/bin/python tools/rank_across_rigs.py --data ../shared/data/cmu [--bone-map auto|none] [--rerank K]
-      [--metric sim3|linear3|elastic|...] [--joints]
+      [--metric sim3|linear3|elastic|...] [--all] [--joints]
 
 A library of the shared CMU takes in two formats each: AMC 07_01-07_03 and 09_01-09_03 with their cgspeed Daz
 BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02_03, AMC 16_15 with its
@@ -12,6 +12,9 @@ the script prints each query's first result and whether it is the same take, and
 No crops: every clip is read as a user reads it (``--trim auto``, ``core.trim``), which drops the Daz BVH files'
 rest-pose frame and the converter's ramp and the iClone files' T-pose frame; the AMC originals and 16_15 (both
 files hold the same 471 frames) have nothing to trim.
+
+``--all``: the 20 clips query a library of every readable shared clip (92: all BVH files and every AMC whose
+subject's skeleton is in the data, as ``tools/dedupe_check.py`` reads them), not only each other.
 
 ``--joints``: for every same-take pair, how far the two files are the same motion, joint by joint: each joint's
 rotation over 1/15 s in the comparison space (``log(R[k+s] R[k]^T)``, which no rest pose, bone axis or roll
@@ -54,19 +57,41 @@ def takes():
     return out
 
 
+def _named(spec, name):
+    """The library item of ``spec``, its clip and results named ``name``."""
+    item = sources.spec_item(spec)
+    item.name = name
+    loader = item.load
+    item.load = lambda: [dataclasses.replace(c, name=name) for c in loader()]
+    return item
+
+
 def library(data, bone_map="auto"):
     """(items, takes): one LibraryItem per shared clip, named ``format:take``."""
     items, names = [], []
     for fmt, take, path, asf in takes():
         spec = sources.ClipSpec(os.path.join(data, path), asf=None if asf is None else os.path.join(data, asf),
                                 bone_map=bone_map)
-        item = sources.spec_item(spec)
-        item.name = f"{fmt}:{take}"
-        loader = item.load
-        item.load = lambda loader=loader, name=item.name: [dataclasses.replace(c, name=name) for c in loader()]
-        items.append(item)
+        items.append(_named(spec, f"{fmt}:{take}"))
         names.append(take)
     return items, names
+
+
+def all_shared(data, items, bone_map="auto"):
+    """The items plus every other readable shared clip (``dedupe_check.library``), named ``other:STEM``."""
+    import pathlib
+
+    from dedupe_check import library as shared_library  # tools/: this script's folder
+
+    have = {os.path.realpath(os.path.join(data, path)) for _, _, path, _ in takes()}
+    out = list(items)
+    for p in shared_library(pathlib.Path(data))[0]:
+        spec = p if isinstance(p, sources.ClipSpec) else sources.ClipSpec(str(p))
+        if os.path.realpath(spec.path) in have:
+            continue
+        out.append(_named(sources.ClipSpec(spec.path, asf=spec.asf, bone_map=bone_map),
+                          f"other:{os.path.splitext(os.path.basename(spec.path))[0]}"))
+    return out
 
 
 def _motion(clip, joints, seconds=1 / 15):
@@ -117,16 +142,18 @@ def main(argv=None):
     ap.add_argument("--bone-map", default="auto")
     ap.add_argument("--metric", default="sim3")
     ap.add_argument("--rerank", type=int, default=0)
+    ap.add_argument("--all", action="store_true", help="the library: every readable shared clip (92)")
     ap.add_argument("--joints", action="store_true", help="per same-take pair, how far the files' joints agree")
     args = ap.parse_args(argv)
     items, take_of = library(args.data, args.bone_map)
     if args.joints:
         print_joint_agreement(items, take_of)
         return 0
+    library_items = all_shared(args.data, items, args.bone_map) if args.all else items
     cache = index.SignatureCache()
     ok = 0
     for i, q in enumerate(items):
-        res = index.rank_clips(q, items, metric=args.metric, cache=cache, exclude=(q.key,), rerank=args.rerank)
+        res = index.rank_clips(q, library_items, metric=args.metric, cache=cache, exclude=(q.key,), rerank=args.rerank)
         first = res[0] if res else None
         same = first is not None and first.name.split(":")[1] == take_of[i] and first.name != q.name
         ok += same
@@ -134,7 +161,8 @@ def main(argv=None):
         cov = f"{first.coverage:.2f}" if first else "-"
         print(f"{q.name:14s} -> {first.name if first else '(none)':14s} {d}  coverage {cov}  "
               f"{'ok' if same else 'MISS'}")
-    print(f"same take first: {ok}/{len(items)} ({args.metric}, bone map {args.bone_map})")
+    print(f"same take first: {ok}/{len(items)} ({args.metric}, bone map {args.bone_map}, "
+          f"library of {len(library_items)} clips)")
     return 0 if ok == len(items) else 1
 
 
