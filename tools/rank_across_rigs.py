@@ -86,11 +86,10 @@ def all_shared(data, items, bone_map="auto"):
     have = {os.path.realpath(os.path.join(data, path)) for _, _, path, _ in takes()}
     out = list(items)
     for p in shared_library(pathlib.Path(data))[0]:
-        spec = p if isinstance(p, sources.ClipSpec) else sources.ClipSpec(str(p))
-        if os.path.realpath(spec.path) in have:
-            continue
-        out.append(_named(sources.ClipSpec(spec.path, asf=spec.asf, bone_map=bone_map),
-                          f"other:{os.path.splitext(os.path.basename(spec.path))[0]}"))
+        spec = p if isinstance(p, sources.ClipSpec) else sources.ClipSpec(p)
+        if os.path.realpath(spec.path) not in have:
+            out.append(_named(dataclasses.replace(spec, bone_map=bone_map),
+                              f"other:{os.path.splitext(os.path.basename(spec.path))[0]}"))
     return out
 
 
@@ -115,8 +114,11 @@ def joint_agreement(a, b, max_offset=15):
         n = min(len(x), len(y))
         return x[:n], y[:n]
 
-    off = min(range(-max_offset, max_offset + 1),
-              key=lambda o: np.linalg.norm(np.subtract(*pair(o))) / np.linalg.norm(pair(o)[0]))
+    def misfit(off):
+        x, y = pair(off)
+        return np.linalg.norm(x - y) / np.linalg.norm(x)
+
+    off = min(range(-max_offset, max_offset + 1), key=misfit)
     x, y = pair(off)
     return off, {j: float(np.linalg.norm(x[:, i] - y[:, i]) / max(np.linalg.norm(x[:, i]), 1e-12))
                  for i, j in enumerate(joints)}

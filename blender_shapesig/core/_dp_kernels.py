@@ -113,16 +113,14 @@ def dp_numpy(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_p
                 x = -(lam * pen)
             if b == 1:  # thin steps (a, 1), a = 1, 2, ... in table order: G[i-1, j-1] + ... + G[i-a, j-1]
                 col_run = shifted(1, 1) if a == 1 else col_run + shifted(a, 1)
-                chunk = coef[start[s]] * col_run
-                x = chunk if x is None else x + chunk
+                chunks = [coef[start[s]] * col_run]
             elif a == 1:  # thin steps (1, b), b = 2, 3, ...: G[i-1, j-1] + ... + G[i-1, j-b]
                 row_run = (shifted(1, 1) if b == 2 else row_run) + shifted(1, b)
-                chunk = coef[start[s]] * row_run
-                x = chunk if x is None else x + chunk
-            for e in range(int(start[s]), int(start[s + 1]), 4):
-                if a == 1 or b == 1:
-                    break
-                chunk = _chunk_value([g(f) for f in range(e, min(e + 4, int(start[s + 1])))])
+                chunks = [coef[start[s]] * row_run]
+            else:
+                chunks = (_chunk_value([g(f) for f in range(e, min(e + 4, int(start[s + 1])))])
+                          for e in range(int(start[s]), int(start[s + 1]), 4))
+            for chunk in chunks:
                 x = chunk if x is None else x + chunk
             E[s, :nb] = (B0[a, r0:r1][:, None] + B1[b][None, :]) - x
         for i in range(r0, r1):
@@ -468,16 +466,12 @@ def gram(Q0, Q1, work=False):
     n0, c = Q0.shape
     n1 = Q1.shape[0]
     rows = n0 + (-n0) % 4  # zero rows to group the last ones with (rows are computed independently)
-
-    def new(shape, name):
-        return _workspace.array(name, shape) if work else np.empty(shape)
-
-    Q0p = new((rows, c), "gram_Q0")
+    Q0p = _workspace.array("gram_Q0", (rows, c), work)
     Q0p[:n0] = Q0
     Q0p[n0:] = 0.0
-    Q1T = new((c, n1), "gram_Q1T")
+    Q1T = _workspace.array("gram_Q1T", (c, n1), work)
     Q1T[:] = Q1.T
-    G = new((rows, n1), "G")
+    G = _workspace.array("G", (rows, n1), work)
     _gram_numba(Q0p, Q1T, G)
     return G[:n0]
 
@@ -529,17 +523,9 @@ def _dp_two_threads(A, args, n0, n1, split):
         fut.result()
 
 
-_THIN = {}
-
-
 def _thin_index(di, dj):
     """Table indices of the thin steps: col_step[a] of (a, 1), row_step[b] of (1, b) (-1: none); once per table."""
-    key = (di.tobytes(), dj.tobytes())
-    if key not in _THIN:
-        if len(_THIN) >= 256:
-            _THIN.clear()
-        _THIN[key] = _make_thin_index(di, dj)
-    return _THIN[key]
+    return _workspace.memo(("thin", di.tobytes(), dj.tobytes()), lambda: _make_thin_index(di, dj))
 
 
 def _make_thin_index(di, dj):
@@ -562,7 +548,7 @@ def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_p
     G = np.ascontiguousarray(G, dtype=np.float64)
     h0, h1, lam = float(h0), float(h1), float(lam)
     n0, n1 = G.shape
-    A = _workspace.array("A", (n0 + 1, n1 + 1)) if work else np.empty((n0 + 1, n1 + 1))
+    A = _workspace.array("A", (n0 + 1, n1 + 1), work)
     A.fill(np.inf)
     A[0, 0] = 0.0
     col_step, row_step = _thin_index(di, dj)

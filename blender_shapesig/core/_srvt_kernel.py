@@ -122,14 +122,12 @@ if HAVE_NUMBA:
         R = np.ascontiguousarray(R, dtype=np.float64)
         F, J = R.shape[0], R.shape[1]
         n = (F - 1) * J
-
-        def new(shape, name):
-            return np.empty(shape) if work is None else _workspace.array(name, shape)
-
-        w, s, c, theta = new((3, n), "srvt_w"), new((n,), "srvt_s"), new((n,), "srvt_c"), new((n,), "srvt_theta")
+        reuse = work is not None
+        w = _workspace.array("srvt_w", (3, n), reuse)
+        s, c, theta = (_workspace.array(name, (n,), reuse) for name in ("srvt_s", "srvt_c", "srvt_theta"))
         _axial_and_cos(R, w, s, c)
         np.arctan2(s, c, out=theta)  # numpy's vectorized arctan2, the one so3.log uses
-        Q = new((F - 1, 3 * J), work)
+        Q = _workspace.array(work, (F - 1, 3 * J), reuse)
         _srvt_from_angles(R, w, s, c, theta, np.ascontiguousarray(dt, dtype=np.float64),
                           float(zero_step) * float(zero_step), Q)
         return Q

@@ -57,6 +57,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import _dp_kernels, _srvt_kernel, curves
+from ._workspace import memo as _memo
 from .curves import as_curve, as_times, geodesic_interpolate, srvt
 from .errors import CurveError, ShapeSigError, check_integer, check_number
 from .metrics import DEFAULT_DEPTH
@@ -113,20 +114,6 @@ def _srvt_matrix(R, name, work=None):
         return _srvt_kernel.srvt_rows(R, dt, curves.ZERO_STEP, work), R.shape[1]
     q = srvt(R)
     return np.ascontiguousarray(q.reshape(q.shape[0], -1)), R.shape[1]
-
-
-_MEMO = {}
-
-
-def _memo(key, make):
-    """A small table that depends only on the frame counts and the depth (time steps, entry coefficients, band),
-    made once per key (all are dropped beyond 1024 keys). Callers must not modify it."""
-    value = _MEMO.get(key)
-    if value is None:
-        if len(_MEMO) >= 1024:
-            _MEMO.clear()
-        value = _MEMO[key] = make()
-    return value
 
 
 def required_depth(frames0, frames1):
