@@ -19,7 +19,9 @@ subject's skeleton is in the data, as ``tools/dedupe_check.py`` reads them), not
 ``--joints``: for every same-take pair, how far the two files are the same motion, joint by joint: each joint's
 rotation over 1/15 s in the comparison space (``log(R[k+s] R[k]^T)``, which no rest pose, bone axis or roll
 changes), low-passed as the comparison does, at the frame offset that matches the files best, and the relative
-difference |w_a - w_b| / |w_a| per joint (0: the same motion; about 1.4: unrelated motions of the same size).
+difference |w_a - w_b| / |w_a| per joint (0: the same motion; about 1.4: unrelated motions of the same size);
+then, for the torso joints, the second file's RMS rotation rate about each axis of the comparison frame over the
+first's (x: forward bend, y: the direction of travel, i.e. lateral lean, z: twist; 1.0: the same amount of motion).
 """
 
 import argparse
@@ -102,10 +104,13 @@ def _motion(clip, joints, seconds=1 / 15):
     return so3.log(R[s:] @ np.swapaxes(R[:-s], -1, -2))[cut:-cut or None]
 
 
+TORSO = ("hips", "spine", "spine_mid", "chest", "neck", "head")
+
+
 def joint_agreement(a, b, max_offset=15):
-    """(offset, {joint: relative difference}) of two clips of one take at one frame rate (see --joints), b's
+    """(offset, {joint: relative difference}, {joint: (gain x, y, z)}) of two clips of one take at one frame rate (see --joints), b's
     frames shifted by the offset in -max_offset..max_offset that matches all joints best (a's frame k + offset
-    with b's frame k)."""
+    with b's frame k); the gains are b's RMS rotation rate about each comparison axis over a's."""
     joints = [j for j in a.bones if j in b.bones]
     wa, wb = _motion(a, joints), _motion(b, joints)
 
@@ -120,8 +125,10 @@ def joint_agreement(a, b, max_offset=15):
 
     off = min(range(-max_offset, max_offset + 1), key=misfit)
     x, y = pair(off)
-    return off, {j: float(np.linalg.norm(x[:, i] - y[:, i]) / max(np.linalg.norm(x[:, i]), 1e-12))
-                 for i, j in enumerate(joints)}
+    rel = {j: float(np.linalg.norm(x[:, i] - y[:, i]) / max(np.linalg.norm(x[:, i]), 1e-12))
+           for i, j in enumerate(joints)}
+    gain = np.sqrt((y ** 2).mean(axis=0) / np.maximum((x ** 2).mean(axis=0), 1e-24))
+    return off, rel, {j: tuple(float(g) for g in gain[i]) for i, j in enumerate(joints)}
 
 
 def print_joint_agreement(items, take_of):
@@ -133,9 +140,11 @@ def print_joint_agreement(items, take_of):
         if ca.fps != cb.fps:  # the iClone files (60 fps): at the lower rate, by every n-th frame of the other
             ca, cb = sorted((ca, cb), key=lambda c: c.fps)
             cb = prepare.decimate_clip(cb, round(cb.fps / ca.fps))
-        off, rel = joint_agreement(ca, cb)
+        off, rel, gain = joint_agreement(ca, cb)
         print(f"{a.name} vs {b.name} (offset {off:+d} frames): "
               + ", ".join(f"{j} {v:.2f}" for j, v in rel.items()))
+        print("  torso rate gain (bend, lean, twist): "
+              + ", ".join(f"{j} " + "/".join(f"{g:.1f}" for g in gain[j]) for j in TORSO if j in gain))
 
 
 def main(argv=None):
