@@ -13,8 +13,8 @@ ranking with the built index; the one-off index build; the index's memory.
 3. A click (what the search operator does, without writing the UI results): the query item,
    ``library.library_items`` (change detection through ``action_io.action_fingerprint``) and
    ``core.index.rank_clips`` with the built index (re-rank off). Cold: the first click of a session (every
-   action's fingerprint computed: the baseline ``action_io.action_hash`` of every action, as every click paid
-   before); warm: later clicks (best of ``--repeat``) and a click after one action was edited. Then the click as
+   action's fingerprint, ``action_io.read_hash``, computed; the baseline: ``action_io.action_hash`` of every
+   action, the key every click computed before); warm: later clicks (best of ``--repeat``) and a click after one action was edited. Then the click as
    the UI runs it, ``bpy.ops.shapesig.rank()`` (results written to the window manager, no undo step), beside the
    same run's baseline of one whole-file undo push (what each click cost when the operator was an UNDO one).
 4. Memory: the index in memory (numpy arrays and Python objects; tracemalloc) after loading every entry from the

@@ -1,6 +1,6 @@
 """Change detection for actions: a cheap, reliable fingerprint per action for the session.
 
-Find Similar keys every action of the file by its content (``action_hash``), and re-reading every F-curve of
+Find Similar keys every action of the file by what its clip is read from (``action_io.read_hash``), and re-reading every F-curve of
 1,000 actions costs seconds per click. So each action's hash (and the bones it animates) is remembered for the
 session with a *stamp* that is cheap to read (a few calls per action: the F-curve count of each channel bag; not
 the frame range, whose scan of every key costs 30 ms per 1,000 actions, nor the mute flags, 58 ms), and dropped
@@ -12,13 +12,14 @@ when
   * the stamp differs (F-curves added to or removed from an action no object plays);
   * ``forget_fingerprints(action)`` is called (scripts that edit the keyframe values of an action no object
     plays, which Blender reports nowhere, should call it).
-``action_hash`` stays the definition of an action's content; ``action_fingerprint`` returns the same string.
+``read_hash`` stays the definition; ``action_fingerprint`` returns the same string.
 """
 
 import bpy
 
 from . import compat
-from .action_io import _bone_channels, action_hash
+from .action_hashes import read_hash
+from .action_io import _bone_channels
 
 __all__ = ["action_fingerprint", "action_bones", "forget_fingerprints", "refresh_fingerprints",
            "remembered_hash", "stop_change_detection"]
@@ -88,10 +89,10 @@ def action_bones(action) -> frozenset:
 
 
 def action_fingerprint(action) -> str:
-    """``action_hash(action)``, computed once per session while the action is unchanged (see above)."""
+    """``read_hash(action)``, computed once per session while the action is unchanged (see above)."""
     rec = _record(action)
     if rec.hash is None:
-        rec.hash = action_hash(action)
+        rec.hash = read_hash(action)
     return rec.hash
 
 

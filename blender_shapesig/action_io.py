@@ -18,7 +18,7 @@ its rest pose, in the bone's own rest frame: Blender's ``matrix_basis`` rotation
   is ``FCurve.evaluate``-d (honours interpolation and modifiers). Muted F-curves are ignored.
 * Root translation: the ``location`` of the root bone (the armature's first parentless bone, else the first
   bone that has location F-curves), in that bone's rest frame, or None when it has no location channel.
-* ``meta``: ``still_bones``, ``fcurve_hash`` (``action_hash``), ``missing_rotation_bones``, ``slot``, and with
+* ``meta``: ``still_bones``, ``fcurve_hash`` (``read_hash``), ``missing_rotation_bones``, ``slot``, and with
   an armature ``rest_rotations`` (bones, 3, 3): each bone's armature-space rest orientation B (so ``B R B^T`` is
   the rotation in armature-aligned axes).
 * fps: the ``fps`` argument, else the action's ``shapesig_fps`` property (set by write_action), else the scene's.
@@ -35,7 +35,6 @@ per channel, through ``keyframe_points.add`` + ``foreach_set``: quaternions sign
 unwrapped (no ±2π jumps between frames), one F-curve group per bone; a slot and channelbag on 4.4+.
 """
 
-import hashlib
 import math
 import re
 from dataclasses import replace
@@ -44,13 +43,14 @@ import bpy
 import numpy as np
 
 from . import compat
+from .action_hashes import action_hash, read_hash
 from .core.clip import Clip
 from .core.errors import ShapeSigError
 from .core.skeleton import rest_meta
 # the rotation maths is core.so3's; the channel conversions are re-exported here, where callers know them
 from .core.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
-__all__ = ["read_action", "write_action", "assign_action", "action_hash", "armature_actions", "to_armature_space", "to_pose_space",
+__all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions", "to_armature_space", "to_pose_space",
            "EULER_MODES", "SPACES"]
 
 SPACES = ("pose", "armature")
@@ -98,40 +98,11 @@ def _bone_channels(fcurves):
     return out
 
 
-def action_hash(action, _co_cache=None) -> str:
-    """SHA-1 of the action's F-curve data (all slots): data paths, indices, mute, extrapolation, modifiers,
-    and every key's co, handles, handle types, interpolation and easing. Any edit changes it."""
-    h = hashlib.sha1()
-    fcurves = compat.all_action_fcurves(action)
-    for fc in sorted(fcurves, key=lambda f: (f.data_path, f.array_index)):
-        h.update(f"{fc.data_path}[{fc.array_index}]|{fc.mute}|{fc.extrapolation}|".encode())
-        h.update("|".join(m.type for m in fc.modifiers).encode())
-        kp = fc.keyframe_points
-        n = len(kp)
-        h.update(n.to_bytes(8, "little"))
-        if not n:
-            continue
-        for attr in ("co", "handle_left", "handle_right"):
-            buf = _co_cache.get(fc.as_pointer()) if (attr == "co" and _co_cache) else None
-            if buf is None:
-                buf = np.empty(2 * n, dtype=np.float32)  # the RNA float type
-                kp.foreach_get(attr, buf)
-            h.update(buf.tobytes())
-        for attr in ("interpolation", "handle_left_type", "handle_right_type", "easing"):
-            ibuf = np.empty(n, dtype=np.int32)
-            try:
-                kp.foreach_get(attr, ibuf)
-                h.update(ibuf.tobytes())
-            except (TypeError, RuntimeError, AttributeError):
-                h.update(("".join(getattr(k, attr) for k in kp)).encode())
-    return h.hexdigest()
-
-
 def _content_hash(action, co_cache):
-    """``action_hash``, or the session's remembered fingerprint of it (``action_changes``) when current."""
+    """``read_hash``, or the session's remembered fingerprint of it (``action_changes``) when current."""
     from .action_changes import remembered_hash
 
-    return remembered_hash(action) or action_hash(action, co_cache)
+    return remembered_hash(action) or read_hash(action, co_cache)
 
 
 def armature_actions(obj=None):

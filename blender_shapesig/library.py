@@ -71,11 +71,11 @@ def get_cache(context) -> index.SignatureCache:
 
 @dataclass(frozen=True)
 class ActionKey:
-    """What an action's clip depends on: the action's F-curve data (``action_io.action_hash``), the armature
+    """What an action's clip depends on: the action's F-curve data (``action_io.read_hash``), the armature
     it is read with (bone names, rotation modes, rest orientations: ``armature_digest``) and the frame range
     (None: the whole action). Clips are read in armature space, keyed bones only."""
 
-    action_hash: str
+    read_hash: str
     armature_digest: str
     frame_range: Optional[Tuple[int, int]] = None
     trim: str = "none"            # issue 15: "auto" trims rest-pose / ramp frames (core.trim)
@@ -84,7 +84,7 @@ class ActionKey:
     @property
     def text(self) -> str:
         """The cache key."""
-        return (f"action:{self.action_hash}|arm:{self.armature_digest}|range:{self.frame_range}"
+        return (f"action:{self.read_hash}|arm:{self.armature_digest}|range:{self.frame_range}"
                 f"|space:armature|keyed|bone_map=auto{rigs.TABLES_VERSION}"
                 + (f"|{sources.trim_key(self.trim)}" if self.trim != "none" else "")
                 + (f"|fps={self.fps}" if self.fps else ""))

@@ -180,3 +180,12 @@ def test_relative_threshold_and_sample():
     edges = [dedupe.Edge(i, i + 1, float(i)) for i in range(300)]
     s1, s2 = dedupe.sample_edges(edges, 50), dedupe.sample_edges(edges, 50)
     assert s1 == s2 and len(s1) == 50 and len(set(s1)) == 50
+
+
+def test_report_paths_relative_to_the_shared_folder_never_to_the_filesystem_root():
+    from blender_shapesig.dedupe.report import _shortener
+
+    root, short = _shortener(["/d/a/x.bvh", "/d/b/y.bvh#3"])
+    assert root == "/d" and short("/d/a/x.bvh") == "a/x.bvh" and short("/d/b/y.bvh#3") == "b/y.bvh#3"
+    root, short = _shortener(["/srv/x.bvh", "/home/y.bvh"])  # only "/" in common: full paths
+    assert root == "" and short("/srv/x.bvh") == "/srv/x.bvh"

@@ -113,6 +113,8 @@ def _shortener(labels):
         root = ""
     if root in files:
         root = os.path.dirname(root)
+    if root and os.path.dirname(root) == root:  # only the filesystem root in common: full paths read better
+        root = ""
 
     def short(label):
         path = os.path.abspath(label.split("#")[0])
@@ -139,7 +141,8 @@ def _html(out, clusters, images, labels):
         "body{font-family:sans-serif;margin:2em;max-width:70em}table{border-collapse:collapse;margin:.5em 0}"
         "td,th{border:1px solid #ccc;padding:2px 6px;font-size:90%}th{background:#eee}</style></head><body>",
         "<h1>Library report: near-duplicates</h1>",
-        f"<p>{out['clips']} clips in <code>{e(root)}</code> (paths below are relative to it), {len(clusters)} "
+        (f"<p>{out['clips']} clips in <code>{e(root)}</code> (paths below are relative to it), " if root
+         else f"<p>{out['clips']} clips, ") + f"{len(clusters)} "
         f"clusters (largest: {out['largest_cluster_share']:.0%} of the library), {out['graph_edges']} k-NN edges "
         f"(k = {out['k']}), {out['checked_pairs']} pairs checked by d_S*. Scheduler: {e(out['scheduler'])}; "
         f"{secs}.</p>",

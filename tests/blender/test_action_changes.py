@@ -26,13 +26,13 @@ def rig(empty_file, line_armature):
 
 def _count_hashes(monkeypatch):
     calls = []
-    real = action_changes.action_hash
+    real = action_changes.read_hash
 
     def counting(action, *a, **k):
         calls.append(action.name)
         return real(action, *a, **k)
 
-    monkeypatch.setattr(action_changes, "action_hash", counting)
+    monkeypatch.setattr(action_changes, "read_hash", counting)
     return calls
 
 
@@ -61,7 +61,7 @@ def test_every_edit_of_a_played_action_is_seen(rig, monkeypatch, edit):
     EDITS[edit](played)
     action_changes.refresh_fingerprints()
     now = action_changes.action_fingerprint(played)
-    assert now != before and now == action_io.action_hash(played)
+    assert now != before and now == action_io.read_hash(played)
     assert calls.count("played") == 1
     assert action_changes.action_fingerprint(free) == free_fp and "free" not in calls  # others not re-read
     assert "played" in [a.name for a in action_io.armature_actions(obj)] or edit == "rename bone path"
@@ -73,7 +73,7 @@ def test_new_fcurve_in_an_action_no_object_plays(rig):
     EDITS["new F-curve"](free)
     action_changes.refresh_fingerprints()  # a new click
     now = action_changes.action_fingerprint(free)
-    assert now != before and now == action_io.action_hash(free)
+    assert now != before and now == action_io.read_hash(free)
 
 
 @pytest.mark.parametrize("edit", ["keyframe value", "mute", "insert key"])
@@ -82,7 +82,7 @@ def test_other_edits_of_unplayed_actions_need_forget(rig, edit):
     before = action_changes.action_fingerprint(free)
     EDITS[edit](free)  # Blender reports this nowhere: scripts call forget_fingerprints
     action_changes.forget_fingerprints(free)
-    assert action_changes.action_fingerprint(free) == action_io.action_hash(free) != before
+    assert action_changes.action_fingerprint(free) == action_io.read_hash(free) != before
 
 
 def test_bones_follow_the_fingerprint(rig):

@@ -9,7 +9,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig import action_hashes, action_io, compat  # noqa: E402
 from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ShapeSigError  # noqa: E402
 
@@ -179,6 +179,69 @@ def test_hash_changes_with_any_edit(empty_file, walk):
         h = action_io.action_hash(action)
         assert h not in seen
         seen.add(h)
+
+
+def _set_key(fc, i, **values):
+    kp = fc.keyframe_points[i]
+    for k, v in values.items():
+        setattr(kp, k, v)
+
+
+# (edit, True when the clip read must change): each applied on top of the ones before it
+READ_EDITS = [
+    ("handle moved (keys on every frame)", lambda fc, a: _set_key(fc, 10, handle_left=(109.5, 3.0)), False),
+    ("Bezier key (keys on every frame)", lambda fc, a: _set_key(fc, 10, interpolation="BEZIER"), False),
+    ("key value", lambda fc, a: _set_key(fc, 12, co=(fc.keyframe_points[12].co[0], 0.3)), True),
+    ("linear extrapolation", lambda fc, a: setattr(fc, "extrapolation", "LINEAR"), True),
+    ("last key Bezier, linear extrapolation", lambda fc, a: _set_key(fc, -1, interpolation="BEZIER"), True),
+    ("last key's handle", lambda fc, a: _set_key(fc, -1, handle_right=(fc.keyframe_points[-1].co[0] + 1, 2.0)),
+     True),
+    ("constant extrapolation", lambda fc, a: setattr(fc, "extrapolation", "CONSTANT"), True),
+    ("key removed", lambda fc, a: fc.keyframe_points.remove(fc.keyframe_points[20]), True),
+    ("Bezier next to the gap", lambda fc, a: _set_key(fc, 19, interpolation="BEZIER"), True),
+    ("handle next to the gap", lambda fc, a: _set_key(fc, 19, handle_right=(fc.keyframe_points[19].co[0] + 0.6, 1.0)),
+     True),
+    ("back easing next to the gap", lambda fc, a: _set_key(fc, 19, interpolation="BACK"), True),
+    ("easing type", lambda fc, a: _set_key(fc, 19, easing="EASE_IN"), True),
+    ("back amount", lambda fc, a: _set_key(fc, 19, back=4.0), True),
+    ("noise modifier", lambda fc, a: fc.modifiers.new("NOISE"), True),
+    ("noise strength", lambda fc, a: setattr(fc.modifiers[0], "strength", 3.0), True),
+    ("manual frame range", lambda fc, a: (setattr(a, "use_frame_range", True), setattr(a, "frame_end", 130)), True),
+]
+
+
+def test_read_hash_changes_exactly_when_it_must(empty_file, walk):
+    """read_hash against the truth it stands for, the clip read_action reads (frames beyond the keys included,
+    where extrapolation acts): every edit that changes the clip changes the hash; handles and interpolation of
+    keys on every frame, which the clip cannot see, do not (action_hash, the record of every edit, does)."""
+    action = action_io.write_action(walk.select(["root", "ltibia"]), name="r")
+    fc = next(f for f in compat.action_fcurves(action) if 'ltibia' in f.data_path and f.array_index == 1)
+
+    def state():  # the clip over the keys' (or manual) range, and 5 frames beyond the keys at both ends
+        R = [action_io.read_action(action, frame_range=rng).rotations for rng in (None, (95, 164))]
+        return action_io.read_hash(action), action_io.action_hash(action), R
+
+    h, full, R = state()
+    assert action_io.read_action(action).meta["fcurve_hash"] == h
+    for name, edit, clip_changes in READ_EDITS:
+        edit(fc, action)
+        h2, full2, R2 = state()
+        assert clip_changes or full2 != full, name  # an edit the clip cannot see, but an edit
+        changed = any(a.shape != b.shape or not np.array_equal(a, b) for a, b in zip(R2, R))
+        assert changed == clip_changes, name
+        assert (h2 != h) == clip_changes, name
+        h, full, R = h2, full2, R2
+
+
+def test_keys_on_integer_frames():
+    def co(xs):
+        return np.ravel(np.column_stack([xs, np.zeros(len(xs))])).astype(np.float32)
+
+    curves = [co([3, 4, 5]), co([]), co([7]), co([7.5]), co([1.5, 2.5]), co([1, 2, 4]), co([1, 3, 4, 5]),
+              co([-2, -1, 0]), co([0, 1, 1, 2])]
+    assert action_hashes._keys_on_integer_frames(curves).tolist() == [True, True, True, False, False, False, False,
+                                                                  True, False]
+    assert action_hashes._keys_on_integer_frames([co([])]).tolist() == [True]
 
 
 def test_euler_and_quaternion_continuity(empty_file):

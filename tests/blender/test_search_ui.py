@@ -406,7 +406,7 @@ def test_action_items_have_typed_keys_and_poll_owns_preconditions(rig):
     _obj, action, q = library.query_item(bpy.context, s)
     last = int(round(action.frame_range[1]))
     assert isinstance(q, library.ActionItem) and q.key == q.action_key.text and q.action == "walk1"
-    assert (q.action_key.action_hash, q.action_key.frame_range) == (action_io.action_hash(action), (2, last))
+    assert (q.action_key.read_hash, q.action_key.frame_range) == (action_io.read_hash(action), (2, last))
     assert q.action_key.armature_digest == library.armature_digest(rig)
     assert bpy.ops.shapesig.rank.poll() and not bpy.ops.shapesig.assign_result.poll()
     assert library.result_problem(bpy.context, s) == "no results: run Find Similar first"
