@@ -15,15 +15,25 @@ from . import compat
 
 __all__ = ["action_hash", "read_hash"]
 
-def _modifier_text(m):
-    """A modifier's type and every plain setting (numbers, flags, enums, arrays), in RNA order."""
-    parts = [m.type]
-    for p in m.bl_rna.properties:
-        if p.identifier == "rna_type" or p.type in {"POINTER", "COLLECTION"}:
+def _settings_text(item, depth=1):
+    """Every plain setting of an RNA struct (numbers, flags, enums, arrays) in RNA order, and those of the items
+    of its collections (an envelope's control points) down to ``depth``."""
+    parts = []
+    for p in item.bl_rna.properties:
+        if p.identifier == "rna_type" or p.type == "POINTER":
             continue
-        v = getattr(m, p.identifier, None)
+        v = getattr(item, p.identifier, None)
+        if p.type == "COLLECTION":
+            if depth > 0 and v is not None:
+                parts.append(f"{p.identifier}=[{'/'.join(_settings_text(x, depth - 1) for x in v)}]")
+            continue
         parts.append(f"{p.identifier}={tuple(v) if hasattr(v, '__len__') and not isinstance(v, str) else v}")
     return ";".join(parts)
+
+
+def _modifier_text(m):
+    """A modifier's type and settings."""
+    return f"{m.type};{_settings_text(m)}"
 
 
 def action_hash(action, _co_cache=None) -> str:

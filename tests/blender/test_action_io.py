@@ -206,6 +206,8 @@ READ_EDITS = [
     ("back amount", lambda fc, a: _set_key(fc, 19, back=4.0), True),
     ("noise modifier", lambda fc, a: fc.modifiers.new("NOISE"), True),
     ("noise strength", lambda fc, a: setattr(fc.modifiers[0], "strength", 3.0), True),
+    ("envelope", lambda fc, a: fc.modifiers.new("ENVELOPE").control_points.add(120), True),
+    ("envelope point", lambda fc, a: setattr(fc.modifiers[1].control_points[0], "min", -3.0), True),
     ("manual frame range", lambda fc, a: (setattr(a, "use_frame_range", True), setattr(a, "frame_end", 130)), True),
 ]
 
