@@ -2,7 +2,7 @@
 """The same take in other formats and skeletons ranks first (issue 14), and the comparison-space measurement.
 
   .venv/bin/python tools/rank_across_rigs.py --data ../shared/data/cmu [--bone-map auto|none] [--rerank K]
-      [--metric sim3|linear3|elastic|...] [--all] [--joints]
+      [--metric sim3|linear3|elastic|...] [--all] [--joints [--plot OUT.png]]
 
 A library of the shared CMU takes in two formats each: AMC 07_01-07_03 and 09_01-09_03 with their cgspeed Daz
 BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02_03, AMC 16_15 with its
@@ -22,6 +22,8 @@ changes), low-passed as the comparison does, at the frame offset that matches th
 difference |w_a - w_b| / |w_a| per joint (0: the same motion; about 1.4: unrelated motions of the same size);
 then, for the torso joints, the second file's RMS rotation rate about each axis of the comparison frame over the
 first's (x: forward bend, y: the direction of travel, i.e. lateral lean, z: twist; 1.0: the same amount of motion).
+``--plot OUT.png``: the chest's lean and bend rates of run 09_02 (AMC and Daz BVH) and of 16_15 (AMC and its
+MotionBuilder BVH), aligned as above (docs/img/rigs_daz_lean.png).
 """
 
 import argparse
@@ -147,6 +149,39 @@ def print_joint_agreement(items, take_of):
               + ", ".join(f"{j} " + "/".join(f"{g:.1f}" for g in gain[j]) for j in TORSO if j in gain))
 
 
+def plot_lean(items, out, joint="chest"):
+    """The figure of ``--plot``: ``joint``'s rotation rate about the lean and bend axes, two same-take pairs."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    by = {it.name: it for it in items}
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4), sharey=True)
+    for ax, (a, b) in zip(axes, [("amc:09_02", "daz:09_02"), ("amc:16_15", "mb:16_15")]):
+        ca, cb = by[a].clips()[0], by[b].clips()[0]
+        off, _rel, gain = joint_agreement(ca, cb)
+        wa, wb = _motion(ca, [joint]), _motion(cb, [joint])
+        wa, wb = (wa[off:], wb) if off >= 0 else (wa, wb[-off:])
+        n = min(len(wa), len(wb))
+        t = np.arange(n) / ca.fps
+        rate = ca.fps / max(1, round(ca.fps / 15))  # rad per 1/15 s -> rad/s
+        for axis, name, style in ((1, "lean", "-"), (0, "bend", ":")):
+            ax.plot(t, wa[:n, 0, axis] * rate, "C0" + style, label=f"{a} {name}")
+            ax.plot(t, wb[:n, 0, axis] * rate, "C1" + style, label=f"{b} {name}")
+        g = gain[joint]
+        ax.set_title(f"{a.split(':')[1]} {joint}: {b.split(':')[0]} / {a.split(':')[0]} RMS rate: "
+                     f"bend {g[0]:.1f}x, lean {g[1]:.1f}x, twist {g[2]:.1f}x", fontsize=10)
+        ax.set_xlabel("seconds")
+        ax.legend(fontsize=8, loc="upper right")
+    axes[0].set_ylabel("rotation rate (rad/s), comparison frame")
+    fig.suptitle("The same take in two files: the Daz conversion leans the torso ~3x more (left); an exact "
+                 "conversion does not (right)", fontsize=11)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    print(f"wrote {out}")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", required=True, help="the shared CMU folder")
@@ -155,10 +190,13 @@ def main(argv=None):
     ap.add_argument("--rerank", type=int, default=0)
     ap.add_argument("--all", action="store_true", help="the library: every readable shared clip (92)")
     ap.add_argument("--joints", action="store_true", help="per same-take pair, how far the files' joints agree")
+    ap.add_argument("--plot", help="with --joints: write the chest's lean figure to this PNG")
     args = ap.parse_args(argv)
     items, take_of = library(args.data, args.bone_map)
     if args.joints:
         print_joint_agreement(items, take_of)
+        if args.plot:
+            plot_lean(items, args.plot)
         return 0
     library_items = all_shared(args.data, items, args.bone_map) if args.all else items
     cache = index.SignatureCache()
