@@ -1,10 +1,10 @@
 """Change detection for actions: a cheap, reliable fingerprint per action for the session.
 
-Find Similar keys every action of the file by what its clip is read from (``action_io.read_hash``), and re-reading every F-curve of
-1,000 actions costs seconds per click. So each action's hash (and the bones it animates) is remembered for the
-session with a *stamp* that is cheap to read (a few calls per action: the F-curve count of each channel bag; not
-the frame range, whose scan of every key costs 30 ms per 1,000 actions, nor the mute flags, 58 ms), and dropped
-when
+Find Similar keys every action of the file by what its clip is read from (``action_hashes.read_hash``), and
+re-reading every F-curve of 1,000 actions costs seconds per click. So each action's hash (and the bones it
+animates) is remembered for the session with a *stamp* that is cheap to read (a few calls per action: the
+F-curve count of each channel bag; not the frame range, whose scan of every key costs 30 ms per 1,000 actions,
+nor the mute flags, 58 ms), and dropped when
   * the depsgraph reports the action updated (every edit of an action an object plays: keyframe values,
     inserted or deleted keys, new F-curves, data paths, mute; in the UI and through the Python API, once the
     depsgraph is evaluated: ``refresh_fingerprints`` evaluates it first);

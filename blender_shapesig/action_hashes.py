@@ -1,4 +1,4 @@
-"""The content hashes of an action (bpy's F-curves; never imports core's maths).
+"""The content hashes of an action's F-curves (through the bpy objects it is given; no core maths).
 
 * ``action_hash``: every edit of an F-curve changes it; the record the tests compare to show that an operator
   leaves its sources untouched.
@@ -14,6 +14,7 @@ import numpy as np
 from . import compat
 
 __all__ = ["action_hash", "read_hash"]
+
 
 def _settings_text(item, depth=1):
     """Every plain setting of an RNA struct (numbers, flags, enums, arrays) in RNA order, and those of the items
@@ -36,7 +37,7 @@ def _modifier_text(m):
     return f"{m.type};{_settings_text(m)}"
 
 
-def action_hash(action, _co_cache=None) -> str:
+def action_hash(action) -> str:
     """SHA-1 of the action's F-curve data (all slots): data paths, indices, mute, extrapolation, modifiers and
     their settings, and every key's co, handles, handle types, interpolation and easing. Any edit of an F-curve
     changes it (``read_hash`` is the cheaper key of what ``read_action`` reads)."""
@@ -51,10 +52,8 @@ def action_hash(action, _co_cache=None) -> str:
         if not n:
             continue
         for attr in ("co", "handle_left", "handle_right"):
-            buf = _co_cache.get(fc.as_pointer()) if (attr == "co" and _co_cache) else None
-            if buf is None:
-                buf = np.empty(2 * n, dtype=np.float32)  # the RNA float type
-                kp.foreach_get(attr, buf)
+            buf = np.empty(2 * n, dtype=np.float32)  # the RNA float type
+            kp.foreach_get(attr, buf)
             h.update(buf.tobytes())
         for attr in ("interpolation", "handle_left_type", "handle_right_type", "easing"):
             ibuf = np.empty(n, dtype=np.int32)
