@@ -128,3 +128,18 @@ def test_blend_across_rigs_writes_onto_a_rig(capsys, tmp_path):
     idx = [a.bones.index(b) for b in back.bones]
     # float32 keys; the Acclaim rig's rest frames
     np.testing.assert_allclose(back.rotations, a.rotations[:, idx], atol=1e-4)
+
+
+def test_blend_onto_a_rig_with_many_unmapped_bones_notes_them_in_one_short_line(capsys, tmp_path):
+    """A Character Creator rig (101 bones: fingers, twist, face) onto which a Daz run is blended: the note names
+    the count and a few bones in one line; the JSON lists every kept bone."""
+    out = tmp_path / "cc.blend"
+    code = cli.main(["blend", str(D / "cross_rig" / "002_03.bvh"), str(D / "cross_rig" / "02_03.bvh"),
+                     "--weight", "0.5", "--out", str(out), "--json", "--no-progress"])
+    stdout, err = capsys.readouterr()
+    assert code == 0, err
+    kept = json.loads(stdout)["kept_bones"]
+    notes = [ln for ln in err.splitlines() if "keep A's motion" in ln]
+    assert len(kept) > 60 and len(notes) == 1
+    assert notes[0].count(",") < 12 and f"{len(kept)} bone(s)" in notes[0] and f"{len(kept) - 8} more" in notes[0]
+    assert "CC_Base_L_Thigh" not in kept and "CC_Base_L_Index1" in kept

@@ -7,6 +7,8 @@ import sys
 
 from . import common as c
 
+_KEPT_SHOWN = 8  # bones named in the note on stderr (a CC rig keeps ~80: fingers, twist, face)
+
 
 def parse_weights(args, count):
     """A list of weight vectors (one per blend, one weight per clip): ``--weight s`` (B's weight, two clips),
@@ -108,7 +110,9 @@ def run(args):
     ref = mapped[0] if mapped is not None else own[0]
     kept = blended[0].meta.get("kept_bones", ()) if mapped is not None else ()
     if kept:
-        sys.stderr.write(f"{c.PROG}: note: bones without a counterpart keep A's motion: {', '.join(kept)}\n")
+        more = len(kept) - _KEPT_SHOWN
+        shown = ", ".join(kept[:_KEPT_SHOWN]) + (f", and {more} more (--json lists all)" if more > 0 else "")
+        sys.stderr.write(f"{c.PROG}: note: {len(kept)} bone(s) without a counterpart keep A's motion: {shown}\n")
     for clip in blended:
         # The blend lives in A's rotation space (pose or armature axes); write_action converts by it.
         if "rotation_space" in ref.meta:
