@@ -128,6 +128,36 @@ def test_blend_across_rigs_writes_onto_a_rig(capsys, tmp_path):
     idx = [a.bones.index(b) for b in back.bones]
     # float32 keys; the Acclaim rig's rest frames
     np.testing.assert_allclose(back.rotations, a.rotations[:, idx], atol=1e-4)
+    # the root too: A's hips in leg lengths (rigs.hips_path) and back onto A's root (rigs.onto_rig), in metres
+    np.testing.assert_allclose(back.root_translation, a.root_translation, atol=1e-4)
+
+
+def _hips_in_legs(clip):
+    """(median hips height, horizontal hips speed per second), both in leg lengths of the clip's own rig: the
+    clip read as the user reads it (armature axes, rest skeleton), forward kinematics to its mapped hips."""
+    by_joint = {j: b for b, j in rigs.resolve_map("auto", clip).items()}
+    path, _leg = rigs.hips_path(clip, by_joint, rigs.world_rotations(clip))
+    travel = np.linalg.norm(np.diff(path[:, :2], axis=0), axis=1).sum()
+    return float(np.median(path[:, 2])), float(travel * clip.fps / (clip.frames - 1))
+
+
+@pytest.mark.parametrize("a, b, asf", [
+    (ACC / "09_02.amc", BVH / "07_01.bvh", ACC / "09-run.asf"),  # metres (Acclaim) x centimetres (Daz BVH)
+    (D / "cross_rig" / "002_03.bvh", D / "cross_rig" / "02_03.bvh", None),  # CC rig: the root bone on the floor
+])
+def test_blend_across_rigs_keeps_the_hips_between_the_sources(capsys, tmp_path, a, b, asf):
+    """Rigs translate other bones in other units for bodies of other sizes: the blend's hips (read back from the
+    saved .blend, through A's rig) stay between the sources' hips in height and speed, each measured in leg
+    lengths of its own rig. (Before: A's root path was averaged with B's as numbers, 40 m up in metres.)"""
+    out = tmp_path / "x.blend"
+    args = ["blend", str(a), str(b), "--weight", "0.5", "--feet", "none", "--out", str(out)]
+    got = _json(capsys, args + (["--asf", str(asf)] if asf else []))
+    blend = sources.read_one(sources.ClipSpec.parse(f"{out}#{got['actions'][0]}", bone_map="none"))
+    src = [sources.read_one(sources.ClipSpec(str(p), asf=str(asf) if asf and p.suffix == ".amc" else None,
+                                             bone_map="none")) for p in (a, b)]
+    (ha, va), (hb, vb), (h, v) = (_hips_in_legs(c) for c in src + [blend])
+    assert min(ha, hb) - 0.03 <= h <= max(ha, hb) + 0.03, (ha, hb, h)
+    assert min(va, vb) * 0.85 <= v <= max(va, vb) * 1.15, (va, vb, v)
 
 
 def test_blend_onto_a_rig_with_many_unmapped_bones_notes_them_in_one_short_line(capsys, tmp_path):

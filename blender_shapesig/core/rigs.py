@@ -31,6 +31,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Tuple
 
 import numpy as np
 
+from . import skeleton
 from .clip import Clip
 from .errors import ParseError, ShapeSigError
 
@@ -324,10 +325,40 @@ def heading(W_root: np.ndarray, root_translation: Optional[np.ndarray] = None) -
     return _yaw_matrix(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()))
 
 
+def leg_length(clip: Clip, by_joint: Mapping[str, str]) -> Optional[float]:
+    """The rig's leg (hip to ankle: the rest heads of the mapped thigh and foot, mean over sides) in the clip's
+    units, or None without a mapped leg or rest skeleton."""
+    heads = clip.meta.get(skeleton.REST_HEADS) or {}
+    pairs = [(by_joint.get(f"thigh.{s}"), by_joint.get(f"foot.{s}")) for s in SIDES]
+    lengths = [np.linalg.norm(np.subtract(heads[t], heads[f])) for t, f in pairs if t in heads and f in heads]
+    length = float(np.mean(lengths)) if lengths else 0.0
+    return length if length > 0 else None
+
+
+def hips_path(clip: Clip, by_joint: Mapping[str, str], W: np.ndarray) -> Optional[Tuple[np.ndarray, float]]:
+    """(path, leg): the hips joint's head (frames, 3) in the armature's axes in **leg lengths**, and the rig's leg
+    (``leg_length``) in its units; None when it cannot be had (no root translation, not in armature axes, no rest
+    skeleton, no hips or legs mapped).
+
+    Rigs translate different bones (a floor-level ``RL_BoneRoot`` in Character Creator, the pelvis in Daz and
+    CMU), in different units (metres for Acclaim, centimetres in these BVH files) and for bodies of other sizes,
+    so a root path is comparable across rigs as the hips' in leg lengths (the root's head plus
+    ``skeleton.chain_offset`` to the hips, over ``leg_length``): retargeted so, a blend's hips keep the height
+    and stride that fit the rig it is written onto. ``onto_rig`` inverts it."""
+    if clip.root_translation is None or clip.meta.get("rotation_space") != "armature":
+        return None
+    off = skeleton.chain_offset(clip, W, by_joint.get("hips"))
+    leg = leg_length(clip, by_joint)
+    if off is None or leg is None:
+        return None
+    return (clip.root_translation + off) / leg, leg
+
+
 def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
     """The clip in the comparison space: the mapped bones only, renamed to their joints (canonical order),
     rotations ``H^T W_b(t)`` (``world_rotations``, ``heading`` of the hips or the first mapped bone). The root
-    translation turns with the heading. ``meta["bone_map"]`` keeps ``{joint: bone}``."""
+    translation is the hips' path in leg lengths (``hips_path``; ``meta["root_path"] = "hips_legs"``, else the
+    root's translation as read), turned with the heading. ``meta["bone_map"]`` keeps ``{joint: bone}``."""
     mapping = {b: j for b, j in mapping.items() if b in clip.bones}
     if not mapping:
         raise ShapeSigError(f"clip {clip.name!r}: no bone maps to a canonical joint")
@@ -338,9 +369,13 @@ def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
     root = by_joint.get("hips", by_joint[joints[0]])
     H = heading(W[:, index[root]], clip.root_translation)
     R = H.T[None, None] @ W[:, [index[by_joint[j]] for j in joints]]
-    rt = None if clip.root_translation is None else clip.root_translation @ H
+    hips = hips_path(clip, by_joint, W)
+    rt = clip.root_translation if hips is None else hips[0]
+    rt = None if rt is None else rt @ H
     meta = dict(clip.meta, bone_map={j: by_joint[j] for j in joints}, rotation_space="comparison",
                 rig_bones=len(clip.bones))
+    if hips is not None:
+        meta.update(root_path="hips_legs", leg=hips[1])
     meta.pop("parents", None)
     return replace(clip, bones=tuple(joints), rotations=R, root_translation=rt, root_bone="hips",
                    rotation_modes=(), meta=meta)
@@ -435,6 +470,13 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
     for i in range(len(rig.bones)):
         world(i)
     rt = None if clip.root_translation is None else clip.root_translation @ H.T
+    if rt is not None and mapped.meta.get("root_path") == "hips_legs":
+        # the blended hips (leg lengths) -> the rig's root head: hips_path inverted with the blend's rotations
+        off = skeleton.chain_offset(rig, W, bone_map.get("hips"))
+        leg = leg_length(rig, bone_map)
+        if off is None or leg is None:
+            raise ShapeSigError(f"clip {rig.name!r}: cannot place its root under the blended hips (no rest skeleton)")
+        rt = rt * leg - off
     kept = tuple(b for b in rig.bones if b not in joint_of and not np.allclose(X_rig[:, index[b]], np.eye(3)))
     meta = dict(rig.meta, kept_bones=kept)
     # the blend's timing and weights (core.feet carries the sources' contacts through them)

@@ -29,7 +29,7 @@ from .errors import ShapeSigError
 
 __all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "rest_of",
            "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",
-           "forward_kinematics", "up_vector", "unit_meters", "LEG_METERS"]
+           "forward_kinematics", "chain_offset", "up_vector", "unit_meters", "LEG_METERS"]
 
 REST_HEADS = "rest_heads"
 REST_TAILS = "rest_tails"
@@ -171,6 +171,28 @@ def forward_kinematics(clip: Clip, rest: Optional[Rest] = None, X: Optional[np.n
         solve(j)
     tails = heads + np.einsum("fnij,nj->fni", W, rest.tails - rest.heads)
     return heads, tails, W
+
+
+def chain_offset(clip: Clip, W: np.ndarray, bone: str) -> Optional[np.ndarray]:
+    """(frames, 3): ``bone``'s head minus the root bone's head, in world-aligned axes and the clip's units, by
+    forward kinematics up its chain (``head_b - head_a = W_a (h_b - h_a)``, a the nearest ancestor the clip holds;
+    ``W``: the world rotations (frames, bones, 3, 3) parallel to ``clip.bones``). None when the clip has no rest
+    skeleton or ``bone``'s chain does not reach the root bone. Only the chain is walked (cheap on 100-bone rigs)."""
+    heads, parents = clip.meta.get(REST_HEADS), clip.meta.get("parents")
+    index = {b: i for i, b in enumerate(clip.bones)}
+    if not heads or parents is None or bone not in index or clip.root_bone not in index:
+        return None
+    off = np.zeros((W.shape[0], 3))
+    b = bone
+    while b != clip.root_bone:
+        p = parents.get(b)
+        while p is not None and p not in index:
+            p = parents.get(p)
+        if p is None or b not in heads or p not in heads:
+            return None
+        off += W[:, index[p]] @ (np.asarray(heads[b], dtype=np.float64) - np.asarray(heads[p], dtype=np.float64))
+        b = p
+    return off
 
 
 def up_vector(clip: Clip) -> np.ndarray:

@@ -12,6 +12,7 @@ import sys
 from types import SimpleNamespace
 
 import bpy
+import numpy as np
 import pytest
 
 from blender_shapesig import library, rigmap
@@ -242,6 +243,14 @@ def test_blend_across_rigs_reads_through_the_stored_map(empty_file, data_dir):
 
     out = action_io.read_action(made[0], armature=daz, exclude_unkeyed=True)
     assert {"lThigh", "rShin", "hip"} <= set(out.bones)
+    # its hips between the sources' in height, each in leg lengths of its own rig (the CC rig translates a
+    # floor-level root bone in centimetres, with longer legs): rigs.hips_path and its inverse in rigs.onto_rig
+    heights = []
+    for act, arm in ((a, daz), (b, cc), (made[0], daz)):
+        clip = action_io.read_action(act, armature=arm, space="armature")
+        by_joint = {j: x for x, j in rigs.resolve_map("auto", clip).items()}
+        heights.append(float(np.median(rigs.hips_path(clip, by_joint, rigs.world_rotations(clip))[0][:, 2])))
+    assert min(heights[:2]) - 0.03 <= heights[2] <= max(heights[:2]) + 0.03, heights
     auto = blend_actions(daz, a, b, [0.5])
     assert "rShin" not in auto.unmatched and "lThumb1" in auto.unmatched  # kept: no counterpart in B
     # a stored map of three bones: only those are blended, every other bone keeps A's motion

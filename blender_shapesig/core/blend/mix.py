@@ -235,7 +235,9 @@ def _blend_translation(plan, clips, idx, blended, Bg, start, root, up_axis):
     if a.root_translation is not None:
         translation = interp_rows(plan.u_out, plan.times0, a.root_translation)
     roots = [c.root_bone if c.root_bone in ix else None for c, ix in zip(clips, idx)]
-    if not (root == "blend" and all(c.root_translation is not None for c in clips)
+    # across rigs the paths must be of one kind (rigs.hips_path: the hips in leg lengths), else A's path alone
+    one_kind = len({c.meta.get("root_path") for c in clips}) == 1
+    if not (root == "blend" and one_kind and all(c.root_translation is not None for c in clips)
             and all(r is not None for r in roots)):
         return translation, "a", None
     rots = [plan.r_on_grid(i, c.rotations[:, [idx[i][r]]])[:, 0] for i, (c, r) in enumerate(zip(clips, roots))]
