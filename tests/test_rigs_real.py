@@ -173,3 +173,54 @@ def test_blend_onto_a_rig_with_many_unmapped_bones_notes_them_in_one_short_line(
     assert len(kept) > 60 and len(notes) == 1
     assert notes[0].count(",") < 12 and f"{len(kept)} bone(s)" in notes[0] and f"{len(kept) - 8} more" in notes[0]
     assert "CC_Base_L_Thigh" not in kept and "CC_Base_L_Index1" in kept
+
+
+def _joint_angles(a, b):
+    """{joint: mean angle in degrees} between two comparison-space clips over normalized time."""
+    from blender_shapesig.core import so3
+    from blender_shapesig.core.curves import geodesic_interpolate, uniform_times
+
+    u = np.linspace(0.0, 1.0, 80)
+    Ra = geodesic_interpolate(a.rotations, uniform_times(a.frames), u)
+    Rb = geodesic_interpolate(b.rotations, uniform_times(b.frames), u)
+    return {j: float(np.degrees(np.linalg.norm(so3.log(np.swapaxes(Ra[:, a.bones.index(j)], -1, -2)
+                                                              @ Rb[:, b.bones.index(j)]), axis=-1)).mean())
+            for j in a.bones if j in b.bones}
+
+
+def test_rest_retarget_brings_the_same_take_on_two_rigs_together():
+    """The iClone (Character Creator: its BVH rest lies along -Y, other bone conventions) and Daz files of take
+    02_03: relative to their own rests the legs are half a turn apart; relative to one rest
+    (rigs.rest_retarget) every joint agrees to within what the conversions differ (< 30 degrees)."""
+    a = sources.read_one(sources.ClipSpec(str(D / "cross_rig" / "002_03.bvh"), start=2))
+    b = sources.read_one(sources.ClipSpec(str(D / "cross_rig" / "02_03.bvh"), start=7))
+    before, after = _joint_angles(a, b), _joint_angles(a, rigs.rest_retarget(b, a))
+    assert before["thigh.L"] > 150 and before["shin.R"] > 150
+    assert max(after.values()) < 30, after
+    assert _joint_angles(a, rigs.rest_retarget(a, a)) == pytest.approx({j: 0.0 for j in a.bones}, abs=1e-3)
+
+
+def _relative_feet(clip):
+    """Per frame, each foot's head relative to the hips in the clip's heading frame (x: left), in leg lengths."""
+    from blender_shapesig.core import skeleton
+
+    by_joint = {j: b for b, j in rigs.resolve_map("auto", clip).items()}
+    heads, _tails, W = skeleton.forward_kinematics(clip)
+    H = rigs.heading(W[:, clip.bones.index(by_joint["hips"])], clip.root_translation)
+    at = lambda j: heads[:, clip.bones.index(by_joint[j])]  # noqa: E731
+    leg = rigs.leg_length(clip, by_joint)
+    return {s: ((at(f"foot.{s}") - at("hips")) @ H) / leg for s in "LR"}
+
+
+def test_blend_of_a_cc_walk_and_a_daz_run_keeps_its_legs_apart(capsys, tmp_path):
+    """A Character Creator run (A) blended with a Daz walk at 0.5: before rest_retarget the legs crossed (the
+    right foot 0.9 leg lengths left of the hips, 0.8 left of the left foot). Now the left foot stays left of the
+    right one and both stay under the hips, as in both sources."""
+    out = tmp_path / "x.blend"
+    got = _json(capsys, ["blend", str(D / "cross_rig" / "002_03.bvh"), str(BVH / "07_01.bvh"), "--weight", "0.5",
+                         "--feet", "none", "--out", str(out)])
+    blend = sources.read_one(sources.ClipSpec.parse(f"{out}#{got['actions'][0]}", bone_map="none"))
+    feet = _relative_feet(blend)
+    assert np.mean(feet["L"][:, 0] - feet["R"][:, 0]) > 0.0
+    assert max(abs(feet[s][:, 0]).mean() for s in "LR") < 0.15
+    assert max(feet[s][:, 2].max() for s in "LR") < -0.5

@@ -38,7 +38,7 @@ from .errors import ParseError, ShapeSigError
 __all__ = [
     "JOINTS", "BODY", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
     "check_map", "load_map", "save_map", "map_json", "resolve_map", "world_rotations", "heading",
-    "to_comparison_space", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
+    "to_comparison_space", "rest_retarget", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
     "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
 ]
 
@@ -379,6 +379,121 @@ def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
     meta.pop("parents", None)
     return replace(clip, bones=tuple(joints), rotations=R, root_translation=rt, root_bone="hips",
                    rotation_modes=(), meta=meta)
+
+
+# the canonical joint whose rest head a joint's rest bone points at (the first one the rig maps)
+_CHILDREN = {"spine": ("spine_mid", "chest"), "spine_mid": ("chest",), "chest": ("neck", "head"), "neck": ("head",),
+             "clavicle": ("upper_arm",), "upper_arm": ("forearm",), "forearm": ("hand",), "thigh": ("shin",),
+             "shin": ("foot",), "foot": ("toe",)}
+
+
+def _unit(v):
+    n = np.linalg.norm(v)
+    return v / n if n > 1e-12 else None
+
+
+def _rest_heads_by_joint(clip: Clip) -> Dict[str, np.ndarray]:
+    heads = clip.meta.get(skeleton.REST_HEADS) or {}
+    return {j: np.asarray(heads[b], dtype=np.float64) for j, b in (clip.meta.get("bone_map") or {}).items()
+            if b in heads}
+
+
+def _body_frame(h: Mapping[str, np.ndarray]) -> Optional[np.ndarray]:
+    """The rest body frame (columns: left, forward, up) from the rest heads by joint: up from the hips to the
+    neck (or head, chest), left from the right thigh to the left one; None when those are not mapped."""
+    top = next((h[j] for j in ("neck", "head", "chest") if j in h), None)
+    if "hips" not in h or top is None or "thigh.L" not in h or "thigh.R" not in h:
+        return None
+    up, left = _unit(top - h["hips"]), h["thigh.L"] - h["thigh.R"]
+    left = None if up is None else _unit(left - (left @ up) * up)
+    if left is None:
+        return None
+    return np.column_stack([left, np.cross(up, left), up])
+
+
+def _turn(u, v):
+    """The smallest rotation taking unit vector u to unit vector v."""
+    axis, c = np.cross(u, v), float(np.clip(u @ v, -1.0, 1.0))
+    s = np.linalg.norm(axis)
+    if s < 1e-12:
+        if c > 0:
+            return np.eye(3)
+        axis = _unit(np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))]))
+        return 2.0 * np.outer(axis, axis) - np.eye(3)  # a half turn about an axis normal to u
+    k = axis / s
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+
+
+def _best_twist(axis, M):
+    """The angle t maximizing tr(Rot(axis, t)^T M): f(t) = a cos t + b sin t + c, read off at 0, pi/2, pi."""
+    f = [np.trace(_axis_angle(axis, t).T @ M) for t in (0.0, 0.5 * np.pi, np.pi)]
+    c = 0.5 * (f[0] + f[2])
+    return float(np.arctan2(f[1] - c, f[0] - c))
+
+
+def _best_rotation(M):
+    """The rotation K maximizing tr(K^T M) (orthogonal Procrustes)."""
+    U, _, Vt = np.linalg.svd(M)
+    return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+
+
+def _axis_angle(u, t):
+    K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    return np.eye(3) + np.sin(t) * K + (1.0 - np.cos(t)) * (K @ K)
+
+
+def rest_retarget(clip: Clip, like: Clip, samples: int = 64) -> Clip:
+    """``clip`` (comparison space) with its rotations relative to the rest pose of ``like``'s rig: for a blend.
+
+    A comparison-space rotation is relative to its rig's rest, ``W(t) = F(t) F_rest^T`` (F the segment's
+    orientation), so the same motion on rigs with other rest poses (T- or A-pose, a rest lying down, other
+    facing, other bone-axis conventions) differs by a constant right factor ``K_j`` per joint. Comparisons do
+    not see it; a blend does (two rotations half a turn apart have no sensible midpoint: a Character Creator
+    walk blended with a Daz run crossed its legs). Here ``W_j K_j``:
+
+    * ``G`` turns ``like``'s rest body frame (``_body_frame``: hips to neck, right to left thigh) onto
+      ``clip``'s;
+    * a joint with a next joint in both rigs (``_CHILDREN``: thigh -> shin, ...) turns, after ``G``, by the
+      smallest rotation that takes ``like``'s rest bone (head to the next joint's head) onto ``clip``'s, or not
+      (rigs place joints differently: the same rest can give bones 20-40 degrees apart), whichever makes the two
+      motions agree better; the rotation about the bone itself, which rest positions cannot give, is the angle
+      that best matches them (``_best_twist`` of ``sum_t (W_B(t) K)^T W_A(t)`` over normalized time);
+    * a joint without one (hips, hands, feet without toes, head) takes the rotation that best matches the two
+      motions (``_best_rotation``), which also takes up the mean difference of its orientation between them.
+
+    ``clip`` is returned unchanged when either rig has no rest skeleton or body frame."""
+    from .curves import geodesic_interpolate, uniform_times
+
+    ha, hb = _rest_heads_by_joint(like), _rest_heads_by_joint(clip)
+    fa, fb = _body_frame(ha), _body_frame(hb)
+    if fa is None or fb is None:
+        return clip
+    G = fb @ fa.T
+    u = np.linspace(0.0, 1.0, samples)
+    RA = geodesic_interpolate(like.rotations, uniform_times(like.frames), u)
+    RB = geodesic_interpolate(clip.rotations, uniform_times(clip.frames), u)
+    R = clip.rotations.copy()
+    for k, j in enumerate(clip.bones):
+        if j not in like.bones:
+            continue
+        WA = RA[:, like.bones.index(j)]
+        base, side = (j[:-2], j[-2:]) if j[-2:] in (".L", ".R") else (j, "")
+        child = next((c + side for c in _CHILDREN.get(base, ()) if c + side in ha and c + side in hb), None)
+        ra = None if child is None or j not in ha else _unit(ha[child] - ha[j])
+        rb = None if child is None or j not in hb else _unit(hb[child] - hb[j])
+        M = (np.swapaxes(RB[:, k], -1, -2) @ WA).sum(axis=0)  # tr(K^T M): how well W_B K matches W_A
+        if ra is None or rb is None:
+            K = _best_rotation(M)
+        else:
+            # the body frame alone or with the rest bones' swing (joints are placed differently by rigs: a
+            # clavicle's rest bone may point 20-40 degrees elsewhere on a rig whose rest is the same), each
+            # with its best twist; the one under which the motions agree better
+            turns = [G, _turn(G @ ra, rb) @ G]
+            turns = [T @ _axis_angle(ra, _best_twist(ra, T.T @ M)) for T in turns]
+            K = max(turns, key=lambda T: np.trace(T.T @ M))
+        R[:, k] = R[:, k] @ K
+    return replace(clip, rotations=R, meta=dict(clip.meta, rest_of=like.name))
 
 
 def apply_bone_map(clip: Clip, bone_map="auto") -> Clip:

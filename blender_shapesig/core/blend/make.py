@@ -114,7 +114,11 @@ def make_blends(clips, weights, *, mapped=None, back=None, ranges=None, loop=Fal
     if not weights:
         raise ShapeSigError("weights: at least one weight vector is needed")
     own, mapped, notes = _select(clips, mapped, ranges, loop)
-    work = mapped if mapped is not None else own
+    work = own
+    if mapped is not None:  # several rigs: the others' rotations relative to A's rest pose (rigs.rest_retarget)
+        from ..rigs import rest_retarget
+
+        work = [mapped[0]] + [rest_retarget(c, mapped[0]) for c in mapped[1:]]
     kw = dict(align=align, depth=depth, frames=frames, bones=bones, root=root, up_axis=up_axis, mask=mask,
               groups=groups)
     blends = _blend(work, weights, kw, progress)
