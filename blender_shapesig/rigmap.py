@@ -194,12 +194,22 @@ def best_saved_map(obj, folder) -> Tuple[Optional[str], Dict[str, str]]:
 
 # ------------------------------------------------------------------------------- blends across two rigs
 
+def _rest(armature):
+    """({bone: rest head}, {bone: parent}) of an armature, in armature space."""
+    bones = _armature_data(armature).bones
+    return ({b.name: tuple(b.head_local) for b in bones},
+            {b.name: (b.parent.name if b.parent else None) for b in bones})
+
+
 def across_rigs(armature, other) -> bool:
-    """True when actions of ``armature`` and ``other`` are of two rigs (another armature with other bone names):
-    they are then blended through their bone maps; one rig blends in its own space."""
-    if other is None or other == armature:
+    """True when actions of ``armature`` and ``other`` are of two rigs (another armature with other bone names,
+    or the same names in another rest pose: ``core.rigs.rests_differ``): they are then blended through their
+    bone maps; one rig blends in its own space."""
+    if other is None or other == armature or _armature_data(other) == _armature_data(armature):
         return False
-    return {b.name for b in _armature_data(armature).bones} != {b.name for b in _armature_data(other).bones}
+    if {b.name for b in _armature_data(armature).bones} != {b.name for b in _armature_data(other).bones}:
+        return True
+    return rigs.rests_differ(*_rest(armature), *_rest(other))
 
 
 def onto_comparison(a, armature, b, other, bones=None):

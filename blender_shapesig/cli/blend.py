@@ -58,7 +58,7 @@ def _read(args, paths, ranges):
     """(clips on their own rigs, clips in the comparison space or None): a clip with a range is read whole
     (no trimming: the range is in its own frame numbers)."""
     from ..core.metrics import check_coverage
-    from ..core.rigs import apply_bone_map
+    from ..core.rigs import apply_bone_map, other_rigs
 
     crop = c.crop_of(args)
     own = []
@@ -66,7 +66,7 @@ def _read(args, paths, ranges):
         given = i < len(ranges) and ranges[i] is not None
         own.append(c.load_one(path, args.asf, (None, None, crop[2], "none") if given else crop, "none"))
     mapped = None
-    if args.bone_map != "none" and any(x.bones != own[0].bones for x in own[1:]):
+    if args.bone_map != "none" and any(other_rigs(own[0], x) for x in own[1:]):
         mapped = [apply_bone_map(x, args.bone_map) for x in own]
     work = mapped or own
     for x in work[1:]:

@@ -38,7 +38,7 @@ from .errors import ParseError, ShapeSigError
 __all__ = [
     "JOINTS", "BODY", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
     "check_map", "load_map", "save_map", "map_json", "resolve_map", "world_rotations", "heading",
-    "to_comparison_space", "rest_retarget", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
+    "to_comparison_space", "rest_retarget", "rests_differ", "other_rigs", "REST_DEGREES", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
     "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
 ]
 
@@ -494,6 +494,40 @@ def rest_retarget(clip: Clip, like: Clip, samples: int = 64) -> Clip:
             K = max(turns, key=lambda T: np.trace(T.T @ M))
         R[:, k] = R[:, k] @ K
     return replace(clip, rotations=R, meta=dict(clip.meta, rest_of=like.name))
+
+
+# bones of one name pointing further apart than this in two rests: another rest pose (an A-pose against a T-pose
+# turns the upper arms about 45 degrees); the ASF skeletons of CMU subjects 07, 09 and 16 differ by 9.5-16.5
+REST_DEGREES = 25.0
+
+
+def rests_differ(heads_a: Mapping[str, Iterable[float]], parents_a: Mapping[str, Optional[str]],
+                 heads_b: Mapping[str, Iterable[float]], parents_b: Mapping[str, Optional[str]],
+                 degrees: float = REST_DEGREES) -> bool:
+    """True when two rigs with bone names in common hold them in other rest poses: some bone present in both
+    with the same parent points (parent's head to its head, armature axes) more than ``degrees`` elsewhere.
+    Such rigs blend through the comparison space and ``rest_retarget``, not in their local rotations (which are
+    relative to each rest). False when either rest skeleton is missing."""
+    cos = np.cos(np.radians(degrees))
+    for bone, parent in parents_a.items():
+        if parent is None or parents_b.get(bone) != parent:
+            continue
+        if not all(x in h for x in (bone, parent) for h in (heads_a, heads_b)):
+            continue
+        da = _unit(np.subtract(heads_a[bone], heads_a[parent], dtype=np.float64))
+        db = _unit(np.subtract(heads_b[bone], heads_b[parent], dtype=np.float64))
+        if da is not None and db is not None and da @ db < cos:
+            return True
+    return False
+
+
+def other_rigs(a: Clip, b: Clip) -> bool:
+    """True when clips ``a`` and ``b`` are of two rigs for a blend: other bones, or the same bones in other rest
+    poses (``rests_differ``)."""
+    if tuple(a.bones) != tuple(b.bones):
+        return True
+    return rests_differ(a.meta.get(skeleton.REST_HEADS) or {}, a.meta.get("parents") or {},
+                        b.meta.get(skeleton.REST_HEADS) or {}, b.meta.get("parents") or {})
 
 
 def apply_bone_map(clip: Clip, bone_map="auto") -> Clip:

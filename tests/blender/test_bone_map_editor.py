@@ -232,6 +232,23 @@ def test_blend_across_rigs_reads_through_the_stored_map(empty_file, data_dir):
     a, b = daz.animation_data.action, cc.animation_data.action
     bpy.context.view_layer.objects.active = daz
     assert rigmap.across_rigs(daz, cc) and not rigmap.across_rigs(daz, daz)
+    # the same rig imported again is one rig; with its left forearm's rest turned 45 degrees (an A-pose arm) it
+    # is another rig (core.rigs.rests_differ), blended through the maps and rest_retarget
+    twin, _ = import_armature(data_dir / "cross_rig" / "02_03.bvh")
+    assert not rigmap.across_rigs(daz, twin)
+    import math
+
+    import mathutils
+
+    bpy.context.view_layer.objects.active = twin
+    bpy.ops.object.mode_set(mode="EDIT")
+    eb = twin.data.edit_bones
+    shoulder, forearm = eb["lShldr"].head.copy(), eb["lForeArm"]
+    forearm.use_connect = False
+    forearm.head = shoulder + mathutils.Matrix.Rotation(math.radians(45.0), 3, "Y") @ (forearm.head - shoulder)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    assert rigmap.across_rigs(daz, twin) and rigmap.across_rigs(twin, daz)
+    bpy.context.view_layer.objects.active = daz
     before = set(bpy.data.actions)
     assert bpy.ops.shapesig.blend_actions(action_a=a.name, action_b=b.name, weight=0.5, assign=False) \
         == {"FINISHED"}

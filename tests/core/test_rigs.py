@@ -1,5 +1,6 @@
 """core.rigs: canonical joints, name tables, saved maps, the comparison space (pure: AMC clips, no Blender)."""
 
+import dataclasses
 import json
 import re
 
@@ -174,3 +175,30 @@ def test_coverage_and_refusal(walk):
     with pytest.raises(ShapeSigError, match=r"^clips '07_01' and 'custom' share no bones: no bone of 'custom' maps "
                                             r"to a canonical joint \(unmapped bones: a_root, a_lhipjoint"):
         compare_clips(mapped, custom)
+
+
+def test_same_bones_in_another_rest_pose_are_another_rig(walk):
+    """rests_differ / other_rigs: the same CMU rig is one rig; its arms lowered 45 degrees into an A-pose (rest
+    heads of the arm chains turned about the shoulders) make another rig, which blends through the comparison
+    space and rest_retarget; other bone names are another rig."""
+    _mapped, raw = walk
+    assert not rigs.other_rigs(raw, raw)
+    heads, parents = raw.meta["rest_heads"], raw.meta["parents"]
+    turn = rigs._axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(45.0))  # about the forward axis
+
+    def below(bone, top):
+        while bone is not None and bone != top:
+            bone = parents.get(bone)
+        return bone == top
+
+    posed = {}
+    for side, sign in (("l", 1.0), ("r", -1.0)):
+        shoulder = np.asarray(heads[f"{side}humerus"])
+        R = turn if sign > 0 else turn.T
+        posed.update({b: tuple(shoulder + R @ (np.asarray(h) - shoulder)) for b, h in heads.items()
+                      if below(b, f"{side}humerus")})
+    a_pose = dataclasses.replace(raw, meta=dict(raw.meta, rest_heads={**heads, **posed}))
+    assert rigs.rests_differ(heads, parents, a_pose.meta["rest_heads"], parents)
+    assert rigs.other_rigs(raw, a_pose) and rigs.other_rigs(a_pose, raw)
+    assert rigs.other_rigs(raw, dataclasses.replace(raw, bones=tuple(reversed(raw.bones))))
+    assert not rigs.rests_differ(heads, parents, {}, {})  # no rest skeleton: nothing to tell
