@@ -18,17 +18,15 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if ROOT not in sys.path:
-    sys.path.insert(0, ROOT)
+for _p in (ROOT, os.path.join(ROOT, "tools")):
+    if _p not in sys.path:
+        sys.path.insert(0, _p)
 
 import numpy as np  # noqa: E402
 
 from blender_shapesig.core import rigs, skeleton, sources  # noqa: E402
+from rank_across_rigs import _AMC, _ASF, _DAZ, _ICL  # noqa: E402  (the shared clips' folders)
 
-_ICL = "DragonForgedTheArtist_IClone-CMU-Mocap/All_BVH/subjects/002/002_01.bvh"
-_DAZ = "Przestr_motion-capture/data/{}/{}.bvh"
-_AMC = "uscresl_humanoid-gail/mocap/animations/running/09_02.amc"
-_ASF = "Jiaqi-Zuo_CSCI520-Motion-Capture-Interpolation/mocapPlayer-starter/09-run.asf"
 BONES = [("hips", "spine"), ("spine", "chest"), ("chest", "neck"), ("neck", "head")] + [
     (a + s, b + s) for s in (".L", ".R") for a, b in
     (("hips", "thigh"), ("thigh", "shin"), ("shin", "foot"), ("chest", "clavicle"), ("clavicle", "upper_arm"),
@@ -70,9 +68,10 @@ def main(argv=None):
     import matplotlib.pyplot as plt
 
     d = args.data
-    cases = [("iClone walk 002_01 (CC rig)", os.path.join(d, _ICL), "Daz run 09_02", os.path.join(d, _DAZ.format("09", "09_02")), None),
-             ("AMC run 09_02", os.path.join(d, _AMC), "Daz walk 07_01", os.path.join(d, _DAZ.format("07", "07_01")),
-              os.path.join(d, _ASF))]
+    cases = [("iClone walk 002_01 (CC rig)", os.path.join(d, _ICL, "002_01.bvh"), "Daz run 09_02",
+              os.path.join(d, _DAZ, "09", "09_02.bvh"), None),
+             ("AMC run 09_02", os.path.join(d, _AMC, "running", "09_02.amc"), "Daz walk 07_01",
+              os.path.join(d, _DAZ, "07", "07_01.bvh"), os.path.join(d, _ASF, "09-run.asf"))]
     fig, axes = plt.subplots(2, 3, figsize=(15, 6.4))
     with tempfile.TemporaryDirectory() as tmp:
         for row, (na, a, nb, b, asf) in enumerate(cases):
