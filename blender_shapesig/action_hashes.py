@@ -56,12 +56,9 @@ def action_hash(action) -> str:
             kp.foreach_get(attr, buf)
             h.update(buf.tobytes())
         for attr in ("interpolation", "handle_left_type", "handle_right_type", "easing"):
-            ibuf = np.empty(n, dtype=np.int32)
-            try:
-                kp.foreach_get(attr, ibuf)
-                h.update(ibuf.tobytes())
-            except (TypeError, RuntimeError, AttributeError):
-                h.update(("".join(getattr(k, attr) for k in kp)).encode())
+            ibuf = np.empty(n, dtype=np.int32)  # enum values: foreach_get reads them on 4.2 to 5.2
+            kp.foreach_get(attr, ibuf)
+            h.update(ibuf.tobytes())
     return h.hexdigest()
 
 

@@ -109,6 +109,13 @@ def _motion(clip, joints, seconds=1 / 15):
 TORSO = ("hips", "spine", "spine_mid", "chest", "neck", "head")
 
 
+def _paired(wa, wb, off):
+    """The rows of ``wa`` and ``wb`` that meet when a's frame k + off is b's frame k (equal lengths)."""
+    x, y = (wa[off:], wb) if off >= 0 else (wa, wb[-off:])
+    n = min(len(x), len(y))
+    return x[:n], y[:n]
+
+
 def joint_agreement(a, b, max_offset=15):
     """(offset, {joint: relative difference}, {joint: (gain x, y, z)}) of two clips of one take at one frame rate (see --joints), b's
     frames shifted by the offset in -max_offset..max_offset that matches all joints best (a's frame k + offset
@@ -116,17 +123,12 @@ def joint_agreement(a, b, max_offset=15):
     joints = [j for j in a.bones if j in b.bones]
     wa, wb = _motion(a, joints), _motion(b, joints)
 
-    def pair(off):
-        x, y = (wa[off:], wb) if off >= 0 else (wa, wb[-off:])
-        n = min(len(x), len(y))
-        return x[:n], y[:n]
-
     def misfit(off):
-        x, y = pair(off)
+        x, y = _paired(wa, wb, off)
         return np.linalg.norm(x - y) / np.linalg.norm(x)
 
     off = min(range(-max_offset, max_offset + 1), key=misfit)
-    x, y = pair(off)
+    x, y = _paired(wa, wb, off)
     rel = {j: float(np.linalg.norm(x[:, i] - y[:, i]) / max(np.linalg.norm(x[:, i]), 1e-12))
            for i, j in enumerate(joints)}
     gain = np.sqrt((y ** 2).mean(axis=0) / np.maximum((x ** 2).mean(axis=0), 1e-24))
@@ -161,9 +163,8 @@ def plot_lean(items, out, joint="chest"):
     for ax, (a, b) in zip(axes, [("amc:09_02", "daz:09_02"), ("amc:16_15", "mb:16_15")]):
         ca, cb = by[a].clips()[0], by[b].clips()[0]
         off, _rel, gain = joint_agreement(ca, cb)
-        wa, wb = _motion(ca, [joint]), _motion(cb, [joint])
-        wa, wb = (wa[off:], wb) if off >= 0 else (wa, wb[-off:])
-        n = min(len(wa), len(wb))
+        wa, wb = _paired(_motion(ca, [joint]), _motion(cb, [joint]), off)
+        n = len(wa)
         t = np.arange(n) / ca.fps
         rate = ca.fps / max(1, round(ca.fps / 15))  # rad per 1/15 s -> rad/s
         for axis, name, style in ((1, "lean", "-"), (0, "bend", ":")):

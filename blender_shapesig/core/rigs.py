@@ -31,7 +31,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Tuple
 
 import numpy as np
 
-from . import skeleton
+from . import skeleton, so3
 from .clip import Clip
 from .errors import ParseError, ShapeSigError
 
@@ -375,7 +375,7 @@ def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
     meta = dict(clip.meta, bone_map={j: by_joint[j] for j in joints}, rotation_space="comparison",
                 rig_bones=len(clip.bones))
     if hips is not None:
-        meta.update(root_path="hips_legs", leg=hips[1])
+        meta["root_path"] = "hips_legs"
     meta.pop("parents", None)
     return replace(clip, bones=tuple(joints), rotations=R, root_translation=rt, root_bone="hips",
                    rotation_modes=(), meta=meta)
@@ -412,35 +412,21 @@ def _body_frame(h: Mapping[str, np.ndarray]) -> Optional[np.ndarray]:
 
 
 def _turn(u, v):
-    """The smallest rotation taking unit vector u to unit vector v."""
+    """The smallest rotation taking unit vector u to unit vector v (a half turn about a normal of u when v = -u)."""
     axis, c = np.cross(u, v), float(np.clip(u @ v, -1.0, 1.0))
     s = np.linalg.norm(axis)
     if s < 1e-12:
         if c > 0:
             return np.eye(3)
-        axis = _unit(np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))]))
-        return 2.0 * np.outer(axis, axis) - np.eye(3)  # a half turn about an axis normal to u
-    k = axis / s
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + s * K + (1.0 - c) * (K @ K)
+        axis, s = _unit(np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])), 1.0
+    return so3.exp(axis / s * np.arctan2(s, c))
 
 
 def _best_twist(axis, M):
     """The angle t maximizing tr(Rot(axis, t)^T M): f(t) = a cos t + b sin t + c, read off at 0, pi/2, pi."""
-    f = [np.trace(_axis_angle(axis, t).T @ M) for t in (0.0, 0.5 * np.pi, np.pi)]
+    f = [np.trace(so3.exp(axis * t).T @ M) for t in (0.0, 0.5 * np.pi, np.pi)]
     c = 0.5 * (f[0] + f[2])
     return float(np.arctan2(f[1] - c, f[0] - c))
-
-
-def _best_rotation(M):
-    """The rotation K maximizing tr(K^T M) (orthogonal Procrustes)."""
-    U, _, Vt = np.linalg.svd(M)
-    return U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
-
-
-def _axis_angle(u, t):
-    K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
-    return np.eye(3) + np.sin(t) * K + (1.0 - np.cos(t)) * (K @ K)
 
 
 def rest_retarget(clip: Clip, like: Clip, samples: int = 64) -> Clip:
@@ -460,7 +446,7 @@ def rest_retarget(clip: Clip, like: Clip, samples: int = 64) -> Clip:
       motions agree better; the rotation about the bone itself, which rest positions cannot give, is the angle
       that best matches them (``_best_twist`` of ``sum_t (W_B(t) K)^T W_A(t)`` over normalized time);
     * a joint without one (hips, hands, feet without toes, head) takes the rotation that best matches the two
-      motions (``_best_rotation``), which also takes up the mean difference of its orientation between them.
+      motions (``so3.nearest_rotation`` of ``M``: orthogonal Procrustes), which also takes up the mean difference of its orientation between them.
 
     ``clip`` is returned unchanged when either rig has no rest skeleton or body frame."""
     from .curves import geodesic_interpolate, uniform_times
@@ -484,13 +470,13 @@ def rest_retarget(clip: Clip, like: Clip, samples: int = 64) -> Clip:
         rb = None if child is None or j not in hb else _unit(hb[child] - hb[j])
         M = (np.swapaxes(RB[:, k], -1, -2) @ WA).sum(axis=0)  # tr(K^T M): how well W_B K matches W_A
         if ra is None or rb is None:
-            K = _best_rotation(M)
+            K = so3.nearest_rotation(M)
         else:
             # the body frame alone or with the rest bones' swing (joints are placed differently by rigs: a
             # clavicle's rest bone may point 20-40 degrees elsewhere on a rig whose rest is the same), each
             # with its best twist; the one under which the motions agree better
             turns = [G, _turn(G @ ra, rb) @ G]
-            turns = [T @ _axis_angle(ra, _best_twist(ra, T.T @ M)) for T in turns]
+            turns = [T @ so3.exp(ra * _best_twist(ra, T.T @ M)) for T in turns]
             K = max(turns, key=lambda T: np.trace(T.T @ M))
         R[:, k] = R[:, k] @ K
     return replace(clip, rotations=R, meta=dict(clip.meta, rest_of=like.name))

@@ -184,7 +184,7 @@ def test_same_bones_in_another_rest_pose_are_another_rig(walk):
     _mapped, raw = walk
     assert not rigs.other_rigs(raw, raw)
     heads, parents = raw.meta["rest_heads"], raw.meta["parents"]
-    turn = rigs._axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(45.0))  # about the forward axis
+    turn = so3.exp(np.array([0.0, np.radians(45.0), 0.0]))  # about the forward axis
 
     def below(bone, top):
         while bone is not None and bone != top:
