@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT))
 import bpy  # noqa: E402
 
 from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 
 ACC = ROOT / "tests" / "data" / "acclaim"
 

@@ -51,12 +51,12 @@ import bpy  # noqa: E402
 
 import blender_shapesig  # noqa: E402
 from blender_shapesig import action_io  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, blend_many  # noqa: E402
-from blender_shapesig.core.feet import lock_feet  # noqa: E402
-from blender_shapesig.core.clip import Clip  # noqa: E402
-from blender_shapesig.core.curves import geodesic_interpolate, uniform_times  # noqa: E402
-from blender_shapesig.core.elastic import elastic_align  # noqa: E402
+from blender_shapesig.core.blend.feet import lock_feet  # noqa: E402
+from blender_shapesig.core.clip.clip import Clip  # noqa: E402
+from blender_shapesig.core.geometry.curves import geodesic_interpolate, uniform_times  # noqa: E402
+from blender_shapesig.core.elastic.elastic import elastic_align  # noqa: E402
 
 ACC = ROOT / "tests" / "data" / "acclaim"
 FRAMES = 400

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT / "tests" / "core"))
 
 import bpy  # noqa: E402,F401
 
-from blender_shapesig.core.formats.bvh import BVH_TO_BLENDER as A, load_bvh  # noqa: E402
+from blender_shapesig.core.io.bvh import BVH_TO_BLENDER as A, load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
 from test_bvh_reader import _independent  # noqa: E402
 

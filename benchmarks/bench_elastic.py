@@ -1,4 +1,4 @@
-"""Benchmark of the elastic distance d_S* (blender_shapesig.core.elastic).
+"""Benchmark of the elastic distance d_S* (blender_shapesig.core.elastic.elastic).
 
 Usage (from the repository root):
 
@@ -39,8 +39,8 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.core import _dp_kernels, elastic  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.elastic import _dp_kernels, elastic  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 
 TESTS = ROOT / "tests" / "data" / "acclaim"
 MATRIX_CLIPS = (
@@ -201,7 +201,8 @@ FIRST_CALL = """
 import time
 t0 = time.perf_counter()
 import numpy as np
-from blender_shapesig.core import elastic, so3
+from blender_shapesig.core.elastic import elastic
+from blender_shapesig.core.geometry import so3
 rng = np.random.default_rng(0)
 R0 = so3.integrate(rng.normal(size=(299, 31, 3)) * 0.05)
 R1 = so3.integrate(rng.normal(size=(299, 31, 3)) * 0.05)
@@ -214,13 +215,13 @@ print(t1 - t0, t2 - t1)
 
 def first_call_benchmark():
     """The first ``elastic_distance`` (300 x 300 x 31) in a fresh process, numba's on-disk cache warm (the
-    usual case: ``_dp_kernels.warm_up`` or any earlier call wrote it) and cold (an empty cache folder: the JIT
+    usual case: ``elastic.warm_up`` or any earlier call wrote it) and cold (an empty cache folder: the JIT
     compiles). Wall seconds of the imports and of the call, each in its own subprocess."""
     import subprocess
     import tempfile
 
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    subprocess.run([sys.executable, "-c", "from blender_shapesig.core import _dp_kernels; _dp_kernels.warm_up()"],
+    subprocess.run([sys.executable, "-c", "from blender_shapesig.core.elastic import elastic; elastic.warm_up()"],
                    env=env, check=True)
     out = {}
     with tempfile.TemporaryDirectory() as empty:

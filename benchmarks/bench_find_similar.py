@@ -41,7 +41,7 @@ import dataclasses  # noqa: E402
 
 from blender_shapesig import action_changes, action_io, library  # noqa: E402
 from blender_shapesig.core import blas, index  # noqa: E402
-from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
+from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 
 BVH = ROOT / "tests" / "data" / "bvh"

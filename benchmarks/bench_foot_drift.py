@@ -35,10 +35,10 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from blender_shapesig.core import feet  # noqa: E402
+from blender_shapesig.core.blend import feet  # noqa: E402
 from blender_shapesig.core.blend import blend_clips  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
-from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from blender_shapesig.core.rigs import apply_bone_map, onto_rig  # noqa: E402
 
 ANIM = "uscresl_humanoid-gail/mocap/animations"

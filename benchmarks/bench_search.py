@@ -38,7 +38,9 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.core import index, signatures, sources  # noqa: E402
+from blender_shapesig.core import index
+from blender_shapesig.core.signatures import signatures
+from blender_shapesig.core.io import sources  # noqa: E402
 
 # a folder of CMU .bvh files (``--data`` or $SHAPESIG_CMU_DATA); the test clips by default
 DEFAULT_DATA = os.environ.get("SHAPESIG_CMU_DATA", str(ROOT / "tests" / "data" / "bvh"))
@@ -54,7 +56,7 @@ def recall_at(true_order, approx_order, k=10):
 
 def exact_directions(clips, level):
     """float64 unit log-signatures on the union of moving joints (all clips share one skeleton)."""
-    from blender_shapesig.core.clip import still_joints
+    from blender_shapesig.core.clip.clip import still_joints
 
     moving = np.zeros(clips[0].rotations.shape[1], bool)
     for c in clips:

@@ -31,8 +31,8 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.core import signatures as sg, tensor  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.signatures import signatures as sg, tensor  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 
 try:
     import iisignature

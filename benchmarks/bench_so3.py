@@ -31,8 +31,8 @@ from scipy.spatial.transform import Rotation
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.core import so3  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.geometry import so3  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 
 TESTS = ROOT / "tests" / "data" / "acclaim"
 

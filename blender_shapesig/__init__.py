@@ -1,9 +1,14 @@
 """blender_shapesig: shape analysis of motions (SRVT elastic distance, geodesic blends and
 signature search) as a Blender extension.
 
-This file only registers. It imports nothing from Blender at module level, so that
-``blender_shapesig.core`` and the command line can be imported without bpy.
+This file only registers: the Blender layer's clip reader with core (at import) and the add-on's classes with
+Blender (``register``). It imports nothing from Blender at module level, so that ``blender_shapesig.core`` and the
+command line can be imported without bpy.
 """
+
+from .core.io import registry as _registry
+
+_registry.register_reader(".blend", f"{__name__}.readers:read_blend")
 
 # Blender-layer modules with register()/unregister(), in registration order.
 _MODULE_NAMES = ("preferences", "properties", "operators", "panels")
@@ -35,11 +40,11 @@ def _warm_up_kernels():
     import atexit
     import threading
 
-    from .core import _dp_kernels
+    from .core.elastic import elastic
 
     def run():
         try:
-            _dp_kernels.warm_up()
+            elastic.warm_up()
         except Exception:  # noqa: BLE001 - a read-only cache or a missing numba only costs the first call
             pass
 

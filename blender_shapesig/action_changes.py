@@ -19,7 +19,7 @@ import bpy
 
 from . import compat
 from .action_hashes import read_hash
-from .action_io import _bone_channels
+from .bone_channels import bone_channels
 
 __all__ = ["action_fingerprint", "action_bones", "forget_fingerprints", "refresh_fingerprints",
            "remembered_hash", "stop_change_detection"]
@@ -42,7 +42,7 @@ class _Fingerprint:
 
     def bones(self, action):
         if self.bone_set is None:
-            self.bone_set = frozenset(_bone_channels(compat.all_action_fcurves(action)))
+            self.bone_set = frozenset(bone_channels(compat.all_action_fcurves(action)))
         return self.bone_set
 
 

@@ -36,7 +36,6 @@ unwrapped (no ±2π jumps between frames), one F-curve group per bone; a slot an
 """
 
 import math
-import re
 from dataclasses import replace
 
 import bpy
@@ -44,19 +43,18 @@ import numpy as np
 
 from . import compat
 from .action_hashes import action_hash, read_hash
-from .core.clip import Clip
+from .bone_channels import PROPS as _PROPS, bone_channels
+from .core.clip.clip import Clip
 from .core.errors import ShapeSigError
-from .core.skeleton import rest_meta
+from .core.clip.skeleton import rest_meta
 # the rotation maths is core.so3's; the channel conversions are re-exported here, where callers know them
-from .core.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
+from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
 __all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions", "to_armature_space", "to_pose_space",
            "EULER_MODES", "SPACES"]
 
 SPACES = ("pose", "armature")
 
-_PATH = re.compile(r'^pose\.bones\["((?:[^"\\]|\\.)*)"\]\.([A-Za-z_]+)$')
-_PROPS = {"rotation_quaternion": 4, "rotation_euler": 3, "rotation_axis_angle": 4, "location": 3, "scale": 3}
 _DEFAULTS = {
     "rotation_quaternion": (1.0, 0.0, 0.0, 0.0),
     "rotation_euler": (0.0, 0.0, 0.0),
@@ -67,35 +65,12 @@ _MODE_PROP = {"QUATERNION": "rotation_quaternion", "AXIS_ANGLE": "rotation_axis_
 _INTERP_LINEAR = 1  # Keyframe.interpolation enum value of 'LINEAR' (CONSTANT=0, LINEAR=1, BEZIER=2)
 
 
-def _unescape(name):
-    return re.sub(r"\\(.)", r"\1", name)
-
-
 def _bone_path(bone, prop):
     return f'pose.bones["{bpy.utils.escape_identifier(bone)}"].{prop}'
 
 
 def _prop_for_mode(mode):
     return _MODE_PROP.get(mode, "rotation_euler")
-
-
-def _bone_channels(fcurves):
-    """{bone: {prop: {index: fcurve}}} for pose-bone F-curves (muted ones skipped), in order of appearance."""
-    out = {}
-    for fc in fcurves:
-        if fc.mute:
-            continue
-        m = _PATH.match(fc.data_path)
-        if not m:
-            continue
-        prop = m.group(2)
-        if prop not in _PROPS:
-            continue
-        index = fc.array_index
-        if index >= _PROPS[prop]:
-            continue
-        out.setdefault(_unescape(m.group(1)), {}).setdefault(prop, {})[index] = fc
-    return out
 
 
 def _content_hash(action, co_cache):
@@ -332,7 +307,7 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     _check_read(action, armature, space)
     if slot is None and armature is not None and getattr(armature.animation_data, "action", None) == action:
         slot = compat.object_action_slot(armature)
-    channels = _bone_channels(compat.action_fcurves(action, slot))
+    channels = bone_channels(compat.action_fcurves(action, slot))
     names, unkeyed = _read_bones(action, armature, bones, channels, exclude_unkeyed)
     start, end = _read_range(action, channels, names, frame_range)
     frames = np.arange(start, end + 1, dtype=np.float64)
@@ -531,7 +506,7 @@ def assign_action(armature, action, keep_previous=True):
         compat.stash_action(armature, previous)
     written = action.get("shapesig_rotation_modes")
     written = written.to_dict() if hasattr(written, "to_dict") else dict(written or {})
-    for bone, props in _bone_channels(compat.all_action_fcurves(action)).items():
+    for bone, props in bone_channels(compat.all_action_fcurves(action)).items():
         pb = armature.pose.bones.get(bone)
         if pb is None or not any(p.startswith("rotation_") for p in props):
             continue

@@ -29,7 +29,8 @@ import numpy as np
 import bpy
 
 from . import action_changes, action_io, compat, rigmap
-from .core import index, rigs, sources
+from .core import index, rigs
+from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
 from .core.errors import ShapeSigError, check_frame_range, check_integer
 from .preferences import ADDON_ID, get_preferences
@@ -206,7 +207,7 @@ def _check_values(settings):
 def _read_options(settings):
     """(trim, fps) every clip of a search is read with (issue 15): the Trim toggle, the FPS field (0: each clip's
     own rate; else refused unless plausible, ``prepare.check_fps``)."""
-    from .core.prepare import check_fps
+    from .core.clip.prepare import check_fps
 
     fps = check_fps(settings.fps, "FPS") if settings.fps else None
     return settings.trim, fps
@@ -343,7 +344,7 @@ COSTLY_LEVEL = 4
 def index_cost(context, settings):
     """(clips not indexed yet, estimated seconds, estimated bytes) of indexing the library at the settings'
     level, each clip assumed to move as many joints as the query (read once here)."""
-    from .core.signatures import log_signature_dim
+    from .core.signatures.signatures import log_signature_dim
 
     cache = get_cache(context)
     todo = [it for it in index_items(context, settings) if not cache.contains(it.key, settings.level)]

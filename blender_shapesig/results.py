@@ -7,7 +7,7 @@ import json
 import bpy
 
 from . import action_io, compat, library
-from .core import sources
+from .core.io import sources
 from .core.errors import ShapeSigError
 from .properties import results_of
 
@@ -78,7 +78,7 @@ def window_action(settings, obj, row):
 def explain_result(context, settings):
     """Why the selected result differs from the query (``core.explain.explain_clips``, on its window for a
     moment): stored as JSON in ``row.explain``; returns the explanation."""
-    from .core.explain import explain_clips
+    from .core.elastic.explain import explain_clips
 
     library.check_problem(library.result_problem(context, settings))
     obj, _action, q = library.query_item(context, settings)

@@ -13,11 +13,13 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import curves, signatures, sources
-from blender_shapesig.core.formats.acclaim import load_acclaim
-from blender_shapesig.core.clip import restrict_to_shared
+from blender_shapesig.core.geometry import curves
+from blender_shapesig.core.signatures import signatures
+from blender_shapesig.core.io import sources
+from blender_shapesig.core.io.acclaim import load_acclaim
+from blender_shapesig.core.clip.clip import restrict_to_shared
 from blender_shapesig.core.metrics import time_base_smoothing
-from blender_shapesig.core.prepare import prepare_clip
+from blender_shapesig.core.clip.prepare import prepare_clip
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 ACC = ROOT / "tests" / "data" / "acclaim"
@@ -122,7 +124,7 @@ def test_fps_and_trim_options(capsys, amc):
 
 
 def test_distance_elastic_depth(capsys, amc):
-    from blender_shapesig.core.elastic import elastic_distance
+    from blender_shapesig.core.elastic.elastic import elastic_distance
 
     out, _ = run_json(capsys, ["distance", amc["r1"], amc["r2"], "--metric", "elastic", "--depth", "3"])
     a, b = _compared(_clip(amc["r1"]), _clip(amc["r2"]), "elastic")
@@ -242,18 +244,10 @@ def test_evaluate_amc(capsys, amc, tmp_path):
     assert M[0, 3] == pytest.approx(curves.l2_distance(a.rotations, d.rotations), rel=1e-9)
 
 
-# --- rank (needs core.search) -------------------------------------------------------------------
-
-
-def _need_search():
-    from blender_shapesig.core import search
-
-    if not hasattr(search, "rank_clips"):
-        pytest.skip("core.search.rank_clips has not landed")
+# --- rank ------------------------------------------------------------------------------------------------------
 
 
 def test_rank_json_and_cache(capsys, amc, tmp_path):
-    _need_search()
     cache = tmp_path / "cache"
     args = ["rank", amc["w1"], amc["w2"], amc["r1"], amc["r2"], "--metric", "sim2", "--cache", str(cache)]
     out, _ = run_json(capsys, args)
@@ -279,7 +273,6 @@ def test_rank_sim_equals_distance_for_every_clip(capsys, amc, tmp_path):
     """rank's sim3 of each library clip is ``distance --metric sim3`` of the same pair: the index signs the curve
     the distance compares (the comparison time base), also for a BVH at another frame rate (60 fps, 120 fps
     query) and across rigs (shared bones)."""
-    _need_search()
     rig = ROOT / "tests" / "data" / "cross_rig"
     lib = [amc["w2"], amc["r1"], str(rig / "002_03.bvh"), str(rig / "02_03.bvh")]
     out, _ = run_json(capsys, ["rank", amc["w1"], *lib, "--metric", "sim3", "--cache", str(tmp_path / "c")])
@@ -295,7 +288,6 @@ def test_rank_sim_equals_distance_for_every_clip(capsys, amc, tmp_path):
 def test_rank_default_cache_env_and_no_cache(capsys, amc, tmp_path, monkeypatch):
     """Without --cache, rank caches in $SHAPESIG_CACHE_DIR (else the per-user folder, core.index.default_cache_dir);
     --no-cache reads and writes no cache; both options at once are an error."""
-    _need_search()
     env_dir = tmp_path / "user_cache"
     monkeypatch.setenv("SHAPESIG_CACHE_DIR", str(env_dir))
     args = ["rank", amc["w1"], amc["w2"], amc["r1"], "--metric", "sim2"]
@@ -316,12 +308,11 @@ def test_rank_default_cache_env_and_no_cache(capsys, amc, tmp_path, monkeypatch)
 
 
 def test_rank_rerank_and_top(capsys, amc):
-    _need_search()
     out, _ = run_json(capsys, ["rank", amc["r1"], amc["w1"], amc["w2"], amc["r2"], "--rerank", "2", "--top", "2"])
     assert len(out["results"]) == 2
     el = [r["elastic"] for r in out["results"]]
     assert all(e is not None for e in el) and el == sorted(el)
-    from blender_shapesig.core.elastic import elastic_distance
+    from blender_shapesig.core.elastic.elastic import elastic_distance
 
     names = {"07_01": amc["w1"], "07_02": amc["w2"], "09_03": amc["r2"]}
     first = out["results"][0]
@@ -334,7 +325,6 @@ def test_rank_rerank_and_top(capsys, amc):
 def test_rank_results_carry_path_and_action(capsys, tmp_path):
     """Issue 17: two files with the same display name (two copies of 16_15.bvh) are told apart by "path", the
     argument as given; "action" is null for files that are not .blend."""
-    _need_search()
     paths = []
     for sub in ("a", "b"):
         (tmp_path / sub).mkdir()
@@ -389,9 +379,9 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     """blend of two BVH clips: the .blend holds an armature and the new action, whose keys are the blend
     computed here independently with core.blend (read back with the clip loader)."""
     bpy = pytest.importorskip("bpy")
-    from blender_shapesig.core.sources import read as load_clips
+    from blender_shapesig.core.io.sources import read as load_clips
     from blender_shapesig.core.blend import blend_clips
-    from blender_shapesig.core.feet import lock_feet
+    from blender_shapesig.core.blend.feet import lock_feet
 
     bvh = ROOT / "tests" / "data" / "bvh"
     out = tmp_path / "walk_run.blend"

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import feet
+from blender_shapesig.core.blend import feet
 from blender_shapesig.core.blend import pose_steps
-from blender_shapesig.core.formats.acclaim import load_acclaim
+from blender_shapesig.core.io.acclaim import load_acclaim
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 ACC = ROOT / "tests" / "data" / "acclaim"
@@ -43,7 +43,7 @@ def _blend(*args):
 
 
 def _read_back(out, action):
-    from blender_shapesig.core.sources import read
+    from blender_shapesig.core.io.sources import read
 
     return read(f"{out}#{action}", bone_map="none", trim="none")[0]
 

@@ -333,7 +333,7 @@ def _write_degenerate_blend(bpy, tmp_path_factory):
     import numpy as np
 
     from blender_shapesig import action_io, compat
-    from blender_shapesig.core.clip import Clip
+    from blender_shapesig.core.clip.clip import Clip
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.ops.shapesig.import_acclaim("EXEC_DEFAULT", filepath=str(ACC / "09_02.amc"), asf_path=str(ACC / "09-run.asf"))

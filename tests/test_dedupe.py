@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import dedupe, sources
-from blender_shapesig.core.clip import Clip
+from blender_shapesig.core.index import dedupe
+from blender_shapesig.core.io import sources
+from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.index import entry_distance, make_entry
 from blender_shapesig.core.rigs import JOINTS
 from blender_shapesig.dedupe import planted
@@ -105,7 +106,7 @@ def test_bad_scheduler_is_one_line(capsys, library, tmp_path):
 
 
 def test_dask_is_imported_only_by_a_dedupe_run():
-    code = ("import sys, blender_shapesig.cli, blender_shapesig.dedupe, blender_shapesig.core.dedupe; "
+    code = ("import sys, blender_shapesig.cli, blender_shapesig.dedupe, blender_shapesig.core.index.dedupe; "
             "sys.exit('dask' in sys.modules or 'distributed' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     assert subprocess.run([sys.executable, "-c", code], env=env).returncode == 0

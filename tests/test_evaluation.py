@@ -10,10 +10,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from blender_shapesig import evaluation as ev
-from blender_shapesig.core import curves, metrics, pairwise, signatures, tensor
-from blender_shapesig.core.clip import Clip
+from blender_shapesig.core.geometry import curves
+from blender_shapesig.core import metrics, pairwise
+from blender_shapesig.core.signatures import signatures, tensor
+from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
-from blender_shapesig.core.prepare import prepare_clip
+from blender_shapesig.core.clip.prepare import prepare_clip
 
 
 def _points_matrix(P):

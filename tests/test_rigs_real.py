@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import index, rigs, sources
+from blender_shapesig.core import index, rigs
+from blender_shapesig.core.io import sources
 
 pytest.importorskip("bpy", reason="BVH files are read with Blender's importer")
 
@@ -177,8 +178,8 @@ def test_blend_onto_a_rig_with_many_unmapped_bones_notes_them_in_one_short_line(
 
 def _joint_angles(a, b):
     """{joint: mean angle in degrees} between two comparison-space clips over normalized time."""
-    from blender_shapesig.core import so3
-    from blender_shapesig.core.curves import geodesic_interpolate, uniform_times
+    from blender_shapesig.core.geometry import so3
+    from blender_shapesig.core.geometry.curves import geodesic_interpolate, uniform_times
 
     u = np.linspace(0.0, 1.0, 80)
     Ra = geodesic_interpolate(a.rotations, uniform_times(a.frames), u)
@@ -202,7 +203,7 @@ def test_rest_retarget_brings_the_same_take_on_two_rigs_together():
 
 def _relative_feet(clip):
     """Per frame, each foot's head relative to the hips in the clip's heading frame (x: left), in leg lengths."""
-    from blender_shapesig.core import skeleton
+    from blender_shapesig.core.clip import skeleton
 
     by_joint = {j: b for b, j in rigs.resolve_map("auto", clip).items()}
     heads, _tails, W = skeleton.forward_kinematics(clip)

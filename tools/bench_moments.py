@@ -22,7 +22,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from blender_shapesig.core import index, sources  # noqa: E402
+from blender_shapesig.core import index
+from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.index.windows import rank_windows, retimed_excerpt  # noqa: E402
 
 _AMC_TAKES = [("keenon_nimblephysics@d560120b1/data/mocap/09_12.amc", "keenon_nimblephysics@d560120b1/data/mocap/09.asf"),

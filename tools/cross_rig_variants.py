@@ -31,10 +31,10 @@ for p in (ROOT, os.path.join(ROOT, "tools")):
 
 import numpy as np  # noqa: E402
 
-from blender_shapesig.core import signatures  # noqa: E402
-from blender_shapesig.core.clip import restrict_to_shared  # noqa: E402
-from blender_shapesig.core.prepare import COMPARE_FPS, prepare_clip  # noqa: E402
-from blender_shapesig.core.so3 import relative_rotvecs  # noqa: E402
+from blender_shapesig.core.signatures import signatures  # noqa: E402
+from blender_shapesig.core.clip.clip import restrict_to_shared  # noqa: E402
+from blender_shapesig.core.clip.prepare import COMPARE_FPS, prepare_clip  # noqa: E402
+from blender_shapesig.core.geometry.so3 import relative_rotvecs  # noqa: E402
 from blender_shapesig.evaluation import index as eval_index  # noqa: E402
 from blender_shapesig.evaluation.run import load_entries  # noqa: E402
 from blender_shapesig.evaluation.scores import loo_1nn  # noqa: E402

@@ -25,7 +25,7 @@ import tempfile
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.core.sources import ClipSpec  # noqa: E402
+from blender_shapesig.core.io.sources import ClipSpec  # noqa: E402
 from blender_shapesig.dedupe import dedupe_library, planted  # noqa: E402
 
 ORIGINALS = ("Przestr_motion-capture/data/07/07_01.bvh", "Przestr_motion-capture/data/09/09_02.bvh",

@@ -75,7 +75,7 @@ def trim_action(action, armature, fps=None):
     or None when there is nothing to trim. ``fps``: the action's rate (a BVH file's, which Blender's importer does
     not record; stored as ``shapesig_fps``, the property every reader of this package takes the rate from)."""
     from blender_shapesig import action_io
-    from blender_shapesig.core.trim import detect_trim
+    from blender_shapesig.core.clip.trim import detect_trim
 
     if fps is not None:
         action["shapesig_fps"] = float(fps)

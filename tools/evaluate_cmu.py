@@ -31,7 +31,7 @@ if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
 from blender_shapesig import evaluation as ev  # noqa: E402
-from blender_shapesig.core import tensor  # noqa: E402
+from blender_shapesig.core.signatures import tensor  # noqa: E402
 from blender_shapesig.core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, parse_metric_spec  # noqa: E402
 
 SETS = {
@@ -116,8 +116,8 @@ def relabelled(summary, out_dir, mapping, path):
 def signature_scale(data, out, set_name="cmu27", level=DEFAULT_LEVEL):
     """Per clip: length of the development (total rotation, radians), duration and the norm of every
     level of the log-signature: what the unnormalized measures (rho, sigma_L, sigma_*) are dominated by."""
-    from blender_shapesig.core import signatures
-    from blender_shapesig.core.clip import restrict_to_shared
+    from blender_shapesig.core.signatures import signatures
+    from blender_shapesig.core.clip.clip import restrict_to_shared
 
     entries = ev.read_index(SETS[set_name])
     load = make_loader(data)
@@ -142,9 +142,10 @@ def signature_scale(data, out, set_name="cmu27", level=DEFAULT_LEVEL):
 
 
 def interpolation(data, out, walk, run, align, steps=21, levels=(1, 2, 3)):
-    from blender_shapesig.core import curves, signatures
+    from blender_shapesig.core.geometry import curves
+    from blender_shapesig.core.signatures import signatures
     from blender_shapesig.core.blend import geodesic_blend
-    from blender_shapesig.core.clip import restrict_to_shared
+    from blender_shapesig.core.clip.clip import restrict_to_shared
 
     load = make_loader(data)
     a = load(walk).crop(walk.start, walk.end)

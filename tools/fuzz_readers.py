@@ -330,7 +330,7 @@ def _mutate_blend(data, kind, rng):
 
 def check_clip(clip):
     """None when ``clip`` is a valid Clip (finite rotation matrices, finite root translation), else why not."""
-    from blender_shapesig.core.clip import Clip
+    from blender_shapesig.core.clip.clip import Clip
 
     if not isinstance(clip, Clip):
         return f"returned {type(clip).__name__}, not a Clip"
@@ -421,7 +421,7 @@ _ORIGINALS = {}
 def original_acclaim(asf, amc):
     key = (asf, amc)
     if key not in _ORIGINALS:
-        from blender_shapesig.core.formats.acclaim import load_acclaim
+        from blender_shapesig.core.io.acclaim import load_acclaim
 
         _ORIGINALS[key] = load_acclaim(DATA / amc, DATA / asf).rotations
     return _ORIGINALS[key]
@@ -429,7 +429,7 @@ def original_acclaim(asf, amc):
 
 def read_acclaim_case(asf_bytes, amc_bytes, folder, expected=None, timeout=30):
     """Write the two files into ``folder`` and load them with ``load_acclaim``; (outcome, detail)."""
-    from blender_shapesig.core.formats.acclaim import load_acclaim
+    from blender_shapesig.core.io.acclaim import load_acclaim
 
     asf = os.path.join(folder, "skel.asf")
     amc = os.path.join(folder, "take.amc")
@@ -461,7 +461,7 @@ def _worker(target, cases_path, results_path):
     import bpy
 
     import blender_shapesig
-    from blender_shapesig.core.sources import read as read_clips
+    from blender_shapesig.core.io.sources import read as read_clips
     from blender_shapesig.readers.bvh import import_bvh
 
     if target == "import_op":
@@ -587,7 +587,7 @@ def _blender_expected(target, src, tmp):
     if not os.path.exists(out):
         code = (
             "import sys, numpy as np; sys.path.insert(0, %r)\n"
-            "from blender_shapesig.core.sources import read\n"
+            "from blender_shapesig.core.io.sources import read\n"
             "np.save(%r, read(%r)[0].rotations)\n"
         ) % (str(ROOT), out, src)
         subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.DEVNULL,

@@ -32,9 +32,9 @@ if ROOT not in sys.path:
 
 from blender_shapesig import evaluation as ev  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
-from blender_shapesig.core import prepare  # noqa: E402
-from blender_shapesig.core.prepare import decimate_clip  # noqa: E402
-from blender_shapesig.core.trim import trim_clip  # noqa: E402
+from blender_shapesig.core.clip import prepare  # noqa: E402
+from blender_shapesig.core.clip.prepare import decimate_clip  # noqa: E402
+from blender_shapesig.core.clip.trim import trim_clip  # noqa: E402
 
 SETS = ("cmu_large.csv", "cmu_amc.csv")
 BOUNDS = {"sim3": 0.05, "elastic": 0.15}  # issue 15: decimated copy / nearest other class

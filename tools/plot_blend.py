@@ -30,9 +30,9 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from blender_shapesig.core.formats.acclaim import load_acclaim, parse_asf  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim, parse_asf  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, geodesic_blend  # noqa: E402
-from blender_shapesig.core.curves import l2_distance  # noqa: E402
+from blender_shapesig.core.geometry.curves import l2_distance  # noqa: E402
 
 ACC = ROOT / "tests" / "data" / "acclaim"
 JOINTS = ("lfemur", "ltibia", "rhumerus")

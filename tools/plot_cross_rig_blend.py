@@ -24,7 +24,9 @@ for _p in (ROOT, os.path.join(ROOT, "tools")):
 
 import numpy as np  # noqa: E402
 
-from blender_shapesig.core import rigs, skeleton, sources  # noqa: E402
+from blender_shapesig.core import rigs
+from blender_shapesig.core.clip import skeleton
+from blender_shapesig.core.io import sources  # noqa: E402
 from rank_across_rigs import _AMC, _ASF, _DAZ, _ICL  # noqa: E402  (the shared clips' folders)
 
 BONES = [("hips", "spine"), ("spine", "chest"), ("chest", "neck"), ("neck", "head")] + [

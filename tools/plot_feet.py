@@ -27,7 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bench_foot_drift import blend_pair, load  # noqa: E402
-from blender_shapesig.core import feet  # noqa: E402
+from blender_shapesig.core.blend import feet  # noqa: E402
 
 
 def trajectories(data, pair, weight):

@@ -22,7 +22,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from blender_shapesig.core import rigs, so3, sources  # noqa: E402
+from blender_shapesig.core import rigs
+from blender_shapesig.core.geometry import so3
+from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
 
 PAIR = (("Daz BVH", "Przestr_motion-capture/data/02/02_01.bvh"),

@@ -29,7 +29,7 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from blender_shapesig.core import signatures as sg  # noqa: E402
+from blender_shapesig.core.signatures import signatures as sg  # noqa: E402
 
 A_UNEQUAL = np.array([0.1, 0.5, 0.0, -0.2])
 A_EQUAL = np.full(4, 0.1)

@@ -37,7 +37,10 @@ if ROOT not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from blender_shapesig.core import index, prepare, so3, sources  # noqa: E402
+from blender_shapesig.core import index
+from blender_shapesig.core.clip import prepare
+from blender_shapesig.core.geometry import so3
+from blender_shapesig.core.io import sources  # noqa: E402
 
 _AMC = "uscresl_humanoid-gail/mocap/animations"
 _ASF = "Jiaqi-Zuo_CSCI520-Motion-Capture-Interpolation/mocapPlayer-starter"

@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 
 from bench_foot_drift import ANIM, ASF, CLIPS, blend_pair, load  # noqa: E402
 from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.core import feet  # noqa: E402
+from blender_shapesig.core.blend import feet  # noqa: E402
 from blender_shapesig.readers.acclaim import import_acclaim  # noqa: E402
 
 

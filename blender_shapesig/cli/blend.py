@@ -121,7 +121,7 @@ def run(args):
     for report in info["feet"] or ():
         if "skipped" in report:
             sys.stderr.write(f"{c.PROG}: note: feet not planted: {report['skipped']}\n")
-    from ..write_blend import write_blend
+    from ..write_blend_file import write_blend
 
     names = write_blend(c.clip_spec(args.a, args.asf), blended, out_path)
     out = {

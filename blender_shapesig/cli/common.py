@@ -114,7 +114,7 @@ def crop_of(args):
 
 def clip_spec(text, asf=None, crop=None, bone_map="auto"):
     """The ClipSpec of one CLIP argument with ``--asf``, ``(start, end[, fps, trim])`` and ``--bone-map``."""
-    from ..core.sources import ClipSpec
+    from ..core.io.sources import ClipSpec
 
     start, end, *rest = crop or (None, None)
     fps, trim = rest if rest else (None, "auto")
@@ -127,14 +127,14 @@ def bone_map_of(args):
 
 def load_one(spec, asf=None, crop=None, bone_map="auto"):
     """The one clip a CLIP argument names, cropped, through ``--bone-map``."""
-    from ..core.sources import read_one
+    from ..core.io.sources import read_one
 
     return read_one(clip_spec(spec, asf, crop, bone_map))
 
 
 def load_many(specs, asf=None, args=None):
     """Every clip the CLIP arguments name (a .blend may hold several), cropped by ``args``."""
-    from ..core.sources import read
+    from ..core.io.sources import read
 
     out = []
     bar = progress(args, len(specs), "loading") if args is not None else NoBar()

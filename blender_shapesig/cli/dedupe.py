@@ -4,7 +4,7 @@ from . import common as c
 
 
 def run(args):
-    from ..core import search
+    from ..core import index
     from ..dedupe import dedupe_library
     from ..dedupe.parallel import LOCAL_SCHEDULERS
 
@@ -17,7 +17,7 @@ def run(args):
         raise c.CommandError(f"--scheduler {sched!r}: give {', '.join(LOCAL_SCHEDULERS)} or an address "
                              f"(tcp://host:8786)")
     out = dedupe_library(args.paths, args.out, args.threshold, sched, k=args.k, level=args.level or c.DEFAULT_LEVEL,
-                         depth=args.depth, cache_dir=c.cache_dir(args, search), plots=not args.no_plots,
+                         depth=args.depth, cache_dir=c.cache_dir(args, index), plots=not args.no_plots,
                          asf=args.asf or None, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
     lines = [f"{out['clips']} clips, {len(out['clusters'])} near-duplicate clusters; report: {out['report']}"]
     for n, members in enumerate(out["clusters"], 1):

@@ -5,7 +5,7 @@ from . import common as c
 
 def run(args):
     from ..core.metrics import compare_clips, metric_label, parse_metric
-    from ..core.trim import trim_note, trimmed_range
+    from ..core.clip.trim import trim_note, trimmed_range
 
     base, level = parse_metric(args.metric, args.level)
     a = c.load_one(args.a, args.asf, c.crop_of(args), args.bone_map)

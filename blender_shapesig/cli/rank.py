@@ -8,7 +8,7 @@ from . import common as c
 def library_items(specs, args):
     """Library items of the CLIP arguments, keyed by ``ClipSpec.key`` (file bytes, skeleton, action, crop): a
     cached file is not even read again. Missing files and unknown types fail here, at once."""
-    from ..core.sources import spec_item
+    from ..core.io.sources import spec_item
 
     return [spec_item(c.clip_spec(s, args.asf, c.crop_of(args), args.bone_map).check()) for s in specs]
 
@@ -26,7 +26,7 @@ def _rank_windows(query, items, args, progress):
 def _explanation(query, item, result, args):
     """``--explain``: the result's per-joint shares and alignment cost (``core.explain``), from its DP path when
     the moment search made one, else from the elastic alignment of the two clips (or of the window)."""
-    from ..core.explain import explain_clips
+    from ..core.elastic.explain import explain_clips
 
     if result.explain is not None:
         return result.explain
@@ -38,7 +38,7 @@ def _explanation(query, item, result, args):
 
 
 def run(args):
-    from ..core import search
+    from ..core import index
     from ..core.metrics import metric_label, parse_metric
 
     base, level = parse_metric(args.metric, args.level)
@@ -48,8 +48,8 @@ def run(args):
         raise c.CommandError("--top must be 1 or more")
     if args.explain < 0:
         raise c.CommandError("--explain must be 0 or more")
-    from ..core.sources import read_one, spec_item
-    from ..core.trim import trim_note, trimmed_range
+    from ..core.io.sources import read_one, spec_item
+    from ..core.clip.trim import trim_note, trimmed_range
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
     query = read_one(spec)
@@ -58,7 +58,7 @@ def run(args):
     items = library_items(args.clips, args)
     if not items:
         raise c.CommandError("no clips to rank")
-    cache = search.SignatureCache(c.cache_dir(args, search))
+    cache = index.SignatureCache(c.cache_dir(args, index))
     bar = c.progress(args, len(items), "signatures")
     done = [0]
 
@@ -71,7 +71,7 @@ def run(args):
         if args.windows:
             results = _rank_windows(query, items, args, progress)
         else:
-            results = search.rank_clips(query_item, items, metric=base, level=level, rerank=args.rerank or 0,
+            results = index.rank_clips(query_item, items, metric=base, level=level, rerank=args.rerank or 0,
                                         top=args.top, cache=cache, depth=args.depth, progress=progress,
                                         allow_partial=args.allow_partial)
     finally:
@@ -111,7 +111,7 @@ def run(args):
         win = f"  frames {r['start']}-{r['end']}" if "start" in r else ""
         lines.append(f"{i:3d}. {r['clip']}{win}  {dist}{el}")
         if "explain" in r:
-            from ..core.explain import top_joints
+            from ..core.elastic.explain import top_joints
 
             lines.append("       " + ", ".join(f"{n} {v:.0%}" for n, v in top_joints(r["explain"], 4)))
     lines += [n for n in notes if n]

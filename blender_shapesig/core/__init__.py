@@ -1,19 +1,22 @@
-"""blender_shapesig.core: shape analysis of curves in SO(3)^d.
-
-Pure numpy/scipy (iisignature optional); never imports bpy, so it is usable as a library outside
-Blender. The public names are fixed by interfaces.md; see docs/ for the maths.
-"""
+"""blender_shapesig.core: shape analysis of curves in SO(3)^d, pure numpy/scipy (numba, iisignature optional);
+never imports bpy. Packages: ``geometry`` (rotations, curves, the SRVT), ``clip`` (the ``Clip``, rest skeletons,
+trimming, the comparison time base), ``io`` (sources, file formats), ``elastic`` (d_S*), ``signatures``, ``index``
+(search, moments, near duplicates), ``blend`` (geodesic blends, planted feet); modules ``rigs`` (canonical joints,
+bone maps), ``metrics``/``pairwise`` (named measures, matrices), ``errors``. The public names below are fixed by
+interfaces.md; docs/architecture.md shows who owns what."""
 
 from .errors import CurveError, ParseError, ShapeSigError
 
 # The maths modules are imported on first use of one of their names (PEP 562), so that importing a core
 # submodule (the command line, the readers) does not pay for numba, scipy.sparse or iisignature.
 _LAZY = {
-    "as_curve": "curves", "geodesic_interpolate": "curves", "inverse_srvt": "curves", "l2_distance": "curves",
-    "move_to_identity": "curves", "right_log_derivative": "curves", "srvt": "curves",
-    "elastic_align": "elastic", "elastic_distance": "elastic", "reparametrize": "elastic",
-    "concat_distance": "signatures", "group_distance": "signatures", "linear_distance": "signatures",
-    "log_signature": "signatures", "normalized_distance": "signatures", "signature": "signatures",
+    "as_curve": "geometry.curves", "geodesic_interpolate": "geometry.curves", "inverse_srvt": "geometry.curves",
+    "l2_distance": "geometry.curves", "move_to_identity": "geometry.curves", "right_log_derivative": "geometry.curves",
+    "srvt": "geometry.curves",
+    "elastic_align": "elastic.elastic", "elastic_distance": "elastic.elastic", "reparametrize": "elastic.elastic",
+    "concat_distance": "signatures.signatures", "group_distance": "signatures.signatures",
+    "linear_distance": "signatures.signatures", "log_signature": "signatures.signatures",
+    "normalized_distance": "signatures.signatures", "signature": "signatures.signatures",
     "geodesic_blend": "blend",
 }
 

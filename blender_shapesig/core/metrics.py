@@ -26,7 +26,8 @@ import re
 from dataclasses import dataclass
 from typing import Optional
 
-from .clip import Clip, restrict_to_shared
+from .clip.clip import Clip, restrict_to_shared
+from .elastic import DEFAULT_DEPTH
 from .errors import CurveError, ShapeSigError
 
 __all__ = [
@@ -47,12 +48,12 @@ SMOOTHED_METRICS = ("l2", "elastic")
 
 def time_base_smoothing(base) -> float:
     """The low-pass (seconds) of the comparison time base for a metric base name."""
-    from .prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS
+    from .clip.prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS
 
     return SMOOTH_SECONDS if base in SMOOTHED_METRICS else SIGNATURE_SMOOTH_SECONDS
-# The named defaults of the whole package: the log-signature level n and the elastic DP search depth D.
+# The named defaults of the whole package: the log-signature level n (here) and the elastic DP search depth D
+# (owned by the elastic package).
 DEFAULT_LEVEL = 3
-DEFAULT_DEPTH = 9
 MAX_LEVEL = 8
 
 _OPTIONS = ("numpy", "joint", "group", "levelnorm", "tensor")  # canonical order
@@ -161,7 +162,9 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
     """Distance between two curves (same joints, same order) by plain metric name."""
     # imported here, not at the top: the maths modules (elastic, blend, search) may import the named
     # defaults from this module without an import cycle
-    from . import curves, elastic, signatures
+    from .geometry import curves
+    from .elastic import elastic
+    from .signatures import signatures
 
     base, lvl = parse_metric(metric, level)
     if base == "l2":
@@ -206,7 +209,7 @@ def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPT
     one rate in seconds; for the SRVT measures also a low-pass of the angular velocity,
     ``time_base_smoothing``), so that a clip and the same motion at another frame rate are close; False
     compares the curves as read."""
-    from .prepare import prepare_clip
+    from .clip.prepare import prepare_clip
 
     base, _ = parse_metric(metric, level)
     if base in ("l2", "elastic"):

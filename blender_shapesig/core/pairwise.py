@@ -22,10 +22,11 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from . import elastic, signatures, tensor
-from .clip import restrict_to_shared
-from . import curves as curves_mod
-from .curves import srvt, srvt_l2_squared, uniform_times, use_srvt_norm
+from .elastic import elastic
+from .signatures import signatures, tensor
+from .clip.clip import restrict_to_shared
+from .geometry import curves as curves_mod
+from .geometry.curves import srvt, srvt_l2_squared, uniform_times, use_srvt_norm
 from .errors import ShapeSigError
 from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec, time_base_smoothing
 
@@ -41,7 +42,7 @@ def prepare_curves(clips, smooth=None):
     base by ``prepare.prepare_clip(clip, smooth=smooth)``."""
     restricted = restrict_to_shared(*clips)
     if smooth is not None:
-        from .prepare import prepare_clip
+        from .clip.prepare import prepare_clip
 
         restricted = [prepare_clip(c, smooth=smooth) for c in restricted]
     return [c.rotations for c in restricted], restricted[0].bones

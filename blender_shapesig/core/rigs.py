@@ -31,8 +31,9 @@ from typing import Dict, Iterable, List, Mapping, Optional, Tuple
 
 import numpy as np
 
-from . import skeleton, so3
-from .clip import Clip
+from .clip import skeleton
+from .geometry import so3
+from .clip.clip import Clip
 from .errors import ParseError, ShapeSigError
 
 __all__ = [
@@ -449,7 +450,7 @@ def rest_retarget(clip: Clip, like: Clip, samples: int = 64) -> Clip:
       motions (``so3.nearest_rotation`` of ``M``: orthogonal Procrustes), which also takes up the mean difference of its orientation between them.
 
     ``clip`` is returned unchanged when either rig has no rest skeleton or body frame."""
-    from .curves import geodesic_interpolate, uniform_times
+    from .geometry.curves import geodesic_interpolate, uniform_times
 
     ha, hb = _rest_heads_by_joint(like), _rest_heads_by_joint(clip)
     fa, fb = _body_frame(ha), _body_frame(hb)
@@ -568,7 +569,7 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
     (``H``: ``mapped``'s heading) and every other bone keeps ``rig``'s own motion (local rotation, re-timed
     to ``clip``'s frames by geodesic interpolation). ``meta["kept_bones"]`` lists the rig's bones that kept
     their motion (no counterpart in ``clip``)."""
-    from .curves import geodesic_interpolate, uniform_times
+    from .geometry.curves import geodesic_interpolate, uniform_times
 
     bone_map = mapped.meta.get("bone_map") or {}
     unblended = set(clip.meta.get("unmatched_a", ()))  # joints a blend copied from A: A's local motion stays

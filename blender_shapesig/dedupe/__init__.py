@@ -8,7 +8,7 @@ Dask too) and writes ``report.html`` and ``report.json`` (``report``).
 import os
 import time
 
-from ..core import dedupe as core_dedupe
+from ..core.index import dedupe as core_dedupe
 from ..core.errors import ShapeSigError
 from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 from . import parallel
@@ -20,7 +20,7 @@ def library_items(paths, **options):
     """``(items, skipped)``: a LibraryItem per clip source found in ``paths`` (``sources.discover``; a
     ``ClipSpec`` in ``paths`` is taken as it is, e.g. an .amc with its own skeleton), and a one-line reason
     for each source whose key cannot be made (an .amc without a unique .asf, a missing file)."""
-    from ..core import sources
+    from ..core.io import sources
 
     given = [p for p in paths if isinstance(p, sources.ClipSpec)]
     names = [p for p in paths if not isinstance(p, sources.ClipSpec)]

@@ -13,7 +13,7 @@ import shutil
 
 import numpy as np
 
-from ..core.formats.bvh import bvh_text, parse_bvh
+from ..core.io.bvh import bvh_text, parse_bvh
 
 __all__ = ["renamed", "rate", "trimmed_retimed", "variant", "plant"]
 

@@ -6,8 +6,8 @@ import os
 from dataclasses import dataclass
 from typing import Optional
 
-from ..core import sources
-from ..core.prepare import decimate_clip
+from ..core.io import sources
+from ..core.clip.prepare import decimate_clip
 from ..core.errors import ShapeSigError
 
 __all__ = ["IndexEntry", "read_index", "unique_names", "labels_from_csv", "entry_spec", "entry_loader"]

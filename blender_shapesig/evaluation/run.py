@@ -10,11 +10,11 @@ import os
 import sys
 import time
 
-from ..core.clip import restrict_to_shared
-from ..core.elastic import elastic_distance
+from ..core.clip.clip import restrict_to_shared
+from ..core.elastic.elastic import elastic_distance
 from ..core.metrics import DEFAULT_DEPTH, SMOOTHED_METRICS, parse_metric_spec
 from ..core.pairwise import distance_matrix
-from ..core.prepare import COMPARE_FPS, SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
+from ..core.clip.prepare import COMPARE_FPS, SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
 from .index import unique_names
 from .plots import plot_dendrogram, plot_mds
 from .report import safe_name, write_matrix, write_summary

@@ -27,7 +27,7 @@ from bpy.props import BoolProperty
 
 from .. import library, results
 from ..core import index
-from ..core.explain import top_joints
+from ..core.elastic.explain import top_joints
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
 from ..library import CACHES as _CACHES  # noqa: F401

@@ -18,7 +18,7 @@ import json
 import bpy
 
 from .. import library
-from ..core.explain import top_joints
+from ..core.elastic.explain import top_joints
 
 # the "Why different" box: bars of the largest shares, and the cost over time in this many cells
 EXPLAIN_BARS = 5

@@ -25,10 +25,10 @@ import bpy
 import numpy as np
 
 from .. import action_io, compat
-from ..core.clip import Clip
+from ..core.clip.clip import Clip
 from ..core.errors import ShapeSigError
-from ..core.formats.acclaim import ASF_TO_BLENDER, parse_amc, parse_asf, to_blender_axes
-from ..core.sources import find_asf
+from ..core.io.acclaim import ASF_TO_BLENDER, parse_amc, parse_asf, to_blender_axes
+from ..core.io.acclaim import find_asf
 
 __all__ = ["import_acclaim", "choose_files", "clip_to_pose", "pose_clip", "rest_geometry", "AXIS_CONVERSION"]
 

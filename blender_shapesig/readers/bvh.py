@@ -20,7 +20,7 @@ import bpy
 
 from .. import action_io
 from ..core.errors import ParseError, ShapeSigError
-from ..core.formats.bvh import bvh_text, check_bvh
+from ..core.io.bvh import bvh_text, check_bvh
 from .scratch import id_snapshot, quiet_fds, remove_new_ids
 
 __all__ = ["import_bvh", "import_armature"]

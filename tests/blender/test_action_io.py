@@ -10,7 +10,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_hashes, action_io, compat  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ShapeSigError  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
@@ -253,7 +253,7 @@ def test_euler_and_quaternion_continuity(empty_file):
     n = 200
     angles = np.linspace(0, 8 * np.pi, n)
     R = Rotation.from_rotvec(np.outer(angles, [0.1, 0.2, 1.0]) / np.linalg.norm([0.1, 0.2, 1.0])).as_matrix()
-    from blender_shapesig.core.clip import Clip
+    from blender_shapesig.core.clip.clip import Clip
 
     clip = Clip(name="spin", bones=("b",), rotations=R[:, None])
     for mode in ("XYZ", "ZYX", "QUATERNION", "AXIS_ANGLE"):

@@ -12,9 +12,9 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io  # noqa: E402
-from blender_shapesig.core.sources import read  # noqa: E402
-from blender_shapesig.readers import blend as blend_reader  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.io.sources import read  # noqa: E402
+from blender_shapesig.readers import blend_file as blend_reader  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
 
 ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"

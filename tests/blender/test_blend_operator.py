@@ -18,7 +18,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, default_frames  # noqa: E402
-from blender_shapesig.core.feet import lock_feet  # noqa: E402
+from blender_shapesig.core.blend.feet import lock_feet  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
 

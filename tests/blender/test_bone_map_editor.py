@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from blender_shapesig import library, rigmap
-from blender_shapesig.core import rigs, sources
+from blender_shapesig.core import rigs
+from blender_shapesig.core.io import sources
 from blender_shapesig.readers.bvh import import_armature
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

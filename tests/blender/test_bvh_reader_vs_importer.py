@@ -9,7 +9,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
+from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"

@@ -1,4 +1,4 @@
-"""Reading clips through ``core.sources.read`` and the Blender readers (``readers.bvh``, ``readers.blend``):
+"""Reading clips through ``core.sources.read`` and the Blender readers (``readers.bvh``, ``readers.blend_file``):
 .amc, .bvh (Blender's importer, nothing left behind, rotations checked against an independent reading of the
 BVH channels), .blend and FILE.blend#ACTION, and clear errors."""
 
@@ -10,10 +10,10 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io  # noqa: E402
-from blender_shapesig.core.sources import read  # noqa: E402
-from blender_shapesig.readers.blend import read_blend_file  # noqa: E402
+from blender_shapesig.core.io.sources import read  # noqa: E402
+from blender_shapesig.readers.blend_file import read_blend_file  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"

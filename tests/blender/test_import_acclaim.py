@@ -11,7 +11,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig.core.formats.acclaim import forward_kinematics, parse_amc, parse_asf  # noqa: E402
+from blender_shapesig.core.io.acclaim import forward_kinematics, parse_amc, parse_asf  # noqa: E402
 from blender_shapesig.readers.acclaim import AXIS_CONVERSION  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
@@ -148,7 +148,7 @@ def test_core_clip_mapped_onto_the_armature_equals_the_imported_action(empty_fil
     """clip_to_pose(core clip) = what the importer wrote (so core-computed clips, e.g. blends, can be written
     onto an imported armature), and reading the imported action gives the same pose rotations."""
     from blender_shapesig import action_io
-    from blender_shapesig.core.formats.acclaim import load_acclaim
+    from blender_shapesig.core.io.acclaim import load_acclaim
     from blender_shapesig.readers.acclaim import clip_to_pose
 
     obj = _import(ACC / "09_02.amc", ACC / "09-run.asf", scale=2.0)

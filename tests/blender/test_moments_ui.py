@@ -10,7 +10,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.core import search  # noqa: E402
+from blender_shapesig.core import index as search  # noqa: E402
 from blender_shapesig.core.index.windows import retimed_excerpt  # noqa: E402
 from test_search_ui import FakeLayout, _import_bvh  # noqa: E402 - the importer call and recording layout there
 

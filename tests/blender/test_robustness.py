@@ -21,9 +21,9 @@ from hypothesis import strategies as st
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.core.sources import read  # noqa: E402
+from blender_shapesig.core.io.sources import read  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
-from blender_shapesig.core.clip import Clip  # noqa: E402
+from blender_shapesig.core.clip.clip import Clip  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -493,7 +493,7 @@ def test_rank_skips_bad_library_actions_and_refuses_a_bad_query(library, rig):
 
 
 def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
-    from blender_shapesig.core import search
+    from blender_shapesig.core import index as search
 
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
     first = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}

@@ -17,7 +17,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import compat, library, results  # noqa: E402
-from blender_shapesig.core import index, sources  # noqa: E402
+from blender_shapesig.core import index
+from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.errors import MAX_INBETWEENS  # noqa: E402
 from test_blend_operator import _buffer_hash, _import_bvh, _reopen  # noqa: E402
 from test_search_ui import FakeLayout, _draw  # noqa: E402
@@ -323,7 +324,7 @@ def test_rank_modal_progress_escape_and_measured_time(rig):
 # --------------------------------------------------------------------------- cost and skeleton field
 
 def test_level_four_cost_estimate_and_confirmation(rig, monkeypatch):
-    from blender_shapesig.core.signatures import log_signature_dim
+    from blender_shapesig.core.signatures.signatures import log_signature_dim
     from blender_shapesig.operators import search as ops
 
     s = bpy.context.scene.shapesig

@@ -16,7 +16,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_changes, action_io, compat  # noqa: E402
-from blender_shapesig.core import rigs, search  # noqa: E402
+from blender_shapesig.core import index as search, rigs  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"

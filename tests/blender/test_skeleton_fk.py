@@ -10,9 +10,9 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io  # noqa: E402
-from blender_shapesig.core.formats.acclaim import load_acclaim  # noqa: E402
-from blender_shapesig.core.formats.bvh import load_bvh  # noqa: E402
-from blender_shapesig.core.skeleton import forward_kinematics  # noqa: E402
+from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
+from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
+from blender_shapesig.core.clip.skeleton import forward_kinematics  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
 FRAMES = (1, 7, 23, 60, 101)

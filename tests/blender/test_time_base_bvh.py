@@ -9,11 +9,11 @@ import pytest
 
 pytest.importorskip("bpy")
 
-from blender_shapesig.core import sources  # noqa: E402
+from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.index import rank_clips  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
-from blender_shapesig.core.prepare import decimate_clip  # noqa: E402
-from blender_shapesig.core.trim import START_RATIO, step_ratios  # noqa: E402
+from blender_shapesig.core.clip.prepare import decimate_clip  # noqa: E402
+from blender_shapesig.core.clip.trim import START_RATIO, step_ratios  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
 

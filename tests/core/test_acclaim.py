@@ -7,10 +7,10 @@ import shutil
 import numpy as np
 import pytest
 
-from blender_shapesig.core.formats.acclaim import (
+from blender_shapesig.core.io.acclaim import (
     euler_matrices, forward_kinematics, load_acclaim, parse_amc, parse_asf,
 )
-from blender_shapesig.core.sources import find_asf
+from blender_shapesig.core.io.acclaim import find_asf
 from blender_shapesig.core.errors import ParseError
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"

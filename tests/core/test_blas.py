@@ -3,9 +3,11 @@
 import numpy as np
 import pytest
 
-from blender_shapesig.core import blas, search, sources
+from blender_shapesig.core import blas
+from blender_shapesig.core import index as search
+from blender_shapesig.core.io import sources
 from blender_shapesig.core.index import rank
-from blender_shapesig.core.formats.acclaim import load_acclaim
+from blender_shapesig.core.io.acclaim import load_acclaim
 
 needs_openblas = pytest.mark.skipif(blas.blas_threads() is None, reason="numpy's OpenBLAS not found")
 

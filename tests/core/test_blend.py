@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig.core import CurveError, ShapeSigError
-from blender_shapesig.core.formats.acclaim import load_acclaim
+from blender_shapesig.core.io.acclaim import load_acclaim
 from blender_shapesig.core.blend import (
     blend_clip_series,
     blend_clips,
@@ -18,9 +18,9 @@ from blender_shapesig.core.blend import (
     estimate_up_axis,
     geodesic_blend,
 )
-from blender_shapesig.core.clip import Clip
-from blender_shapesig.core.curves import geodesic_interpolate, l2_distance, uniform_times
-from blender_shapesig.core.elastic import elastic_align
+from blender_shapesig.core.clip.clip import Clip
+from blender_shapesig.core.geometry.curves import geodesic_interpolate, l2_distance, uniform_times
+from blender_shapesig.core.elastic.elastic import elastic_align
 
 ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
 
@@ -417,7 +417,7 @@ def test_clip_blend_keeps_the_rotation_space_and_refuses_mixed_spaces(data_dir):
     a_asf = load_acclaim(acc / "07_01.amc", acc / "07-walk.asf").crop(1, 120)
     b_asf = load_acclaim(acc / "07_02.amc", acc / "07-walk.asf").crop(1, 120)
     out_asf = blend_clips(a_asf, b_asf, 0.5, align=False)
-    from blender_shapesig.core.formats.acclaim import ASF_TO_BLENDER as A
+    from blender_shapesig.core.io.acclaim import ASF_TO_BLENDER as A
 
     np.testing.assert_allclose(out.rotations, A @ out_asf.rotations @ A.T, atol=1e-10)
     with pytest.raises(ShapeSigError, match="different spaces"):

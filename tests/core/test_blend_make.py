@@ -7,11 +7,11 @@ import pathlib
 import numpy as np
 import pytest
 
-from blender_shapesig.core import feet
+from blender_shapesig.core.blend import feet
 from blender_shapesig.core.blend import blend_clips, blend_many, make_blends, pose_steps
 from blender_shapesig.core.errors import ShapeSigError
-from blender_shapesig.core.formats.acclaim import load_acclaim
-from blender_shapesig.core.formats.bvh import load_bvh
+from blender_shapesig.core.io.acclaim import load_acclaim
+from blender_shapesig.core.io.bvh import load_bvh
 from blender_shapesig.core.rigs import apply_bone_map, onto_rig
 
 ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"

@@ -9,8 +9,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from blender_shapesig.core.errors import ParseError
-from blender_shapesig.core.formats.bvh import BVH_TO_BLENDER, load_bvh
-from blender_shapesig.core.sources import read
+from blender_shapesig.core.io.bvh import BVH_TO_BLENDER, load_bvh
+from blender_shapesig.core.io.sources import read
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
 A = BVH_TO_BLENDER

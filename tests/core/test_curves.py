@@ -17,7 +17,7 @@ from blender_shapesig.core import (
     right_log_derivative,
     srvt,
 )
-from blender_shapesig.core.curves import as_curve, relative_rotvecs
+from blender_shapesig.core.geometry.curves import as_curve, relative_rotvecs
 
 
 def random_walk_curve(frames=60, joints=4, step=0.2, seed=0):
@@ -101,7 +101,7 @@ class TestRoundTripsAndInvariances:
         np.testing.assert_allclose(inverse_srvt(q, start=R[0]), R, atol=1e-15)
 
     def test_rounding_noise_is_zero_velocity_but_small_motion_is_not(self):
-        from blender_shapesig.core.curves import ZERO_STEP
+        from blender_shapesig.core.geometry.curves import ZERO_STEP
 
         angles = [0.0, 0.1 * ZERO_STEP, 1e3 * ZERO_STEP]
         R = np.stack([np.eye(3)] + [Rotation.from_rotvec([0, 0, a]).as_matrix() for a in np.cumsum(angles)])

@@ -5,8 +5,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from blender_shapesig.core import geodesic_interpolate, inverse_srvt, l2_distance, srvt
-from blender_shapesig.core.formats.acclaim import load_acclaim
-from blender_shapesig.core.clip import restrict_to_shared
+from blender_shapesig.core.io.acclaim import load_acclaim
+from blender_shapesig.core.clip.clip import restrict_to_shared
 
 
 @pytest.fixture(scope="module")

@@ -16,9 +16,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import _dp_kernels, elastic
-from blender_shapesig.core.curves import l2_distance, move_to_identity, srvt
-from blender_shapesig.core.elastic import (
+from blender_shapesig.core.elastic import _dp_kernels, elastic
+from blender_shapesig.core.geometry.curves import l2_distance, move_to_identity, srvt
+from blender_shapesig.core.elastic.elastic import (
     elastic_align,
     elastic_distance,
     elastic_distance_matrix,
@@ -489,8 +489,8 @@ def test_bad_input():
 
 
 def _acclaim_curves(data_dir, names):
-    from blender_shapesig.core.formats.acclaim import load_acclaim
-    from blender_shapesig.core.clip import restrict_to_shared
+    from blender_shapesig.core.io.acclaim import load_acclaim
+    from blender_shapesig.core.clip.clip import restrict_to_shared
 
     asf = {"07": "07-walk.asf", "09": "09-run.asf"}
     clips = [load_acclaim(data_dir / "acclaim" / f"{n}.amc", data_dir / "acclaim" / asf[n[:2]])
@@ -511,7 +511,7 @@ def test_real_clips_walks_closer_than_run(data_dir):
 
 
 def test_memory_guard_refuses_grids_beyond_the_limit(monkeypatch):
-    from blender_shapesig.core import elastic as el
+    from blender_shapesig.core.elastic import elastic as el
 
     R0 = np.repeat(np.eye(3)[None, None], 60, axis=0)
     R1 = np.repeat(np.eye(3)[None, None], 50, axis=0)

@@ -8,8 +8,9 @@ import pathlib
 import numpy as np
 import pytest
 
-from blender_shapesig.core import _dp_kernels, _srvt_kernel, curves, elastic, so3
-from blender_shapesig.core.formats.acclaim import load_acclaim
+from blender_shapesig.core.elastic import _dp_kernels, _srvt_kernel, elastic
+from blender_shapesig.core.geometry import curves, so3
+from blender_shapesig.core.io.acclaim import load_acclaim
 
 needs_numba = pytest.mark.skipif(not _srvt_kernel.HAVE_NUMBA, reason="numba not installed")
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
@@ -124,7 +125,7 @@ def fresh_distance(R0, R1, **kw):
 def test_reused_work_arrays_give_the_same_values_across_sizes(monkeypatch):
     """Successive calls of different sizes (the arrays grow, then serve smaller problems) equal fresh arrays bit
     for bit, also with every array above MAX_BYTES (allocated per call) and after release()."""
-    from blender_shapesig.core import _workspace
+    from blender_shapesig.core.elastic import _workspace
 
     pairs = [(steps_of_angles([0.1, 0.4, 2.0], joints=j, frames=f, seed=f) for f in (f0, f1)) for j, f0, f1 in
              ((3, 40, 37), (5, 61, 64), (2, 9, 12), (5, 61, 64), (1, 2, 3))]

@@ -5,14 +5,14 @@ import pathlib
 import numpy as np
 import pytest
 
-from blender_shapesig.core import feet
+from blender_shapesig.core.blend import feet
 from blender_shapesig.core.blend import blend_clips
 from blender_shapesig.core.errors import ShapeSigError
-from blender_shapesig.core.formats.acclaim import ASF_TO_BLENDER, forward_kinematics as acclaim_fk, load_acclaim
-from blender_shapesig.core.formats.amc import parse_amc
-from blender_shapesig.core.formats.asf import parse_asf
-from blender_shapesig.core.formats.bvh import load_bvh
-from blender_shapesig.core.skeleton import forward_kinematics, unit_meters
+from blender_shapesig.core.io.acclaim import ASF_TO_BLENDER, forward_kinematics as acclaim_fk, load_acclaim
+from blender_shapesig.core.io.amc import parse_amc
+from blender_shapesig.core.io.asf import parse_asf
+from blender_shapesig.core.io.bvh import load_bvh
+from blender_shapesig.core.clip.skeleton import forward_kinematics, unit_meters
 
 ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
@@ -95,7 +95,7 @@ def test_lock_reduces_stance_drift_and_leaves_the_rest():
         assert np.abs(h1[near, foot] - h0[near, foot]).max() > 0.01
         assert np.abs(W1[:, foot] - W0[:, foot]).max() < 1e-9
     # no pops: the legs' per-frame rotation steps stay of the order of the blend's own
-    from blender_shapesig.core import so3
+    from blender_shapesig.core.geometry import so3
 
     for leg in legs.values():
         for j in leg:
@@ -161,7 +161,7 @@ def test_pose_space_gives_the_same_planted_feet():
     root's location in its rest frame) is planted exactly like the armature-space clip."""
     from dataclasses import replace
 
-    from blender_shapesig.core import so3
+    from blender_shapesig.core.geometry import so3
 
     a, b = walk(), run()
     blend = blend_clips(a, b, 0.25, align=True)

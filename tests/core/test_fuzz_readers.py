@@ -19,8 +19,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from blender_shapesig.core import log_signature, signature, srvt
-from blender_shapesig.core.formats.acclaim import decode_text, load_acclaim, parse_amc, parse_asf
-from blender_shapesig.core.clip import Clip, restrict_to_shared
+from blender_shapesig.core.io.acclaim import decode_text, load_acclaim, parse_amc, parse_asf
+from blender_shapesig.core.clip.clip import Clip, restrict_to_shared
 from blender_shapesig.core.errors import CurveError, ParseError, ShapeSigError
 from blender_shapesig.core.metrics import METRICS, clip_distance
 

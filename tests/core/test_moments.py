@@ -10,15 +10,17 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import so3, sources
-from blender_shapesig.core.elastic import elastic_align, elastic_distance, required_depth
-from blender_shapesig.core.prepare import lattice_frames
-from blender_shapesig.core.explain import explain_clips, explain_path, joint_group
+from blender_shapesig.core.geometry import so3
+from blender_shapesig.core.io import sources
+from blender_shapesig.core.elastic.elastic import elastic_align, elastic_distance, required_depth
+from blender_shapesig.core.clip.prepare import lattice_frames
+from blender_shapesig.core.elastic.explain import explain_clips, explain_path, joint_group
 from blender_shapesig.core.index.windows import (clip_windows, prefix_signatures, rank_windows, retimed_excerpt,
                                                  window_log_signatures)
-from blender_shapesig.core.subsequence import (path_costs, subsequence_align, subsequence_dp_numba,
+from blender_shapesig.core.elastic.subsequence import (path_costs, subsequence_align, subsequence_dp_numba,
                                                subsequence_dp_numpy)
-from blender_shapesig.core import _dp_kernels, subsequence, tensor
+from blender_shapesig.core.elastic import _dp_kernels, subsequence
+from blender_shapesig.core.signatures import tensor
 
 ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
 ASF = {"07": "07-walk.asf", "09": "09-run.asf", "16": "16.asf"}

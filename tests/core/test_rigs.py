@@ -7,8 +7,10 @@ import re
 import numpy as np
 import pytest
 
-from blender_shapesig.core import rigs, sources, so3
-from blender_shapesig.core.clip import Clip
+from blender_shapesig.core import rigs
+from blender_shapesig.core.io import sources
+from blender_shapesig.core.geometry import so3
+from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.errors import ParseError, ShapeSigError
 from blender_shapesig.core.metrics import check_coverage, clip_distance, compare_clips
 

@@ -9,13 +9,15 @@ import shutil
 import numpy as np
 import pytest
 
-from blender_shapesig.core import search, signatures, sources
+from blender_shapesig.core import index as search
+from blender_shapesig.core.signatures import signatures
+from blender_shapesig.core.io import sources
 from blender_shapesig.core.index import words
-from blender_shapesig.core.formats.acclaim import load_acclaim
-from blender_shapesig.core.clip import Clip
+from blender_shapesig.core.io.acclaim import load_acclaim
+from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.metrics import clip_distance
-from blender_shapesig.core.prepare import decimate_clip, prepare_clip
+from blender_shapesig.core.clip.prepare import decimate_clip, prepare_clip
 
 ACCLAIM = [("07_01", "07-walk", "walk"), ("07_02", "07-walk", "walk"), ("09_02", "09-run", "run"),
            ("09_03", "09-run", "run"), ("16_15", "16", "walk")]
@@ -369,15 +371,15 @@ def test_file_items_for_command_line_specs(data_dir, tmp_path):
     with pytest.raises(ShapeSigError, match="does not exist"):
         search.folder_library([str(tmp_path / "x.blend#walk")])
     # a reader named by module path (.blend's lives in the Blender layer) is imported when first needed: without it, one line
-    from blender_shapesig.core import sources
+    from blender_shapesig.core.io import registry
 
-    saved = dict(sources._READERS)
+    saved = dict(registry._READERS)
     try:
-        sources._READERS[".bvh"] = "blender_shapesig._no_such_reader_module:read"
+        registry._READERS[".bvh"] = "blender_shapesig._no_such_reader_module:read"
         with pytest.raises(ShapeSigError, match="needs Blender"):
             search.folder_library([str(data_dir / "bvh" / "07_01.bvh")])[0].clips()
     finally:
-        sources._READERS.update(saved)
+        registry._READERS.update(saved)
     # a file that cannot be read is reported by rank_clips as a warning, the others are ranked
     bad = tmp_path / "bad.amc"
     bad.write_text("this is not an AMC file\n")

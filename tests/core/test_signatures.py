@@ -15,7 +15,8 @@ from hypothesis import given, settings, strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import curves, signatures as sg, tensor
+from blender_shapesig.core.geometry import curves
+from blender_shapesig.core.signatures import signatures as sg, tensor
 from blender_shapesig.core.errors import CurveError, ShapeSigError
 
 DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
@@ -109,7 +110,7 @@ def random_curve(rng, frames, joints, scale=0.15):
 
 
 def load_clip(amc, asf):
-    acclaim = pytest.importorskip("blender_shapesig.core.formats.acclaim")
+    acclaim = pytest.importorskip("blender_shapesig.core.io.acclaim")
     if not hasattr(acclaim, "load_acclaim"):
         pytest.skip("core.formats.acclaim.load_acclaim is not available yet")
     return acclaim.load_acclaim(DATA / "acclaim" / amc, DATA / "acclaim" / asf)
@@ -458,7 +459,7 @@ def test_still_joints_change_nothing():
 def test_still_mask_is_the_one_stillness_rule(walk, run):
     """The signature measures drop joints by the package's one stillness rule (so3.still_joints, re-exported
     by clip): the angle from the first frame, checked here against scipy."""
-    from blender_shapesig.core.clip import STILL_TOLERANCE, still_joints
+    from blender_shapesig.core.clip.clip import STILL_TOLERANCE, still_joints
 
     assert sg.still_joints is still_joints
     for clip in (walk, run):
@@ -595,7 +596,7 @@ def test_metric_registry_calls_these_functions():
 
 def test_walks_closer_than_walk_and_run(walk, walk2, run):
     """A sanity check of sim^2 on real clips (shared bones, still bones dropped)."""
-    from blender_shapesig.core.clip import restrict_to_shared
+    from blender_shapesig.core.clip.clip import restrict_to_shared
 
     a, b = restrict_to_shared(walk, walk2)
     a2, c = restrict_to_shared(walk, run)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import so3
+from blender_shapesig.core.geometry import so3
 from blender_shapesig.core.errors import ShapeSigError
 
 LD = np.longdouble

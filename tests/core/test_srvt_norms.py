@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core import elastic, pairwise
-from blender_shapesig.core import curves
-from blender_shapesig.core.curves import inverse_srvt, l2_distance, srvt, use_srvt_norm
+from blender_shapesig.core.elastic import elastic
+from blender_shapesig.core import pairwise
+from blender_shapesig.core.geometry import curves
+from blender_shapesig.core.geometry.curves import inverse_srvt, l2_distance, srvt, use_srvt_norm
 from blender_shapesig.core.errors import CurveError
 from blender_shapesig.core.metrics import parse_metric_spec
 
@@ -56,7 +57,7 @@ def test_inverse_round_trip_for_both_norms(norm):
     rng = np.random.default_rng(4)
     steps = rng.normal(scale=0.2, size=(60, 4, 3))
     steps[10:14, 2] = 0.0  # a joint at rest for a while: q = 0 there under both norms
-    from blender_shapesig.core import so3
+    from blender_shapesig.core.geometry import so3
 
     R = so3.integrate(steps, Rotation.random(4, random_state=2).as_matrix())
     t = np.sort(np.concatenate([[0.0, 1.0], rng.uniform(0.01, 0.99, 59)]))

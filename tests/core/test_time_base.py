@@ -6,13 +6,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from blender_shapesig.core import so3
+from blender_shapesig.core.geometry import so3
 from blender_shapesig.core.blend import blend_clips
-from blender_shapesig.core.clip import Clip
+from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
-from blender_shapesig.core.formats.acclaim import load_acclaim
+from blender_shapesig.core.io.acclaim import load_acclaim
 from blender_shapesig.core.metrics import clip_distance
-from blender_shapesig.core.prepare import decimate_clip, prepare_clip, prepare_rotations, smooth_increments
+from blender_shapesig.core.clip.prepare import decimate_clip, prepare_clip, prepare_rotations, smooth_increments
 
 
 def _amc(data_dir, name, asf):

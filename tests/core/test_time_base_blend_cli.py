@@ -45,7 +45,7 @@ def _python(*args, timeout=600):
 
 _READ_BACK = """
 import json, sys
-from blender_shapesig.core.sources import read
+from blender_shapesig.core.io.sources import read
 out = []
 for name in sys.argv[2:]:
     clip = read(sys.argv[1] + "#" + name, bone_map="none", trim="none")[0]
@@ -57,7 +57,7 @@ print(json.dumps(out))
 @pytest.fixture(scope="module")
 def blended(tmp_path_factory):
     pytest.importorskip("bpy")
-    from blender_shapesig.core.sources import read
+    from blender_shapesig.core.io.sources import read
 
     tmp = tmp_path_factory.mktemp("blend_rates")
     walk = BVH / "07_01.bvh"  # 120 fps

@@ -7,13 +7,13 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from blender_shapesig.core import so3
-from blender_shapesig.core.clip import Clip, restrict_to_shared
-from blender_shapesig.core.formats.acclaim import load_acclaim
+from blender_shapesig.core.geometry import so3
+from blender_shapesig.core.clip.clip import Clip, restrict_to_shared
+from blender_shapesig.core.io.acclaim import load_acclaim
 from blender_shapesig.core.metrics import clip_distance, curve_distance, time_base_smoothing
-from blender_shapesig.core.prepare import (decimate_clip, lattice_cut, lattice_frames, prepare_clip,
+from blender_shapesig.core.clip.prepare import (decimate_clip, lattice_cut, lattice_frames, prepare_clip,
                                            prepare_rotations)
-from blender_shapesig.core.trim import detect_trim, trim_clip, trim_note, trimmed_range
+from blender_shapesig.core.clip.trim import detect_trim, trim_clip, trim_note, trimmed_range
 
 BOUNDS = {"sim3": 0.05, "elastic": 0.15}  # issue 15: decimated copy / nearest clip of the other class
 

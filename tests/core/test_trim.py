@@ -3,11 +3,12 @@
 import numpy as np
 import pytest
 
-from blender_shapesig.core import so3, sources
-from blender_shapesig.core.clip import Clip
+from blender_shapesig.core.geometry import so3
+from blender_shapesig.core.io import sources
+from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
-from blender_shapesig.core.formats.acclaim import load_acclaim
-from blender_shapesig.core.trim import Trim, detect_trim, rest_ratios, step_ratios, trim_clip
+from blender_shapesig.core.io.acclaim import load_acclaim
+from blender_shapesig.core.clip.trim import Trim, detect_trim, rest_ratios, step_ratios, trim_clip
 
 
 def _amc(data_dir, name, asf):
@@ -77,7 +78,7 @@ def test_clipspec_trim_is_in_the_key_and_checked(data_dir):
 
 def test_an_explicit_start_wins_over_trim(tmp_path, walk):
     # a synthetic AMC is not needed: the rule is applied by sources.read, tested here on its helper
-    from blender_shapesig.core.sources import _trimmed
+    from blender_shapesig.core.io.sources import _trimmed
 
     clip = _with_rest_and_ramp(walk)
     auto = _trimmed(clip, sources.ClipSpec("x.amc"))

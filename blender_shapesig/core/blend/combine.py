@@ -34,8 +34,8 @@ import math
 
 import numpy as np
 
-from .. import so3
-from ..curves import (
+from ..geometry import so3
+from ..geometry.curves import (
     as_curve,
     geodesic_interpolate,
     move_to_identity,
@@ -43,7 +43,7 @@ from ..curves import (
     srvt_of_velocity,
     uniform_times,
 )
-from ..elastic import check_warp
+from ..elastic.elastic import check_warp
 from ..errors import CurveError, ShapeSigError, check_inbetweens, check_integer, check_number
 from ..metrics import DEFAULT_DEPTH
 
@@ -298,7 +298,7 @@ def compute_warp(R0, R1, align=True, depth=DEFAULT_DEPTH, penalty=0.0):
     """(warp, elastic distance or None): the DP warp of R1 onto R0, or the identity without align."""
     if not align:
         return identity_warp(), None
-    from ..elastic import elastic_align
+    from ..elastic.elastic import elastic_align
 
     warp, dist = elastic_align(R0, R1, depth=depth, penalty=penalty)
     return check_warp(warp, strict=True), float(dist)
@@ -345,7 +345,7 @@ def geodesic_blend(R0, R1, weight, align=True, depth=DEFAULT_DEPTH, *, frames=No
     out = plan.resample(Bg, steps) @ start[None]
     if not return_info:
         return out
-    from ..curves import l2_distance
+    from ..geometry.curves import l2_distance
 
     R0g = plan.r_on_grid(0, move_to_identity(R0))
     R1g = plan.r_on_grid(1, move_to_identity(R1))

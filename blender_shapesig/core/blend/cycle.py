@@ -22,10 +22,10 @@ with the Cycles modifier's "Repeat with Offset", the root velocity across the se
 
 import numpy as np
 
-from .. import so3
-from ..clip import Clip
+from ..geometry import so3
+from ..clip.clip import Clip
 from ..errors import ShapeSigError
-from ..prepare import COMPARE_FPS, prepare_rotations
+from ..clip.prepare import COMPARE_FPS, prepare_rotations
 
 # the loop's seam is eased over this window (seconds each side; see _ease_seam)
 SEAM_SMOOTH = 0.025

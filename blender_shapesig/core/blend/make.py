@@ -30,7 +30,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..curves import geodesic_interpolate, uniform_times
+from ..geometry.curves import geodesic_interpolate, uniform_times
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH
 from .combine import check_weights
@@ -126,7 +126,7 @@ def make_blends(clips, weights, *, mapped=None, back=None, ranges=None, loop=Fal
         blends = [back(x, own[0], work[0]) for x in blends]
     reports = None
     if feet == "lock":
-        from ..feet import lock_feet
+        from .feet import lock_feet
 
         reports = []
         for i, x in enumerate(blends):

@@ -7,12 +7,12 @@ several clips aligned to the first (the reference); both run the same code (``_m
 
 import numpy as np
 
-from ..clip import Clip, shared_bones, still_joints
-from ..curves import relative_rotvecs
-from ..elastic import check_warp
+from ..clip.clip import Clip, shared_bones, still_joints
+from ..geometry.curves import relative_rotvecs
+from ..elastic.elastic import check_warp
 from ..errors import ShapeSigError, check_integer, check_number
 from ..metrics import DEFAULT_DEPTH
-from ..prepare import prepare_rotations
+from ..clip.prepare import prepare_rotations
 from .combine import _Plan, blend_name, check_weights, compute_warp, default_frames_many, mean_start
 from .move_root import blend_root_path, interp_rows, resolve_up
 

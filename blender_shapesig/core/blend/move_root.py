@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from .. import so3
+from ..geometry import so3
 from ..errors import ShapeSigError
 
 __all__ = ["estimate_up_axis", "resolve_up", "blend_root_path", "interp_rows"]

@@ -13,7 +13,7 @@ One owner per concept, data flowing one way (words -> entry -> store -> rank):
 """
 
 from ..metrics import DEFAULT_LEVEL
-from ..sources import LibraryItem, clip_key, file_key
+from ..io.sources import LibraryItem, clip_key, file_key
 from .entry import IndexEntry, entry_distance, make_entry
 from .rank import (EXACT_POOL, FEW_SHARED, RankList, RankResult, build_index, clip_items, compute_entries,
                    folder_library, item_entries, iter_entries, rank_clips)

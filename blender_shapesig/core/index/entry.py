@@ -22,13 +22,14 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .. import signatures, so3
-from ..clip import Clip, still_joints
-from ..curves import relative_rotvecs
+from ..signatures import signatures
+from ..geometry import so3
+from ..clip.clip import Clip, still_joints
+from ..geometry.curves import relative_rotvecs
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_LEVEL, time_base_smoothing
-from ..prepare import COMPARE_FPS, prepare_clip, smooth_increments
-from ..trim import trim_record
+from ..clip.prepare import COMPARE_FPS, prepare_clip, smooth_increments
+from ..clip.trim import trim_record
 from .words import word_codes, sketch
 
 __all__ = ["IndexEntry", "make_entry", "entry_distance", "pair_increments", "sim_from_increments",

@@ -22,11 +22,11 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..blas import one_blas_thread
-from ..clip import Clip
+from ..clip.clip import Clip
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, curve_distance, parse_metric
 from ..rigs import MIN_COVERAGE
-from ..sources import LibraryItem, as_items, clip_item, library
+from ..io.sources import LibraryItem, as_items, clip_item, library
 from .entry import (IndexEntry, curve_from_increments, entry_distance, make_entry, pair_increments,
                     sim_from_increments, sketch_distance)
 from .store import SignatureCache
@@ -258,7 +258,7 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
 def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
     """Re-order the first ``rerank`` results (of the whole-body tier when there is one) by d_S*, filling
     their ``elastic``."""
-    from ..elastic import elastic_distance  # numba is imported only when a re-rank needs the DP
+    from ..elastic.elastic import elastic_distance  # numba is imported only when a re-rank needs the DP
 
     full = sum(1 for r in results if not r.partial)
     head = results[:min(rerank, full)] if full else results[:rerank]

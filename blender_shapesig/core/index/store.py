@@ -23,7 +23,7 @@ from typing import Optional
 
 import numpy as np
 
-from .. import signatures
+from ..signatures import signatures
 from .entry import IndexEntry
 from .words import SKETCH_DIM
 

@@ -30,14 +30,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from .. import so3, tensor
-from ..clip import Clip, restrict_to_shared
+from ..geometry import so3
+from ..signatures import tensor
+from ..clip.clip import Clip, restrict_to_shared
 from ..errors import CurveError, ShapeSigError
 from ..metrics import DEFAULT_DEPTH
-from ..prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
+from ..clip.prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
 from ..rigs import MIN_COVERAGE, coverage
-from ..signatures import normalized_difference
-from ..sources import LibraryItem, as_items
+from ..signatures.signatures import normalized_difference
+from ..io.sources import LibraryItem, as_items
 from .rank import FEW_SHARED, RankList, RankResult
 
 __all__ = ["WINDOW_LEVEL", "SCALES", "STRIDE", "REFINE", "prefix_signatures", "window_log_signatures",
@@ -150,7 +151,7 @@ def _distinct(scored, count):
 
 def _refine(query, clip, windows, depth):
     """(elastic, start, end) in comparison frames of the best free-window match around ``windows``."""
-    from ..subsequence import subsequence_align  # numba is imported only when a refinement needs the DP
+    from ..elastic.subsequence import subsequence_align  # numba is imported only when a refinement needs the DP
 
     a, b, _ = query.pair(clip)
     qa, cb = prepare_clip(a, smooth=SMOOTH_SECONDS), prepare_clip(b, smooth=SMOOTH_SECONDS)
@@ -234,7 +235,7 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
         r.elastic = float(best[0])
         r.start, r.end = _to_clip_frame(clip, compared, best[1]), _to_clip_frame(clip, compared, best[2])
         if explain:
-            from ..explain import explain_path
+            from ..elastic.explain import explain_path
 
             r.explain = explain_path(qa.rotations, cb.rotations, best[3], qa.bones, same_spacing=True, fps=qa.fps)
     head.sort(key=lambda rc: (rc[0].partial, np.inf if rc[0].elastic is None else rc[0].elastic,
@@ -262,7 +263,7 @@ def query_clip(query) -> Clip:
 def retimed_excerpt(clip: Clip, start, end, speed, name=None) -> Clip:
     """Frames ``start``..``end`` (the clip's own numbers) played ``speed`` times as fast, at the clip's frame rate
     (resampled along geodesics, eq. 5.8; the root path linearly): the test and benchmark query of a moment."""
-    from ..curves import geodesic_interpolate
+    from ..geometry.curves import geodesic_interpolate
 
     part = clip.crop(start, end)
     n = max(2, int(round((part.frames - 1) / float(speed))) + 1)

@@ -13,7 +13,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .. import tensor
+from ..signatures import tensor
 from ..errors import ShapeSigError
 
 __all__ = ["SKETCH_DIM", "SKETCH_SEED", "word_codes", "sketch"]

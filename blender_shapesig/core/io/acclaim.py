@@ -25,10 +25,9 @@ from typing import Optional
 
 import numpy as np
 
-from ..clip import Clip
+from ..clip.clip import Clip
 from ..errors import ParseError
-from ..skeleton import map_rest_meta, rest_meta
-from ..sources import find_asf
+from ..clip.skeleton import map_rest_meta, rest_meta
 from .amc import Motion, forward_kinematics, parse_amc
 from .asf import Bone, Skeleton, euler_matrices, parse_asf
 from .text import decode_text
@@ -43,6 +42,41 @@ __all__ = [
 # ASF/AMC worlds are Y up; Blender's is Z up: (x, y, z) -> (x, -z, y), the same map Blender's BVH importer uses.
 ASF_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
+
+
+def find_asf(amc_path, asf=None) -> str:
+    """The skeleton of an ``.amc``: ``asf`` when given (it must exist), else the ``.asf`` in the AMC's folder: the
+    only one, or among several the one whose name the AMC's own name starts with (CMU ``07.asf`` for
+    ``07_01.amc``, HDM05 ``HDM_bd.asf`` for ``HDM_bd_hop_001_120.amc``); ParseError when none or several fit."""
+    amc_path = os.fspath(amc_path)
+    if asf:
+        asf = os.fspath(asf)
+        if not os.path.isfile(asf):
+            raise ParseError("skeleton file not found", asf)
+        return asf
+    folder = os.path.dirname(os.path.abspath(amc_path))
+    try:
+        found = sorted(f for f in os.listdir(folder) if f.lower().endswith(".asf"))
+    except OSError:
+        raise ParseError("cannot list the folder to find its .asf skeleton", amc_path) from None
+    if not found:
+        raise ParseError("no .asf skeleton beside the .amc; give one (--asf)", amc_path)
+    if len(found) > 1:
+        name = os.path.basename(amc_path).lower()
+        owners = [f for f in found if _owns(f[:-4].lower(), name)]
+        longest = max((len(f) for f in owners), default=0)
+        owners = [f for f in owners if len(f) == longest]
+        if len(owners) != 1:
+            raise ParseError(f"{len(found)} .asf files beside the .amc ({', '.join(found[:4])}"
+                             f"{', ...' if len(found) > 4 else ''}) and none is named as its start; choose one (--asf)",
+                             amc_path)
+        found = owners
+    return os.path.join(folder, found[0])
+
+
+def _owns(stem, amc_name):
+    """True when an AMC named ``amc_name`` starts with the skeleton name ``stem`` followed by a non-alphanumeric."""
+    return amc_name.startswith(stem) and len(amc_name) > len(stem) and not amc_name[len(stem)].isalnum()
 
 def to_blender_axes(clip: Clip, scale: float = 1.0) -> Clip:
     """An Acclaim clip in ASF axes re-expressed in Blender's armature axes (Z up, meters times ``scale``).

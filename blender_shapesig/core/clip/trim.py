@@ -30,8 +30,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from . import so3
-from .so3 import relative_rotvecs
+from ..geometry import so3
+from ..geometry.so3 import relative_rotvecs
 
 __all__ = ["TRIM_MODES", "START_RATIO", "REST_RATIO", "LEAVE_RATIO", "KEEP_RATIO", "MAX_SECONDS", "Trim", "step_ratios", "rest_ratios", "detect_trim",
            "trim_clip", "trim_record", "trimmed_range", "trim_note"]

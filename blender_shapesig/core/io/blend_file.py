@@ -4,7 +4,7 @@ Blender trusts a .blend file's block sizes, struct indices and DNA: a damaged on
 absurdly or read outside a block, which aborts the whole process. ``check_blend`` walks the block headers
 (through zstd / gzip compression when those modules exist) and the DNA1 block's struct definitions
 (``_sdna_problem``) and raises a one-line ParseError first. The Blender half (reading the actions, in a child
-process) is ``blender_shapesig.readers.blend``.
+process) is ``blender_shapesig.readers.blend_file``.
 """
 
 import os

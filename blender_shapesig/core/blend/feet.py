@@ -44,10 +44,10 @@ from dataclasses import replace
 import numpy as np
 from scipy.ndimage import minimum_filter1d, uniform_filter1d
 
-from . import so3
-from .errors import ShapeSigError
-from .rigs import resolve_map
-from .skeleton import (
+from ..geometry import so3
+from ..errors import ShapeSigError
+from ..rigs import resolve_map
+from ..clip.skeleton import (
     aligned_rotations, forward_kinematics, from_aligned, rest_of, root_heads, root_translation_from_heads,
     unit_meters, up_vector,
 )

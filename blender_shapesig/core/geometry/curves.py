@@ -15,7 +15,7 @@ import contextlib
 import numpy as np
 
 from . import so3
-from .errors import CurveError
+from ..errors import CurveError
 
 __all__ = [
     "as_curve",

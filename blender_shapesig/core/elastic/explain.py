@@ -12,12 +12,12 @@ query the match is poor. Shares are of the energy (the squared distance): they a
 
 import numpy as np
 
-from .clip import Clip, restrict_to_shared
+from ..clip.clip import Clip, restrict_to_shared
 from .elastic import elastic_align
-from .errors import CurveError
-from .metrics import DEFAULT_DEPTH
-from .prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip
-from .rigs import BODY, LIMBS
+from ..errors import CurveError
+from ..metrics import DEFAULT_DEPTH
+from ..clip.prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip
+from ..rigs import BODY, LIMBS
 from .subsequence import path_costs
 
 __all__ = ["joint_group", "explain_path", "explain_clips", "top_joints"]

@@ -33,14 +33,14 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .clip import Clip
-from .errors import ShapeSigError
-from .index.entry import IndexEntry, curve_from_increments, entry_distance, pair_increments
-from .index.words import word_codes
-from . import so3
-from .metrics import DEFAULT_DEPTH, clip_distance, time_base_smoothing
-from .prepare import prepare_clip
-from .rigs import JOINTS
+from ..clip.clip import Clip
+from ..errors import ShapeSigError
+from .entry import IndexEntry, curve_from_increments, entry_distance, pair_increments
+from .words import word_codes
+from ..geometry import so3
+from ..metrics import DEFAULT_DEPTH, clip_distance, time_base_smoothing
+from ..clip.prepare import prepare_clip
+from ..rigs import JOINTS
 
 __all__ = ["DEFAULT_K", "SIM_RATIO", "THRESHOLD_RATIO", "Edge", "DedupeResult", "common_entry", "pair_sim", "knn_graph",
            "pair_curves", "prepared_pair", "time_map", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
@@ -103,7 +103,7 @@ def common_entry(entry: IndexEntry) -> IndexEntry:
     """The entry on the common bone tuple ``rigs.JOINTS`` when its bones are canonical joints (see the module
     docstring: the direction is unchanged, only the moving joints' indices move), else the entry itself.
     The sketch is recomputed on the common tuple, so sketches of all mapped rigs are comparable."""
-    from .index.words import sketch
+    from .words import sketch
 
     pos = _canonical_positions(entry.bones)
     if pos is None or entry.bones == JOINTS:
@@ -207,7 +207,7 @@ def prepared_pair(a: IndexEntry, b: IndexEntry) -> Tuple[Clip, Clip]:
 def time_map(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[np.ndarray, np.ndarray]:
     """``(ta, tb)``: the optimal alignment of ``b`` onto ``a`` (``elastic.elastic_align`` of the prepared pair)
     as matching times in seconds of each clip (the diagonal for a copy, a curve for a re-timed one)."""
-    from .elastic import elastic_align
+    from ..elastic.elastic import elastic_align
 
     pa, pb = prepared_pair(a, b)
     warp, _ = elastic_align(pa.rotations, pb.rotations, depth=depth)

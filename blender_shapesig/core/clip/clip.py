@@ -9,9 +9,9 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
-from .curves import as_curve
-from .errors import CurveError
-from .so3 import STILL_TOLERANCE, still_joints  # the one stillness rule (re-exported: callers import it here)
+from ..geometry.curves import as_curve
+from ..errors import CurveError
+from ..geometry.so3 import STILL_TOLERANCE, still_joints  # the one stillness rule (re-exported: callers import it here)
 
 __all__ = ["Clip", "shared_bones", "still_joints", "restrict_to_shared", "STILL_TOLERANCE"]
 

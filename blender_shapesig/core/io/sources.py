@@ -6,14 +6,14 @@ such files, or a clip already in memory. This module owns, once for the whole pa
 * ``ClipSpec``: a parsed CLIP argument with the options that change what is read (skeleton, crop, frame
   rate); ``ClipSpec.parse(text)`` splits ``FILE.blend#ACTION``.
 * the extensions (``EXTENSIONS``) and discovery of clip files in folders (``discover``);
-* ``find_asf``: the skeleton of an ``.amc`` (given, else the only ``.asf`` beside it);
+* the skeleton of an ``.amc``: ``acclaim.find_asf``;
 * the **key recipe** (``ClipSpec.key``, ``file_key``, ``clip_key``): one string that changes whenever anything
   the distances depend on changes. The command line, the panel's folder libraries and the tools build keys
   only here, so they share signature-cache entries for the same file;
 * the **reader registry**: one reader per extension, ``read(spec) -> [Clip]``. ``.amc`` and ``.bvh`` are read
-  here (pure Python, ``core.formats``; the BVH reader gives what Blender's importer gives); ``.blend`` by the
-  Blender layer (``blender_shapesig.readers``), named by module path and imported only when such a file is
-  read, so core stays importable without Blender;
+  here (pure Python, ``core.io``; the BVH reader gives what Blender's importer gives); ``.blend`` by the
+  Blender layer, which registers its reader (``register_reader``) when the package is imported, so core never
+  names it and stays importable without Blender;
 * ``LibraryItem``: a library member that is loaded only when its key is not cached (``library``,
   ``clip_item``).
 
@@ -22,37 +22,27 @@ Data flows one way: sources -> Clip -> maths (curves, elastic, signatures, index
 
 import dataclasses
 import hashlib
-import importlib
 import os
 from dataclasses import dataclass
 from typing import Callable, List, Optional, Sequence
 
 import numpy as np
 
-from .clip import Clip
-from .errors import ParseError, ShapeSigError
-from .prepare import check_fps
-from .trim import TRIM_MODES, trim_clip
+from ..clip.clip import Clip
+from ..errors import ParseError, ShapeSigError
+from ..clip.prepare import check_fps
+from ..clip.trim import TRIM_MODES, trim_clip
+from .registry import EXTENSIONS, reader_for, register_reader
 
 __all__ = [
-    "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "find_asf", "discover",
+    "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "discover",
     "read", "read_one", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
 ]
 
-EXTENSIONS = (".bvh", ".amc", ".blend")
-
-# the package as imported: "blender_shapesig", or e.g. "bl_ext.user_default.blender_shapesig" when installed
-_PACKAGE = __name__.rsplit(".", 2)[0]
 
 # changes when the trim rule changes (cached signatures of trimmed clips are then recomputed)
 _TRIM_VERSION = ":1"
 
-# extension -> reader(spec: ClipSpec) -> list[Clip], or "module:function" imported on first use
-_READERS = {
-    ".amc": f"{_PACKAGE}.core.sources:_read_amc",
-    ".bvh": f"{_PACKAGE}.core.sources:_read_bvh",
-    ".blend": f"{_PACKAGE}.readers:read_blend",
-}
 
 
 # ----------------------------------------------------------------------------------------------- specs
@@ -117,7 +107,11 @@ class ClipSpec:
 
     def skeleton(self) -> Optional[str]:
         """The skeleton file of an ``.amc`` (``find_asf``), None for other formats."""
-        return find_asf(self.path, self.asf) if self.ext == ".amc" else None
+        if self.ext != ".amc":
+            return None
+        from .acclaim import find_asf  # (scipy is imported only when an .amc is read)
+
+        return find_asf(self.path, self.asf)
 
     def key(self) -> str:
         """The cache key: the file's content (``file_key``), the skeleton's content, the action, the crop,
@@ -136,35 +130,13 @@ def trim_key(trim) -> str:
 
 def _bone_map_key(bone_map) -> str:
     """The key part of a ``bone_map`` option: the tables' version for "auto", a saved map's content."""
-    from .rigs import TABLES_VERSION
+    from ..rigs import TABLES_VERSION
 
     if bone_map in (None, "none"):
         return "none"
     if bone_map == "auto":
         return f"auto{TABLES_VERSION}"
     return f"{TABLES_VERSION}:" + file_key(bone_map) if os.path.isfile(bone_map) else f"missing:{bone_map}"
-
-
-def find_asf(amc_path, asf=None) -> str:
-    """The skeleton of an ``.amc``: ``asf`` when given (it must exist), else the only ``.asf`` in the AMC's folder;
-    ParseError when there is none or several."""
-    amc_path = os.fspath(amc_path)
-    if asf:
-        asf = os.fspath(asf)
-        if not os.path.isfile(asf):
-            raise ParseError("skeleton file not found", asf)
-        return asf
-    folder = os.path.dirname(os.path.abspath(amc_path))
-    try:
-        found = sorted(f for f in os.listdir(folder) if f.lower().endswith(".asf"))
-    except OSError:
-        raise ParseError("cannot list the folder to find its .asf skeleton", amc_path) from None
-    if not found:
-        raise ParseError("no .asf skeleton beside the .amc; give one (--asf)", amc_path)
-    if len(found) > 1:
-        raise ParseError(f"{len(found)} .asf files beside the .amc ({', '.join(found[:4])}"
-                         f"{', ...' if len(found) > 4 else ''}); choose one (--asf)", amc_path)
-    return os.path.join(folder, found[0])
 
 
 def discover(paths, recursive=True) -> List[str]:
@@ -194,37 +166,22 @@ def discover(paths, recursive=True) -> List[str]:
 
 # ---------------------------------------------------------------------------------------------- readers
 
-def register_reader(ext, reader):
-    """Use ``reader(spec) -> [Clip]`` (or a ``"module:function"`` string) for files ending in ``ext``."""
-    ext = ext.lower()
-    if ext not in EXTENSIONS:
-        raise ShapeSigError(f"unknown clip extension {ext!r}")
-    _READERS[ext] = reader
-
-
-def reader_for(ext) -> Callable:
-    reader = _READERS[ext]
-    if isinstance(reader, str):
-        module, _, attr = reader.partition(":")
-        try:
-            reader = getattr(importlib.import_module(module), attr)
-        except ImportError as exc:
-            raise ShapeSigError(f"reading {ext} files needs Blender (the bpy module): {exc}") from None
-    return reader
-
-
 def _read_bvh(spec: ClipSpec) -> List[Clip]:
-    from .formats.bvh import load_bvh
+    from .bvh import load_bvh
 
     # our bpy-free reader: the clip Blender's importer gives (readers.bvh.import_bvh), ~100x faster
     return [load_bvh(spec.path)]
 
 
 def _read_amc(spec: ClipSpec) -> List[Clip]:
-    from .formats.acclaim import load_acclaim
+    from .acclaim import load_acclaim
 
     # Blender's armature axes: the space every reader gives (comparable with .bvh and .blend clips)
     return [load_acclaim(spec.path, spec.skeleton(), axes="blender")]
+
+
+register_reader(".amc", _read_amc)
+register_reader(".bvh", _read_bvh)
 
 
 def read(spec, **options) -> List[Clip]:
@@ -244,7 +201,7 @@ def read(spec, **options) -> List[Clip]:
     if spec.start is not None or spec.end is not None:
         clips = [c.crop(spec.start, spec.end) for c in clips]
     if spec.bone_map not in (None, "none"):
-        from .rigs import apply_bone_map
+        from ..rigs import apply_bone_map
 
         clips = [apply_bone_map(c, spec.bone_map) for c in clips]
     return clips

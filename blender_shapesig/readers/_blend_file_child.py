@@ -1,10 +1,10 @@
-"""Read the actions of a .blend file in a child process (see ``readers.blend.read_blend_file``).
+"""Read the actions of a .blend file in a child process (see ``readers.blend_file.read_blend_file``).
 
 Blender trusts the pointers stored in a .blend file; a damaged one crashes it while loading, which would
 end the animator's session (or the command line). So a .blend clip file is read here, in a separate
 process — this Python with the bpy module, or the Blender binary in background mode — and the clips come
-back as plain arrays. Run as ``python _blend_child.py JSON`` or ``blender --background --factory-startup
---python _blend_child.py -- JSON``; JSON holds ``path``, ``action``, ``space``, ``out``, ``package_dir``
+back as plain arrays. Run as ``python _blend_file_child.py JSON`` or ``blender --background --factory-startup
+--python _blend_file_child.py -- JSON``; JSON holds ``path``, ``action``, ``space``, ``out``, ``package_dir``
 (the folder holding the package), ``package`` (its folder name) and ``sys_path`` (the parent's, for the
 bundled wheels). The result is an .npz at ``out`` with a JSON header: ``{"clips": [...]}`` or
 ``{"error": "one line"}``.
@@ -73,7 +73,7 @@ def main(argv):
     for p in [args["package_dir"]] + list(args["sys_path"]):
         if p not in sys.path:
             sys.path.append(p)
-    reader = importlib.import_module(f"{args['package']}.readers.blend")
+    reader = importlib.import_module(f"{args['package']}.readers.blend_file")
     errors = importlib.import_module(f"{args['package']}.core.errors")
     try:
         clips = reader.read_blend_here(args["path"], args["action"], args["space"])

@@ -44,7 +44,7 @@ except Exception:  # pragma: no cover - exercised by monkeypatching in the tests
 
 HAVE_NUMBA = _numba is not None
 
-__all__ = ["HAVE_NUMBA", "dp_numpy", "dp_numba", "gram", "warm_up"]
+__all__ = ["HAVE_NUMBA", "dp_numpy", "dp_numba", "gram"]
 
 # Bytes of energies held at once by the numpy kernel.
 _BLOCK_BYTES = 8_000_000
@@ -566,23 +566,3 @@ def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_p
     if nodes.shape[0] == 0:  # pragma: no cover - the candidates are re-evaluated bit for bit
         raise RuntimeError("the DP path could not be recovered")
     return value, nodes
-
-
-def warm_up():
-    """Compile (or load from numba's on-disk cache) every kernel a distance or an alignment uses, on a tiny
-    problem: afterwards the first ``elastic_distance`` of a new process only loads the cache (~0.4 s instead of
-    ~8 s of JIT). numba caches next to this file, or in its per-user cache folder when that is read-only
-    (``NUMBA_CACHE_DIR`` overrides both). Returns False without numba."""
-    if not HAVE_NUMBA:
-        return False
-    from .elastic import elastic_align, elastic_distance
-    from .so3 import integrate
-
-    steps = np.linspace(0.01, 0.05, 6 * 2 * 3).reshape(6, 2, 3)
-    R0, R1 = integrate(steps), integrate(steps[::-1])
-    elastic_distance(R0, R1, depth=3)
-    R0.setflags(write=False)  # read-only curves (e.g. cached arrays) are another type for the SRVT kernels
-    elastic_distance(R0, R1, depth=3)
-    elastic_align(R0, R1, depth=3)
-    elastic_align(R0, R1, depth=3, penalty=0.1)
-    return True

@@ -32,9 +32,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import so3
-from .curves import as_curve, geodesic_interpolate
-from .errors import ShapeSigError, check_number
+from ..geometry import so3
+from ..geometry.curves import as_curve, geodesic_interpolate
+from ..errors import ShapeSigError, check_number
 
 __all__ = ["COMPARE_FPS", "SMOOTH_SECONDS", "SIGNATURE_SMOOTH_SECONDS", "smooth_increments", "lattice_frames", "lattice_cut", "resample_seconds", "prepare_rotations",
            "prepare_clip", "decimate_clip", "check_fps"]

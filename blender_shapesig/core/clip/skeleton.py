@@ -25,7 +25,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from .clip import Clip
-from .errors import ShapeSigError
+from ..errors import ShapeSigError
 
 __all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "rest_of",
            "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",

@@ -8,7 +8,7 @@ import bpy
 from . import action_io
 from .compat import remove_action
 from .core.errors import ShapeSigError
-from .core.sources import ClipSpec
+from .core.io.sources import ClipSpec
 from .readers.acclaim import import_acclaim
 from .readers.bvh import import_armature
 

@@ -24,7 +24,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .errors import ShapeSigError
+from ..errors import ShapeSigError
 
 __all__ = [
     "MAX_TENSOR_ENTRIES",

@@ -45,9 +45,9 @@ import math
 import numpy as np
 
 from . import tensor
-from .curves import as_curve, relative_rotvecs
-from .so3 import still_joints
-from .errors import CurveError, ShapeSigError
+from ..geometry.curves import as_curve, relative_rotvecs
+from ..geometry.so3 import still_joints
+from ..errors import CurveError, ShapeSigError
 
 try:  # optional: the extension must work without it
     import iisignature as _iisig

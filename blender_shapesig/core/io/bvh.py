@@ -272,8 +272,8 @@ def parse_bvh(path):
 def load_bvh(path, name: Optional[str] = None):
     """A BVH take as a Clip in Blender's armature space (``A E A^T`` per joint and frame, the root's position
     ``A p``; see the module docstring): the clip ``readers.bvh.import_bvh`` gives, without Blender."""
-    from ..clip import Clip
-    from ..so3 import matrix_from_euler
+    from ..clip.clip import Clip
+    from ..geometry.so3 import matrix_from_euler
 
     path = os.fspath(path)
     joints, frame_time, values = parse_bvh(path)
@@ -320,7 +320,7 @@ def load_bvh(path, name: Optional[str] = None):
 def _rest_skeleton(joints):
     """The rest skeleton Blender's importer builds (``core.skeleton.rest_meta``, armature axes, file units): heads
     are OFFSET sums; a tail is the End Site, else the one child's head, else the mean of the children's heads."""
-    from ..skeleton import rest_meta
+    from ..clip.skeleton import rest_meta
 
     heads = np.zeros((len(joints), 3))
     for j, joint in enumerate(joints):

@@ -31,7 +31,7 @@ sin(theta/2) and cos(theta/2).
 
 import numpy as np
 
-from .errors import ShapeSigError
+from ..errors import ShapeSigError
 
 __all__ = [
     "log", "exp", "angle", "relative_rotvecs", "integrate", "nearest_rotation",

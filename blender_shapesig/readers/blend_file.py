@@ -3,7 +3,7 @@
 ``read_blend_file(path, action=None)``: every action in the file that animates pose bones, or the one named.
 The actions (and the file's armature objects, for bone rotation modes and order) are appended with
 ``bpy.data.libraries.load``, read with ``action_io.read_action`` and every data-block the append created is
-removed again (``read_blend_here``). That runs in a child process (``_blend_child``: this Python with the bpy
+removed again (``read_blend_here``). That runs in a child process (``_blend_file_child``: this Python with the bpy
 module, or the Blender binary in background mode), so a damaged file that crashes Blender's reader is a
 ParseError here, never a crash of the command line or the animator's session; the file's structure is checked
 first (``core.formats.blend.check_blend``). ``SHAPESIG_BLEND_IN_PROCESS=1``: read in this process.
@@ -21,16 +21,17 @@ import tempfile
 import bpy
 
 from .. import action_io, compat
-from ..core.clip import Clip
+from ..bone_channels import bone_channels
+from ..core.clip.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
-from ..core.formats.blend import check_blend
-from . import _blend_child
+from ..core.io.blend_file import check_blend
+from . import _blend_file_child
 from .scratch import id_snapshot, remove_new_ids
 
 __all__ = ["read_blend_file", "read_blend_here", "BLEND_IN_PROCESS_ENV"]
 
 # "1": read .blend clip files in this process (faster by the start-up of a child; a damaged file can then crash
-# this process). Default: a child process reads them (see readers._blend_child).
+# this process). Default: a child process reads them (see readers._blend_file_child).
 BLEND_IN_PROCESS_ENV = "SHAPESIG_BLEND_IN_PROCESS"
 BLEND_CHILD_TIMEOUT = 600.0
 
@@ -45,9 +46,9 @@ def read_blend_file(path, action_name=None, space="armature"):
 
 
 def _child_command(args_json):
-    """The command that runs _blend_child: the Blender binary in background mode inside Blender, else this
+    """The command that runs _blend_file_child: the Blender binary in background mode inside Blender, else this
     Python (which has the bpy module)."""
-    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_blend_child.py")
+    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_blend_file_child.py")
     binary = getattr(bpy.app, "binary_path", "") or ""
     if binary and os.path.basename(binary).lower().startswith("blender"):
         return [binary, "--background", "--factory-startup", "--python-exit-code", "3", "--python", script,
@@ -76,7 +77,7 @@ def _read_isolated(path, action_name, space):
             last = [ln for ln in proc.stderr.decode("utf-8", "replace").splitlines() if ln.strip()]
             raise ParseError(f"could not read the .blend file ({last[-1] if last else f'exit {proc.returncode}'})",
                              path)
-        clips, error = _blend_child.read_result(out, Clip)
+        clips, error = _blend_file_child.read_result(out, Clip)
     if error is not None:
         raise ParseError(error)
     return clips
@@ -109,7 +110,7 @@ def read_blend_here(path, action_name=None, space="armature"):
         for want, action in zip(wanted, data_to.actions):
             if action is None:
                 continue
-            if not action_io._bone_channels(compat.all_action_fcurves(action)):
+            if not bone_channels(compat.all_action_fcurves(action)):
                 if action_name is not None:
                     raise ParseError(f"action {action_name!r} animates no pose bones", path)
                 continue
@@ -135,7 +136,7 @@ def read_blend_here(path, action_name=None, space="armature"):
 
 def _animated_bones(action, arm):
     """The armature's bones (armature order) that the action animates."""
-    keyed = set(action_io._bone_channels(compat.all_action_fcurves(action)))
+    keyed = set(bone_channels(compat.all_action_fcurves(action)))
     return [b.name for b in arm.data.bones if b.name in keyed]
 
 
@@ -144,7 +145,7 @@ def _best_armature(action, armatures):
     for arm in armatures:
         if arm.animation_data is not None and arm.animation_data.action == action:
             return arm
-    bones = set(action_io._bone_channels(compat.all_action_fcurves(action)))
+    bones = set(bone_channels(compat.all_action_fcurves(action)))
     best, score = None, 0
     for arm in armatures:
         n = len(bones & {b.name for b in arm.data.bones})

@@ -1,0 +1,4 @@
+"""Where clips come from, without Blender: ``sources`` (the front door: clip names, discovery, cache keys, the
+reader registry) and the file formats: ``asf``/``amc``/``acclaim`` (Acclaim), ``bvh``, ``blend_file`` (.blend
+validation before the Blender reader) and ``text`` (decoding, finite numbers). The Blender half of reading is
+``blender_shapesig.readers``."""

@@ -1,0 +1,2 @@
+"""Signatures of the development of a curve: ``signatures`` (signature, log-signature, rho^n, sigma_*^n,
+sigma_L^n, sim^n; iisignature or numpy) and ``tensor`` (the truncated tensor algebra, Lyndon words)."""
