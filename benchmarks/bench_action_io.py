@@ -26,14 +26,13 @@ import argparse
 import json
 import pathlib
 import platform
-import statistics
 import sys
-import time
 
 import numpy as np
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+import _common as harness  # noqa: E402  (puts the repository on sys.path)
+
+ROOT = harness.ROOT
 
 import bpy  # noqa: E402
 
@@ -44,18 +43,9 @@ ACC = ROOT / "tests" / "data" / "acclaim"
 
 
 def timed(fn, repeat, cleanup=None):
-    fn()
-    if cleanup:
-        cleanup()
-    cpu, wall = [], []
-    for _ in range(repeat):
-        c0, w0 = time.process_time(), time.perf_counter()
-        out = fn()
-        cpu.append(time.process_time() - c0)
-        wall.append(time.perf_counter() - w0)
-        if cleanup:
-            cleanup(out)
-    return statistics.median(cpu), statistics.median(wall)
+    """(median CPU, median wall) seconds after one warm-up run."""
+    t = harness.timed(fn, repeat, cleanup=cleanup)
+    return t.cpu_median, t.wall_median
 
 
 def build_armature(names):

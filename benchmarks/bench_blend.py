@@ -27,7 +27,7 @@ Issue 18's options (the operator entries above are timed with Feet: None, as bef
 * ``operator_three``: three actions (A, B and C = 07_02 resampled to 400 frames, weights 0.5, 0.25, 0.25);
 * ``operator_loop``: ``loop=True`` (cycle detection in both, one stride each, closed loop);
 * ``operator_editable``: ``timing="NLA"``: the pose curve and an NLA strip with animated Strip Time;
-* ``core_lock_feet``: ``core.feet.lock_feet`` on the aligned core blend (ASF rest skeletons);
+* ``core_lock_feet``: ``core.blend.feet.lock_feet`` on the aligned core blend (ASF rest skeletons);
 * ``core_three_aligned``: ``core.blend.blend_many`` of the three clips (two warps).
 
 Ratios are against ``baseline`` in the same run, so they do not depend on the machine. Nothing is
@@ -38,14 +38,14 @@ import argparse
 import json
 import pathlib
 import platform
-import statistics
 import sys
 import time
 
 import numpy as np
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+import _common as harness  # noqa: E402  (puts the repository on sys.path)
+
+ROOT = harness.ROOT
 
 import bpy  # noqa: E402
 
@@ -99,17 +99,9 @@ def _armature(bones):
 
 
 def _time(fn, repeat, cleanup=None):
-    cpu, wall = [], []
-    for i in range(repeat + 1):
-        c0, w0 = time.process_time(), time.perf_counter()
-        fn()
-        c1, w1 = time.process_time(), time.perf_counter()
-        if cleanup is not None:
-            cleanup()
-        if i:  # the first run is a warm-up (numba compile, caches)
-            cpu.append(c1 - c0)
-            wall.append(w1 - w0)
-    return {"cpu_s": statistics.median(cpu), "wall_s": statistics.median(wall)}
+    """Median CPU and wall seconds after one warm-up run (numba compile, caches)."""
+    t = harness.timed(fn, repeat, cleanup=None if cleanup is None else (lambda _out: cleanup()))
+    return {"cpu_s": t.cpu_median, "wall_s": t.wall_median}
 
 
 def main(argv=None):

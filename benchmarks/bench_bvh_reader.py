@@ -1,4 +1,4 @@
-"""Our bpy-free BVH reader (``core.formats.bvh.load_bvh``) against Blender's importer (``readers.bvh.import_bvh``,
+"""Our bpy-free BVH reader (``core.io.bvh.load_bvh``) against Blender's importer (``readers.bvh.import_bvh``,
 armature space) on every BVH file given: agreement and speed, measured in the same run.
 
     .venv/bin/python benchmarks/bench_bvh_reader.py [--data ../shared/data/cmu] [--json OUT]
@@ -16,24 +16,23 @@ import time
 
 import numpy as np
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests" / "core"))
+import _common as harness  # noqa: E402  (puts the repository on sys.path)
+
+ROOT = harness.ROOT
+sys.path.insert(0, str(ROOT / "tests"))
 
 import bpy  # noqa: E402,F401
 
 from blender_shapesig.core.io.bvh import BVH_TO_BLENDER as A, load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
-from test_bvh_reader import _independent  # noqa: E402
+from conftest import bvh_channel_rotations  # noqa: E402  (the tests' independent BVH reading)
 
 
 def best(fn, n=2):
-    out, t = None, []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        out = fn()
-        t.append(time.perf_counter() - t0)
-    return out, min(t)
+    """(the result, the minimum wall seconds of ``n`` runs)."""
+    out = []
+    t = harness.timed(lambda: out.append(fn()), n, warmup=0)
+    return out[-1], t.wall_min
 
 
 def main(argv=None):
@@ -51,7 +50,7 @@ def main(argv=None):
         theirs, tb = best(lambda: import_bvh(f), 1)
         t_ours += to
         t_blender += tb
-        truth = np.stack([A @ R @ A.T for R in _independent(f)[0]], axis=1)
+        truth = np.stack([A @ R @ A.T for R in bvh_channel_rotations(f)[1]], axis=1)
         same = (ours.bones == theirs.bones and ours.rotation_modes == theirs.rotation_modes
                 and ours.frames == theirs.frames and ours.fps == theirs.fps)
         loc = 0.0 if ours.root_translation is None else float(np.abs(ours.root_translation

@@ -36,8 +36,9 @@ import time
 
 import numpy as np
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+import _common as harness  # noqa: E402  (puts the repository on sys.path)
+
+ROOT = harness.ROOT
 
 from blender_shapesig.core.elastic import _dp_kernels, elastic  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
@@ -57,24 +58,15 @@ ASF = {
 
 
 def best_of(fn, repeat):
-    cpu, wall = [], []
-    for _ in range(repeat):
-        c0, w0 = time.thread_time(), time.perf_counter()
-        fn()
-        cpu.append(time.thread_time() - c0)
-        wall.append(time.perf_counter() - w0)
-    return min(cpu), min(wall)
+    """(minimum CPU time of this thread, minimum wall time) over repeats."""
+    t = harness.timed(fn, repeat, warmup=0, cpu="thread")
+    return t.cpu_min, t.wall_min
 
 
 def best_of_process(fn, repeat):
     """(minimum process CPU time, minimum wall time) over repeats: for work on two threads."""
-    cpu, wall = [], []
-    for _ in range(repeat):
-        c0, w0 = time.process_time(), time.perf_counter()
-        fn()
-        cpu.append(time.process_time() - c0)
-        wall.append(time.perf_counter() - w0)
-    return min(cpu), min(wall)
+    t = harness.timed(fn, repeat, warmup=0)
+    return t.cpu_min, t.wall_min
 
 
 def prefix_sum_reads(depth):

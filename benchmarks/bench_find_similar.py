@@ -4,7 +4,7 @@ ranking with the built index; the one-off index build; the index's memory.
     .venv/bin/python benchmarks/bench_find_similar.py [--actions 1000] [--blend FILE] [--repeat 5] [--json OUT]
 
 1. The file: an armature imported from tests/data/bvh/07_01.bvh (43 bones, Blender's importer) and ``--actions``
-   actions written with ``action_io.write_action`` from the six test BVH clips (read by ``core.formats.bvh``,
+   actions written with ``action_io.write_action`` from the six test BVH clips (read by ``core.io.bvh``,
    every 4th frame: 30 fps as in the issue's file), each cropped differently (16-84 frames, 132 F-curves each,
    1,000 distinct contents). Saved to ``--blend`` (built once,
    reused when it exists).

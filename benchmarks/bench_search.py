@@ -5,7 +5,7 @@ memory per clip and recall@10 of compact representations against the exact ranki
                                                 [--json OUT.json]
 
 Clips: every .bvh under ``--data`` (default: $SHAPESIG_CMU_DATA, e.g. the Przestr CMU BVH set, one skeleton,
-43 bones; else the test clips), read with Blender's importer (``core.sources.read``), frame 1 (rest pose) cropped.
+43 bones; else the test clips), read with Blender's importer (``core.io.sources.read``), frame 1 (rest pose) cropped.
 
 Reference ranking: sim^n from float64 log-signatures on the moving joints (exact: still joints add only
 zero coordinates, see core/index/entry.py), every clip against every other. Compared by recall@10 (mean over

@@ -4,7 +4,7 @@
                                                     [--ii-methods S X] [--json OUT.json]
 
 The clip: CMU 16_15 (walk, 31 bones, so a path in R^93), its first ``--frames`` frames, read with
-``core.formats.acclaim``. Every timing is the best of ``--repeat`` runs after one warm-up run (the minimum is
+``core.io.acclaim``. Every timing is the best of ``--repeat`` runs after one warm-up run (the minimum is
 the least disturbed by other processes on a shared machine); one-off preparation (iisignature's
 ``prepare``, the numpy Lyndon projection) is timed separately, cold, once. Ratios
 are against a baseline measured in the same run, ``iisignature.sig`` of the same path at the same level
@@ -28,8 +28,9 @@ import tracemalloc
 
 import numpy as np
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+import _common as harness  # noqa: E402  (puts the repository on sys.path)
+
+ROOT = harness.ROOT
 
 from blender_shapesig.core.signatures import signatures as sg, tensor  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
@@ -41,13 +42,8 @@ except ImportError:  # pragma: no cover
 
 
 def timed(fn, repeat):
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+    """The minimum wall seconds of ``repeat`` runs after one warm-up run."""
+    return harness.timed(fn, repeat).wall_min
 
 
 def once(fn):

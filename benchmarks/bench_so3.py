@@ -1,4 +1,4 @@
-"""Benchmark of core.so3 against scipy's Rotation (same run, same inputs, ratios reported).
+"""Benchmark of core.geometry.so3 against scipy's Rotation (same run, same inputs, ratios reported).
 
 Usage (from the repository root):
 

@@ -47,7 +47,7 @@ from .bone_channels import PROPS as _PROPS, bone_channels
 from .core.clip.clip import Clip
 from .core.errors import ShapeSigError
 from .core.clip.skeleton import rest_meta
-# the rotation maths is core.so3's; the channel conversions are re-exported here, where callers know them
+# the rotation maths is core.geometry.so3's; the channel conversions are re-exported here, where callers know them
 from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
 __all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions", "to_armature_space", "to_pose_space",
@@ -343,14 +343,30 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
         clip.meta["rest_rotations"] = _rest_frames(names, armature)[0]
         # the hierarchy (every bone of the armature): core.rigs builds world rotations and bone maps from it
         clip.meta["parents"] = {b.name: (b.parent.name if b.parent else None) for b in armature.data.bones}
-        # the rest skeleton in armature space (core.skeleton: forward kinematics of the feet)
+        # the rest skeleton in armature space (core.clip.skeleton: forward kinematics of the feet)
         bones = armature.data.bones
         clip.meta.update(rest_meta([b.name for b in bones], [b.head_local for b in bones],
                                    [b.tail_local for b in bones]))
     clip.meta["rotation_space"] = "pose"
     if space == "armature":
-        clip = to_armature_space(clip, armature)
+        return to_armature_space(clip, armature)
+    up = up_in_bone_frame(armature, clip.root_bone) if armature is not None else None
+    if up is not None:  # where the root's location channels live (core.clip.skeleton.up_vector)
+        clip.meta["up_axis"] = up
     return clip
+
+
+def up_in_bone_frame(armature, bone_name):
+    """The world's up (+Z) in the rest frame of ``bone_name`` (where its location and rotation channels live),
+    as a unit 3-vector; None when the bone does not exist."""
+    bone = armature.data.bones.get(bone_name) if bone_name else None
+    if bone is None:
+        return None
+    obj_rot = np.array(armature.matrix_world.to_3x3().normalized(), dtype=np.float64)
+    rest = np.array(bone.matrix_local.to_3x3().normalized(), dtype=np.float64)
+    up = rest.T @ (obj_rot.T @ np.array([0.0, 0.0, 1.0]))  # world -> armature -> bone rest space
+    n = float(np.linalg.norm(up))
+    return None if n < 1e-9 else tuple(float(c) / n for c in up)
 
 
 def _rest_frames(bones, armature):
@@ -371,7 +387,7 @@ def to_armature_space(clip: Clip, armature) -> Clip:
 
     This is the space the package compares and blends clips in: it does not depend on bone rolls, so rigs
     with other roll conventions, BVH and ASF/AMC imports of the same take, and folder clips
-    (``core.formats.acclaim.load_acclaim(..., axes="blender")``) all agree. d_P*, d_S* and tensor-basis signatures
+    (``core.io.acclaim.load_acclaim(..., axes="blender")``) all agree. d_P*, d_S* and tensor-basis signatures
     of one rig are unchanged by it (a constant rotation per joint); Lyndon coordinates change slightly.
     """
     if clip.meta.get("rotation_space", "pose") != "pose":

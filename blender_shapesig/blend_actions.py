@@ -21,7 +21,7 @@ from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
 
-__all__ = ["BlendResult", "blend_actions", "armature_up_axis", "unique_action_name", "selected_bone_names",
+__all__ = ["BlendResult", "blend_actions", "unique_action_name", "selected_bone_names",
            "bake_strip", "timed_strips", "TIMING_TRACK"]
 
 TIMING_TRACK = "ShapeSig Timing"  # the NLA track of a blend written with editable timing
@@ -38,20 +38,6 @@ class BlendResult:
     unmatched: Sequence[str] = field(default_factory=tuple)
     info: dict = field(default_factory=dict)
     strips: list = field(default_factory=list)
-
-
-def armature_up_axis(armature, bone_name):
-    """The world's up (+Z) in the rest frame of ``bone_name`` (where its location and rotation channels live),
-    as a unit 3-vector; None when the bone does not exist."""
-    bone = armature.data.bones.get(bone_name) if bone_name else None
-    if bone is None:
-        return None
-    obj_rot = np.array(armature.matrix_world.to_3x3().normalized(), dtype=np.float64)
-    rest = np.array(bone.matrix_local.to_3x3().normalized(), dtype=np.float64)
-    # world vector -> armature space -> bone rest space
-    up = rest.T @ (obj_rot.T @ np.array([0.0, 0.0, 1.0]))
-    n = float(np.linalg.norm(up))
-    return None if n < 1e-9 else tuple(float(c) / n for c in up)
 
 
 def unique_action_name(base, taken=()):
@@ -135,7 +121,6 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
         own, vectors, mapped=mapped, back=rigmap.back_onto_armature if across else None, ranges=ranges,
         loop=loop, feet=feet, feet_required=False, mask=mask, groups=groups, align=align, depth=depth,
         frames=frames, bones=bones, root=root,
-        up_axis=None if across else armature_up_axis(armature, own[0].root_bone),
         progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
     created, names, strips = [], [], []
     try:

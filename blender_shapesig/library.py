@@ -3,7 +3,7 @@
 * The query: the active armature's action, or the chosen one, optionally a frame range of it (``query_item``).
 * The library (``library_items``): the file's actions that animate the armature's bones (name pattern, assets
   only), each read with the armature that plays it (its bone order, rest orientations and rotation modes), and
-  the clip files of the chosen folders (``core.sources.library``: keyed by ``ClipSpec.key``, so the command
+  the clip files of the chosen folders (``core.io.sources.library``: keyed by ``ClipSpec.key``, so the command
   line and the panel share entries; read only when their key is not cached).
 * Keys are typed: an action's key is an ``ActionKey`` (the action's content hash, the armature's digest, the
   frame range), whose ``text`` is the cache key; an item knows it is an action of this file because it is an
@@ -79,7 +79,7 @@ class ActionKey:
     read_hash: str
     armature_digest: str
     frame_range: Optional[Tuple[int, int]] = None
-    trim: str = "none"            # issue 15: "auto" trims rest-pose / ramp frames (core.trim)
+    trim: str = "none"            # issue 15: "auto" trims rest-pose / ramp frames (core.clip.trim)
     fps: Optional[float] = None   # the rate read at (None: the action's own, else the scene's)
 
     @property
@@ -149,9 +149,9 @@ def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=No
         # only the bones the action keys (a bone it does not animate is unknown, not the rest pose)
         clip = action_io.read_action(action, armature=arm, frame_range=key.frame_range, name=name,
                                      space="armature", exclude_unkeyed=True, fps=key.fps)
-        if key.trim == "auto":  # as folder clips are trimmed at the front door (core.sources.read)
+        if key.trim == "auto":  # as folder clips are trimmed at the front door (core.io.sources.read)
             clip = sources.trim_ends(clip, start=key.frame_range[0] if key.frame_range else None)
-        # the comparison space across rigs, as folder clips get it at the front door (core.sources.read)
+        # the comparison space across rigs, as folder clips get it at the front door (core.io.sources.read)
         return rigs.apply_bone_map(clip, rigmap.bone_map_of(arm))
 
     return ActionItem(action.name, key.text, load, source=action.name, action=action.name, action_key=key)

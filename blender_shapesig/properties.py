@@ -58,7 +58,7 @@ class ShapeSigResult(bpy.types.PropertyGroup):
     # issue 19: moments and explanations
     window_action: StringProperty(name="Window Action", description="The action written for the matched window "
                                   "(Assign / Preview of a moment); Blend uses it")
-    explain: StringProperty(name="Explanation", description="Why different (JSON, core.explain): per-joint "
+    explain: StringProperty(name="Explanation", description="Why different (JSON, core.elastic.explain): per-joint "
                             "shares of the elastic distance and the alignment cost over time")
     # issue 15: the frames read before trimming, when trimming cut some (0..0: nothing trimmed)
     kept_first: IntProperty(name="Compared From", description="First frame compared, after trimming")
@@ -111,7 +111,7 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                             default=0, soft_min=0)
     # issue 15: how every clip is read (query, file actions, folder clips); part of each clip's index key
     trim: EnumProperty(
-        name="Trim", description="Rest-pose / ramp frames at the ends of each clip (core/trim.py); an explicit "
+        name="Trim", description="Rest-pose / ramp frames at the ends of each clip (core/clip/trim.py); an explicit "
         "crop start or frame range keeps its end",
         items=(("auto", "Auto", "Drop detected rest-pose and ramp frames at both ends"),
                ("none", "None", "Compare every frame")),

@@ -23,7 +23,7 @@ def selected_action(context, settings):
 
 
 def result_action(settings, obj, row):
-    """The bpy action of a result row; a folder clip is first read (``core.sources``) and written as a new
+    """The bpy action of a result row; a folder clip is first read (``core.io.sources``) and written as a new
     action on ``obj`` (the row then names that action; ``row.spec`` keeps the file). A moment (``row.frame_last``):
     its window as an action (``window_action``)."""
     if row.frame_last:
@@ -76,7 +76,7 @@ def window_action(settings, obj, row):
 
 
 def explain_result(context, settings):
-    """Why the selected result differs from the query (``core.explain.explain_clips``, on its window for a
+    """Why the selected result differs from the query (``core.elastic.explain.explain_clips``, on its window for a
     moment): stored as JSON in ``row.explain``; returns the explanation."""
     from .core.elastic.explain import explain_clips
 

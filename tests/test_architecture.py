@@ -1,9 +1,10 @@
-"""The shape of the package (issue 13): modules of a readable size, functions that fit on a screen or two, and
-the layering rule that core never reaches into the Blender layer (checked statically here; tests/core/test_no_bpy.py
-imports every core module with bpy blocked)."""
+"""The shape of the package: modules of a readable size, functions that fit on a screen or two, the layering rule
+that core never reaches into the Blender layer (checked statically here; tests/core/test_no_bpy.py imports every
+core module with bpy blocked) and no import cycles."""
 
 import ast
 import pathlib
+import re
 
 import pytest
 
@@ -40,8 +41,8 @@ def test_function_sizes():
 
 
 def test_core_imports_nothing_from_the_blender_layer():
-    """No import of bpy & co. in core, nor of the package's Blender-layer modules (core names those only by
-    reader-registry strings, imported when such a file is read)."""
+    """No import of bpy & co. in core, nor of the package's Blender-layer modules, not even named in a string (the
+    Blender layer registers its readers with ``core.io.registry`` itself)."""
     bad = []
     for path in sorted((PACKAGE / "core").rglob("*.py")):
         depth = len(path.parent.relative_to(PACKAGE).parts)  # core/x.py: 1, core/index/x.py: 2
@@ -58,4 +59,94 @@ def test_core_imports_nothing_from_the_blender_layer():
                                              and not name.startswith("blender_shapesig.core"))
                 if name.split(".")[0] in BLENDER_LAYER and level == 0 or outside:
                     bad.append(f"{_rel(path)}:{node.lineno} imports {'.' * level}{name}")
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and " " not in node.value and re.search(
+                    r"(^|\.|\})(readers|operators|panels|library|action_io)[.:]\w", node.value):
+                bad.append(f"{_rel(path)}:{node.lineno} names the Blender layer in {node.value!r}")
     assert not bad, "; ".join(bad)
+
+
+def _import_graph():
+    """{module: modules of the package it imports}, for every import statement of every module (module level and
+    inside functions); ``from P import m`` of a submodule ``m`` is an edge to ``P.m``. The implicit import of a
+    module's parent packages is not an edge."""
+    root = PACKAGE.parent
+    files = {}
+    for p in _modules():
+        parts = list(p.relative_to(root).with_suffix("").parts)
+        files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
+    edges = {}
+    for mod, path in files.items():
+        base = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+        targets = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                if node.level:
+                    pkg = base.split(".")[:len(base.split(".")) - (node.level - 1)]
+                    src = ".".join(pkg + ([node.module] if node.module else []))
+                else:
+                    src = node.module or ""
+                names = [f"{src}.{a.name}" if f"{src}.{a.name}" in files else src for a in node.names]
+            else:
+                continue
+            for t in names:
+                while t and t not in files:
+                    t = t.rpartition(".")[0]
+                if t and t != mod:
+                    targets.add(t)
+        edges[mod] = targets
+    return edges
+
+
+def _cycles(edges):
+    """The strongly connected components with more than one module (Tarjan, iterative)."""
+    index, low, on, stack, out, counter = {}, {}, set(), [], [], [0]
+    for start in edges:
+        if start in index:
+            continue
+        work = [(start, iter(sorted(edges[start])))]
+        index[start] = low[start] = counter[0]
+        counter[0] += 1
+        stack.append(start)
+        on.add(start)
+        while work:
+            v, it = work[-1]
+            w = next(it, None)
+            if w is not None:
+                if w not in index:
+                    index[w] = low[w] = counter[0]
+                    counter[0] += 1
+                    stack.append(w)
+                    on.add(w)
+                    work.append((w, iter(sorted(edges[w]))))
+                elif w in on:
+                    low[v] = min(low[v], index[w])
+                continue
+            work.pop()
+            if work:
+                low[work[-1][0]] = min(low[work[-1][0]], low[v])
+            if low[v] == index[v]:
+                comp = []
+                while True:
+                    w = stack.pop()
+                    on.discard(w)
+                    comp.append(w)
+                    if w == v:
+                        break
+                if len(comp) > 1:
+                    out.append(sorted(comp))
+    return out
+
+
+def test_no_import_cycles():
+    """No two modules of the package import each other, directly or round a loop, not even inside functions."""
+    cycles = _cycles(_import_graph())
+    assert not cycles, "import cycles: " + "; ".join(" <-> ".join(c) for c in cycles)
+
+
+def test_the_cycle_finder_finds_a_cycle():
+    """The check above can fail: a loop of three and a pair are found, a chain is not."""
+    edges = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"e"}, "e": {"d"}, "f": {"a"}}
+    assert sorted(_cycles(edges)) == [["a", "b", "c"], ["d", "e"]]

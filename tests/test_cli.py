@@ -399,7 +399,7 @@ def test_subprocess_blend_bvh_writes_armature_and_action(tmp_path):
     a = load_clips(str(bvh / "07_01.bvh"), start=2, bone_map="none")[0]  # an explicit start wins over --trim
     b = load_clips(str(bvh / "09_02.bvh"), start=2, bone_map="none")[0]
     assert (a.frame_start, b.frame_start) == (2, 2)
-    # planted feet by default (--feet lock): the blend's legs through core.feet.lock_feet on the sources
+    # planted feet by default (--feet lock): the blend's legs through core.blend.feet.lock_feet on the sources
     want, report = lock_feet(blend_clips(a, b, 0.25, align=False, frames=120), [a, b])
     assert report["feet"] and report_json["feet"][0]["feet"] == report["feet"]
     assert got.frames == 120

@@ -1,5 +1,5 @@
 """The command line and the panel share signature-cache entries: a folder library indexed the way the panel's
-folder libraries are (``core.sources.library`` + ``core.search.build_index``) is a cache hit for ``rank`` on the
+folder libraries are (``core.io.sources.library`` + ``core.search.build_index``) is a cache hit for ``rank`` on the
 same files, because both key a file by ``ClipSpec.key`` (its bytes, skeleton, action and crop). .amc only: no bpy."""
 
 import json

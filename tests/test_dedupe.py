@@ -1,6 +1,6 @@
 """``dedupe`` on the bundled CMU clips: planted copies (renamed, half the frame rate, trimmed and re-timed) land in
 their original's cluster, no cluster swallows more than 30 % of the library, the same results on a Dask
-LocalCluster through ``--scheduler``; the pure parts of ``core.dedupe`` (common bone tuple, linkage)."""
+LocalCluster through ``--scheduler``; the pure parts of ``core.index.dedupe`` (common bone tuple, linkage)."""
 
 import json
 import os
@@ -18,7 +18,7 @@ from blender_shapesig.core.io import sources
 from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.index import entry_distance, make_entry
 from blender_shapesig.core.rigs import JOINTS
-from blender_shapesig.dedupe import planted
+from tests import planted
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data"

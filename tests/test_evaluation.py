@@ -349,7 +349,7 @@ def test_evaluate_writes_summary(tmp_path):
     assert (tmp_path / "figures" / "mds_l2.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "figures" / "dendrogram_sim2.png").exists()
     M = np.load(tmp_path / "matrices" / "l2.npy")
-    # Cropped to frames 2..29 (28 frames) before the distance, then on the comparison time base (core.prepare).
+    # Cropped to frames 2..29 (28 frames) before the distance, then on the comparison time base (core.clip.prepare).
     crop = [clips[e.file[:-4]].crop(2, 29) for e in entries]
     assert crop[0].frames == 28
     prepared = [prepare_clip(c).rotations for c in crop]

@@ -70,7 +70,7 @@ def stage(report, title):
 
 def trim_action(action, armature, fps=None):
     """The Daz-friendly BVH files start with the rest pose and a ramp into the motion: find them as every reader
-    does (``core.trim.detect_trim``) and set the action's manual frame range to the rest (what an animator does
+    does (``core.clip.trim.detect_trim``) and set the action's manual frame range to the rest (what an animator does
     in the Action properties), so that search and blends read only the motion. Returns the kept (first, last)
     or None when there is nothing to trim. ``fps``: the action's rate (a BVH file's, which Blender's importer does
     not record; stored as ``shapesig_fps``, the property every reader of this package takes the rate from)."""
@@ -120,7 +120,7 @@ def import_clips(bpy, data, report):
         kept = trim_action(action, armature, fps)
         if kept is not None:
             report(f"  {action.name}: rest pose and ramp trimmed, frames {kept[0]}..{kept[1]} kept "
-                   f"(core.trim, as --trim auto)")
+                   f"(core.clip.trim, as --trim auto)")
         imported[action.name] = (armature, row["label"])
     report(f"- imported {len(imported)} clips: "
            f"{sum(1 for v in imported.values() if v[1] == 'walk')} walks, "

@@ -13,7 +13,7 @@
 3. with ``--docs DIR``: copies the figures used by docs/evaluation.md to DIR/eval_*.png.
 
 Everything goes through the library (``blender_shapesig.evaluation``, ``core.pairwise``) and reads clips
-through the one clip front door (``core.sources``), as ``python -m blender_shapesig evaluate`` does, so the
+through the one clip front door (``core.io.sources``), as ``python -m blender_shapesig evaluate`` does, so the
 numbers are that command's.
 """
 
@@ -267,8 +267,8 @@ def main(argv=None):
     p.add_argument("--out", default="out/eval", help="output folder (default out/eval)")
     p.add_argument("--sets", default=ALL_SETS, help=f"comma-separated, from {ALL_SETS} (default: all)")
     p.add_argument("--raw", action="store_true",
-                   help="compare the curves as read (the thesis' protocol), without the time base of core.prepare")
-    p.add_argument("--smooth", type=float, help="the time base's low-pass in seconds (default core.prepare's)")
+                   help="compare the curves as read (the thesis' protocol), without the time base of core.clip.prepare")
+    p.add_argument("--smooth", type=float, help="the time base's low-pass in seconds (default core.clip.prepare's)")
     p.add_argument("--metrics", help="override the metric list (comma-separated) for every set")
     p.add_argument("--depth", type=int, default=DEFAULT_DEPTH)
     p.add_argument("--workers", type=int, default=2)

@@ -9,9 +9,9 @@ applies one mutation (``KINDS``: truncation, garbage bytes, dropped / repeated /
 value counts, NaN / inf / huge / malformed numbers, missing sections, latin-1 / UTF-16 / BOM encodings,
 CR or CRLF line ends, empty / whitespace / binary files, the wrong format) and reads it:
 
-* ``acclaim``: ``core.formats.acclaim.load_acclaim`` (mutated ASF with its real AMC, or mutated AMC with its real
+* ``acclaim``: ``core.io.acclaim.load_acclaim`` (mutated ASF with its real AMC, or mutated AMC with its real
   ASF), in this process, with a per-case alarm;
-* ``bvh``: ``readers.bvh.import_bvh`` (Blender's importer) and ``blend``: ``core.sources.read`` on a mutated
+* ``bvh``: ``readers.bvh.import_bvh`` (Blender's importer) and ``blend``: ``core.io.sources.read`` on a mutated
   .blend, and ``import_op``: the ``shapesig.import_acclaim`` operator on a mutated ASF/AMC - each in worker
   processes (``--batch`` cases each) so that a crash or a hang of Blender is detected and reported with the
   case that caused it (the worker is restarted after it).

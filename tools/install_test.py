@@ -380,7 +380,7 @@ def run_install(bpy, ck: Checks, zip_path: Path, user: Path) -> None:
     import importlib
 
     for module, flag, dist in (("core.signatures", "HAVE_IISIGNATURE", "iisignature"),
-                               ("core._dp_kernels", "HAVE_NUMBA", "numba")):
+                               ("core.elastic._dp_kernels", "HAVE_NUMBA", "numba")):
         try:
             have = getattr(importlib.import_module(f"{ADDON_MODULE}.{module}"), flag)
         except Exception as ex:
@@ -529,7 +529,7 @@ def search_ops(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
 
 
 def blend_file_clips(bpy, ck: Checks, work: Path) -> None:
-    """core.sources.read on a saved .blend: read in a child process (the installed package imported there by its
+    """core.io.sources.read on a saved .blend: read in a child process (the installed package imported there by its
     folder, with the extension's wheels), the clips back here."""
     import importlib
 

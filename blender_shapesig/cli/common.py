@@ -1,5 +1,5 @@
 """What every command shares: the one-line error, stdout kept for the report, progress bars, turning CLIP
-arguments into ``core.sources.ClipSpec`` s, and the option groups (clip reading, metric)."""
+arguments into ``core.io.sources.ClipSpec`` s, and the option groups (clip reading, metric)."""
 
 import argparse
 import contextlib
@@ -100,7 +100,7 @@ class NoBar:
 # Reading clips
 
 
-# core.sources is the one front door: the command line only turns a CLIP argument and its options into a
+# core.io.sources is the one front door: the command line only turns a CLIP argument and its options into a
 # ClipSpec, so the signature-cache keys of its libraries are ClipSpec.key, those of the panel's folder libraries.
 
 

@@ -17,7 +17,7 @@ def run(args):
            "bones": got["bones"], "coverage": got["coverage"]}
     if base == "elastic":
         out["depth"] = args.depth
-    # the frames compared (scene numbers, inclusive) and what trimming cut (core.trim)
+    # the frames compared (scene numbers, inclusive) and what trimming cut (core.clip.trim)
     out["trim"] = {"a": trimmed_range(a)["frames"], "b": trimmed_range(b)["frames"]}
     out["trimmed"] = {"a": trimmed_range(a)["cut"], "b": trimmed_range(b)["cut"]}
     text = "\n".join([f"{label}({a.name}, {b.name}) = {d:.6g}"] + [n for n in map(trim_note, (a, b)) if n])

@@ -24,7 +24,7 @@ def _rank_windows(query, items, args, progress):
 
 
 def _explanation(query, item, result, args):
-    """``--explain``: the result's per-joint shares and alignment cost (``core.explain``), from its DP path when
+    """``--explain``: the result's per-joint shares and alignment cost (``core.elastic.explain``), from its DP path when
     the moment search made one, else from the elastic alignment of the two clips (or of the window)."""
     from ..core.elastic.explain import explain_clips
 

@@ -297,13 +297,9 @@ def world_rotations(clip: Clip) -> np.ndarray:
     return W
 
 
+_Z = np.array([0.0, 0.0, 1.0])  # up in the comparison space (Blender's Z)
 # a clip travels when its net horizontal displacement is at least this fraction of its horizontal path
 TRAVEL_RATIO = 0.5
-
-
-def _yaw_matrix(yaw):
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def heading(W_root: np.ndarray, root_translation: Optional[np.ndarray] = None) -> np.ndarray:
@@ -320,10 +316,9 @@ def heading(W_root: np.ndarray, root_translation: Optional[np.ndarray] = None) -
         net = flat[-1] - flat[0]
         path = np.linalg.norm(np.diff(flat, axis=0), axis=1).sum()
         if path > 0 and np.linalg.norm(net) >= TRAVEL_RATIO * path:
-            return _yaw_matrix(np.arctan2(net[1], net[0]) + np.pi / 2)
-    yaw = 2.0 * np.arctan2(W_root[:, 1, 0] - W_root[:, 0, 1],
-                           W_root[:, 0, 0] + W_root[:, 1, 1] + W_root[:, 2, 2] + 1.0)
-    return _yaw_matrix(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()))
+            return so3.exp((np.arctan2(net[1], net[0]) + np.pi / 2) * _Z)
+    yaw = so3.twist(W_root, _Z)
+    return so3.exp(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()) * _Z)
 
 
 def leg_length(clip: Clip, by_joint: Mapping[str, str]) -> Optional[float]:
@@ -412,17 +407,6 @@ def _body_frame(h: Mapping[str, np.ndarray]) -> Optional[np.ndarray]:
     return np.column_stack([left, np.cross(up, left), up])
 
 
-def _turn(u, v):
-    """The smallest rotation taking unit vector u to unit vector v (a half turn about a normal of u when v = -u)."""
-    axis, c = np.cross(u, v), float(np.clip(u @ v, -1.0, 1.0))
-    s = np.linalg.norm(axis)
-    if s < 1e-12:
-        if c > 0:
-            return np.eye(3)
-        axis, s = _unit(np.cross(u, np.eye(3)[int(np.argmin(np.abs(u)))])), 1.0
-    return so3.exp(axis / s * np.arctan2(s, c))
-
-
 def _best_twist(axis, M):
     """The angle t maximizing tr(Rot(axis, t)^T M): f(t) = a cos t + b sin t + c, read off at 0, pi/2, pi."""
     f = [np.trace(so3.exp(axis * t).T @ M) for t in (0.0, 0.5 * np.pi, np.pi)]
@@ -476,7 +460,7 @@ def rest_retarget(clip: Clip, like: Clip, samples: int = 64) -> Clip:
             # the body frame alone or with the rest bones' swing (joints are placed differently by rigs: a
             # clavicle's rest bone may point 20-40 degrees elsewhere on a rig whose rest is the same), each
             # with its best twist; the one under which the motions agree better
-            turns = [G, _turn(G @ ra, rb) @ G]
+            turns = [G, so3.align(G @ ra, rb) @ G]
             turns = [T @ so3.exp(ra * _best_twist(ra, T.T @ M)) for T in turns]
             K = max(turns, key=lambda T: np.trace(T.T @ M))
         R[:, k] = R[:, k] @ K
@@ -615,7 +599,7 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
         rt = rt * leg - off
     kept = tuple(b for b in rig.bones if b not in joint_of and not np.allclose(X_rig[:, index[b]], np.eye(3)))
     meta = dict(rig.meta, kept_bones=kept)
-    # the blend's timing and weights (core.feet carries the sources' contacts through them)
+    # the blend's timing and weights (core.blend.feet carries the sources' contacts through them)
     meta.update({k: clip.meta[k] for k in ("weight", "weights", "warp", "time_map", "source_times") if k in clip.meta})
     return replace(rig, name=clip.name, rotations=X, root_translation=rt, frame_start=clip.frame_start,
                    fps=clip.fps, meta=meta)

@@ -1,7 +1,7 @@
 """Library reports: near-duplicate clusters of a clip library (``dedupe``), outside core.
 
-``dedupe_library(paths, out_dir, ...)`` discovers the clips (``core.sources``), signs what the signature cache
-lacks (in parallel on Dask, ``parallel``), runs the two-stage search of ``core.dedupe`` (the elastic checks on
+``dedupe_library(paths, out_dir, ...)`` discovers the clips (``core.io.sources``), signs what the signature cache
+lacks (in parallel on Dask, ``parallel``), runs the two-stage search of ``core.index.dedupe`` (the elastic checks on
 Dask too) and writes ``report.html`` and ``report.json`` (``report``).
 """
 
@@ -64,7 +64,7 @@ def sign_library(items, level, store, mapper, chunk=8):
 def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_dedupe.DEFAULT_K,
                    level=DEFAULT_LEVEL, depth=DEFAULT_DEPTH, cache_dir=None, plots=True, **options):
     """Deduplicate the clips in ``paths`` (files, folders, ``FILE.blend#ACTION``, ClipSpecs) and write the report into
-    ``out_dir``. ``threshold``: the relative-d_S* gate (default: relative to the library, ``core.dedupe``);
+    ``out_dir``. ``threshold``: the relative-d_S* gate (default: relative to the library, ``core.index.dedupe``);
     ``scheduler``: None (a thread pool, no Dask), a local Dask scheduler name or a cluster address;
     ``cache_dir``: the signature cache folder (None: memory only). ``options``: ClipSpec fields (asf, fps,
     trim, bone_map). Returns the report dict."""

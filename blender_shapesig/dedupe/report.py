@@ -34,7 +34,7 @@ def speed_trace(entry):
 
 def _cluster_png(members, entries, labels):
     """Two panels: each member's joint speed on its own seconds, and its time map onto the first member
-    (``core.dedupe.time_map``: the diagonal for a copy, a curve for a re-timed or trimmed one)."""
+    (``core.index.dedupe.time_map``: the diagonal for a copy, a curve for a re-timed or trimmed one)."""
     from ..core.index.dedupe import time_map
     from ..core.errors import ShapeSigError
     from ..evaluation.plots import pyplot

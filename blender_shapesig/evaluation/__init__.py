@@ -3,7 +3,7 @@
 figures, reports and ``evaluate`` (docs/evaluation.md). Distances come from ``core.pairwise``, metric
 names from ``core.metrics``.
 
-Modules: ``index`` (CSV, names, labels, reading an entry's clip through ``core.sources``), ``scores``,
+Modules: ``index`` (CSV, names, labels, reading an entry's clip through ``core.io.sources``), ``scores``,
 ``embedding``, ``plots`` (matplotlib, imported when a figure is drawn), ``report``, ``run`` (``evaluate``).
 """
 

@@ -1,5 +1,5 @@
 """Labelled clip sets: the index CSV (``file,label[,skeleton][,start][,end][,step]``), display names, labels, and
-reading an entry's clip through the one clip front door (``core.sources``)."""
+reading an entry's clip through the one clip front door (``core.io.sources``)."""
 
 import csv
 import os

@@ -142,7 +142,7 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
 
     ``repeat``: compute every matrix that many times and report the shortest wall time (the machine
     may be shared; the matrices are identical). ``progress``: "tqdm" or a callable counting pairs.
-    ``time_base``: compare the clips on the time base of ``core.prepare`` (the default, as the command line
+    ``time_base``: compare the clips on the time base of ``core.clip.prepare`` (the default, as the command line
     does: every clip at ``COMPARE_FPS``; the SRVT measures ``metrics.SMOOTHED_METRICS`` after a low-pass of
     ``smooth`` seconds, the signature measures without); False compares the curves as read (the thesis'
     protocol).

@@ -17,7 +17,7 @@ and in the error of a script's call.
   written as a new action).
 * ``shapesig.preview_result``: assign the result temporarily and play; run again to stop and restore.
 * ``shapesig.clear_index``: delete the cache files.
-* ``shapesig.explain_result``: why the selected result differs (``core.explain``), stored on its row for the panel.
+* ``shapesig.explain_result``: why the selected result differs (``core.elastic.explain``), stored on its row for the panel.
 """
 
 import time

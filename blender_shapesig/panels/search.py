@@ -224,7 +224,7 @@ def _strip(values, cells):
 
 def _draw_explanation(layout, item):
     """Why different: the largest joint (group) shares as bars and the alignment cost along the query as a strip
-    (``core.explain``); a button computes it when the search did not."""
+    (``core.elastic.explain``); a button computes it when the search did not."""
     box = layout.box()
     head = box.row(align=True)
     head.label(text="Why different", icon="ARMATURE_DATA")

@@ -14,7 +14,7 @@ chosen to bring the rest frame ``B`` as close as possible to ``A C``: its X axis
 orthogonal to the bone. The pose rotation of bone b is then ``P = B^T A (C M C^-1) A^T B`` (M the AMC
 rotation); when ``B = A C`` (the root, and every bone whose axis frame has Y along the bone) this is
 ``P = M``: the AMC rotations apply directly. The root's location is ``B^T (s A T - rest head)``.
-Positions after posing equal core.formats.acclaim.forward_kinematics mapped by ``s A`` (tested).
+Positions after posing equal core.io.acclaim.forward_kinematics mapped by ``s A`` (tested).
 
 On any error nothing is left created and the one-line ShapeSigError propagates.
 """
@@ -122,7 +122,7 @@ def pose_clip(motion, rest_rotations, name, scale=1.0, frame_step=1, fps=120.0, 
 
 
 def clip_to_pose(clip, armature):
-    """A core Acclaim clip (``core.formats.acclaim.load_acclaim``: ``L = C M C^-1`` in ASF Y-up axes, root translation
+    """A core Acclaim clip (``core.io.acclaim.load_acclaim``: ``L = C M C^-1`` in ASF Y-up axes, root translation
     in ASF units, or the same already in Blender axes), or anything computed from such clips (e.g. a blend),
     converted to the pose-bone rotations and root location of an armature made by this importer
     (``P = B^T A L A^T B``, ``loc = B_root^T (s A T - rest head)``). Bones the armature lacks raise

@@ -6,7 +6,7 @@ The actions (and the file's armature objects, for bone rotation modes and order)
 removed again (``read_blend_here``). That runs in a child process (``_blend_file_child``: this Python with the bpy
 module, or the Blender binary in background mode), so a damaged file that crashes Blender's reader is a
 ParseError here, never a crash of the command line or the animator's session; the file's structure is checked
-first (``core.formats.blend.check_blend``). ``SHAPESIG_BLEND_IN_PROCESS=1``: read in this process.
+first (``core.io.blend_file.check_blend``). ``SHAPESIG_BLEND_IN_PROCESS=1``: read in this process.
 
 Space: "armature" (default) gives each action in armature axes when an armature with its bones is in the
 file, else pose space (``meta["rotation_space"] == "pose"``); "native" gives pose-bone rotations.

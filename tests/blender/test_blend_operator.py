@@ -124,9 +124,9 @@ def test_blend_writes_a_new_action(rig):
 
 
 def _up(arm, bone):
-    from blender_shapesig.blend_actions import armature_up_axis
+    from blender_shapesig.action_io import up_in_bone_frame
 
-    return armature_up_axis(arm, bone)
+    return up_in_bone_frame(arm, bone)
 
 
 def test_weight_zero_and_one_reproduce_the_sources(rig):

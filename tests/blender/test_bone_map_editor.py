@@ -187,7 +187,7 @@ def test_trim_toggle_changes_the_frames_compared(empty_file, data_dir, tmp_path)
     s.fps = 120.0
     _obj, _act, q = library.query_item(bpy.context, s)
     clip = q.clips()[0]
-    assert (clip.frame_start, clip.frame_end) == (9, 317)  # the rest pose and ramp dropped (core/trim.py)
+    assert (clip.frame_start, clip.frame_end) == (9, 317)  # the rest pose and ramp dropped (core/clip/trim.py)
     row = next(iter(_rank(s).values()))
     assert (row.kept_first, row.kept_last, row.read_first, row.read_last) == (6, 330, 1, 330)
     assert row.frame_last == 0  # not a moment: Assign and Preview give the whole action

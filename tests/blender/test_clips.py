@@ -1,4 +1,4 @@
-"""Reading clips through ``core.sources.read`` and the Blender readers (``readers.bvh``, ``readers.blend_file``):
+"""Reading clips through ``core.io.sources.read`` and the Blender readers (``readers.bvh``, ``readers.blend_file``):
 .amc, .bvh (Blender's importer, nothing left behind, rotations checked against an independent reading of the
 BVH channels), .blend and FILE.blend#ACTION, and clear errors."""
 

@@ -96,7 +96,7 @@ def test_registered(addon):
 
 
 def test_file_library_ranks_walks_first_and_caches(rig):
-    # the index compares on the comparison time base (core.prepare), as clip_distance does by default
+    # the index compares on the comparison time base (core.clip.prepare), as clip_distance does by default
     hashes = {a.name: action_io.action_hash(a) for a in bpy.data.actions}
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     s = bpy.context.scene.shapesig

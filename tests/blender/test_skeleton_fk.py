@@ -1,4 +1,4 @@
-"""core.skeleton forward kinematics against Blender's own pose evaluation: bone heads in armature space on real
+"""core.clip.skeleton forward kinematics against Blender's own pose evaluation: bone heads in armature space on real
 clips, for the three readers that carry the rest skeleton (an action read with its armature in armature and pose
 space, the bpy-free BVH reader on the BVH importer's armature, the Acclaim reader on the Acclaim importer's)."""
 

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from blender_shapesig.core.io.acclaim import (
-    euler_matrices, forward_kinematics, load_acclaim, parse_amc, parse_asf,
+    forward_kinematics, load_acclaim, parse_amc, parse_asf,
 )
+from blender_shapesig.core.geometry.so3 import matrix_from_euler as euler_matrices
 from blender_shapesig.core.io.acclaim import find_asf
 from blender_shapesig.core.errors import ParseError
 

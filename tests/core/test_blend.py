@@ -15,10 +15,10 @@ from blender_shapesig.core.blend import (
     blend_name,
     blend_weights,
     default_frames,
-    estimate_up_axis,
     geodesic_blend,
 )
 from blender_shapesig.core.clip.clip import Clip
+from blender_shapesig.core.clip.skeleton import estimate_up_axis
 from blender_shapesig.core.geometry.curves import geodesic_interpolate, l2_distance, uniform_times
 from blender_shapesig.core.elastic.elastic import elastic_align
 

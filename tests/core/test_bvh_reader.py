@@ -1,4 +1,4 @@
-"""Our bpy-free BVH reader (``core.formats.bvh.load_bvh``): rotations against an independent reading of the
+"""Our bpy-free BVH reader (``core.io.bvh.load_bvh``): rotations against an independent reading of the
 Euler channels (scipy), names and channel orders as Blender's importer makes them, errors naming the line.
 Its equality with Blender's importer is tests/blender/test_bvh_reader.py."""
 

@@ -1,4 +1,4 @@
-"""The preparation of the elastic DP. The compiled SRVT pass (core._srvt_kernel) against the numpy route
+"""The preparation of the elastic DP. The compiled SRVT pass (core.elastic._srvt_kernel) against the numpy route
 (curves.srvt): the same values to ~1e-14 relative, including steps near 0, at the ZERO_STEP threshold, near and at
 pi, and still joints; the numpy route for norm="group" and without numba. The Gram matrix: its summation contract
 (groups of four columns, then the rest), bit for bit, for any row count."""

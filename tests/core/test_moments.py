@@ -162,7 +162,7 @@ def test_explanation_of_a_moment(library):
     best = rank_windows(query, [take, library["07_02"]], rerank=2, explain=True)[0]
     ex = best.explain
     assert sum(ex["joints"].values()) == pytest.approx(1.0, abs=1e-12)
-    # one cost per interval of the query on the comparison lattice (core.prepare: floor, anchored at frame 1)
+    # one cost per interval of the query on the comparison lattice (core.clip.prepare: floor, anchored at frame 1)
     assert len(ex["cost_over_time"]) == lattice_frames(query.frames, query.fps, ex["fps"]) - 1
     assert joint_group("thigh.R") == "right leg" and joint_group("Hips") is None
     with pytest.raises(Exception):

@@ -1,4 +1,4 @@
-"""Tests for core.signatures and core.tensor (reference secs. 7-9).
+"""Tests for core.signatures and core.signatures.tensor (reference secs. 7-9).
 
 Independent truths used here: a plain Chen-product signature written in this file (nested levels,
 one segment at a time), the tensor exponential of a straight path (eq. 7.3), closed forms (Levy
@@ -112,7 +112,7 @@ def random_curve(rng, frames, joints, scale=0.15):
 def load_clip(amc, asf):
     acclaim = pytest.importorskip("blender_shapesig.core.io.acclaim")
     if not hasattr(acclaim, "load_acclaim"):
-        pytest.skip("core.formats.acclaim.load_acclaim is not available yet")
+        pytest.skip("core.io.acclaim.load_acclaim is not available yet")
     return acclaim.load_acclaim(DATA / "acclaim" / amc, DATA / "acclaim" / asf)
 
 

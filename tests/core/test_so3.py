@@ -1,4 +1,4 @@
-"""core.so3: log/exp against high-precision references and scipy, conversions, increments, stillness."""
+"""core.geometry.so3: log/exp against high-precision references and scipy, conversions, increments, stillness."""
 
 import numpy as np
 import pytest

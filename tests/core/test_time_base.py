@@ -1,4 +1,4 @@
-"""One time base in seconds (core.prepare): the same motion at 120 / 60 / 30 fps compares as the same, on real
+"""One time base in seconds (core.clip.prepare): the same motion at 120 / 60 / 30 fps compares as the same, on real
 CMU clips (ASF/AMC, no bpy); blends last the weighted average of their sources' durations in seconds."""
 
 from dataclasses import replace

@@ -3,7 +3,7 @@ seconds, through the real command line (``blend`` writes a .blend; the actions a
 
 The 30 fps clip is a real one: the Daz BVH run 09_02 with every 4th frame kept and ``Frame Time`` 1/30 s (what a
 30 fps export of the take holds). Both sources are trimmed automatically (``--trim auto``, the default): the
-durations are those of the clips the command blends, read here through the same front door (``core.sources``).
+durations are those of the clips the command blends, read here through the same front door (``core.io.sources``).
 """
 
 import json

@@ -1,6 +1,6 @@
-"""The comparison lattice of core.prepare: a clip and its decimated copies that lost their last frames (a 120 fps
+"""The comparison lattice of core.clip.prepare: a clip and its decimated copies that lost their last frames (a 120 fps
 clip of N frames keeps (N - 1) // 4 intervals at 30 fps, up to 25 ms less) compare as the same motion, on real CMU
-clips whole (ASF/AMC, no bpy); the trimmed range a report shows (core.trim.trimmed_range)."""
+clips whole (ASF/AMC, no bpy); the trimmed range a report shows (core.clip.trim.trimmed_range)."""
 
 from dataclasses import replace
 

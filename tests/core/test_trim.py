@@ -1,4 +1,4 @@
-"""Automatic rest-pose / ramp trimming (core.trim) and how ClipSpec applies it (core.sources)."""
+"""Automatic rest-pose / ramp trimming (core.clip.trim) and how ClipSpec applies it (core.io.sources)."""
 
 import numpy as np
 import pytest

@@ -3,14 +3,14 @@ verb-named modules; everything is importable from ``blender_shapesig.core.blend`
 
 * ``combine``: the curves: the merged grid, the SRVT average, the blended timing (``geodesic_blend``,
   ``compute_warp``, ``default_frames``, weights and names); two or more curves.
-* ``move_root``: the blended root translation and the up axis (``estimate_up_axis``).
+* ``move_root``: the blended root translation about the clips' up axis.
 * ``mix``: clips: ``blend_clips`` (two), ``blend_many`` (two or more, aligned to the first),
   ``blend_clip_series`` (several weights, one warp); every result carries ``meta["source_times"]``.
 * ``mask``: per-bone-group weights through the canonical joints (``GROUPS``, ``bone_weights``).
 * ``cycle``: frame ranges, cycle detection (one stride) and seamless loops (``find_cycle``, ``one_cycle``,
   ``close_loop``).
 * ``make``: ``make_blends``, the one recipe of the command line and the operator: ranges, cycles, the blend,
-  back onto the rig, planted feet (``core.feet``), loops.
+  back onto the rig, planted feet (``core.blend.feet``), loops.
 
 See docs/blending.md.
 """
@@ -31,7 +31,6 @@ from .cycle import close_loop, crop_range, find_cycle, one_cycle, parse_range, p
 from .mask import GROUPS, bone_weights, parse_groups, parse_mask
 from .make import FEET_MODES, editable_timing, make_blends, sample_at
 from .mix import blend_clip_series, blend_clips, blend_fps, blend_many
-from .move_root import estimate_up_axis
 
 __all__ = [
     "geodesic_blend",
@@ -43,7 +42,6 @@ __all__ = [
     "default_frames",
     "blend_fps",
     "blend_clip_series",
-    "estimate_up_axis",
     "blend_many",
     "check_weights",
     "default_frames_many",

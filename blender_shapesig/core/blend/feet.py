@@ -6,7 +6,7 @@ Contract (used by the blend command and operator):
 ``blend`` is a result of ``core.blend`` (``meta["source_times"]``: per source, the time in seconds from that
 source's first frame of every blended frame; for two-clip blends it is derived from ``meta["time_map"]`` (A's
 normalized parameter u per frame) and ``meta["warp"]`` (B's normalized time phi(u))); ``sources`` are the clips
-blended, each on its own rig (with the rest skeleton its reader puts in meta, ``core.skeleton``), the first one's
+blended, each on its own rig (with the rest skeleton its reader puts in meta, ``core.clip.skeleton``), the first one's
 rig being the blend's. Returns a new Clip (the blend with planted feet) and a JSON-able report
 ``{"contacts": [...], "feet": [...], ...}``.
 
@@ -239,16 +239,6 @@ def _ankle_offsets(mask_of, pos, fps, slide):
     return offset, np.minimum(total, 1.0)
 
 
-def _swing(u, v):
-    """The smallest rotations (n, 3, 3) turning directions u into v (rows)."""
-    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
-    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-    axis = np.cross(u, v)
-    s = np.linalg.norm(axis, axis=-1, keepdims=True)
-    angle = np.arctan2(s, np.sum(u * v, axis=-1, keepdims=True))
-    return so3.exp(np.where(s > 1e-12, axis / np.maximum(s, 1e-12), 0.0) * angle)
-
-
 def _smooth_max(x, fps):
     """A smooth envelope above ``x`` >= 0 (root lowering): a running max over 2 RAMP, then a moving average."""
     k = max(1, int(round(RAMP * fps))) * 2 + 1
@@ -297,21 +287,6 @@ def _solve_leg(hip, knee, target, l1, l2, forward, free):
     return hip + a * dn + h * pole
 
 
-def _yaw(R, up):
-    """The heading of rotations R (n, 3, 3) about ``up``: the angle of a horizontal reference vector turned by R."""
-    ref = np.eye(3)[int(np.argmin(np.abs(up)))]
-    ref = ref - (ref @ up) * up
-    ref /= np.linalg.norm(ref)
-    g = R @ ref
-    return np.arctan2(np.cross(ref, g) @ up, g @ ref)
-
-
-def _turn(v, up, angle):
-    """Vectors v (n, 3) turned about ``up`` by ``angle`` (radians)."""
-    c, s = np.cos(angle), np.sin(angle)
-    return v * c + np.cross(up, v) * s + np.outer(v @ up, up) * (1.0 - c)
-
-
 class _Source:
     """One source's feet: points per side, root heading, contacts, and its times in the blend."""
 
@@ -326,7 +301,7 @@ class _Source:
         root = rest.root if rest.root is not None else 0
         # its (fractional) frame at every blended frame
         self.frame = np.clip(np.asarray(times) * clip.fps, 0, clip.frames - 1)
-        self.yaw = np.unwrap(_yaw(fk[2][:, root], self.up))
+        self.yaw = np.unwrap(so3.heading(fk[2][:, root], self.up))
 
     def at(self, values):
         """``values`` (frames, ...) of this source at its time of every blended frame (linear)."""
@@ -341,7 +316,7 @@ class _Source:
         yaw = self.at(self.yaw)[a:b + 1, 0]
         r = (p - p.mean(axis=0)) * (self.unit / unit_to)
         delta = np.angle(np.mean(np.exp(1j * (yaw_to - yaw))))
-        return _turn(r, up_to, delta)
+        return so3.turn(r, up_to, delta)
 
 
 def _held(p, mask):
@@ -433,7 +408,7 @@ def lock_feet(blend, sources):
     heads, tails, W = forward_kinematics(work, rest, X, root)
     unit = unit_meters(work, [(t, f) for t, _s, f in legs.values()])
     up = up_vector(work)
-    yaw = np.unwrap(_yaw(W[:, rest.root if rest.root is not None else 0], up))
+    yaw = np.unwrap(so3.heading(W[:, rest.root if rest.root is not None else 0], up))
     pos = feet_positions(work, legs, (heads, tails, W))
     contacts = blend_contacts(work, sources, [s.contacts for s in srcs], times, pos, unit)
 
@@ -478,9 +453,9 @@ def _ik_leg(X, W, heads, rest, leg, target):
     l2 = np.linalg.norm(rest.heads[foot] - rest.heads[shin])
     forward = W[:, foot] @ (rest.tails[foot] - rest.heads[foot])
     new_knee = _solve_leg(hip, knee, target, l1, l2, forward, ankle - hip)
-    Rt = _swing(knee - hip, new_knee - hip)
+    Rt = so3.align(knee - hip, new_knee - hip)
     Wt = Rt @ W[:, thigh]
-    Rs = _swing(np.einsum("fij,fj->fi", Rt, ankle - knee), target - new_knee)
+    Rs = so3.align(np.einsum("fij,fj->fi", Rt, ankle - knee), target - new_knee)
     Ws = Rs @ Rt @ W[:, shin]
     parent = rest.ancestor[thigh]
     Wp = W[:, parent] if parent >= 0 else np.eye(3)[None]

@@ -61,7 +61,7 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
       root rotation about the up axis), then integrated from the blended start position, so a blend
       of two forward locomotions moves forward. ``root="a"``: A's root path (in the blended timing).
       ``up_axis``: 'X', 'Y', 'Z' or a vector in the root's parent space; default
-      ``a.meta["up_axis"]``, else estimated from the root rotations (``estimate_up_axis``).
+      the clips' (``skeleton.up_vector``: their meta, else estimated from their roots).
       When only one clip has a root translation, or the root bone is not shared, A's path is used.
 
     ``result.meta`` holds ``weight``, ``weights``, ``sources``, ``blended_bones``, ``unmatched_bones``,
@@ -163,7 +163,7 @@ def _mix(clips, ws, align, depth, frames, bones, root, warps, up_axis, penalty, 
         "root_mode": root_mode,
         "up_axis": None if up is None else tuple(float(x) for x in up),
         "time_map": plan.u_out,
-        # the feet pass's contract (core.feet): seconds from each source's first frame of every blended frame
+        # the feet pass's contract (core.blend.feet): seconds from each source's first frame of every blended frame
         "source_times": [t * d for t, d in zip(plan.source_times(), durations)],
     }
     if bone_weights is not None:
@@ -245,7 +245,7 @@ def _blend_translation(plan, clips, idx, blended, Bg, start, root, up_axis):
         rotb = Bg[:, blended.index(roots[0])] @ start[blended.index(roots[0])]
     else:
         rotb = rots[0]
-    up = resolve_up(up_axis, clips, roots)
+    up = resolve_up(up_axis, clips)
     path = blend_root_path(plan, [c.root_translation for c in clips], rots, rotb, up, plan.weights)
     return interp_rows(plan.u_out, plan.grid, path), "blend", up
 

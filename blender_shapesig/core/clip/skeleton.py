@@ -19,17 +19,19 @@ with ``h``, ``t`` the rest heads and tails. The root bone's head is the clip's r
 space that is the root's head; in pose space its location ``loc`` gives ``h_root + B_root loc``).
 """
 
+import math
 from dataclasses import dataclass, replace
 from typing import Optional, Tuple
 
 import numpy as np
 
+from ..geometry import so3
 from .clip import Clip
 from ..errors import ShapeSigError
 
 __all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "rest_of",
            "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",
-           "forward_kinematics", "chain_offset", "up_vector", "unit_meters", "LEG_METERS"]
+           "forward_kinematics", "chain_offset", "up_vector", "parse_up", "estimate_up_axis", "unit_meters", "LEG_METERS"]
 
 REST_HEADS = "rest_heads"
 REST_TAILS = "rest_tails"
@@ -195,15 +197,98 @@ def chain_offset(clip: Clip, W: np.ndarray, bone: str) -> Optional[np.ndarray]:
     return off
 
 
-def up_vector(clip: Clip) -> np.ndarray:
-    """The world's up in the clip's axes: ``meta["up_axis"]`` ('Y' for ASF axes), else Blender's Z."""
-    up = clip.meta.get("up_axis")
+_AXES = {"X": 0, "Y": 1, "Z": 2}
+
+
+def parse_up(up):
+    """'X'/'Y'/'Z' (optionally signed) or a 3-vector -> unit vector, or None."""
     if up is None:
-        up = "Y" if clip.meta.get("rotation_space") == "asf" else "Z"
+        return None
     if isinstance(up, str):
-        return np.eye(3)["XYZ".index(up.upper())]
-    v = np.asarray(up, dtype=np.float64)
+        s = up.strip().upper().lstrip("+-")
+        if s not in _AXES:
+            raise ShapeSigError(f"up_axis: expected X, Y, Z or a 3-vector, got {up!r}")
+        v = np.zeros(3)
+        v[_AXES[s]] = 1.0
+        return v
+    v = np.asarray(up, dtype=np.float64).reshape(-1)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or np.linalg.norm(v) < 1e-9:
+        raise ShapeSigError(f"up_axis: expected X, Y, Z or a non-zero 3-vector, got {up!r}")
     return v / np.linalg.norm(v)
+
+
+def estimate_up_axis(root_rotations, root_translations=()):
+    """Guess the vertical axis (in the root's parent space) of one or more clips.
+
+    ``root_rotations``: a list of root-rotation curves (frames, 3, 3); ``root_translations``: the
+    matching root translations (frames, 3) (or empty). Two cues, pooled over the clips:
+
+    * the vertical is perpendicular to the direction of travel: each clip that travels (net
+      displacement more than three times the spread of its positions across it) removes its
+      travel direction from the candidates (a second direction only when it is more than about
+      20 degrees from the first: then the vertical is their normal);
+    * among what is left, the vertical is the axis of the root's largest rotation oscillation
+      about its mean orientation (pelvic rotation in gait, turns).
+
+    The result is snapped to the nearest coordinate axis when it lies within 20 degrees of it (the
+    usual case for capture data and rigs). A guess: pass ``up_axis`` to ``blend_clips`` when the
+    vertical is known. Returns a unit vector.
+    """
+    S = np.zeros((3, 3))
+    for R in root_rotations:
+        R = np.asarray(R, dtype=np.float64).reshape(-1, 3, 3)
+        r = so3.log(R @ so3.nearest_rotation(R.sum(axis=0)).T)  # about the mean orientation
+        S += r.T @ r / max(len(r), 1)
+    P = np.eye(3)
+    for p in root_translations:
+        if p is None:
+            continue
+        p = np.asarray(p, dtype=np.float64).reshape(-1, 3)
+        d = p[-1] - p[0]
+        line = p[0] + np.outer(np.linspace(0.0, 1.0, len(p)), d)
+        spread = np.sqrt(np.mean(np.sum((p - line) ** 2, axis=1)))
+        if np.linalg.norm(d) <= 3.0 * spread or np.linalg.norm(d) < 1e-9:
+            continue
+        r = P @ d
+        if np.linalg.norm(r) < 0.35 * np.linalg.norm(d):
+            continue
+        r /= np.linalg.norm(r)
+        P = P - np.outer(r, r)
+        if np.trace(P) < 1.5:
+            break
+    if np.trace(P) < 1.5:
+        # Two travel directions: the vertical is their normal (the one left in P).
+        vals, vecs = np.linalg.eigh(P)
+    else:
+        vals, vecs = np.linalg.eigh(P @ S @ P)
+    u = vecs[:, -1]
+    if vals[-1] <= 1e-15:
+        u = np.array([0.0, 0.0, 1.0])
+    axis = int(np.argmax(np.abs(u)))
+    if abs(u[axis]) >= math.cos(math.radians(20.0)):
+        u = np.zeros(3)
+        u[axis] = 1.0
+    return u / np.linalg.norm(u)
+
+
+def up_vector(*clips: Clip) -> np.ndarray:
+    """The world's up in the frame of the clips' root translations, the one rule for "up" (planted feet, root
+    motion, loops, blends): the first ``meta["up_axis"]`` given (every reader sets it; the Blender layer for actions
+    in pose space), else Y for ASF axes, else Blender's Z for armature space, else ``estimate_up_axis`` on the
+    clips' roots."""
+    for c in clips:
+        up = parse_up(c.meta.get("up_axis"))
+        if up is not None:
+            return up
+    if all(c.meta.get("rotation_space") == "asf" or c.meta.get("format") == "acclaim" for c in clips):
+        return np.eye(3)[1]
+    if all(c.meta.get("rotation_space") == "armature" for c in clips):
+        return np.eye(3)[2]
+    rooted = [c for c in clips if c.root_bone in c.bones]
+    if not rooted:
+        return np.eye(3)[2]
+    return estimate_up_axis([c.rotations[:, c.bones.index(c.root_bone)] for c in rooted],
+                            [c.root_translation for c in rooted])
 
 
 def unit_meters(clip: Clip, legs=None) -> float:

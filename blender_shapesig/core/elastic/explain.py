@@ -69,7 +69,7 @@ def explain_path(R0, R1, nodes, bones, *, same_spacing, fps=COMPARE_FPS):
 
 def explain_clips(query: Clip, clip: Clip, window=None, depth=DEFAULT_DEPTH):
     """``explain_path`` for two clips on their shared bones, on the comparison time base (the SRVT low-pass of
-    ``core.prepare``): the pinned elastic alignment of the query with ``clip``, or with its frames
+    ``core.clip.prepare``): the pinned elastic alignment of the query with ``clip``, or with its frames
     ``window = (start, end)`` (the clip's own numbers, inclusive) for a moment."""
     if window is not None:
         clip = clip.crop(int(window[0]), int(window[1]))

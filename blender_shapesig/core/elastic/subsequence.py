@@ -22,7 +22,7 @@ read-out differ, and no band is needed (every node with j >= 0 is reachable from
 
 Units. R0 runs over [0, 1] (h0 = 1 / n0). The SRVT energy is invariant under an affine change of R1's clock
 (q1 -> q1 / sqrt(alpha) and phi' -> alpha phi' cancel), so R1 is given the same spacing as R0 (h1 = h0, both
-curves on the comparison time base of ``core.prepare``): the energy of a window is then exactly
+curves on the comparison time base of ``core.clip.prepare``): the energy of a window is then exactly
 ``elastic_distance(R0, R1[l0..l1])^2`` up to rounding, whatever its length. A time-shift penalty (eq. 4.8's
 lambda) compares t with phi(t) and has no meaning when R1's window is unknown: it is not offered.
 
@@ -36,7 +36,7 @@ vectorized over the columns of one DP row) evaluate every candidate with one flo
 ties going to the first step in table order and, at the end, to the first column; so both give identical
 values, paths and windows. ``path_costs`` splits a path's energy exactly into pieces (query interval x joint):
 a step's integral is a sum over the merged breakpoints of length x |q0_a - sqrt(phi') q1_b|^2, per joint a sum
-of squares; it serves ``core.explain`` for both the pinned and the open DP.
+of squares; it serves ``core.elastic.explain`` for both the pinned and the open DP.
 """
 
 from dataclasses import dataclass
@@ -199,7 +199,7 @@ def subsequence_align(R0, R1, depth=DEFAULT_DEPTH, *, method="auto") -> Subseque
     """The window of R1 (frames start..end) that R0 matches best under the elastic distance, and that distance.
 
     ``R0``: the short curve (all of it is matched), ``R1``: the long one, both on uniform grids of one frame
-    rate (e.g. both prepared by ``core.prepare``), the same joints, at least two frames each. ``depth``: the
+    rate (e.g. both prepared by ``core.clip.prepare``), the same joints, at least two frames each. ``depth``: the
     largest step D on either axis (not raised: windows whose length is beyond a slope of D are not
     considered). ``method``: 'auto', 'numba' or 'numpy' (identical results)."""
     depth = _check_depth(depth)

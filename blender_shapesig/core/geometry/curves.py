@@ -7,7 +7,7 @@ times ``t`` (increasing, from 0 to 1; uniform when omitted). Unit quaternions of
 
 Between samples a curve is the geodesic of eq. 5.8, so its right logarithmic derivative and SRVT
 are piecewise constant (eqs. 5.10-5.13): one value per interval, arrays of ``frames - 1`` rows.
-All exponentials, logarithms and quaternion conversions are those of ``core.so3``.
+All exponentials, logarithms and quaternion conversions are those of ``core.geometry.so3``.
 """
 
 import contextlib
@@ -23,7 +23,6 @@ __all__ = [
     "uniform_times",
     "move_to_identity",
     "relative_rotvecs",
-    "exp_rotvec",
     "right_log_derivative",
     "srvt",
     "srvt_of_velocity",
@@ -106,7 +105,6 @@ def relative_rotvecs(R):
     return so3.relative_rotvecs(as_curve(R))
 
 
-exp_rotvec = so3.exp  # exp of rotation vectors (..., 3) -> matrices (..., 3, 3); the name callers know
 
 
 def right_log_derivative(R, t=None):

@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import ShapeSigError
 
 __all__ = [
-    "log", "exp", "angle", "relative_rotvecs", "integrate", "nearest_rotation",
+    "log", "exp", "angle", "relative_rotvecs", "integrate", "nearest_rotation", "align", "heading", "turn", "twist",
     "matrix_from_quat", "quat_from_matrix", "continuous_quats",
     "matrix_from_euler", "euler_from_matrix",
     "matrices_from_channels", "channels_from_matrices",
@@ -214,6 +214,61 @@ def nearest_rotation(M):
 
 
 # ------------------------------------------------------------------------------------ quaternions
+
+
+# ----------------------------------------------------------------------------------- directions and "up"
+
+
+def align(u, v):
+    """The smallest rotations (..., 3, 3) turning directions ``u`` into ``v`` (..., 3; any lengths): about
+    u x v by the angle between them; a half turn about a normal of ``u`` when they are opposite."""
+    u = np.asarray(u, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
+    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    axis = np.cross(u, v)
+    s = np.linalg.norm(axis, axis=-1, keepdims=True)
+    c = np.sum(u * v, axis=-1, keepdims=True)
+    normal = np.cross(u, np.eye(3)[np.argmin(np.abs(u), axis=-1)])
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    opposite = (s < 1e-12) & (c < 0)
+    unit = np.where(opposite, normal, axis / np.maximum(s, 1e-300))
+    return exp(np.where(s < 1e-12, np.where(opposite, np.pi, 0.0), np.arctan2(s, c)) * unit)
+
+
+def _horizontal_reference(up):
+    """A unit vector perpendicular to ``up``: the coordinate axis least aligned with it, made horizontal."""
+    ref = np.eye(3)[int(np.argmin(np.abs(up)))]
+    ref = ref - (ref @ up) * up
+    return ref / np.linalg.norm(ref)
+
+
+def heading(R, up, ref=None):
+    """The heading of rotations R (..., 3, 3) about the unit vector ``up``: the signed angle (radians) by which
+    R turns a horizontal reference vector (``ref``, default the coordinate axis least aligned with ``up``) about
+    ``up``, measured on its horizontal part."""
+    up = np.asarray(up, dtype=np.float64)
+    ref = _horizontal_reference(up) if ref is None else np.asarray(ref, dtype=np.float64)
+    g = np.asarray(R, dtype=np.float64) @ ref
+    return np.arctan2(np.cross(ref, g) @ up, g @ ref)
+
+
+def turn(v, up, angle):
+    """Vectors ``v`` (..., 3) turned about the unit vector ``up`` by ``angle`` (radians; a number or one per
+    vector), by Rodrigues' formula."""
+    v = np.asarray(v, dtype=np.float64)
+    up = np.asarray(up, dtype=np.float64)
+    a = np.asarray(angle, dtype=np.float64)[..., None]
+    c, s = np.cos(a), np.sin(a)
+    return v * c + np.cross(up, v) * s + (v @ up)[..., None] * up * (1.0 - c)
+
+
+def twist(R, axis):
+    """The twist angle (radians, in (-pi, pi]) of rotations R (..., 3, 3) about the unit ``axis`` in their
+    swing-twist decomposition: ``2 atan2(q_v . axis, q_w)`` of the unit quaternion of R."""
+    q = quat_from_matrix(np.asarray(R, dtype=np.float64), scalar_first=True)
+    a = 2.0 * np.arctan2(q[..., 1:] @ np.asarray(axis, dtype=np.float64), q[..., 0])
+    return np.where(a > np.pi, a - 2.0 * np.pi, np.where(a <= -np.pi, a + 2.0 * np.pi, a))
 
 
 def matrix_from_quat(q, *, scalar_first):

@@ -54,7 +54,7 @@ class IndexEntry:
     source: str = ""
     key: str = ""
     exact: bool = True                # False: the direction is not stored (compact index), sketch only
-    # (first kept, last kept, first read, last read) when trimming cut frames (core.trim: meta["trim"]), else ()
+    # (first kept, last kept, first read, last read) when trimming cut frames (core.clip.trim: meta["trim"]), else ()
     trimmed: Tuple[int, ...] = ()
     # frames of the clip as read (its own rate, what results show); ``frames`` counts the prepared curve's samples
     clip_frames: int = 0

@@ -61,7 +61,7 @@ class RankResult:
     coverage: float = 1.0  # joints compared / moving joints of the smaller clip (core.rigs.coverage)
     start: Optional[int] = None  # a moment (``windows.rank_windows``): its frames in the clip's own numbers
     end: Optional[int] = None
-    explain: Optional[dict] = None  # ``core.explain``: per-joint shares, cost over time
+    explain: Optional[dict] = None  # ``core.elastic.explain``: per-joint shares, cost over time
     trimmed: Tuple[int, ...] = ()  # (first kept, last kept, first read, last read) when trimming cut frames
 
     def as_dict(self):
@@ -85,7 +85,7 @@ class RankList(list):
 
 
 # ----------------------------------------------------------------------------------------- library
-# Library members, keys and clip files are owned by core.sources.
+# Library members, keys and clip files are owned by core.io.sources.
 
 def clip_items(clips: Sequence[Clip]) -> List[LibraryItem]:
     """Library items for clips already in memory, keyed by their data."""

@@ -2,7 +2,7 @@
 
 Two stages, like the whole-clip search:
 
-1. **Shortlist by signatures.** On the comparison time base (``core.prepare``, ``COMPARE_FPS``), a clip's
+1. **Shortlist by signatures.** On the comparison time base (``core.clip.prepare``, ``COMPARE_FPS``), a clip's
    development has the prefix signatures P_t = S(x)_{0,t}. By Chen's identity S(x)_{0,t} = S(x)_{0,s} ⊗
    S(x)_{s,t}, so the signature of the window [s, t] is S(x)_{s,t} = P_s^{-1} ⊗ P_t, with P_s^{-1} the antipode
    (``tensor.antipode``, exact for group-like elements). The prefixes are computed once per clip on a grid of
@@ -15,7 +15,7 @@ Two stages, like the whole-clip search:
    numbers, and a clip needs hundreds of prefixes, so level 3 would cost gigabytes where level 2 costs
    megabytes.
 2. **Refine by the elastic distance with a free window.** For the ``rerank`` clips whose best windows are
-   closest, the open-begin/open-end DP (``core.subsequence``) matches the whole query against the clip around
+   closest, the open-begin/open-end DP (``core.elastic.subsequence``) matches the whole query against the clip around
    its ``REFINE_WINDOWS`` best non-overlapping windows (each padded by ``PAD`` of its length on both sides): the
    path's ends are the moment's frames, its energy's square root the result's ``elastic``. The refined results
    are ordered by it, before the others.
@@ -198,7 +198,7 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
 
     Every clip contributes its best window (see the module docstring); ``rerank`` clips (default ``REFINE``;
     0: signatures only) are refined by the free-window elastic DP, which sets their window and ``elastic``, and
-    come first, ordered by it. ``explain``: refined results get ``explain`` (``core.explain.explain_path`` of
+    come first, ordered by it. ``explain``: refined results get ``explain`` (``core.elastic.explain.explain_path`` of
     their DP path). ``top``: keep the first ``top``. ``exclude``: item keys or names to leave out. Clips sharing
     few of the query's moving joints are ``partial`` and ranked after the others; with ``allow_partial=False``
     clips below ``rigs.MIN_COVERAGE`` are skipped with a warning."""

@@ -29,13 +29,13 @@ from ..clip.clip import Clip
 from ..errors import ParseError
 from ..clip.skeleton import map_rest_meta, rest_meta
 from .amc import Motion, forward_kinematics, parse_amc
-from .asf import Bone, Skeleton, euler_matrices, parse_asf
+from .asf import Bone, Skeleton, parse_asf
 from .text import decode_text
 
 __all__ = [
     "Bone", "Skeleton", "Motion",
     "parse_asf", "parse_amc", "load_acclaim", "to_blender_axes", "ASF_TO_BLENDER",
-    "euler_matrices", "forward_kinematics", "decode_text",
+    "forward_kinematics", "decode_text",
 ]
 
 
@@ -143,7 +143,7 @@ def load_acclaim(amc_path, asf_path=None, name=None, skeleton: Optional[Skeleton
             "rotation_space": "asf",
             "up_axis": "Y",
             "unit_meters": skeleton.meters_per_unit,
-            **rest_meta(skeleton.bone_names, *skeleton.rest_heads_tails()),  # core.skeleton (FK of the feet)
+            **rest_meta(skeleton.bone_names, *skeleton.rest_heads_tails()),  # core.clip.skeleton (FK of the feet)
         },
     )
     return to_blender_axes(clip, scale) if axes == "blender" else clip

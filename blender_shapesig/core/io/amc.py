@@ -12,7 +12,8 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from ..errors import ParseError
-from .asf import Skeleton, euler_matrices
+from ..geometry.so3 import matrix_from_euler
+from .asf import Skeleton
 from .text import finite_float, read_text
 
 _FRAME_NUMBER = re.compile(r"[+-]?\d+")  # a frame-number line: digits with one optional sign
@@ -53,13 +54,13 @@ class Motion:
                         angles[:, "XYZ".index(c[1])] = vals[:, k]
                 seq = sk.root_axis
                 ordered = angles[:, ["XYZ".index(a) for a in seq]]
-                out[:, j] = euler_matrices(ordered, seq)
+                out[:, j] = matrix_from_euler(ordered, seq)
                 continue
             rdofs = bone.rotation_dofs
             if not rdofs or vals is None:
                 continue
             cols = [bone.dof.index(d) for d in rdofs]
-            out[:, j] = euler_matrices(vals[:, cols], "".join(d[1].upper() for d in rdofs))
+            out[:, j] = matrix_from_euler(vals[:, cols], "".join(d[1].upper() for d in rdofs))
         return out
 
     def local_rotations(self) -> np.ndarray:

@@ -10,12 +10,12 @@ from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Tuple
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..errors import ParseError
+from ..geometry.so3 import matrix_from_euler
 from .text import finite_float, read_text
 
-__all__ = ["Bone", "Skeleton", "parse_asf", "euler_matrices"]
+__all__ = ["Bone", "Skeleton", "parse_asf"]
 
 _ROT_DOFS = ("rx", "ry", "rz")
 _ALL_DOFS = ("rx", "ry", "rz", "tx", "ty", "tz", "l")
@@ -42,7 +42,7 @@ class Bone:
 
     @property
     def axis_matrix(self) -> np.ndarray:
-        return euler_matrices(self.axis[None], self.axis_order)[0]
+        return matrix_from_euler(self.axis, self.axis_order)
 
     @property
     def rotation_dofs(self) -> Tuple[str, ...]:
@@ -107,17 +107,6 @@ class Skeleton:
                 heads[i] = tails[index[bone.parent]]
             tails[i] = heads[i] + bone.direction * bone.length
         return heads, tails
-
-
-def euler_matrices(angles, order: str) -> np.ndarray:
-    """Rotation matrices (n, 3, 3) for angles (n, len(order)) in radians about fixed axes applied in
-    ``order`` (first letter first): ``R = R_last ... R_first``. Blender's Euler mode of the same name."""
-    angles = np.asarray(angles, dtype=np.float64)
-    if angles.ndim == 1:
-        angles = angles[None]
-    if angles.shape[1] == 0:
-        return np.tile(np.eye(3), (angles.shape[0], 1, 1))
-    return Rotation.from_euler(order.lower(), angles).as_matrix()
 
 
 # --------------------------------------------------------------------------------------- reading

@@ -2,7 +2,7 @@
 
 ``load_bvh(path)`` reads a BVH take as a Clip **equal to what Blender's importer gives** (``readers.bvh.import_bvh``
 with our settings, read back in armature space) without Blender: it is the reader the library index and the CLI
-use for ``.bvh`` (``core.sources``), ~100x faster than importing an armature. Why the two agree: the importer
+use for ``.bvh`` (``core.io.sources``), ~100x faster than importing an armature. Why the two agree: the importer
 keys each pose bone's rotation as ``P = B^-1 E B`` (``E`` the joint's Euler rotation from its channels in BVH
 axes, ``B`` the bone's rest orientation) and then rotates the armature data by its axis conversion ``A`` (BVH Y up
 / -Z forward -> Blender Z up), so the rest frames become ``A B`` and the armature-space rotation
@@ -318,7 +318,7 @@ def load_bvh(path, name: Optional[str] = None):
 
 
 def _rest_skeleton(joints):
-    """The rest skeleton Blender's importer builds (``core.skeleton.rest_meta``, armature axes, file units): heads
+    """The rest skeleton Blender's importer builds (``core.clip.skeleton.rest_meta``, armature axes, file units): heads
     are OFFSET sums; a tail is the End Site, else the one child's head, else the mean of the children's heads."""
     from ..clip.skeleton import rest_meta
 

@@ -52,7 +52,7 @@ class ClipSpec:
     """One named source: ``path`` (a file), ``action`` (for ``FILE.blend#ACTION``), ``asf`` (skeleton of an
     ``.amc``; None: the only .asf beside it), ``start``/``end`` (crop, inclusive frame numbers), ``fps``
     (override of the file's frame rate), ``trim`` ("auto": drop detected rest-pose / ramp frames at both ends,
-    ``core.trim``; "none": keep every frame; an explicit ``start`` keeps the head, an explicit ``end`` the tail).
+    ``core.clip.trim``; "none": keep every frame; an explicit ``start`` keeps the head, an explicit ``end`` the tail).
     Every field that changes the clips read is part of ``key()``."""
 
     path: str

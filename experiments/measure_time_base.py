@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """The same motion at 120 / 60 / 30 fps (issue 15, docs/model.md "Time base", docs/evaluation.md "Time base"):
 
-  .venv/bin/python tools/measure_time_base.py --data ../shared/data/cmu [--metrics sim3,elastic] [--raw]
+  .venv/bin/python experiments/measure_time_base.py --data ../shared/data/cmu [--metrics sim3,elastic] [--raw]
       [--span] [--trim-each] [--no-rank] [--smooth SECONDS] [--json FILE]
 
 For every walk of the shared sets (the Daz BVH walks of tools/eval_sets/cmu_large.csv against its runs, the AMC
@@ -13,11 +13,11 @@ has a walk of its set (not itself) nearer than every run ("ranks walks first"). 
 PASS / SAME / FAIL (SAME: within the bounds, and the 30 fps copy ranks a run first only where the 120 fps original
 does too), the largest ratio per metric and rate, and the count of walks that pass.
 
-Distances are ``core.metrics.clip_distance`` (the package's comparison, on the time base of ``core.prepare``;
+Distances are ``core.metrics.clip_distance`` (the package's comparison, on the time base of ``core.clip.prepare``;
 ``--raw``: on the curves as read). The clips are read as the evaluation reads them (rest-pose ramps trimmed at
 120 fps) and decimated after; ``--trim-each``: decimated as read and each copy trimmed at its own rate (the
 ramp's end is then cut at a 1/30 s resolution: see docs/model.md); ``--span``: every clip first cut to a
-multiple of 4 frame intervals (no frame lost; the measure before the lattice of core.prepare).
+multiple of 4 frame intervals (no frame lost; the measure before the lattice of core.clip.prepare).
 """
 
 import argparse
@@ -120,7 +120,7 @@ def main(argv=None):
     p.add_argument("--no-rank", action="store_true", help="skip the check that a 30 fps walk ranks walks first")
     p.add_argument("--json", help="write the rows and the largest ratios to this file")
     p.add_argument("--smooth", type=float,
-                   help="the SRVT measures' low-pass in seconds (default core.prepare.SMOOTH_SECONDS; the sweep)")
+                   help="the SRVT measures' low-pass in seconds (default core.clip.prepare.SMOOTH_SECONDS; the sweep)")
     args = p.parse_args(argv)
     if args.smooth is not None:
         prepare.SMOOTH_SECONDS = args.smooth  # read by metrics.time_base_smoothing at every comparison

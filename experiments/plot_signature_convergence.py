@@ -1,6 +1,6 @@
 """Convergence plots of the signature measures on straight paths in R^4 (reference secs. 8.2, 8.4).
 
-    .venv/bin/python tools/plot_signature_convergence.py [--out docs/img]
+    .venv/bin/python experiments/plot_signature_convergence.py [--out docs/img]
 
 x(t) = a t and x_eps(t) = (a + eps 1) t on [0, 1]. Writes
 

@@ -1,6 +1,6 @@
 """Figures of docs/blending.md: a time-aligned SRVT blend of a CMU walk and run.
 
-    .venv/bin/python tools/plot_blend.py [--out docs/img] [--weight 0.5]
+    .venv/bin/python experiments/plot_blend.py [--out docs/img] [--weight 0.5]
 
 A = walk 07_01 (316 frames), B = run 09_02 (130 frames), both ASF/AMC from tests/data (120 fps). The
 angle and pose figures use one gait cycle of each, from one peak of the right knee's angle to the next

@@ -1,20 +1,20 @@
 #!/usr/bin/env python
 """The same take in other formats and skeletons ranks first (issue 14), and the comparison-space measurement.
 
-  .venv/bin/python tools/rank_across_rigs.py --data ../shared/data/cmu [--bone-map auto|none] [--rerank K]
+  .venv/bin/python experiments/rank_across_rigs.py --data ../shared/data/cmu [--bone-map auto|none] [--rerank K]
       [--metric sim3|linear3|elastic|...] [--all] [--joints [--plot OUT.png]]
 
 A library of the shared CMU takes in two formats each: AMC 07_01-07_03 and 09_01-09_03 with their cgspeed Daz
 BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02_03, AMC 16_15 with its
-MotionBuilder BVH. Every clip queries the library (``core.index.rank_clips``, sim3, through ``core.sources``);
+MotionBuilder BVH. Every clip queries the library (``core.index.rank_clips``, sim3, through ``core.io.sources``);
 the script prints each query's first result and whether it is the same take, and the count.
 
-No crops: every clip is read as a user reads it (``--trim auto``, ``core.trim``), which drops the Daz BVH files'
+No crops: every clip is read as a user reads it (``--trim auto``, ``core.clip.trim``), which drops the Daz BVH files'
 rest-pose frame and the converter's ramp and the iClone files' T-pose frame; the AMC originals and 16_15 (both
 files hold the same 471 frames) have nothing to trim.
 
 ``--all``: the 20 clips query a library of every readable shared clip (92: all BVH files and every AMC whose
-subject's skeleton is in the data, as ``tools/dedupe_check.py`` reads them), not only each other.
+subject's skeleton is in the data, as ``experiments/dedupe_check.py`` reads them), not only each other.
 
 ``--joints``: for every same-take pair, how far the two files are the same motion, joint by joint: each joint's
 rotation over 1/15 s in the comparison space (``log(R[k+s] R[k]^T)``, which no rest pose, bone axis or roll
@@ -102,7 +102,7 @@ def all_shared(data, items, bone_map="auto"):
 
 def _motion(clip, joints, seconds=1 / 15):
     """Per joint, its rotation over ``seconds`` (rotation vectors, comparison space) at every frame of the clip
-    low-passed as the comparison does (``core.prepare``, at the clip's own rate), the first and last 0.1 s left
+    low-passed as the comparison does (``core.clip.prepare``, at the clip's own rate), the first and last 0.1 s left
     out (take starts and converter ramps)."""
     R = prepare.prepare_rotations(clip.rotations[:, [clip.bones.index(j) for j in joints]], clip.fps, None)
     s, cut = max(1, round(seconds * clip.fps)), round(0.1 * clip.fps)

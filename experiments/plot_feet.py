@@ -1,8 +1,8 @@
 #!/usr/bin/env python
-"""Foot trajectories of a walk x run blend before and after ``core.feet.lock_feet`` (docs/blending.md, "Planted
+"""Foot trajectories of a walk x run blend before and after ``core.blend.feet.lock_feet`` (docs/blending.md, "Planted
 feet"):
 
-  .venv/bin/python tools/plot_feet.py --data ../shared/data/cmu [--pair 07_01,09_02] [--weight 0.25]
+  .venv/bin/python experiments/plot_feet.py --data ../shared/data/cmu [--pair 07_01,09_02] [--weight 0.25]
       [--out docs/img/feet_trajectories.png]
 
 The strides and the blend are the benchmark's (benchmarks/bench_foot_drift.py). Per foot (rows L, R): the ball's

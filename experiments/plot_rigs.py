@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """docs/img/rigs_same_take.png: the same take from two rigs, overlaid before and after mapping (docs/rigs.md).
 
-  .venv/bin/python tools/plot_rigs.py --data ../shared/data/cmu --out docs/img/rigs_same_take.png
+  .venv/bin/python experiments/plot_rigs.py --data ../shared/data/cmu --out docs/img/rigs_same_take.png
 
 CMU 02_01 (walk) as the cgspeed Daz BVH (hip, abdomen, chest, lThigh, ...; 120 fps, T-pose rest) and as the
 iClone / Character Creator BVH (CC_Base_*; 60 fps, 101 bones with twist and share bones), read as a user reads

@@ -1,8 +1,8 @@
 #!/usr/bin/env python
-"""A rendered contact sheet of a walk x run blend before and after ``core.feet.lock_feet`` (docs/blending.md,
+"""A rendered contact sheet of a walk x run blend before and after ``core.blend.feet.lock_feet`` (docs/blending.md,
 "Planted feet"), headless with the bpy module (Workbench engine):
 
-  .venv/bin/python tools/render_contact_sheet.py --data ../shared/data/cmu [--weight 0.5] [--frames 6]
+  .venv/bin/python experiments/render_contact_sheet.py --data ../shared/data/cmu [--weight 0.5] [--frames 6]
       [--out docs/img/feet_contact_sheet.png]
 
 The blend is the benchmark's 07_01 x 09_02 stride (benchmarks/bench_foot_drift.py) on 07_01's rig, imported with

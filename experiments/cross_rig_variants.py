@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Variants of sim³ tried against issue 14's last criterion, and what each costs on the evaluation sets.
 
-  .venv/bin/python tools/cross_rig_variants.py --data ../shared/data/cmu [--variants none,channel,time3,...]
+  .venv/bin/python experiments/cross_rig_variants.py --data ../shared/data/cmu [--variants none,channel,time3,...]
 
 Each variant changes the developed path before its log-signature (level 3, then sim = |a/|a| - b/|b||, eq. 9.1):
 
@@ -25,7 +25,7 @@ import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-for p in (ROOT, os.path.join(ROOT, "tools")):
+for p in (ROOT, os.path.join(ROOT, "experiments")):
     if p not in sys.path:
         sys.path.insert(0, p)
 

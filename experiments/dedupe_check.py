@@ -1,6 +1,6 @@
 """Check ``dedupe`` on the shared CMU library (every clip of every format the package reads) with planted copies.
 
-    .venv/bin/python tools/dedupe_check.py --data ../shared/data/cmu [--bvh-only] [--out DIR]
+    .venv/bin/python experiments/dedupe_check.py --data ../shared/data/cmu [--bvh-only] [--out DIR]
         [--scheduler ADDRESS] [--cache DIR] [--threshold X]
 
 Plants three copies in a temporary folder (``blender_shapesig.dedupe.planted``): the walk 07_01 renamed, the run
@@ -26,7 +26,8 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from blender_shapesig.core.io.sources import ClipSpec  # noqa: E402
-from blender_shapesig.dedupe import dedupe_library, planted  # noqa: E402
+from blender_shapesig.dedupe import dedupe_library  # noqa: E402
+from tests import planted  # noqa: E402
 
 ORIGINALS = ("Przestr_motion-capture/data/07/07_01.bvh", "Przestr_motion-capture/data/09/09_02.bvh",
              "Przestr_motion-capture/data/13/13_32.bvh")

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Moments (issue 19): re-timed excerpts of long takes are found in their take, ranked first, window IoU >= 0.5.
 
-  .venv/bin/python tools/bench_moments.py --data ../shared/data/cmu [--rerank K] [--json FILE]
+  .venv/bin/python benchmarks/bench_moments.py --data ../shared/data/cmu [--rerank K] [--json FILE]
 
 The library: every BVH under --data (the shared BVH library, 60 files on three skeletons, which holds the long
 takes 13_10 (2,397 frames), 131_02 (1,247) and the iClone 001_01 (1,376, 60 fps)) plus the long AMC takes 09_12

@@ -1,12 +1,12 @@
 #!/usr/bin/env python
 """A blend across rigs beside its sources, as stick figures (docs/rigs.md, "Blending across rigs"):
 
-  .venv/bin/python tools/plot_cross_rig_blend.py --data ../shared/data/cmu [--out docs/img/rigs_blend.png]
+  .venv/bin/python experiments/plot_cross_rig_blend.py --data ../shared/data/cmu [--out docs/img/rigs_blend.png]
 
 Two blends at weight 0.5, time-aligned, made by the command line (``blend ... --align``) and read back from the
 saved .blend: the iClone / Character Creator walk 002_01 (A) with the Daz run 09_02, and the ASF/AMC run 09_02 (A)
 with the Daz walk 07_01. Each row: A, B and the blend on A's rig at four moments of their own durations, the
-mapped joints by forward kinematics (``core.skeleton``), in each clip's heading frame (travel to the right), in
+mapped joints by forward kinematics (``core.clip.skeleton``), in each clip's heading frame (travel to the right), in
 leg lengths of its own rig, the hips over the origin at its height; the floor of each rig at its lowest foot.
 """
 
@@ -18,7 +18,7 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-for _p in (ROOT, os.path.join(ROOT, "tools")):
+for _p in (ROOT, os.path.join(ROOT, "experiments")):
     if _p not in sys.path:
         sys.path.insert(0, _p)
 
