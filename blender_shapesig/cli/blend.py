@@ -14,7 +14,7 @@ def parse_weights(args, count):
     """A list of weight vectors (one per blend, one weight per clip): ``--weight s`` (B's weight, two clips),
     ``--weight wA,wB,...`` (one per clip, summing to 1) or ``--inbetweens K`` (two clips)."""
     from ..core.errors import ShapeSigError, check_inbetweens, check_weight
-    from ..core.blend import check_weights
+    from ..core.errors import check_weights
 
     if args.inbetweens is not None:
         if count != 2:

@@ -7,7 +7,7 @@ from . import common as c
 
 def run(args):
     from .. import evaluation
-    from ..core.metrics import check_metric
+    from ..core.metrics import metric_label
 
     if not os.path.isfile(args.index):
         raise c.CommandError(f"index file not found: {args.index}")
@@ -17,7 +17,7 @@ def run(args):
         m.strip() for m in args.metrics.split(",") if m.strip()
     )
     for m in metrics:
-        check_metric(m)
+        metric_label(m)
     entries = evaluation.read_index(args.index)
     summary = evaluation.evaluate(
         entries,

@@ -7,10 +7,10 @@ from . import common as c
 
 def run(args):
     from .. import evaluation
-    from ..core.metrics import check_metric
+    from ..core.metrics import metric_label
     from ..core.pairwise import clip_distance_matrix
 
-    label = check_metric(args.metric, args.level)
+    label = metric_label(args.metric, args.level)
     clips = c.load_many(args.clips, args.asf, args)
     if len(clips) < 2:
         raise c.CommandError("matrix needs at least two clips")

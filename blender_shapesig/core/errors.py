@@ -60,7 +60,7 @@ def check_number(value, name, low=0.0, high=float("inf")):
 
 # ------------------------------------------------------------------ the value checks of every front end
 # Operators, scene properties and the command line refuse the same values with the same one-line messages
-# (issue 17): a script's weight=5 or in-betweens=500 is an error, never silently clamped.
+# a script's weight=5 or in-betweens=500 is an error, never silently clamped.
 
 MAX_INBETWEENS = 99  # the most blends one Blend Actions call writes
 
@@ -68,6 +68,22 @@ MAX_INBETWEENS = 99  # the most blends one Blend Actions call writes
 def check_weight(value, name="weight"):
     """A blend weight: a finite number in [0, 1] (0 gives A, 1 gives B)."""
     return check_number(value, name, 0.0, 1.0)
+
+
+def check_weights(weights, count=None, name="weights"):
+    """Weights of several clips: finite numbers in [0, 1] summing to 1 (within 1e-6), one per clip when ``count``
+    is given. Returns a tuple of floats."""
+    try:
+        ws = tuple(weights)
+    except TypeError:
+        raise ShapeSigError(f"{name}: expected a list of numbers, got {weights!r}") from None
+    if count is not None and len(ws) != count:
+        raise ShapeSigError(f"{name}: {len(ws)} weight(s) for {count} clips; give one weight per clip")
+    ws = tuple(check_weight(w, name) for w in ws)
+    if len(ws) < 2 or abs(sum(ws) - 1.0) > 1e-6:
+        raise ShapeSigError(f"{name}: expected one weight per clip summing to 1, got "
+                            f"{', '.join(f'{w:g}' for w in ws)} (sum {sum(ws):g})")
+    return ws
 
 
 def check_inbetweens(value, name="in-betweens"):

@@ -32,7 +32,7 @@ from .errors import CurveError, ShapeSigError
 
 __all__ = [
     "METRICS", "SIGNATURE_METRICS", "SMOOTHED_METRICS", "time_base_smoothing", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
-    "parse_metric_spec", "check_metric", "parse_metric", "metric_label", "clip_distance", "curve_distance",
+    "parse_metric_spec", "parse_metric", "metric_label", "clip_distance", "curve_distance",
     "check_coverage", "compare_clips",
 ]
 
@@ -145,7 +145,6 @@ def metric_label(name, level=None) -> str:
     return parse_metric_spec(name, level).name
 
 
-check_metric = metric_label  # the name the evaluation commands validate with
 
 
 def parse_metric(name, level=None):

@@ -426,12 +426,6 @@ def test_import_acclaim_undoes_in_one_step(empty_file):
 @pytest.fixture
 def library(rig, tmp_path, monkeypatch):
     """The run '09_02' as query plus three cropped / constant / two-frame actions; cache in tmp_path."""
-    if not hasattr(bpy.ops.shapesig, "rank") or not hasattr(bpy.ops.shapesig, "build_index"):
-        pytest.skip("search operators not registered")
-    try:
-        bpy.ops.shapesig.rank.get_rna_type()
-    except (AttributeError, KeyError):
-        pytest.skip("search operators not registered")
     monkeypatch.setenv("SHAPESIG_CACHE_DIR", str(tmp_path / "cache"))
     src = _source(rig)
     _write(rig, src.crop(20, 90), "part")

@@ -77,11 +77,9 @@ def test_clipspec_trim_is_in_the_key_and_checked(data_dir):
 
 
 def test_an_explicit_start_wins_over_trim(tmp_path, walk):
-    # a synthetic AMC is not needed: the rule is applied by sources.read, tested here on its helper
-    from blender_shapesig.core.io.sources import _trimmed
-
+    # a synthetic AMC is not needed: the rule is applied by sources.read through trim_ends (an explicit crop wins)
     clip = _with_rest_and_ramp(walk)
-    auto = _trimmed(clip, sources.ClipSpec("x.amc"))
+    auto = sources.trim_ends(clip)
     assert auto.frame_start > 1
-    kept = _trimmed(clip, sources.ClipSpec("x.amc", start=1))
+    kept = sources.trim_ends(clip, start=1)
     assert kept.frame_start == 1 and kept.frames == clip.frames

@@ -44,42 +44,20 @@ from ..geometry.curves import (
     uniform_times,
 )
 from ..elastic.elastic import check_warp
-from ..errors import CurveError, ShapeSigError, check_inbetweens, check_integer, check_number
+from ..errors import CurveError, ShapeSigError, check_inbetweens, check_integer, check_number, check_weight, check_weights
 from ..metrics import DEFAULT_DEPTH
 
 __all__ = [
     "geodesic_blend", "blend_weights", "blend_name", "compute_warp", "identity_warp", "default_frames",
-    "default_frames_many", "check_weights", "mean_start",
+    "default_frames_many", "mean_start",
 ]
 
 # Grid points closer than this (in [0, 1]) are merged; they would make zero-length intervals.
 _GRID_TOL = 1e-12
-# weights of several clips must sum to 1 within this
-_SUM_TOL = 1e-6
-
-
-def _check_weight(weight):
-    return check_number(weight, "weight", 0.0, 1.0)
 
 
 def _check_frames(frames):
     return check_integer(frames, "frames", minimum=2, allow_none=True)
-
-
-def check_weights(weights, count=None, name="weights"):
-    """Weights of several clips: finite numbers in [0, 1] summing to 1 (within 1e-6), one per clip when ``count``
-    is given. Returns a tuple of floats."""
-    try:
-        ws = tuple(weights)
-    except TypeError:
-        raise ShapeSigError(f"{name}: expected a list of numbers, got {weights!r}") from None
-    if count is not None and len(ws) != count:
-        raise ShapeSigError(f"{name}: {len(ws)} weight(s) for {count} clips; give one weight per clip")
-    ws = tuple(check_number(w, name, 0.0, 1.0) for w in ws)
-    if len(ws) < 2 or abs(sum(ws) - 1.0) > _SUM_TOL:
-        raise ShapeSigError(f"{name}: expected one weight per clip summing to 1, got "
-                            f"{', '.join(f'{w:g}' for w in ws)} (sum {sum(ws):g})")
-    return ws
 
 
 def identity_warp():
@@ -110,7 +88,7 @@ def default_frames(frames0, frames1, weight, duration0=None, duration1=None, fps
     With durations (seconds) and an output ``fps``: ``round(((1 - w) D0 + w D1) fps) + 1``, which is
     the same when both clips share the frame rate.
     """
-    w = _check_weight(weight)
+    w = check_weight(weight)
     durations = None if duration0 is None or duration1 is None else (duration0, duration1)
     return default_frames_many((frames0, frames1), (1.0 - w, w), durations, fps)
 
@@ -119,7 +97,7 @@ def blend_weights(count, weight=0.5):
     """Weights of ``count`` in-betweens: ``[weight]`` for one, else i / (count + 1), i = 1..count."""
     k = check_inbetweens(count)  # 1..MAX_INBETWEENS, the same check as the operator and the CLI
     if k == 1:
-        return [_check_weight(weight)]
+        return [check_weight(weight)]
     return [i / (k + 1) for i in range(1, k + 1)]
 
 
@@ -129,7 +107,7 @@ def blend_name(name_a, name_b, weight):
     if isinstance(name_b, (list, tuple)):
         names = [name_a] + list(name_b)
         return "_x_".join(names) + "_" + "_".join(f"{w:.2f}" for w in weight)
-    return f"{name_a}_x_{name_b}_{_check_weight(weight):.2f}"
+    return f"{name_a}_x_{name_b}_{check_weight(weight):.2f}"
 
 
 def _joint_weights(W, i):
@@ -326,7 +304,7 @@ def geodesic_blend(R0, R1, weight, align=True, depth=DEFAULT_DEPTH, *, frames=No
     ``distance``: d_P*(R0, R1 o phi) (on G); ``elastic_distance``: the DP's value (None without
     align).
     """
-    w = _check_weight(weight)
+    w = check_weight(weight)
     R0 = as_curve(R0, "R0")
     R1 = as_curve(R1, "R1")
     if R0.shape[1] != R1.shape[1]:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..geometry import so3
 from ..clip.clip import Clip
-from ..errors import ShapeSigError
+from ..errors import ShapeSigError, check_frame_range
 from ..clip.prepare import COMPARE_FPS, prepare_rotations
 
 # the loop's seam is eased over this window (seconds each side; see _ease_seam)
@@ -58,9 +58,7 @@ def crop_range(clip: Clip, rng, label="range") -> Clip:
     rng = parse_range(rng, label)
     if rng is None:
         return clip
-    s, e = rng
-    if s < clip.frame_start or e > clip.frame_end:
-        raise ShapeSigError(f"{label} {s}:{e} is outside {clip.name!r} (frames {clip.frame_start}..{clip.frame_end})")
+    s, e = check_frame_range(*rng, clip.frame_start, clip.frame_end, f"{label} of {clip.name!r}")
     out = clip.crop(s, e)
     out.meta = dict(out.meta, range=(s, e))
     return out

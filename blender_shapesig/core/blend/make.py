@@ -33,7 +33,7 @@ import numpy as np
 from ..geometry.curves import geodesic_interpolate, uniform_times
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH
-from .combine import check_weights
+from ..errors import check_weights
 from .cycle import close_loop, crop_range, one_cycle
 from .mix import blend_clip_series, blend_many
 

@@ -13,7 +13,8 @@ from ..elastic.elastic import check_warp
 from ..errors import ShapeSigError, check_integer, check_number
 from ..metrics import DEFAULT_DEPTH
 from ..clip.prepare import prepare_rotations
-from .combine import _Plan, blend_name, check_weights, compute_warp, default_frames_many, mean_start
+from ..errors import check_weights
+from .combine import _Plan, blend_name, compute_warp, default_frames_many, mean_start
 from .move_root import blend_root_path, interp_rows, resolve_up
 
 __all__ = ["blend_clips", "blend_many", "blend_clip_series", "blend_fps"]

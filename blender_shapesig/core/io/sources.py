@@ -219,11 +219,6 @@ def trim_ends(clip, start=None, end=None):
     return out
 
 
-def _trimmed(clip, spec):
-    """``trim_ends`` with a spec's explicit crop (kept for tests written against it)."""
-    return trim_ends(clip, spec.start, spec.end)
-
-
 def read_one(spec, **options) -> Clip:
     """The one clip a source names; ShapeSigError when it holds several (pick one with ``FILE.blend#ACTION``)."""
     spec = spec if isinstance(spec, ClipSpec) else ClipSpec.parse(spec, **options)
