@@ -32,6 +32,7 @@ from . import action_changes, action_io, compat, rigmap
 from .core import index, rigs, sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
 from .core.errors import ShapeSigError, check_frame_range, check_integer
+from .owners import find_owner
 from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, results_of, settings_of
 
@@ -110,21 +111,12 @@ def armature_digest(obj) -> str:
 
 
 def owner_armature(action, default):
-    """The armature object that plays ``action`` (active action or an NLA strip), else ``default``.
+    """The armature object ``action`` belongs to (``owners.find_owner``, ``default`` the armature the user works
+    with), else ``default`` when no armature holds its bones; ShapeSigError (one line) when it cannot be decided.
 
     A library action is read with its own rig: its bones' rest orientations give the armature space, and
     bones of another rig are not mistaken for unanimated bones of this one."""
-    if default is not None and getattr(default.animation_data, "action", None) == action:
-        return default
-    for ob in bpy.data.objects:
-        if ob.type != "ARMATURE" or ob.animation_data is None:
-            continue
-        if ob.animation_data.action == action:
-            return ob
-        for track in ob.animation_data.nla_tracks:
-            if any(strip.action == action for strip in track.strips):
-                return ob
-    return default
+    return find_owner(action, prefer=default) or default
 
 
 def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=None) -> ActionItem:
