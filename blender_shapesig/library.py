@@ -37,7 +37,7 @@ from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, results_of, settings_of
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
-           "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
+           "owner_armature", "file_identity", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
            "library_items", "index_items", "missing_count", "rank_into_settings", "store_results",
            "active_armature", "check_problem", "RankJob", "unique_labels", "index_cost", "cost_text", "COSTLY_LEVEL"]
 
@@ -375,19 +375,31 @@ def unique_labels(specs):
             depth[i] += 1
 
 
+def file_identity(spec) -> str:
+    """What tells a clip file apart from one put in its place: its path, size and modification time ("" when it
+    cannot be read)."""
+    path = os.path.abspath(sources.ClipSpec.parse(spec).path)
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return ""
+    return f"{path}|{st.st_size}|{st.st_mtime_ns}"
+
+
 def _row_sources(results, items):
-    """(is_action, clip file spec) per result, through the library item each came from (by key)."""
+    """(is_action, clip file spec, target identity) per result, through the library item each came from (by key):
+    an action's read hash at the search, a file's ``file_identity``."""
     by_key = {it.key: it for it in items}
     out = []
     for r in results:
         item = by_key.get(r.key)
         if isinstance(item, ActionItem):
-            out.append((True, ""))
+            out.append((True, "", item.action_key.read_hash if item.action_key is not None else ""))
             continue
         spec = item.source if item is not None else r.source
         if spec.lower().endswith(".blend") and r.name:
             spec = f"{spec}#{r.name}"  # a whole .blend holds several actions: the clip's name is its action
-        out.append((False, spec))
+        out.append((False, spec, file_identity(spec)))
     return out
 
 
@@ -400,9 +412,9 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
     matches, then partial ones)."""
     out = results_of()
     kinds = _row_sources(results, items)
-    labels = unique_labels([spec for is_action, spec in kinds if not is_action])[::-1]
+    labels = unique_labels([spec for is_action, spec, _t in kinds if not is_action])[::-1]
     out.results.clear()
-    for r, (is_action, spec) in zip(results, kinds):
+    for r, (is_action, spec, target) in zip(results, kinds):
         row = out.results.add()
         row.name = row.clip_name = r.name
         row.label = r.name if is_action else labels.pop()
@@ -413,6 +425,7 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         row.is_action = is_action
         row.source = r.name if is_action else spec
         row.spec = spec
+        row.target, row.written = target, ""
         row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
         # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
@@ -447,6 +460,7 @@ class RankJob:
         self.t0 = time.perf_counter() if started is None else started
         self.settings = settings
         self.action, self.query, self.items = _search_items(context, settings)
+        self.query_name = self.action.name  # the action may be removed while the click runs
         if not self.items:
             raise ShapeSigError("the library is empty: no other action animates this armature"
                                 + (" or matches the filter" if settings.name_filter else "")
@@ -548,7 +562,7 @@ class RankJob:
         q_bones = len(entries[0].bones) if entries else 0
         level = WINDOW_LEVEL if self.settings.use_windows else self.level
         column = {"sim": f"sim^{level}", "elastic": ELASTIC_COLUMN}[self.order_by]
-        store_results(self.settings, self.rows, self.items, self.action.name, column, q_bones,
+        store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)
         out = results_of()
         msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column}; "
