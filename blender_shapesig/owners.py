@@ -66,7 +66,8 @@ def fitting(action, armatures, bones=None):
 
 
 def _names(obs):
-    return ", ".join(o.name for o in obs[:4]) + (", ..." if len(obs) > 4 else "")
+    names = sorted(o.name for o in obs)
+    return ", ".join(names[:4]) + (", ..." if len(names) > 4 else "")
 
 
 def find_owner(action, armatures=None, prefer=None):

@@ -157,5 +157,7 @@ def rig_of(arm):
             "local_location": b.use_local_location, "deform": b.use_deform,
             "rotation_mode": pb.rotation_mode if pb is not None else "QUATERNION",
         })
-    return {"object": arm.name, "data": arm.data.name, "matrix_world": [list(r) for r in arm.matrix_world],
+    # unparented: its own transform (an appended object's matrix_world is as stale as the file saved it)
+    world = arm.matrix_basis if arm.parent is None else arm.matrix_world
+    return {"object": arm.name, "data": arm.data.name, "matrix_world": [list(r) for r in world],
             "bones": bones}
