@@ -387,19 +387,20 @@ def file_identity(spec) -> str:
 
 
 def _row_sources(results, items):
-    """(is_action, clip file spec, target identity) per result, through the library item each came from (by key):
-    an action's read hash at the search, a file's ``file_identity``."""
+    """(is_action, clip file spec, target identity, name) per result, through the library item each came from (by
+    key): an action's read hash at the search and its name now (a cached entry keeps the name it was indexed
+    under: an action renamed since is named as it is now), a file's ``file_identity``."""
     by_key = {it.key: it for it in items}
     out = []
     for r in results:
         item = by_key.get(r.key)
         if isinstance(item, ActionItem):
-            out.append((True, "", item.action_key.read_hash if item.action_key is not None else ""))
+            out.append((True, "", item.action_key.read_hash if item.action_key is not None else "", item.action))
             continue
         spec = item.source if item is not None else r.source
         if spec.lower().endswith(".blend") and r.name:
             spec = f"{spec}#{r.name}"  # a whole .blend holds several actions: the clip's name is its action
-        out.append((False, spec, file_identity(spec)))
+        out.append((False, spec, file_identity(spec), r.name))
     return out
 
 
@@ -412,18 +413,18 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
     matches, then partial ones)."""
     out = results_of()
     kinds = _row_sources(results, items)
-    labels = unique_labels([spec for is_action, spec, _t in kinds if not is_action])[::-1]
+    labels = unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
     out.results.clear()
-    for r, (is_action, spec, target) in zip(results, kinds):
+    for r, (is_action, spec, target, name) in zip(results, kinds):
         row = out.results.add()
-        row.name = row.clip_name = r.name
-        row.label = r.name if is_action else labels.pop()
+        row.name = row.clip_name = name
+        row.label = name if is_action else labels.pop()
         row.distance = r.distance
         row.has_elastic = r.elastic is not None
         row.elastic = r.elastic if r.elastic is not None else 0.0
         row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
         row.is_action = is_action
-        row.source = r.name if is_action else spec
+        row.source = name if is_action else spec
         row.spec = spec
         row.target, row.written = target, ""
         row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
