@@ -33,11 +33,12 @@ from .core import index, rigs
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
 from .core.errors import ShapeSigError, check_frame_range, check_integer
+from .owners import find_owner
 from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, results_of, settings_of
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
-           "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
+           "owner_armature", "file_identity", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
            "library_items", "index_items", "missing_count", "rank_into_settings", "store_results",
            "active_armature", "check_problem", "RankJob", "unique_labels", "index_cost", "cost_text", "COSTLY_LEVEL"]
 
@@ -111,21 +112,12 @@ def armature_digest(obj) -> str:
 
 
 def owner_armature(action, default):
-    """The armature object that plays ``action`` (active action or an NLA strip), else ``default``.
+    """The armature object ``action`` belongs to (``owners.find_owner``, ``default`` the armature the user works
+    with), else ``default`` when no armature holds its bones; ShapeSigError (one line) when it cannot be decided.
 
     A library action is read with its own rig: its bones' rest orientations give the armature space, and
     bones of another rig are not mistaken for unanimated bones of this one."""
-    if default is not None and getattr(default.animation_data, "action", None) == action:
-        return default
-    for ob in bpy.data.objects:
-        if ob.type != "ARMATURE" or ob.animation_data is None:
-            continue
-        if ob.animation_data.action == action:
-            return ob
-        for track in ob.animation_data.nla_tracks:
-            if any(strip.action == action for strip in track.strips):
-                return ob
-    return default
+    return find_owner(action, prefer=default) or default
 
 
 def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=None) -> ActionItem:
@@ -384,19 +376,32 @@ def unique_labels(specs):
             depth[i] += 1
 
 
+def file_identity(spec) -> str:
+    """What tells a clip file apart from one put in its place: its path, size and modification time ("" when it
+    cannot be read)."""
+    path = os.path.abspath(sources.ClipSpec.parse(spec).path)
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return ""
+    return f"{path}|{st.st_size}|{st.st_mtime_ns}"
+
+
 def _row_sources(results, items):
-    """(is_action, clip file spec) per result, through the library item each came from (by key)."""
+    """(is_action, clip file spec, target identity, name) per result, through the library item each came from (by
+    key): an action's read hash at the search and its name now (a cached entry keeps the name it was indexed
+    under: an action renamed since is named as it is now), a file's ``file_identity``."""
     by_key = {it.key: it for it in items}
     out = []
     for r in results:
         item = by_key.get(r.key)
         if isinstance(item, ActionItem):
-            out.append((True, ""))
+            out.append((True, "", item.action_key.read_hash if item.action_key is not None else "", item.action))
             continue
         spec = item.source if item is not None else r.source
         if spec.lower().endswith(".blend") and r.name:
             spec = f"{spec}#{r.name}"  # a whole .blend holds several actions: the clip's name is its action
-        out.append((False, spec))
+        out.append((False, spec, file_identity(spec), r.name))
     return out
 
 
@@ -409,19 +414,20 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
     matches, then partial ones)."""
     out = results_of()
     kinds = _row_sources(results, items)
-    labels = unique_labels([spec for is_action, spec in kinds if not is_action])[::-1]
+    labels = unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
     out.results.clear()
-    for r, (is_action, spec) in zip(results, kinds):
+    for r, (is_action, spec, target, name) in zip(results, kinds):
         row = out.results.add()
-        row.name = row.clip_name = r.name
-        row.label = r.name if is_action else labels.pop()
+        row.name = row.clip_name = name
+        row.label = name if is_action else labels.pop()
         row.distance = r.distance
         row.has_elastic = r.elastic is not None
         row.elastic = r.elastic if r.elastic is not None else 0.0
         row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
         row.is_action = is_action
-        row.source = r.name if is_action else spec
+        row.source = name if is_action else spec
         row.spec = spec
+        row.target, row.written = target, ""
         row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
         # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
@@ -456,6 +462,7 @@ class RankJob:
         self.t0 = time.perf_counter() if started is None else started
         self.settings = settings
         self.action, self.query, self.items = _search_items(context, settings)
+        self.query_name = self.action.name  # the action may be removed while the click runs
         if not self.items:
             raise ShapeSigError("the library is empty: no other action animates this armature"
                                 + (" or matches the filter" if settings.name_filter else "")
@@ -557,7 +564,7 @@ class RankJob:
         q_bones = len(entries[0].bones) if entries else 0
         level = WINDOW_LEVEL if self.settings.use_windows else self.level
         column = {"sim": f"sim^{level}", "elastic": ELASTIC_COLUMN}[self.order_by]
-        store_results(self.settings, self.rows, self.items, self.action.name, column, q_bones,
+        store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)
         out = results_of()
         msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column}; "

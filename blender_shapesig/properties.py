@@ -65,6 +65,11 @@ class ShapeSigResult(bpy.types.PropertyGroup):
     kept_last: IntProperty(name="Compared To", description="Last frame compared, after trimming")
     read_first: IntProperty(name="Read From", description="First frame read, before trimming")
     read_last: IntProperty(name="Read To", description="Last frame read, before trimming")
+    # issue 27: the identity of what the row names, so that a replaced target is refused (results.check_target)
+    target: StringProperty(name="Target", description="At the search: the action's read hash, or the file's "
+                           "path, size and modification time")
+    written: StringProperty(name="Written", description="Actions written for this row and their read hashes "
+                            "(JSON)")
 
 
 class ShapeSigResults(bpy.types.PropertyGroup):

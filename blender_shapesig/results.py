@@ -1,18 +1,56 @@
 """What an animator does with a result row of the search panel: assign it to the armature, or preview it and
 stop (``library`` owns the search itself). Assign never orphans the replaced action (``action_io.assign_action``
-stashes it); Stop restores exactly the state before Preview and removes an action written only for it."""
+stashes it); Stop restores exactly the state before Preview and removes an action written only for it. A row
+remembers the identity of what it names (``row.target``: the action's read hash or the file's path, size and time
+at the search; ``row.written``: the actions written for it and their hashes): Assign, Preview, Blend and Why refuse
+a target that changed since (an action deleted and another renamed to its name, a file replaced) in one line."""
 
 import json
 
 import bpy
 
 from . import action_io, compat, library
+from .action_hashes import read_hash
 from .core.io import sources
 from .core.errors import ShapeSigError
 from .properties import results_of
 
 __all__ = ["selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result",
-           "window_action", "explain_result"]
+           "window_action", "explain_result", "expected_hash", "check_action", "changed_error"]
+
+
+def changed_error(label):
+    return ShapeSigError(f"the result {label!r} changed since the search; search again")
+
+
+def expected_hash(row, name):
+    """The read hash the action ``name`` had for ``row``: one written for it, or the row's own action at the
+    search; "" when the row does not know it."""
+    written = json.loads(row.written) if row.written else {}
+    if name in written:
+        return written[name]
+    return row.target if (row.is_action and not row.spec and name == row.source) else ""
+
+
+def check_action(row, action):
+    """Refuse ``action`` when it is not what ``row`` named (another content under the name)."""
+    expected = expected_hash(row, action.name)
+    if expected and read_hash(action) != expected:
+        raise changed_error(row.label or row.name)
+
+
+def _check_file(row):
+    """Refuse a file row whose file was replaced or changed since the search."""
+    if row.is_action and not row.spec:
+        return  # an action of this file: check_action
+    if row.target and library.file_identity(row.spec or row.source) != row.target:
+        raise changed_error(row.label or row.name)
+
+
+def _remember(row, action):
+    written = json.loads(row.written) if row.written else {}
+    written[action.name] = read_hash(action)
+    row.written = json.dumps(written)
 
 
 def selected_action(context, settings):
@@ -31,14 +69,17 @@ def result_action(settings, obj, row):
     if row.is_action:
         action = bpy.data.actions.get(row.source)
         if action is not None:
+            check_action(row, action)
             return action
         if not row.spec:
             raise ShapeSigError(f"the action {row.source!r} no longer exists")
         row.is_action, row.source = False, row.spec  # its written action was undone or removed: read it again
+    _check_file(row)
     clip = _file_clip(settings, row)
     action = action_io.write_action(clip, armature=obj, name=clip.name)
     row.is_action = True
     row.source = action.name
+    _remember(row, action)
     return action
 
 
@@ -58,20 +99,24 @@ def window_action(settings, obj, row):
     the source action is only read."""
     got = bpy.data.actions.get(row.window_action) if row.window_action else None
     if got is not None:
+        check_action(row, got)
         return got
     first, last = row.frame_first, row.frame_last
     source = bpy.data.actions.get(row.source) if row.is_action else None
     if source is not None:
+        check_action(row, source)
         name = f"{source.name}[{first}-{last}]"
         clip = action_io.read_action(source, armature=obj, frame_range=(first, last), exclude_unkeyed=True,
                                      name=name)
     elif row.is_action and not row.spec:
         raise ShapeSigError(f"the action {row.source!r} no longer exists")
     else:
+        _check_file(row)
         clip = _file_clip(settings, row).crop(first, last)
         name = f"{clip.name}[{first}-{last}]"
     action = action_io.write_action(clip, armature=obj, name=name)
     row.window_action = action.name
+    _remember(row, action)
     return action
 
 
@@ -85,8 +130,10 @@ def explain_result(context, settings):
     row = results_of().results[results_of().results_index]
     action = bpy.data.actions.get(row.source) if row.is_action else None
     if action is not None:
+        check_action(row, action)
         item = library.action_item(action, obj)
     else:
+        _check_file(row)
         item = next((it for it in library.library_items(context, settings, obj)
                      if row.spec in (it.source, f"{it.source}#{row.clip_name}")), None)
         if item is None:

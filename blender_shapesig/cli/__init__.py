@@ -73,12 +73,8 @@ def main(argv=None):
         sys.stderr.write(f"{PROG}: interrupted\n")
         return 130
     except Exception as exc:  # every failure: one line (and the traceback with --debug)
-        from ..core.errors import ShapeSigError
+        from ..core.errors import error_line
 
-        if isinstance(exc, (CommandError, ShapeSigError)):
-            return _error(exc, debug)
-        if isinstance(exc, OSError):
-            return _error(f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": "), debug)
-        return _error(f"{type(exc).__name__}: {exc}", debug)
+        return _error(exc if isinstance(exc, CommandError) else error_line(exc), debug)
     _emit(args, out, text)
     return 0

@@ -30,6 +30,23 @@ class ParseError(ShapeSigError):
         self.line = line
 
 
+def error_line(exc) -> str:
+    """Any exception as one line for a user (the operators' reports, the command line's stderr): a ShapeSigError's
+    message, an OSError's file and reason, "out of memory", a removed Blender data-block said so, else the type
+    and the message; whitespace collapsed (the traceback goes to the console or ``--debug``)."""
+    if isinstance(exc, ShapeSigError):
+        text = str(exc)
+    elif isinstance(exc, OSError):
+        text = f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
+    elif isinstance(exc, MemoryError):
+        text = f"out of memory{': ' + str(exc) if str(exc) else ''}"
+    elif isinstance(exc, ReferenceError):
+        text = f"data it was using was removed meanwhile ({exc})"
+    else:
+        text = f"{type(exc).__name__}: {exc}"
+    return " ".join(text.split()) or type(exc).__name__
+
+
 def check_integer(value, name, minimum=1, allow_none=False, maximum=None):
     """``value`` as an int >= minimum (and <= maximum when given; an integral float is fine); ShapeSigError
     naming ``name`` otherwise."""

@@ -1,12 +1,15 @@
 """Operators (bpy.ops.shapesig.*). Operators are thin: parse inputs, call the library, write results, report.
-Each submodule lists its classes in ``classes`` and may add menu entries (``menu_register``/``menu_unregister``)."""
+Each submodule lists its classes in ``classes`` and may add menu entries (``menu_register``/``menu_unregister``).
+Every class is guarded (``errors_ui.guard_operator``): whatever escapes its execute / invoke / modal is one ERROR
+line, its ``cleanup`` runs and the traceback goes to the console."""
 
 import bpy
 
+from ..errors_ui import guard_operator
 from . import blend, import_acclaim, rigmap, search
 
 _MODULES = (import_acclaim, blend, search, rigmap)
-classes = tuple(cls for module in _MODULES for cls in module.classes)
+classes = tuple(guard_operator(cls) for module in _MODULES for cls in module.classes)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
 
 

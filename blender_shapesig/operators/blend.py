@@ -117,6 +117,9 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                ("NLA", "Editable (NLA)", "The pose curve on A's time, played by an NLA strip whose animated Strip "
                 "Time is the blended clock: nudge it in the Graph Editor, then Bake Blend Timing")),
         default="BAKE")
+    expect_b: StringProperty(
+        name="Expected B", description="The read hash B had when a search result named it (the panel's Blend): "
+        "a B changed since is refused", options={"HIDDEN", "SKIP_SAVE"})
     assign: BoolProperty(
         name="Assign Result", description="Make the (first) blend the armature's active action (Editable timing: "
         "clear the active action so the strip plays)",
@@ -225,7 +228,9 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                     timing="nla" if self.timing == "NLA" else "bake")
 
     def execute(self, context):
+        from ..action_hashes import read_hash
         from ..blend_actions import blend_actions
+        from ..results import changed_error
 
         obj = context.active_object
         wm = context.window_manager if getattr(context, "window", None) is not None else None
@@ -236,6 +241,8 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
             for name, act in zip((self.action_a, self.action_b), acts):
                 if act is None:
                     raise ShapeSigError(f"no action named {name!r}")
+            if self.expect_b and read_hash(acts[1]) != self.expect_b:
+                raise changed_error(self.action_b)
             weights = self._weights()
             options = self._options()
             show = wm is not None and len(weights) > 1

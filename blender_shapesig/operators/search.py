@@ -100,6 +100,11 @@ class _ModalSteps:
             self._timer = None
         wm.progress_end()
 
+    def cleanup(self, context):
+        """After any failure (``errors_ui``): the timer and the progress cursor ended."""
+        if self._timer is not None:
+            self._end_modal(context)
+
 
 class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
     """Compute the signature index of every library clip not indexed yet (Esc cancels)"""
@@ -113,6 +118,10 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
     confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
 
     poll = _poll_with(library.search_problem)
+
+    def cleanup(self, context):
+        _ModalSteps.cleanup(self, context)
+        library.settings_of(context).index_running = False
 
     def _prepare(self, context):
         self.settings = library.settings_of(context)
@@ -214,6 +223,10 @@ class SHAPESIG_OT_rank(_ModalSteps, bpy.types.Operator):
     confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
 
     poll = _poll_with(library.search_problem)
+
+    def cleanup(self, context):
+        _ModalSteps.cleanup(self, context)
+        library.results_of(context).running = False
 
     def _start(self, context):
         self.job = library.RankJob(context, library.settings_of(context), started=getattr(self, "t0", None))

@@ -19,6 +19,7 @@ import bpy
 
 from .. import library
 from ..core.elastic.explain import top_joints
+from ..results import expected_hash
 
 # the "Why different" box: bars of the largest shares, and the cost over time in this many cells
 EXPLAIN_BARS = 5
@@ -209,6 +210,7 @@ def _draw_results(layout, s, res):
             layout.label(text="Assign or preview the moment to blend it.", icon="INFO")
     elif not item.is_action:
         layout.label(text="Assign a file result to blend it.", icon="INFO")
+    op.expect_b = expected_hash(item, op.action_b)  # a B replaced since the search is refused
 
 
 def _strip(values, cells):

@@ -4,7 +4,7 @@ Blender trusts the pointers stored in a .blend file; a damaged one crashes it wh
 end the animator's session (or the command line). So a .blend clip file is read here, in a separate
 process — this Python with the bpy module, or the Blender binary in background mode — and the clips come
 back as plain arrays. Run as ``python _blend_file_child.py JSON`` or ``blender --background --factory-startup
---python _blend_file_child.py -- JSON``; JSON holds ``path``, ``action``, ``space``, ``out``, ``package_dir``
+--python _blend_file_child.py -- JSON``; JSON holds ``path``, ``action``, ``space``, ``rig``, ``out``, ``package_dir``
 (the folder holding the package), ``package`` (its folder name) and ``sys_path`` (the parent's, for the
 bundled wheels). The result is an .npz at ``out`` with a JSON header: ``{"clips": [...]}`` or
 ``{"error": "one line"}``.
@@ -20,7 +20,7 @@ import numpy as np
 # meta entries that travel back (JSON values; rest_rotations as an array); the rest skeleton for forward
 # kinematics (planted feet, the hips of a blend across rigs)
 _META_KEYS = ("rotation_space", "up_axis", "format", "action", "slot", "fcurve_hash", "still_bones",
-              "missing_rotation_bones", "parents", "rest_heads", "rest_tails")
+              "missing_rotation_bones", "parents", "rest_heads", "rest_tails", "rig")
 
 
 def write_result(out, clips=None, error=None):
@@ -76,7 +76,7 @@ def main(argv):
     reader = importlib.import_module(f"{args['package']}.readers.blend_file")
     errors = importlib.import_module(f"{args['package']}.core.errors")
     try:
-        clips = reader.read_blend_here(args["path"], args["action"], args["space"])
+        clips = reader.read_blend_here(args["path"], args["action"], args["space"], args.get("rig", False))
     except errors.ShapeSigError as exc:
         write_result(args["out"], error=exc)
     else:

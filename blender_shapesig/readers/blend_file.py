@@ -26,9 +26,10 @@ from ..core.clip.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
 from ..core.io.blend_file import check_blend
 from . import _blend_file_child
+from ..owners import find_owner
 from .scratch import id_snapshot, remove_new_ids
 
-__all__ = ["read_blend_file", "read_blend_here", "BLEND_IN_PROCESS_ENV"]
+__all__ = ["read_blend_file", "read_blend_here", "rig_of", "BLEND_IN_PROCESS_ENV"]
 
 # "1": read .blend clip files in this process (faster by the start-up of a child; a damaged file can then crash
 # this process). Default: a child process reads them (see readers._blend_file_child).
@@ -36,13 +37,14 @@ BLEND_IN_PROCESS_ENV = "SHAPESIG_BLEND_IN_PROCESS"
 BLEND_CHILD_TIMEOUT = 600.0
 
 
-def read_blend_file(path, action_name=None, space="armature"):
+def read_blend_file(path, action_name=None, space="armature", rig=False):
     """The clips of a .blend file (every action animating pose bones, or ``action_name``), read in a child
-    process."""
+    process. ``rig``: each clip's ``meta["rig"]`` describes the armature that owns its action (``rig_of``: what
+    ``write_blend`` rebuilds the armature from), absent when no armature holds its bones."""
     check_blend(path)
     if os.environ.get(BLEND_IN_PROCESS_ENV) == "1":
-        return read_blend_here(path, action_name, space)
-    return _read_isolated(path, action_name, space)
+        return read_blend_here(path, action_name, space, rig)
+    return _read_isolated(path, action_name, space, rig)
 
 
 def _child_command(args_json):
@@ -56,12 +58,12 @@ def _child_command(args_json):
     return [sys.executable, script, args_json]
 
 
-def _read_isolated(path, action_name, space):
+def _read_isolated(path, action_name, space, rig=False):
     """read_blend_here in a child process: a .blend that crashes Blender gives a ParseError, not a crash."""
     package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     with tempfile.TemporaryDirectory(prefix="shapesig_blend_") as tmp:
         out = os.path.join(tmp, "clips.npz")
-        args = json.dumps({"path": os.path.abspath(path), "action": action_name, "space": space, "out": out,
+        args = json.dumps({"path": os.path.abspath(path), "action": action_name, "space": space, "rig": rig, "out": out,
                            "package_dir": os.path.dirname(package_root),
                            "package": os.path.basename(package_root), "sys_path": [p for p in sys.path if p]})
         try:
@@ -83,7 +85,7 @@ def _read_isolated(path, action_name, space):
     return clips
 
 
-def read_blend_here(path, action_name=None, space="armature"):
+def read_blend_here(path, action_name=None, space="armature", rig=False):
     """``read_blend_file`` in this process (what the child process runs)."""
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
@@ -114,12 +116,14 @@ def read_blend_here(path, action_name=None, space="armature"):
                 if action_name is not None:
                     raise ParseError(f"action {action_name!r} animates no pose bones", path)
                 continue
-            arm = _best_armature(action, armatures)
+            arm = find_owner(action, armatures)
             clip = action_io.read_action(action, armature=arm, name=want,
                                          bones=None if arm is None else _animated_bones(action, arm),
                                          space="armature" if (space == "armature" and arm is not None) else "pose")
             clip.source = f"{path}#{want}"
             clip.meta["format"] = "blend"
+            if rig and arm is not None:
+                clip.meta["rig"] = rig_of(arm)
             clips.append(clip)
         if not clips:
             raise ParseError("no action in the file animates pose bones", path)
@@ -140,17 +144,21 @@ def _animated_bones(action, arm):
     return [b.name for b in arm.data.bones if b.name in keyed]
 
 
-def _best_armature(action, armatures):
-    """The armature that uses the action, else the one sharing the most bones with it (or None)."""
-    for arm in armatures:
-        if arm.animation_data is not None and arm.animation_data.action == action:
-            return arm
-    bones = set(bone_channels(compat.all_action_fcurves(action)))
-    best, score = None, 0
-    for arm in armatures:
-        n = len(bones & {b.name for b in arm.data.bones})
-        if n > score:
-            best, score = arm, n
-    if best is not None and score == len(bones):
-        return best
-    return None
+def rig_of(arm):
+    """What rebuilds the armature object ``arm`` (JSON values): its names and world matrix, and per bone (in the
+    armature's order) its parent, head, tail and z axis in armature space, its flags of inheritance and its pose
+    rotation mode. Nothing else of the file (no drivers, constraints, custom properties or other data-blocks)."""
+    bones = []
+    for b in arm.data.bones:
+        pb = arm.pose.bones.get(b.name)
+        bones.append({
+            "name": b.name, "parent": b.parent.name if b.parent is not None else None,
+            "head": list(b.head_local), "tail": list(b.tail_local), "z": list(b.matrix_local.to_3x3().col[2]),
+            "connect": b.use_connect, "inherit_rotation": b.use_inherit_rotation, "inherit_scale": b.inherit_scale,
+            "local_location": b.use_local_location, "deform": b.use_deform,
+            "rotation_mode": pb.rotation_mode if pb is not None else "QUATERNION",
+        })
+    # unparented: its own transform (an appended object's matrix_world is as stale as the file saved it)
+    world = arm.matrix_basis if arm.parent is None else arm.matrix_world
+    return {"object": arm.name, "data": arm.data.name, "matrix_world": [list(r) for r in world],
+            "bones": bones}

@@ -1,0 +1,100 @@
+"""The armature an action belongs to, found and never guessed (``find_owner``): the armature that plays it (its
+active action, an NLA strip, on 4.4+ a user of one of its slots), else the rig hint the action stores (on 4.4+ an
+object slot is named after the object it was made for: Blender names it so when an action is keyed or assigned,
+``action_io.write_action`` names it after its armature), else the armature the user works with when its bones hold
+every bone the action animates, else the only armature whose bones hold them. Two candidates and nothing to
+decide between them is a ShapeSigError in one line naming them; no armature holding its bones is None (the
+action is then read in pose space). The search library, the blends of the panel, the .blend reader and the
+command line's ``blend`` all ask here."""
+
+import bpy
+
+from . import compat
+from .core.errors import ShapeSigError
+
+__all__ = ["find_owner", "players", "slot_hint", "fitting", "animated_bones"]
+
+
+def animated_bones(action):
+    """The names of the pose bones the action's F-curves animate."""
+    from .action_changes import action_bones
+
+    return set(action_bones(action))
+
+
+def _armatures(objects):
+    return [o for o in (bpy.data.objects if objects is None else objects) if getattr(o, "type", "") == "ARMATURE"]
+
+
+def players(action, armatures):
+    """The armatures (of ``armatures``) that play ``action``: active action, an NLA strip or a slot's user."""
+    out = []
+    slot_users = set()
+    for slot in compat.action_slots(action):
+        users = getattr(slot, "users", None) if slot is not None else None
+        if users is not None:
+            slot_users.update(u.as_pointer() for u in users())
+    for ob in armatures:
+        ad = ob.animation_data
+        plays = ob.as_pointer() in slot_users
+        if ad is not None and not plays:
+            plays = ad.action == action or any(
+                strip.action == action for track in ad.nla_tracks for strip in track.strips)
+        if plays:
+            out.append(ob)
+    return out
+
+
+def slot_hint(action, armatures):
+    """The armature an object slot of the action is named after (4.4+), when exactly one slot names one of
+    ``armatures``; else None."""
+    names = {ob.name: ob for ob in armatures}
+    hinted = []
+    for slot in compat.action_slots(action):
+        if slot is None or getattr(slot, "target_id_type", "OBJECT") not in ("OBJECT", "UNSPECIFIED"):
+            continue
+        ob = names.get(getattr(slot, "name_display", None))
+        if ob is not None and ob not in hinted:
+            hinted.append(ob)
+    return hinted[0] if len(hinted) == 1 else None
+
+
+def fitting(action, armatures, bones=None):
+    """The armatures whose bones hold every bone the action animates."""
+    bones = animated_bones(action) if bones is None else bones
+    return [ob for ob in armatures if bones and bones <= {b.name for b in ob.data.bones}]
+
+
+def _names(obs):
+    names = sorted(o.name for o in obs)
+    return ", ".join(names[:4]) + (", ..." if len(names) > 4 else "")
+
+
+def find_owner(action, armatures=None, prefer=None):
+    """The armature object ``action`` belongs to (see the module docstring); ``armatures``: the candidates
+    (default: every armature object of the file); ``prefer``: the armature the user works with. None when no
+    armature holds its bones; ShapeSigError (one line) when two or more could own it and nothing decides."""
+    armatures = _armatures(armatures)
+    playing = players(action, armatures)
+    if prefer is not None and prefer in playing:
+        return prefer
+    if len(playing) == 1:
+        return playing[0]
+    if len(playing) > 1:
+        hinted = slot_hint(action, playing)
+        if hinted is not None:
+            return hinted
+        raise ShapeSigError(f"action {action.name!r} is played by {len(playing)} armatures ({_names(playing)}); "
+                            f"assign it to one of them only")
+    hinted = slot_hint(action, armatures)
+    fits = fitting(action, armatures)
+    if hinted is not None and (hinted in fits or not fits):
+        return hinted
+    if prefer is not None and prefer in fits:
+        return prefer
+    if len(fits) == 1:
+        return fits[0]
+    if len(fits) > 1:
+        raise ShapeSigError(f"action {action.name!r} is played by no armature and fits {len(fits)} armatures "
+                            f"({_names(fits)}); assign it to its armature (or keep one of them in the file)")
+    return None
