@@ -576,6 +576,8 @@ class RankJob:
             msg += f"; the best {len(self.rows)} by sim^{level} re-ranked"
         if self.not_listed:
             msg += f"; {self.not_listed} more not listed (raise {'Re-rank' if self.rerank else 'Show'})"
+        # Auto-Pick: saved maps of the maps folder that could not be read were skipped (one line each)
+        self.warnings = self.warnings + rigmap.skipped_maps(rigmap.maps_folder(auto_only=True))
         if self.warnings:
             msg += f"; {len(self.warnings)} warning(s): {self.warnings[0]}"
         out.message = msg

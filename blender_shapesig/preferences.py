@@ -20,7 +20,8 @@ class ShapeSigPreferences(bpy.types.AddonPreferences):
 
     cache_dir: StringProperty(
         name="Index Folder",
-        description="Where the signature index (one small file per clip) is kept. Empty: $SHAPESIG_CACHE_DIR, "
+        description="Where the signature index (one small file per clip) is kept, in its own subfolder "
+                    "blender_shapesig-cache (nothing else here is touched). Empty: $SHAPESIG_CACHE_DIR, "
                     "else a per-user cache folder, the same as the command line's",
         subtype="DIR_PATH",
         default="",

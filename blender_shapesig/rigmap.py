@@ -14,6 +14,7 @@ the .blend file and every object using that armature), exported to / imported fr
     store_map(obj, mapping) / clear_map(obj) / stored_map(obj) / set_joint(obj, bone, joint)
     export_map(obj, path) / import_map(obj, path) / import_saved(obj, name, folder)
     best_saved_map(obj, folder)    -> (path, mapping) of the folder's map that names most of the bones
+                                      (unreadable files are skipped; skipped_maps(folder) names them)
     onto_comparison(...) / back_onto_armature(...)   blending actions of two rigs (blend_actions)
 
 The panel drawing of the editor is not here (``panels/rigmap.py``, ``operators/rigmap.py`` call these).
@@ -27,8 +28,8 @@ from .core import rigs
 from .core.errors import ShapeSigError
 
 __all__ = ["PROP", "armature_parents", "detect_armature_map", "stored_map", "store_map", "clear_map",
-           "armature_map", "rows", "export_map", "import_map", "saved_maps", "best_saved_map", "map_digest",
-           "bone_map_of", "maps_folder", "set_joint", "import_saved", "MIN_PICKED", "across_rigs", "onto_comparison",
+           "armature_map", "rows", "export_map", "import_map", "saved_maps", "best_saved_map", "skipped_maps",
+           "map_digest", "bone_map_of", "maps_folder", "set_joint", "import_saved", "MIN_PICKED", "across_rigs", "onto_comparison",
            "back_onto_armature"]
 
 PROP = "shapesig_bone_map"
@@ -60,9 +61,12 @@ def stored_map(obj) -> Optional[Dict[str, str]]:
     if not text:
         return None
     try:
-        return rigs.check_map(json.loads(text), f"armature {obj.name!r}")
-    except ValueError:
-        raise ShapeSigError(f"armature {obj.name!r}: its stored bone map is not valid JSON") from None
+        data = json.loads(text) if isinstance(text, str) else None
+    except (ValueError, RecursionError):  # RecursionError: a deeply nested text
+        data = None
+    if not isinstance(data, dict):
+        raise ShapeSigError(f"armature {obj.name!r}: its stored bone map is not valid JSON")
+    return rigs.check_map(data, f"armature {obj.name!r}")
 
 
 def store_map(obj, mapping: Dict[str, str]) -> Dict[str, str]:
@@ -176,20 +180,34 @@ def saved_maps(folder) -> List[str]:
     return sorted(os.path.join(folder, f) for f in os.listdir(folder) if f.lower().endswith(".json"))
 
 
+# Saved maps best_saved_map skipped: path -> one-line reason (``skipped_maps``: warnings of the search).
+_SKIPPED: Dict[str, str] = {}
+
+
 def best_saved_map(obj, folder) -> Tuple[Optional[str], Dict[str, str]]:
     """(path, map) of the folder's saved map that names most of the armature's bones ((None, {}) when none
-    names any); unreadable files are skipped."""
+    names any); unreadable files (not UTF-8, not JSON, too large or deep, not a map) are skipped and
+    remembered for ``skipped_maps``."""
     bones = set(armature_parents(obj))
     best, best_map = None, {}
     for path in saved_maps(folder):
         try:
             mapping = rigs.load_map(path)
-        except ShapeSigError:
+            _SKIPPED.pop(path, None)
+        except ShapeSigError as exc:
+            _SKIPPED[path] = f"saved bone map skipped: {exc}"
             continue
         usable = {b: j for b, j in mapping.items() if b in bones}
         if len(usable) > len(best_map):
             best, best_map = path, usable
     return best, best_map
+
+
+def skipped_maps(folder) -> List[str]:
+    """One warning line per file of the maps folder ``folder`` that ``best_saved_map`` skipped when it last
+    read it (each names the file)."""
+    present = set(saved_maps(folder))
+    return [msg for path, msg in sorted(_SKIPPED.items()) if path in present]
 
 
 # ------------------------------------------------------------------------------- blends across two rigs

@@ -302,7 +302,7 @@ def test_rank_default_cache_env_and_no_cache(capsys, amc, tmp_path, monkeypatch)
     monkeypatch.delenv("SHAPESIG_CACHE_DIR")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     run_json(capsys, args)
-    assert any((tmp_path / "xdg" / "blender_shapesig" / "signatures").iterdir())
+    assert any((tmp_path / "xdg" / "blender_shapesig-cache").glob("*.npz"))
     assert cli.main(args + ["--no-cache", "--cache", str(tmp_path / "c")]) == 2
     assert "contradict" in capsys.readouterr().err
 

@@ -294,7 +294,7 @@ def test_rank_cache_corrupt_or_outdated_is_rebuilt(capsys, clips, tmp_path):
     cache = tmp_path / "cache"
     args = ["rank", clips["run"], clips["two"], clips["constant"], clips["norot"], "--cache", str(cache)]
     first = ok_json(capsys, args)
-    files = sorted(cache.glob("*.npz"))
+    files = sorted((cache / "blender_shapesig-cache").glob("*.npz"))
     assert len(files) >= 3
     for i, f in enumerate(files):
         blob = f.read_bytes()
@@ -304,7 +304,7 @@ def test_rank_cache_corrupt_or_outdated_is_rebuilt(capsys, clips, tmp_path):
     assert again["cache"]["misses"] >= len(files)  # every damaged entry was recomputed
     third = ok_json(capsys, args)
     assert third["results"] == first["results"] and third["cache"]["misses"] == 0  # and written back
-    (cache / "manifest.json").write_text("{not json")
+    (cache / "blender_shapesig-cache" / "manifest.json").write_text("{not json")
     fourth = ok_json(capsys, args)
     assert fourth["results"] == first["results"] and fourth["cache"]["misses"] >= len(files)
 

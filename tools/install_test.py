@@ -537,7 +537,7 @@ def blend_file_clips(bpy, ck: Checks, work: Path) -> None:
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True, compress=False)
     t0 = time.monotonic()
     try:
-        got = importlib.import_module(f"{ADDON_MODULE}.core.sources").read(str(path))
+        got = importlib.import_module(f"{ADDON_MODULE}.core.io.sources").read(str(path))
         names = sorted(c.name for c in got)
         ok = len(got) >= 2 and all(c.rotations.shape[1] > 0 for c in got)
         detail = f"{names}"

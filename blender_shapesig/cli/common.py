@@ -152,21 +152,14 @@ def display_name(clip):
 
 
 def cache_dir(args, search):
-    """The signature cache folder of ``rank``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the per-user cache
-    (``core.index.default_cache_dir``); None (memory only) with --no-cache or when the folder cannot be made."""
+    """The signature cache folder of ``rank`` and ``dedupe``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the
+    per-user cache (``core.index.default_cache_dir``); None (memory only) with --no-cache. The cache makes its own
+    subfolder there; when it cannot, it goes on in memory only with one warning (``SignatureCache.warning``)."""
     if args.no_cache:
         if args.cache:
             raise CommandError("--cache and --no-cache contradict each other")
         return None
-    cache_dir = args.cache or search.default_cache_dir()
-    try:
-        os.makedirs(cache_dir, exist_ok=True)
-    except OSError as exc:
-        if args.cache:
-            raise CommandError(f"cannot make the cache folder {cache_dir!r}: {exc.strerror or exc}") from None
-        sys.stderr.write(f"{PROG}: warning: no signature cache ({cache_dir}: {exc.strerror or exc})\n")
-        return None
-    return cache_dir
+    return args.cache or search.default_cache_dir()
 
 
 def add_common(p, asf=True, crop=True):

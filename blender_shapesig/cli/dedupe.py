@@ -1,5 +1,7 @@
 """Near-duplicate clusters of a library: ``dedupe CLIP_OR_FOLDER... --out DIR [--threshold x] [--scheduler ADDRESS]``."""
 
+import sys
+
 from . import common as c
 
 
@@ -19,6 +21,8 @@ def run(args):
     out = dedupe_library(args.paths, args.out, args.threshold, sched, k=args.k, level=args.level or c.DEFAULT_LEVEL,
                          depth=args.depth, cache_dir=c.cache_dir(args, index), plots=not args.no_plots,
                          asf=args.asf or None, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
+    for w in out.get("warnings", ()):
+        sys.stderr.write(f"{c.PROG}: warning: {w}\n")
     lines = [f"{out['clips']} clips, {len(out['clusters'])} near-duplicate clusters; report: {out['report']}"]
     for n, members in enumerate(out["clusters"], 1):
         lines.append(f"{n:3d}. " + "  ".join(members))

@@ -76,7 +76,10 @@ def run(args):
                                         allow_partial=args.allow_partial)
     finally:
         bar.close()
-    for w in getattr(results, "warnings", []):
+    warnings = list(getattr(results, "warnings", []))
+    if cache.warning and cache.warning not in warnings:  # --windows reads no signature cache, but says so
+        warnings.insert(0, cache.warning)
+    for w in warnings:
         sys.stderr.write(f"{c.PROG}: warning: {w}\n")
     # each result maps back to the argument it came from: "path" as given, "action" for a .blend (a whole
     # .blend item holds several actions: the clip's name is the action's)
@@ -123,7 +126,8 @@ def add_parser(sub):
         "rank",
         help="rank clips by similarity to a query",
         description="Rank clips by their distance to QUERY, best first. Signatures are cached in --cache DIR, "
-        "else $SHAPESIG_CACHE_DIR, else the per-user cache folder (~/.cache/blender_shapesig/signatures); "
+        "else $SHAPESIG_CACHE_DIR, else the per-user cache folder (~/.cache), in a subfolder blender_shapesig-cache "
+        "that it alone writes; "
         "--no-cache keeps them in memory only.",
     )
     p.add_argument("query", metavar="QUERY", help=c.CLIP_HELP)

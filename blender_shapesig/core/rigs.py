@@ -38,7 +38,7 @@ from .errors import ParseError, ShapeSigError
 
 __all__ = [
     "JOINTS", "BODY", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
-    "check_map", "load_map", "save_map", "map_json", "resolve_map", "world_rotations", "heading",
+    "check_map", "parse_map", "load_map", "save_map", "map_json", "MAX_MAP_BYTES", "resolve_map", "world_rotations", "heading",
     "to_comparison_space", "rest_retarget", "rests_differ", "other_rigs", "REST_DEGREES", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
     "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
 ]
@@ -60,6 +60,8 @@ BONE_MAP_MODES = ("auto", "none")
 TABLES_VERSION = 2
 # below this coverage (compared / moving joints of the smaller clip) comparisons and blends refuse
 MIN_COVERAGE = 0.5
+# A saved bone map is a small JSON object (a few KB for any rig); larger files are refused unread.
+MAX_MAP_BYTES = 1 << 20
 
 # Family tables: joint -> bone name after strip_prefix, compared case-insensitively. "{s}" is the side as the
 # family writes it ("sides": the left and right spelling; "alt_sides": a second spelling), "{h}" the lower-case
@@ -236,19 +238,43 @@ def save_map(path, mapping: Mapping[str, str], rig: str = "") -> str:
     return path
 
 
-def load_map(path) -> Dict[str, str]:
-    """Read a saved map: a JSON object ``{"bone": "joint"}``; keys starting with ``#`` are comments."""
-    path = os.fspath(path)
+def parse_map(text, where: str = "bone map") -> Dict[str, str]:
+    """A saved map's JSON text (str or UTF-8 bytes) as a validated map; keys starting with ``#`` are comments.
+    Every defect is one ``ParseError`` naming ``where``: not UTF-8, over ``MAX_MAP_BYTES``, not JSON, nested too
+    deeply for the parser, not an object of strings, unknown or repeated joints."""
+    if len(text) > MAX_MAP_BYTES:
+        raise ParseError(f"the bone map is larger than {MAX_MAP_BYTES // 2 ** 20} MB; a bone map is a small "
+                         f"JSON object", where)
+    if isinstance(text, (bytes, bytearray)):
+        try:
+            text = bytes(text).decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise ParseError(f"the bone map is not UTF-8 text (byte {exc.start})", where) from None
     try:
-        with open(path, encoding="utf-8") as fh:
-            data = json.load(fh)
-    except OSError:
-        raise ParseError("cannot read the bone map", path) from None
-    except ValueError as exc:
-        raise ParseError(f"the bone map is not valid JSON ({exc.msg}, line {exc.lineno})", path) from None
+        data = json.loads(text)
+    except RecursionError:
+        raise ParseError("the bone map is nested too deeply to be a bone map", where) from None
+    except json.JSONDecodeError as exc:
+        raise ParseError(f"the bone map is not valid JSON ({exc.msg}, line {exc.lineno})", where) from None
+    except ValueError as exc:  # e.g. a number too long to convert
+        raise ParseError(f"the bone map is not valid JSON ({str(exc).splitlines()[0][:120]})", where) from None
     if isinstance(data, dict):
         data = {k: v for k, v in data.items() if not str(k).startswith("#")}
-    return check_map(data, path)
+    return check_map(data, where)
+
+
+def load_map(path) -> Dict[str, str]:
+    """Read a saved map file (``parse_map``); files over ``MAX_MAP_BYTES`` are refused without being read."""
+    path = os.fspath(path)
+    try:
+        if os.path.getsize(path) > MAX_MAP_BYTES:
+            raise ParseError(f"the bone map is larger than {MAX_MAP_BYTES // 2 ** 20} MB; a bone map is a small "
+                             f"JSON object", path)
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_MAP_BYTES + 1)
+    except OSError as exc:
+        raise ParseError(f"cannot read the bone map ({exc.strerror or exc})", path) from None
+    return parse_map(data, path)
 
 
 def resolve_map(bone_map, clip: Clip) -> Optional[Dict[str, str]]:

@@ -92,4 +92,6 @@ def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_ded
     os.makedirs(out_dir, exist_ok=True)
     info = {"scheduler": str(scheduler or parallel.DEFAULT_SCHEDULER), "dask": bool(scheduler), "level": level,
             "k": k, "signed": signed, "skipped": skipped + errors, "seconds": timings}
+    if store.warning:  # the signature cache went on in memory only
+        info["warnings"] = [store.warning]
     return write_report(out_dir, pairs, entries, result, info, plots=plots)

@@ -16,7 +16,7 @@ and in the error of a script's call.
 * ``shapesig.assign_result``: make the selected result the active armature's action (a folder clip is first
   written as a new action).
 * ``shapesig.preview_result``: assign the result temporarily and play; run again to stop and restore.
-* ``shapesig.clear_index``: delete the cache files.
+* ``shapesig.clear_index``: delete the cache's own files (never anything else in the index folder).
 * ``shapesig.explain_result``: why the selected result differs (``core.elastic.explain``), stored on its row for the panel.
 """
 
@@ -149,8 +149,10 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
             msg = "cancelled; " + msg
         if self.errors:
             msg += f"; {failed} could not be read ({self.errors[0]})"
+        if self.cache.warning:  # the index folder could not be used: one line, however many clips
+            msg += f"; {self.cache.warning}"
         library.results_of(context).message = msg
-        self.report({"WARNING"} if (self.errors or cancelled) else {"INFO"}, msg)
+        self.report({"WARNING"} if (self.errors or cancelled or self.cache.warning) else {"INFO"}, msg)
         _tag_redraw(context)
         if getattr(self, "then_rank", False) and not cancelled:
             try:
@@ -371,7 +373,7 @@ class SHAPESIG_OT_explain_result(bpy.types.Operator):
 
 
 class SHAPESIG_OT_clear_index(bpy.types.Operator):
-    """Delete the signature index files (they are rebuilt when needed)"""
+    """Delete the signature index files the add-on wrote (they are rebuilt when needed)"""
 
     bl_idname = "shapesig.clear_index"
     bl_label = "Clear Index"
@@ -385,7 +387,11 @@ class SHAPESIG_OT_clear_index(bpy.types.Operator):
         except OSError as exc:
             self.report({"ERROR"}, f"Clear Index: {exc}")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"removed {n} index files ({size / 2 ** 20:.1f} MB)")
+        msg = f"removed {n} index files ({size / 2 ** 20:.1f} MB)"
+        if cache.warning:  # a folder that is not the cache's own: nothing in it was touched
+            self.report({"WARNING"}, f"{msg}; {cache.warning}")
+        else:
+            self.report({"INFO"}, msg)
         return {"FINISHED"}
 
 

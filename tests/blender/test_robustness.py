@@ -491,7 +491,7 @@ def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
 
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
     first = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}
-    files = sorted(library.glob("*.npz"))
+    files = sorted((library / "blender_shapesig-cache").glob("*.npz"))
     assert files
     for i, f in enumerate(files):  # truncate one, garbage in one, empty one ...
         blob = f.read_bytes()
@@ -505,11 +505,11 @@ def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
     assert again.keys() == first.keys()
     for k in first:
         assert again[k] == pytest.approx(first[k], rel=1e-6, abs=1e-9)
-    # an outdated format: the manifest of another version empties the folder
-    (library / "manifest.json").write_text('{"format": -1}')
+    # an outdated format: the manifest of another version empties the cache's own folder
+    (library / "blender_shapesig-cache" / "manifest.json").write_text('{"format": -1}')
     search_mod._CACHES.clear()
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
-    manifest = (library / "manifest.json").read_text()
+    manifest = (library / "blender_shapesig-cache" / "manifest.json").read_text()
     assert f'"format": {search.CACHE_FORMAT}' in manifest.replace(" ", "").replace(":", ": ")
 
 

@@ -164,7 +164,7 @@ def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_en
     s = bpy.context.scene.shapesig
     assert bpy.ops.shapesig.build_index("INVOKE_DEFAULT") == {"FINISHED"}
     assert "6 computed" in bpy.context.window_manager.shapesig_results.message and not s.index_running
-    files = sorted(p for p in cache_env.iterdir() if p.suffix == ".npz")
+    files = sorted(p for p in (cache_env / search.CACHE_SUBDIR).iterdir() if p.suffix == ".npz")
     assert len(files) == 6
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
     assert "0 computed" in bpy.context.window_manager.shapesig_results.message

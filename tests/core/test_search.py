@@ -264,13 +264,14 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     res = search.rank_clips(q, [item], cache=cache2)
     assert res.stats["invalid"] == 1 and res.stats["misses"] == 1
     assert res[0].distance == pytest.approx(truth, rel=1e-12)
-    # 5) a manifest of another version wipes the folder
-    with open(os.path.join(tmp_path, "manifest.json"), "w") as f:
+    # 5) a manifest of another version removes the cache's own entry files (in its own folder)
+    own = os.path.join(tmp_path, search.CACHE_SUBDIR)
+    with open(os.path.join(own, "manifest.json"), "w") as f:
         json.dump({"format": -1}, f)
     cache = search.SignatureCache(tmp_path)
     assert cache.stats["invalid"] == 1 and cache.disk_usage()[0] == 0
     # 6) an unreadable manifest too
-    with open(os.path.join(tmp_path, "manifest.json"), "w") as f:
+    with open(os.path.join(own, "manifest.json"), "w") as f:
         f.write("{")
     assert search.SignatureCache(tmp_path).stats["invalid"] == 1
 
@@ -445,7 +446,7 @@ def test_light_pack_answers_lookups_of_a_new_process_in_one_read(clips, tmp_path
     q = clips["07_01"]
     lib = [clips[k] for k in ("07_02", "09_02", "16_15")]
     first = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
-    assert (tmp_path / store_mod._PACK).exists()
+    assert (tmp_path / search.CACHE_SUBDIR / store_mod._PACK).exists()
     opened = []
     real_load = store_mod.np.load
 
@@ -472,7 +473,7 @@ def test_light_pack_answers_lookups_of_a_new_process_in_one_read(clips, tmp_path
     assert search.SignatureCache(tmp_path).get(items[1].key, 3) is not None
     assert opened == [store_mod._PACK, os.path.basename(target)]
     # a damaged pack is ignored: every entry is read from its own file
-    (tmp_path / store_mod._PACK).write_bytes(b"not a pack")
+    (tmp_path / search.CACHE_SUBDIR / store_mod._PACK).write_bytes(b"not a pack")
     opened.clear()
     fresh = search.SignatureCache(tmp_path)
     assert all(fresh.get(it.key, 3) is not None for it in items) and len(opened) == 1 + len(items)

@@ -17,12 +17,13 @@ from ..io.sources import LibraryItem, clip_key, file_key
 from .entry import IndexEntry, entry_distance, make_entry
 from .rank import (EXACT_POOL, FEW_SHARED, RankList, RankResult, build_index, clip_items, compute_entries,
                    folder_library, item_entries, iter_entries, rank_clips)
-from .store import CACHE_ENV, CACHE_FORMAT, COMPACT_MAX_DIRECTION, SignatureCache, default_cache_dir
+from .store import (CACHE_ENV, CACHE_FORMAT, CACHE_SUBDIR, COMPACT_MAX_DIRECTION, SignatureCache, default_cache_dir,
+                    private_cache_dir)
 from .words import SKETCH_DIM, sketch, word_codes
 
 __all__ = [
     "DEFAULT_LEVEL", "SKETCH_DIM", "COMPACT_MAX_DIRECTION", "CACHE_FORMAT", "CACHE_ENV", "FEW_SHARED", "EXACT_POOL",
     "RankResult", "RankList", "LibraryItem", "IndexEntry", "SignatureCache",
     "rank_clips", "build_index", "compute_entries", "iter_entries", "item_entries", "clip_key", "file_key",
-    "default_cache_dir", "folder_library", "clip_items", "entry_distance", "make_entry", "word_codes", "sketch",
+    "default_cache_dir", "private_cache_dir", "CACHE_SUBDIR", "folder_library", "clip_items", "entry_distance", "make_entry", "word_codes", "sketch",
 ]

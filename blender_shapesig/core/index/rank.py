@@ -144,14 +144,16 @@ def compute_entries(items, level=DEFAULT_LEVEL, cache=None, progress=None, error
 
 
 def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None):
-    """Fill the store for every item; returns a dict with clips, errors, cache stats and seconds."""
+    """Fill the store for every item; returns a dict with clips, errors, cache stats, seconds and warnings (the
+    store's one line when it went on in memory only)."""
     t0 = time.perf_counter()
     errors = []
     got = compute_entries(items, level, cache, progress, errors)
     if cache is not None:
         cache.save_pack()
     return {"clips": len(got), "errors": errors, "seconds": time.perf_counter() - t0,
-            "stats": dict(cache.stats) if cache is not None else {}}
+            "stats": dict(cache.stats) if cache is not None else {},
+            "warnings": [cache.warning] if getattr(cache, "warning", None) else []}
 
 
 def _loaded(entry: IndexEntry, item: Optional[LibraryItem], store: SignatureCache) -> IndexEntry:
@@ -309,6 +311,8 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
     warnings = []
     pairs = compute_entries(items, sig_level, store, progress, warnings)
     store.save_pack()  # the next process looks the library up in one read
+    if store.warning:  # the disk could not be used: one line, however many clips
+        warnings.insert(0, store.warning)
     skipped = []
 
     results = []

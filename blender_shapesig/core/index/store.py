@@ -1,8 +1,12 @@
 """The signature cache: a pure store of index entries keyed by (content key, level).
 
 It stores and returns entries; it never loads clips nor computes entries (``rank.iter_entries`` does, and puts
-what it computes here). On disk: one ``<sha1>.npz`` per library item (all its clips: meta as JSON, then per clip
-its sketch, direction and increments) and a ``manifest.json`` with the format version.
+what it computes here). On disk it owns only its own folder, ``<the folder named>/blender_shapesig-cache/``, marked
+by a ``CACHEDIR.TAG`` it wrote: one ``<sha1>.npz`` per library item (all its clips: meta as JSON, then per clip
+its sketch, direction and increments), a ``manifest.json`` with the format version, the light pack and its own
+temporary files; it deletes nothing else, and refuses a folder of that name it did not mark. When the folder
+cannot be used (made, marked or written: a full disk, a read-only folder, a path that is a file, an unsafe
+fallback folder) the cache goes on in memory only and says so once (``warning``).
 
 Reads are *light*: the meta and sketches are read when an item is looked up (``get``), the heavy arrays
 (directions and increments) only when a distance needs them (``heavy``). ``memory_limit`` bounds the heavy
@@ -13,10 +17,13 @@ holds every entry file's meta and sketches, so a new process looks a library up 
 is used only while its entry file keeps the size and mtime it had, and a damaged pack is ignored.
 """
 
+import errno
 import hashlib
 import io
 import json
 import os
+import re
+import stat
 import tempfile
 import threading
 from typing import Optional
@@ -27,7 +34,8 @@ from ..signatures import signatures
 from .entry import IndexEntry
 from .words import SKETCH_DIM
 
-__all__ = ["SignatureCache", "default_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "COMPACT_MAX_DIRECTION"]
+__all__ = ["SignatureCache", "default_cache_dir", "private_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "CACHE_SUBDIR",
+           "COMPACT_MAX_DIRECTION"]
 
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
 # 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
@@ -39,20 +47,79 @@ CACHE_ENV = "SHAPESIG_CACHE_DIR"
 COMPACT_MAX_DIRECTION = 65_536
 
 _PACK = "light_pack.bin"  # the light pack's file name (see SignatureCache.save_pack)
+# The cache's own folder inside the folder a user names (--cache, $SHAPESIG_CACHE_DIR, the Index Folder), its
+# marker (the Cache Directory Tagging format: backup tools skip the folder) and the names of what it writes.
+CACHE_SUBDIR = "blender_shapesig-cache"
+_TAG = "CACHEDIR.TAG"
+_TAG_TEXT = ("Signature: 8a477f597d28d172789f06886806bc55\n"
+             "# This file is a cache directory tag created by blender_shapesig.\n"
+             "# Every file here was written by it and is rebuilt when needed.\n")
+_TMP_PREFIX, _TMP_SUFFIX = ".shapesig-", ".tmp"
+_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.npz|" + re.escape(_PACK) + "|" + re.escape(_TMP_PREFIX) + r"\w+"
+                       + re.escape(_TMP_SUFFIX) + ")")
+_ENTRY_FILE = re.compile(r"[0-9a-f]{40}\.npz")
 _ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact",
                  "trimmed", "clip_frames")
 
 
+class _Refused(Exception):
+    """A folder the cache will not use (not its own, or unsafe); the message says why."""
+
+
+def private_cache_dir() -> str:
+    """The per-user fallback folder in the temporary folder (``blender_shapesig-<uid>``), used when there is no
+    usable home or XDG cache folder; ``SignatureCache`` creates it mode 0700 and refuses it when it is a
+    symlink, not a folder, owned by another user or writable by others."""
+    uid = os.getuid() if hasattr(os, "getuid") else None
+    return os.path.join(tempfile.gettempdir(), "blender_shapesig-" + (str(uid) if uid is not None else "user"))
+
+
+def _user_cache_base():
+    """XDG_CACHE_HOME (absolute), else ~/.cache when the home folder exists and is writable, else None."""
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    if xdg and os.path.isabs(xdg):
+        return xdg
+    home = os.path.expanduser("~")
+    if os.path.isabs(home) and os.path.isdir(home):
+        base = os.path.join(home, ".cache")
+        if os.access(base if os.path.isdir(base) else home, os.W_OK):
+            return base
+    return None
+
+
 def default_cache_dir() -> str:
-    """``$SHAPESIG_CACHE_DIR`` if set, else the user's cache folder (XDG_CACHE_HOME or ~/.cache, or the
-    temporary folder) + ``blender_shapesig``. Blender passes the extension's user directory instead."""
-    env = os.environ.get(CACHE_ENV)
-    if env:
-        return env
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    if not os.path.isdir(os.path.dirname(base.rstrip(os.sep)) or base):
-        base = tempfile.gettempdir()
-    return os.path.join(base, "blender_shapesig", "signatures")
+    """The folder the cache lives in (its own subfolder ``CACHE_SUBDIR`` is made there): ``$SHAPESIG_CACHE_DIR``
+    if set, else the user's cache folder (XDG_CACHE_HOME, else ~/.cache), else ``private_cache_dir()``.
+    Blender's Index Folder preference, when set, names another one."""
+    return os.environ.get(CACHE_ENV) or _user_cache_base() or private_cache_dir()
+
+
+def _check_private(path):
+    """Make the per-user fallback folder (mode 0700) and check that it is safe to use; _Refused if not."""
+    try:
+        os.mkdir(path, 0o700)
+    except FileExistsError:
+        pass
+    st = os.lstat(path)
+    if stat.S_ISLNK(st.st_mode):
+        raise _Refused(f"{path} is a symbolic link")
+    if not stat.S_ISDIR(st.st_mode):
+        raise _Refused(f"{path} is not a folder")
+    if not hasattr(os, "getuid"):
+        return  # Windows: the temporary folder is the user's own
+    if st.st_uid != os.getuid():
+        raise _Refused(f"{path} belongs to another user")
+    if st.st_mode & 0o022:
+        raise _Refused(f"{path} is writable by other users")
+
+
+def _marked(folder) -> bool:
+    """True when ``folder`` holds the marker this cache writes."""
+    try:
+        with open(os.path.join(folder, _TAG), encoding="utf-8", errors="replace") as f:
+            return f.read(len(_TAG_TEXT) + 1) == _TAG_TEXT
+    except OSError:
+        return False
 
 
 def _entry_from_meta(m, key, sketch):
@@ -77,8 +144,12 @@ def _load_heavy(e: IndexEntry, z, i):
 class SignatureCache:
     """Index entries keyed by (content key, level), kept in memory and, with a ``path``, on disk.
 
-    An entry file that cannot be read, belongs to another format version, key or level is deleted and counted
-    in ``stats["invalid"]`` (the caller then computes the item again). ``path=None``: memory only.
+    ``path``: the folder named by the user; the files live in its subfolder ``CACHE_SUBDIR`` (``self.path``
+    after opening; ``self.root`` is the folder named). When that folder cannot be used, ``self.path`` is None
+    (memory only) and ``warning`` says why in one line; a write that fails later (a full disk, a read-only
+    folder) stops the writing the same way, once. An entry file that cannot be read, belongs to another format
+    version, key or level is deleted and counted in ``stats["invalid"]`` (the caller then computes the item
+    again). ``path=None``: memory only.
     ``stats``: hits (memory or disk), disk_hits, misses (lookups that found nothing), invalid, writes.
     ``memory_limit``: bytes of directions/increments kept in memory beyond the sketches (least recently
     used are dropped and re-read from disk when needed; ignored without a path).
@@ -88,7 +159,10 @@ class SignatureCache:
     """
 
     def __init__(self, path=None, memory_limit=512 * 2 ** 20, max_direction=None):
-        self.path = None if path is None else os.fspath(path)
+        self.root = None if path is None else os.fspath(path)
+        self.path = None      # the cache's own folder, once opened
+        self.warning = None   # one line: why the cache went on in memory only
+        self._writable = True
         self.memory_limit = int(memory_limit)
         self.max_direction = None if max_direction is None else int(max_direction)
         self._mem = {}      # (key, level) -> list[IndexEntry]
@@ -98,11 +172,43 @@ class SignatureCache:
         self._pack = None   # entry file name -> (size, mtime_ns, meta, sketches): the light pack (see save_pack)
         self._pack_dirty = False
         self.stats = {"hits": 0, "disk_hits": 0, "misses": 0, "invalid": 0, "writes": 0}
-        if self.path is not None:
-            os.makedirs(self.path, exist_ok=True)
-            self._check_manifest()
+        if self.root is not None:
+            try:
+                self._open(os.path.join(self.root, CACHE_SUBDIR))
+            except (OSError, _Refused) as exc:
+                self.path = None
+                self._memory_only(exc)
 
     # -- files
+    def _open(self, folder):
+        """Make (or find) the cache's own folder, marked by ``_TAG``; a folder of that name holding files but
+        no marker is not ours: refused, untouched."""
+        if os.path.abspath(self.root) == os.path.abspath(private_cache_dir()):
+            _check_private(self.root)
+        os.makedirs(self.root, exist_ok=True)
+        try:
+            os.mkdir(folder)
+        except FileExistsError:
+            pass
+        if not os.path.isdir(folder):
+            raise NotADirectoryError(errno.ENOTDIR, "not a folder", folder)
+        self.path = folder
+        if not _marked(folder):
+            if os.listdir(folder):
+                raise _Refused(f"{folder} holds files the cache did not write (it has no {_TAG})")
+            self._atomic_write(os.path.join(folder, _TAG), _TAG_TEXT.encode("utf-8"))
+        self._check_manifest()
+
+    def _memory_only(self, exc):
+        """Stop using the disk (nothing more is written) and keep the first reason as the one warning."""
+        self._writable = False
+        if self.warning is None:
+            where = getattr(exc, "filename", None) or self.path or self.root
+            why = (exc.strerror or str(exc)) if isinstance(exc, OSError) else str(exc)
+            self.warning = (f"signature cache off ({why}: {where}); signatures are kept in memory only"
+                            if isinstance(exc, OSError) else
+                            f"signature cache off ({why}); signatures are kept in memory only")
+
     def _check_manifest(self):
         manifest = os.path.join(self.path, "manifest.json")
         ok = False
@@ -119,16 +225,18 @@ class SignatureCache:
                                                      "sketch_dim": SKETCH_DIM}).encode())
 
     def _remove_entry_files(self):
+        """Delete what this cache writes in its own folder (entry files, the pack, its temporary files), and
+        nothing else."""
         self._pack, self._pack_dirty = {}, False
         for n in os.listdir(self.path):
-            if n.endswith(".npz") or n == _PACK:
+            if _OWN_FILE.fullmatch(n):
                 try:
                     os.remove(os.path.join(self.path, n))
                 except OSError:
                     pass
 
     def _atomic_write(self, target, data: bytes):
-        fd, tmp = tempfile.mkstemp(dir=self.path, suffix=".tmp")
+        fd, tmp = tempfile.mkstemp(dir=self.path, prefix=_TMP_PREFIX, suffix=_TMP_SUFFIX)
         try:
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
@@ -235,6 +343,8 @@ class SignatureCache:
         ``build_index`` call it at the end). Entries whose files are gone are left out."""
         if self.path is None or not self._pack_dirty:
             return
+        if not self._writable:
+            return
         with self._lock:
             files, blocks, first = [], [], 0
             for name, (size, mtime, meta, sk) in self._pack.items():
@@ -249,14 +359,17 @@ class SignatureCache:
             np.savez(buf, index=np.frombuffer(index, dtype=np.uint8), sketches=sketches)
             try:
                 self._atomic_write(os.path.join(self.path, _PACK), buf.getvalue())
-            except OSError:
-                return  # a read-only folder: entries are read one by one
+            except OSError as exc:
+                self._memory_only(exc)  # a read-only folder, a full disk: entries are read one by one
+                return
             self._pack_dirty = False
 
     # -- memory
-    def _remember(self, key, level, entries):
+    def _remember(self, key, level, entries, on_disk=True):
+        """Keep the entries in memory; the heavy arrays of entries on disk count towards ``memory_limit``
+        (entries that are not on disk are never dropped)."""
         self._mem[(key, level)] = entries
-        if self.path is None:
+        if self.path is None or not on_disk:
             return
         for e in entries:
             self._heavy[(key, level, e.name)] = e.heavy_nbytes
@@ -297,9 +410,14 @@ class SignatureCache:
                 if e.direction is not None and e.direction.size > self.max_direction:
                     e.direction, e.exact = None, False
         with self._lock:
-            if self.path is not None:
-                self._write(key, level, entries)
-            self._remember(key, level, entries)
+            on_disk = self.path is not None and self._writable
+            if on_disk:
+                try:
+                    self._write(key, level, entries)
+                except OSError as exc:
+                    self._memory_only(exc)
+                    on_disk = False
+            self._remember(key, level, entries, on_disk)
 
     def contains(self, key, level):
         """True when (key, level) is cached (memory or disk), without reading or counting anything."""
@@ -338,7 +456,7 @@ class SignatureCache:
         return S, sq
 
     def clear(self):
-        """Forget every entry (and delete the entry files)."""
+        """Forget every entry (and delete the files this cache wrote in its own folder)."""
         with self._lock:
             self._mem.clear()
             self._heavy.clear()
@@ -350,5 +468,5 @@ class SignatureCache:
         """(files, bytes) of the entry files on disk."""
         if self.path is None:
             return 0, 0
-        files = [os.path.join(self.path, n) for n in os.listdir(self.path) if n.endswith(".npz")]
+        files = [os.path.join(self.path, n) for n in os.listdir(self.path) if _ENTRY_FILE.fullmatch(n)]
         return len(files), sum(os.path.getsize(f) for f in files)
