@@ -350,9 +350,6 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     clip.meta["rotation_space"] = "pose"
     if space == "armature":
         return to_armature_space(clip, armature)
-    up = up_in_bone_frame(armature, clip.root_bone) if armature is not None else None
-    if up is not None:  # where the root's location channels live (core.clip.skeleton.up_vector)
-        clip.meta["up_axis"] = up
     return clip
 
 

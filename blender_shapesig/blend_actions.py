@@ -121,6 +121,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
         own, vectors, mapped=mapped, back=rigmap.back_onto_armature if across else None, ranges=ranges,
         loop=loop, feet=feet, feet_required=False, mask=mask, groups=groups, align=align, depth=depth,
         frames=frames, bones=bones, root=root,
+        up_axis=None if across else action_io.up_in_bone_frame(armature, own[0].root_bone),
         progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
     created, names, strips = [], [], []
     try:

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..geometry import so3
 from ..clip.clip import Clip
+from ..clip.skeleton import root_up
 from ..errors import ShapeSigError, check_frame_range
 from ..clip.prepare import COMPARE_FPS, prepare_rotations
 
@@ -153,11 +154,7 @@ def close_loop(clip: Clip) -> Clip:
     rt = clip.root_translation
     offset = None
     if rt is not None:
-        up = clip.meta.get("up_axis")
-        if isinstance(up, str):
-            up = np.eye(3)["XYZ".index(up.upper())]
-        up = np.asarray(up, dtype=np.float64) if up is not None else np.eye(3)[int(np.argmin(np.ptp(rt, axis=0)))]
-        up = up / np.linalg.norm(up)
+        up = root_up([clip])
         dh = (rt[-1] - rt[0]) @ up
         rt = rt - np.outer(s * dh, up)
         offset = rt[-1] - rt[0]

@@ -15,7 +15,8 @@ from ..metrics import DEFAULT_DEPTH
 from ..clip.prepare import prepare_rotations
 from ..errors import check_weights
 from .combine import _Plan, blend_name, compute_warp, default_frames_many, mean_start
-from .move_root import blend_root_path, interp_rows, resolve_up
+from ..clip.skeleton import root_up
+from .move_root import blend_root_path, interp_rows
 
 __all__ = ["blend_clips", "blend_many", "blend_clip_series", "blend_fps"]
 
@@ -62,7 +63,7 @@ def blend_clips(a, b, weight, align=True, depth=DEFAULT_DEPTH, frames=None, bone
       root rotation about the up axis), then integrated from the blended start position, so a blend
       of two forward locomotions moves forward. ``root="a"``: A's root path (in the blended timing).
       ``up_axis``: 'X', 'Y', 'Z' or a vector in the root's parent space; default
-      the clips' (``skeleton.up_vector``: their meta, else estimated from their roots).
+      the clips' (``skeleton.root_up``: their meta, else estimated from their roots).
       When only one clip has a root translation, or the root bone is not shared, A's path is used.
 
     ``result.meta`` holds ``weight``, ``weights``, ``sources``, ``blended_bones``, ``unmatched_bones``,
@@ -246,7 +247,7 @@ def _blend_translation(plan, clips, idx, blended, Bg, start, root, up_axis):
         rotb = Bg[:, blended.index(roots[0])] @ start[blended.index(roots[0])]
     else:
         rotb = rots[0]
-    up = resolve_up(up_axis, clips)
+    up = root_up(clips, up_axis)
     path = blend_root_path(plan, [c.root_translation for c in clips], rots, rotb, up, plan.weights)
     return interp_rows(plan.u_out, plan.grid, path), "blend", up
 

@@ -1,18 +1,11 @@
 """Move the root: the blended root translation of a blend (height blended, horizontal displacements in each
-source's heading frame) about the up axis of its clips (``skeleton.up_vector``, the one rule for up)."""
+source's heading frame) about the up axis of its clips (``skeleton.root_up``)."""
 
 import numpy as np
 
 from ..geometry import so3
-from ..clip.skeleton import parse_up, up_vector
 
-__all__ = ["resolve_up", "blend_root_path", "interp_rows"]
-
-def resolve_up(up_axis, clips):
-    """The up axis of a blend: ``up_axis`` when given, else the clips' (``skeleton.up_vector``)."""
-    up = parse_up(up_axis)
-    return up if up is not None else up_vector(*clips)
-
+__all__ = ["blend_root_path", "interp_rows"]
 
 def blend_root_path(plan, ps, rots, rotb, up, W):
     """Blended root translation on the grid.

@@ -31,7 +31,7 @@ from ..errors import ShapeSigError
 
 __all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "rest_of",
            "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",
-           "forward_kinematics", "chain_offset", "up_vector", "parse_up", "estimate_up_axis", "unit_meters", "LEG_METERS"]
+           "forward_kinematics", "chain_offset", "up_vector", "root_up", "parse_up", "estimate_up_axis", "unit_meters", "LEG_METERS"]
 
 REST_HEADS = "rest_heads"
 REST_TAILS = "rest_tails"
@@ -271,19 +271,26 @@ def estimate_up_axis(root_rotations, root_translations=()):
     return u / np.linalg.norm(u)
 
 
-def up_vector(*clips: Clip) -> np.ndarray:
-    """The world's up in the frame of the clips' root translations, the one rule for "up" (planted feet, root
-    motion, loops, blends): the first ``meta["up_axis"]`` given (every reader sets it; the Blender layer for actions
-    in pose space), else Y for ASF axes, else Blender's Z for armature space, else ``estimate_up_axis`` on the
-    clips' roots."""
-    for c in clips:
-        up = parse_up(c.meta.get("up_axis"))
+def up_vector(clip: Clip) -> np.ndarray:
+    """The world's up in the clip's world-aligned axes (where forward kinematics and the planted feet work):
+    ``meta["up_axis"]`` ('Y' for ASF axes), else Blender's Z."""
+    up = parse_up(clip.meta.get("up_axis"))
+    if up is not None:
+        return up
+    return np.eye(3)[1] if clip.meta.get("rotation_space") == "asf" else np.eye(3)[2]
+
+
+def root_up(clips, up_axis=None) -> np.ndarray:
+    """The world's up in the frame of the clips' root translations (where a blend moves the root): ``up_axis``
+    when given (the Blender layer passes it for pose-space actions: ``action_io.up_in_bone_frame``), else the
+    first ``meta["up_axis"]``, else Y for Acclaim data, else ``estimate_up_axis`` on the clips' roots. For
+    clips in world-aligned axes it is ``up_vector``."""
+    for cand in [up_axis] + [c.meta.get("up_axis") for c in clips]:
+        up = parse_up(cand)
         if up is not None:
             return up
-    if all(c.meta.get("rotation_space") == "asf" or c.meta.get("format") == "acclaim" for c in clips):
+    if all(c.meta.get("format") == "acclaim" or c.meta.get("rotation_space") == "asf" for c in clips):
         return np.eye(3)[1]
-    if all(c.meta.get("rotation_space") == "armature" for c in clips):
-        return np.eye(3)[2]
     rooted = [c for c in clips if c.root_bone in c.bones]
     if not rooted:
         return np.eye(3)[2]
