@@ -1,4 +1,4 @@
-"""``.blend`` clips: ``read_blend_file(path, action=None)`` reads the actions of a .blend file that animate pose
+"""``.blend`` clips: ``read_blend_file(path, action_name=None)`` reads the actions of a .blend file that animate pose
 bones, in a child process (``_blend_file_child``), so a damaged file is a ParseError, never a crash; the file's
 structure is checked first (``core.io.blend_file.check_blend``). ``SHAPESIG_BLEND_IN_PROCESS=1`` reads in this
 process. See docs/dev/blender_layer.md.

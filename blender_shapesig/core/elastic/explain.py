@@ -1,7 +1,8 @@
 """Why two clips differ: the elastic energy of an optimal path (pinned or with a free window) split exactly into
-(query interval x joint) pieces (``subsequence.path_costs``). ``joints`` gives each bone's share of d_S*^2 (summing
-to 1), ``groups`` the same over the canonical joint groups of ``core.rigs``, and ``cost_over_time`` the energy on
-each interval of the query on the comparison time base. See docs/search.md, "Moments".
+(query interval x joint) pieces (``subsequence.path_costs``). ``explain_path`` / ``explain_clips`` give ``joints``
+(each bone's share of d_S*^2, summing to 1), ``groups`` (the same over the canonical joint groups of
+``core.rigs``) and ``cost_over_time`` (the energy on each interval of the query on the comparison time base).
+See docs/search.md, "Moments".
 """
 
 import numpy as np
