@@ -1,18 +1,7 @@
-"""Change detection for actions: a cheap, reliable fingerprint per action for the session.
-
-Find Similar keys every action of the file by what its clip is read from (``action_hashes.read_hash``), and
-re-reading every F-curve of 1,000 actions costs seconds per click. So each action's hash (and the bones it
-animates) is remembered for the session with a *stamp* that is cheap to read (a few calls per action: the
-F-curve count of each channel bag; not the frame range, whose scan of every key costs 30 ms per 1,000 actions,
-nor the mute flags, 58 ms), and dropped when
-  * the depsgraph reports the action updated (every edit of an action an object plays: keyframe values,
-    inserted or deleted keys, new F-curves, data paths, mute; in the UI and through the Python API, once the
-    depsgraph is evaluated: ``refresh_fingerprints`` evaluates it first);
-  * an undo, redo or file load happens (all of them);
-  * the stamp differs (F-curves added to or removed from an action no object plays);
-  * ``forget_fingerprints(action)`` is called (scripts that edit the keyframe values of an action no object
-    plays, which Blender reports nowhere, should call it).
-``read_hash`` stays the definition; ``action_fingerprint`` returns the same string.
+"""Change detection for actions: each action's ``read_hash`` (and the bones it animates) is remembered for the
+session with a cheap stamp and dropped when the depsgraph reports the action updated, on undo, redo and file load,
+when the stamp differs, or on ``forget_fingerprints(action)``; ``action_fingerprint`` returns the same string as
+``read_hash``. See docs/search.md, "The index and its cache".
 """
 
 import bpy

@@ -1,38 +1,8 @@
-"""Blender armature actions <-> ``core.Clip``.
-
-``read_action(action, armature=None, bones=None, frame_range=None, exclude_unkeyed=False)`` samples an
-action's pose-bone rotations on every integer frame as rotation matrices (each bone's rotation relative to
-its rest pose, in the bone's own rest frame: Blender's ``matrix_basis`` rotation).
-
-* Rotation mode per bone: the ``rotation_modes`` argument, else the armature's pose bone ``rotation_mode``
-  when an armature is given and the action keys that kind of rotation; otherwise the mode write_action stored
-  on the action, else inferred from the channels present: ``rotation_quaternion`` ->
-  QUATERNION, else ``rotation_euler`` -> Euler order **XYZ** (an action does not record the Euler order;
-  pass the armature or ``rotation_modes`` when it is not XYZ), else ``rotation_axis_angle`` -> AXIS_ANGLE.
-* Channels an action does not key take their rest value (quaternion (1, 0, 0, 0), Euler 0, axis-angle
-  (0, 0, 1, 0)); bones with no rotation channel at all are the identity (or dropped with
-  ``exclude_unkeyed=True``) and listed in ``meta["missing_rotation_bones"]``.
-* Quaternions are normalized and made sign-continuous; axis-angle axes are normalized.
-* Frames: ``frame_range`` (inclusive) or the action's manual frame range or the keyed range of the bones
-  read. Keys that sit exactly on every integer frame are read with ``foreach_get``; otherwise each frame
-  is ``FCurve.evaluate``-d (honours interpolation and modifiers). Muted F-curves are ignored.
-* Root translation: the ``location`` of the root bone (the armature's first parentless bone, else the first
-  bone that has location F-curves), in that bone's rest frame, or None when it has no location channel.
-* ``meta``: ``still_bones``, ``fcurve_hash`` (``read_hash``), ``missing_rotation_bones``, ``slot``, and with
-  an armature ``rest_rotations`` (bones, 3, 3): each bone's armature-space rest orientation B (so ``B R B^T`` is
-  the rotation in armature-aligned axes).
-* fps: the ``fps`` argument, else the action's ``shapesig_fps`` property (set by write_action), else the scene's.
-  Rotation modes without an armature: the action's ``shapesig_rotation_modes`` (set by write_action) first.
-
-Spaces: ``space="pose"`` (default) gives Blender's pose-bone rotations; ``space="armature"`` the same rotations
-expressed in the armature's axes (``to_armature_space``), the space the package compares and blends in.
-``meta["rotation_space"]`` says which; ``write_action`` converts an armature-space clip back to the pose space of
-the armature it writes for.
-
-``write_action(clip, armature=None, name=None, rotation_modes=None, fake_user=True)`` makes a new action
-(never modifies an existing one; the name gets a ``.001`` suffix when taken) with one LINEAR key per frame
-per channel, through ``keyframe_points.add`` + ``foreach_set``: quaternions sign-continuous, Euler angles
-unwrapped (no ±2π jumps between frames), one F-curve group per bone; a slot and channelbag on 4.4+.
+"""Blender armature actions <-> ``core.Clip``: ``read_action`` samples an action's pose-bone rotations on every
+integer frame (every rotation mode; pose space or the armature's axes, ``space``), with the root translation, the
+frame rate and ``meta``; ``write_action`` makes a new action (never modifies one) with one LINEAR key per frame
+per channel; ``assign_action`` plays it without losing the replaced action. Version differences go through
+``compat``. See docs/action_io.md.
 """
 
 import math

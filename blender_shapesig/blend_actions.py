@@ -1,13 +1,7 @@
-"""Blend two or more actions of an armature into new actions: the Blender half of ``core.blend`` (issues 6, 18).
-
-``blend_actions(armature, action_a, action_b, weights, ...)`` reads the actions (keyed bones only), blends them
-with ``core.blend.make_blends`` (ranges, one cycle and loops, masks, more clips, planted feet; one elastic warp
-for every in-between), writes each blend as a new action ``<A>_x_<B>_<weight>`` with a fake user and returns
-them. With ``timing="nla"`` each blend is written as its pose curve on A's parameter (an action) played by an NLA
-strip whose animated Strip Time is the blended clock (``core.blend.editable_timing``): the animator nudges the
-alignment in the Graph Editor; ``bake_strip`` bakes such a strip into a plain action. Sources are never
-modified; on any error nothing is created. The operators only parse their properties, call these and report.
-See docs/blending.md.
+"""Blend two or more actions of an armature into new actions, the Blender half of ``core.blend``: ``blend_actions``
+reads the actions, blends them with ``core.blend.make_blends`` and writes each blend as a new action (or, with
+``timing="nla"``, a pose curve played by an NLA strip with an editable clock; ``bake_strip`` bakes it). Sources
+are never modified; on any error nothing is created. See docs/blending.md.
 """
 
 from dataclasses import dataclass, field, replace

@@ -1,29 +1,8 @@
-"""Every difference between Blender versions (4.2 LTS .. 5.2 LTS) in one place.
-
-Features are detected on the instances, never on version numbers:
-
-* 4.2: an action holds its F-curves directly (``action.fcurves``, ``action.groups``,
-  ``fcurves.new(path, index, action_group)``); no slots.
-* 4.4 / 4.5: layered "slotted" actions (``action.layers[..].strips[..].channelbag(slot)``); the legacy
-  ``action.fcurves`` still exists and proxies the first slot. Channelbag ``fcurves.new(path, index)`` has no
-  group argument: groups are made with ``channelbag.groups.new`` and assigned with ``fcurve.group``.
-* 5.0: ``action.fcurves``/``action.groups`` are gone; everything goes through channelbags
-  (``bpy_extras.anim_utils.action_get_channelbag_for_slot`` / ``action_ensure_channelbag_for_slot``);
-  ``fcurves.new(path, index=, group_name=)``.
-* 5.1 / 5.2 LTS: Python 3.13 and numpy 2 (the add-on's wheels are per Python; see tools/build_extension.py).
-  The action API is 5.0's: the RNA of Action, ActionSlot(s), ActionLayer(s), ActionKeyframeStrip,
-  ActionChannelbag(s), their F-curve and group collections, AnimData, FCurve and the ``bpy_extras.anim_utils``
-  channelbag helpers is unchanged from 5.0 to 5.2.3 (compared member by member); the extension operators
-  (``extensions.package_install_files`` / ``package_uninstall``) too. Only additions elsewhere: asset metadata
-  (``AssetMetaData.preferred_import_method``, ``AssetRepresentation.is_online``/``owner_asset_library``), which
-  the add-on does not use (it reads ``action.asset_data`` and ``catalog_simple_name``, both unchanged), and
-  ``bpy.app.version_string`` now ends in " LTS" on LTS releases (compare ``bpy.app.version``, never the string).
-  tests/blender/test_action_io.py::test_compat_branches_match_the_blender_line pins which branch each line takes.
-
-API: ``is_layered(action)``, ``action_slots(action)``, ``action_fcurves(action, slot=None)``,
-``all_action_fcurves(action)``, ``ensure_channelbag(action, id_type="OBJECT", name=None)``,
-``new_fcurve(bag, data_path, index, group)``, ``assign_action(obj, action)``,
-``channelbag_for_object(obj)``.
+"""Every difference between Blender versions (4.2 LTS .. 5.2 LTS) in one place, detected on the instances, never on
+version numbers: legacy F-curves (4.2), slotted actions with channelbags (4.4 / 4.5) and channelbags only (5.0 and
+later). API: ``is_layered``, ``action_slots``, ``action_fcurves``, ``all_action_fcurves``, ``ensure_channelbag``,
+``new_fcurve``, ``assign_action``, ``channelbag_for_object``. See docs/action_io.md, "Blender versions", and
+docs/dev/blender_layer.md.
 """
 
 import bpy

@@ -1,19 +1,7 @@
-"""The scene's search library (Blender layer): what the search operators and the panel search, and where.
-
-* The query: the active armature's action, or the chosen one, optionally a frame range of it (``query_item``).
-* The library (``library_items``): the file's actions that animate the armature's bones (name pattern, assets
-  only), each read with the armature that plays it (its bone order, rest orientations and rotation modes), and
-  the clip files of the chosen folders (``core.io.sources.library``: keyed by ``ClipSpec.key``, so the command
-  line and the panel share entries; read only when their key is not cached).
-* Keys are typed: an action's key is an ``ActionKey`` (the action's content hash, the armature's digest, the
-  frame range), whose ``text`` is the cache key; an item knows it is an action of this file because it is an
-  ``ActionItem``, never by parsing its key.
-* The cache registry (``cache_dir``, ``get_cache``): one ``SignatureCache`` per index folder for the session.
-* Preconditions (``search_problem``, ``result_problem``): one-line reasons why an operator cannot run; the
-  operators' ``poll`` and the panel show the same text.
-* Results (``rank_into_settings``, ``store_results``, ``result_action``, previews) in ``scene.shapesig``.
-
-Source actions are only read, never modified.
+"""The scene's search library (Blender layer): the query (``query_item``), the library items (``library_items``: the
+file's actions, keyed by a typed ``ActionKey``, and the clip files of the chosen folders), the cache registry
+(``cache_dir``, ``get_cache``), the one-line preconditions (``search_problem``, ``result_problem``), the rank click
+(``RankJob``) and the results in ``scene.shapesig``. Source actions are only read. See docs/dev/blender_layer.md.
 """
 
 import fnmatch

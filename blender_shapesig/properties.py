@@ -1,15 +1,6 @@
-"""Scene settings of the signature search (``scene.shapesig``) and its transient results
-(``window_manager.shapesig_results``).
-
-``ShapeSigSettings``: the query (action, optional frame range: by default the action's own), the library (the
-file's actions filtered by a name pattern / asset flag, plus folders of clip files with an optional .asf
-skeleton for AMC files), the level, the re-rank count, and the state of a running preview (what Stop restores).
-
-``ShapeSigResults`` on the window manager: the rows of the last Find Similar click (``ShapeSigResult``, in the
-order of one sort column, ``order_by``), the status ``message`` and the click's measured time. The window
-manager is not in the undo memory file, so a click pushes no whole-file undo step; results are transient UI
-state (not saved with the file). ``settings.results``, ``results_index``, ``query_name`` and ``message`` stay
-readable and writable on the scene settings for scripts: they are views onto the window manager's group.
+"""Scene settings of the signature search (``scene.shapesig``, ``ShapeSigSettings``: query, library, level, re-rank
+count, a running preview's state) and its transient results on the window manager
+(``window_manager.shapesig_results``, ``ShapeSigResults``: no undo step, not saved). See docs/dev/blender_layer.md.
 """
 
 import bpy

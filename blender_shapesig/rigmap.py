@@ -1,23 +1,8 @@
-"""Bone maps of armatures in Blender: what the map editor (panel) and the library need.
-
-A bone map ``{"bone": "joint"}`` (joints: ``core.rigs.JOINTS``) tells the package which canonical joint each
-bone of a rig is. It is detected from the bone names and hierarchy (``core.rigs.detect_map``), can be edited and
-is **stored on the armature data** as the custom property ``shapesig_bone_map`` (JSON text, so it travels with
-the .blend file and every object using that armature), exported to / imported from the saved-map JSON format
-(``core.rigs.save_map`` / ``load_map``), and looked up in a folder of saved maps (the preferences' maps folder).
-
-    bone_map_of(obj)               -> THE map the package reads this armature's actions with (search, blend):
-                                      the stored map, else (preference Auto-Pick) the maps folder's map for
-                                      this rig, else "auto" (core.rigs detection at reading)
-    rows(obj)                      -> [(bone, joint or "", detected joint or "")]  the editor's list
-    armature_map(obj)              -> bone_map_of as a dict (the detected map for "auto")
-    store_map(obj, mapping) / clear_map(obj) / stored_map(obj) / set_joint(obj, bone, joint)
-    export_map(obj, path) / import_map(obj, path) / import_saved(obj, name, folder)
-    best_saved_map(obj, folder)    -> (path, mapping) of the folder's map that names most of the bones
-                                      (unreadable files are skipped; skipped_maps(folder) names them)
-    onto_comparison(...) / back_onto_armature(...)   blending actions of two rigs (blend_actions)
-
-The panel drawing of the editor is not here (``panels/rigmap.py``, ``operators/rigmap.py`` call these).
+"""Bone maps of armatures in Blender: ``bone_map_of(obj)`` is the one map an armature's actions are read with (the
+stored map, else with Auto-Pick the maps folder's map, else "auto"); maps are detected (``core.rigs``), edited
+(``rows``, ``set_joint``), stored on the armature data (``shapesig_bone_map``), exported / imported as JSON and
+picked from a folder (``best_saved_map``; unreadable files are skipped and named by ``skipped_maps``); ``onto_comparison`` / ``back_onto_armature`` serve blends across rigs.
+See docs/rigs.md.
 """
 
 import json

@@ -1,13 +1,7 @@
-"""Command line: ``python -m blender_shapesig COMMAND ...`` (issue 8).
-
-Commands (see ``docs/cli.md`` and ``interfaces.md``), one module each with ``add_parser(sub)`` and ``run(args)``:
-``distance``, ``rank``, ``blend``, ``matrix``, ``evaluate``. Every command takes ``--json`` (one JSON object on
-stdout, nothing else there) and ``--debug`` (full traceback on errors). Errors exit with code 2 and one line on
-stderr.
-
-bpy is imported lazily: only when a .blend file is read or written (.bvh and .amc are read without it). Blender's
-C code writes to file descriptor 1, so all work runs with fd 1 pointed at stderr; stdout only receives
-the final report.
+"""Command line: ``python -m blender_shapesig COMMAND ...``, one module per command (``add_parser(sub)``,
+``run(args)``) and the shared parts in ``common``. Every command takes ``--json`` and ``--debug``; errors exit with
+code 2 and one line on stderr; bpy is imported only for .blend files, with fd 1 pointed at stderr.
+See docs/cli.md.
 """
 
 import json

@@ -1,12 +1,7 @@
-"""One BLAS thread for a block of work, also where numpy was imported before us (Blender).
-
-A clip's index entry needs small matrix products (the Lyndon log-signature, a 45,526-coordinate norm): OpenBLAS's
-own threads, one per core, only wait for each other there, and on a busy machine much longer than the products take
-(benchmarks/bench_find_similar.py: the index build 2.8x faster, a warm click 2x, with one thread; docs/search.md).
-The command line sets ``OPENBLAS_NUM_THREADS=1`` before importing numpy (``__main__``); Blender imports numpy before
-any add-on, so there the count is lowered through OpenBLAS's own ``openblas_set_num_threads`` (the library numpy's
-wheel ships, already loaded: ``ctypes`` finds the same one) and restored afterwards. Nothing happens when numpy
-uses another BLAS (Accelerate, MKL) or when the library is not found: results are those of the same products.
+"""One BLAS thread for a block of work (``one_blas_thread``), also where numpy was imported before us (Blender):
+small matrix products of the index run faster without OpenBLAS's own threads. The count is lowered through
+OpenBLAS's ``openblas_set_num_threads`` and restored; with another BLAS nothing happens. See docs/search.md,
+"At library scale".
 """
 
 import contextlib

@@ -1,25 +1,7 @@
-"""Distances between clips by name: the one metric grammar and the one place that maps a name to the maths.
-
-Grammar (``parse_metric_spec``): ``BASE[LEVEL][_OPTION...][+elasticK]``, case-insensitive.
-
-* ``BASE``: ``l2`` (d_P*), ``elastic`` (d_S*), ``group`` (rho^n), ``concat`` (sigma_*^n), ``linear``
-  (sigma_L^n), ``sim`` (sim^n, eq. 9.1). The signature bases take a level (``group3``, ``sim2``;
-  ``DEFAULT_LEVEL`` when none is written, an explicit ``level`` argument wins); ``l2`` and ``elastic``
-  take none.
-* options: ``_numpy`` (elastic only: the plain numpy DP, the timing baseline); ``_joint`` / ``_group`` (l2 and
-  elastic: the SRVT normalized per joint or by the so(3)^d norm over all joints, ``curves.srvt(norm=...)``;
-  without it ``curves.DEFAULT_SRVT_NORM``); ``_tensor`` (linear and sim:
-  the log-signature expanded in tensor space instead of Lyndon coordinates); ``_levelnorm`` (sim only:
-  every level of the log-signature scaled to unit length, then divided by sqrt(n), so each level weighs
-  the same).
-* ``+elasticK`` (e.g. ``sim3+elastic5``): a two-stage search, only for 1-NN evaluation: the K nearest
-  clips by the first stage are re-ranked by d_S*.
-
-Canonical names put the options in the order numpy, joint, group, levelnorm, tensor (``sim3_tensor_levelnorm``
--> ``sim3_levelnorm_tensor``). ``parse_metric`` is the plain view used for one pair of clips (``distance``,
-``rank``): a base and a level, no options.
-
-Clips are compared on the bones they share; bones still in both are dropped.
+"""Distances between clips by name: the one metric grammar (``parse_metric_spec``:
+``BASE[LEVEL][_OPTION...][+elasticK]``, e.g. ``sim3``, ``elastic``, ``sim3_tensor_levelnorm``) and the one place
+that maps a name to the maths (``curve_distance``, ``clip_distance`` on the comparison time base, on the bones
+two clips share; ``DEFAULT_LEVEL``). See docs/dev/metrics.md.
 """
 
 import re

@@ -1,18 +1,6 @@
-"""Distance matrices of many curves by metric name (the grammar of ``metrics``), in worker processes.
-
-Every measure is computed once per clip where the maths allows it, then cheaply per pair:
-
-* ``l2`` (d_P*): each clip's SRVT once, ``curves.srvt_l2_squared`` per pair;
-* ``elastic`` (d_S*): ``elastic.elastic_distance_matrix`` (SRVTs once, the DP per pair in threads);
-* ``linear`` / ``sim`` (sigma_L^n, sim^n): each clip's log-signature once (``log_signature_feature``), then
-  the Euclidean distance (sigma_L^n, eq. 8.6) or ``signatures.normalized_difference`` (sim^n, eq. 9.1, with
-  its zero rule ``signatures.ZERO_NORM``) per pair;
-* ``group`` / ``concat`` (rho^n, sigma_*^n): each clip's signature once, then
-  ``signatures.group_distance_from_signatures`` / ``concat_distance_from_signatures`` per pair (a tensor
-  product per pair, so these run in worker processes).
-
-Worker processes are forked (children inherit the curves or signatures; nothing is pickled but indices
-and results). Pure numpy: no plotting here (``blender_shapesig.evaluation`` draws).
+"""Distance matrices of many clips by metric name (the grammar of ``metrics``): every measure is computed once per
+clip where the maths allows (SRVTs, signatures, log-signatures) and then per pair, the tensor products of
+rho^n and sigma_*^n in forked worker processes. Pure numpy, no plotting. See docs/dev/metrics.md.
 """
 
 import math

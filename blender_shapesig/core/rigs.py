@@ -1,26 +1,8 @@
-"""Rigs: the canonical joint set, built-in bone-name tables, bone maps, and the comparison space across rigs.
-
-The same take recorded or converted for different skeletons (CMU ASF/AMC, the cgspeed Daz BVH, MotionBuilder /
-HumanIK, iClone / Character Creator, Mixamo, Rigify, SMPL) shares almost no bone names and has other rest poses
-(T- vs A-pose), bone rolls and spine lengths. To compare such clips this module
-
-* names a **canonical joint set** (``JOINTS``: hips, spine, spine_mid, chest, neck, head and per side clavicle,
-  upper_arm, forearm, hand, thigh, shin, foot, toe, with ``.L`` / ``.R``);
-* detects a **bone map** ``{bone: joint}`` from bone names (``detect_map``): prefixes (``mixamorig:``,
-  ``mixamorig1:``, ``CC_Base_``, ``DEF-``, namespaces) are stripped, and the family table that names most bones
-  wins; spine chains of any length are spread over spine / spine_mid / chest in hierarchy order;
-* reads and writes saved maps (``load_map`` / ``save_map``: ``{"bone": "joint", ...}``, JSON);
-* maps a clip into the **comparison space** (``to_comparison_space``): every mapped bone's rotation relative to
-  its rest pose in the armature's world axes, ``W_b(t) = W_parent(t) X_b(t)`` (``X``: the clip's local rotations
-  in armature axes), with the clip's heading removed, ``H^T W_b(t)``, ``H`` a rotation about the vertical
-  (the direction of travel, else the mean facing: ``heading``). Bones are renamed to their joints.
-
-Why this space (measured in docs/model.md, "Comparison space across rigs"): for the same physical motion on two
-rigs, ``W`` differs only by a constant right factor per bone (the other rest pose / roll, ``W' = W K_b``), which
-the SRVT and the signature's development (both built on ``W(t+1) W(t)^T``) do not see; and unmapped intermediate
-bones (a third spine bone, twist and share bones) do not matter, because a world rotation already contains its
-whole chain. A constant left factor (the direction the actor faces) does rotate every increment, hence the
-heading is removed.
+"""Rigs: the canonical joint set (``JOINTS``), built-in bone-name tables (``FAMILIES``) and bone-map detection
+(``detect_map``), saved maps (``load_map`` / ``save_map``), and the comparison space across rigs
+(``to_comparison_space``: each mapped bone's world rotation relative to rest, the heading removed, bones named by
+their joints) with the way back onto a rig (``onto_rig``) and coverage checks. See docs/rigs.md and
+docs/model.md, "Comparison space across rigs".
 """
 
 import json

@@ -1,16 +1,7 @@
-"""The parallel parts of ``dedupe``: signing the clips the cache lacks and the elastic checks.
-
-Without ``--scheduler`` they run in a pool of threads of this process (``concurrent.futures``: no Dask
-needed; Dask is an optional dependency). With ``--scheduler`` the same tasks go through ``dask.compute``:
-a local Dask scheduler (``threads``, ``processes``, ``sync``) or, with an address (``tcp://host:8786``), a
-``dask.distributed`` cluster through a ``Client`` (``dask.compute`` takes either as its ``scheduler``). Dask
-is imported here only, and only when a scheduler is given (the Blender extension never needs it); when it
-is missing the command stops at once with one line (``require_dask``). A cluster's workers read the clip
-files by the paths given, so they must see the same file system (or run on this machine).
-
-Why threads by default: the elastic DP (numba, ``nogil``) runs in parallel in threads, and a process pool
-costs a start-up and the pickling of the increments. Signing (BVH parsing in Python) holds the GIL; with many
-misses ``--scheduler processes`` signs in parallel (docs/search.md, "Library report (dedupe)").
+"""The parallel parts of ``dedupe``: signing the clips the cache lacks and the elastic checks, in a thread pool of
+this process by default, or through ``dask.compute`` with ``--scheduler`` (a local Dask scheduler or a
+``dask.distributed`` cluster). Dask is imported only here and only when asked (``require_dask``).
+See docs/search.md, "Library report (dedupe)".
 """
 
 import contextlib

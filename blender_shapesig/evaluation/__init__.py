@@ -1,10 +1,8 @@
-"""The experiment harness (outside the maths core): labelled clip sets from an index CSV, leave-one-out
-1-NN (plain and two-stage), mAP, silhouette, confusion tables, MDS / SMACOF / Procrustes, linkage,
-figures, reports and ``evaluate`` (docs/evaluation.md). Distances come from ``core.pairwise``, metric
-names from ``core.metrics``.
-
-Modules: ``index`` (CSV, names, labels, reading an entry's clip through ``core.io.sources``), ``scores``,
-``embedding``, ``plots`` (matplotlib, imported when a figure is drawn), ``report``, ``run`` (``evaluate``).
+"""The experiment harness (outside the maths core): labelled clip sets from an index CSV (``index``), leave-one-out
+1-NN (plain and two-stage), mAP, silhouette and confusion tables (``scores``), MDS / SMACOF / Procrustes and
+linkage (``embedding``), figures (``plots``, matplotlib imported when a figure is drawn), reports (``report``) and
+``evaluate`` (``run``). Distances come from ``core.pairwise``, metric names from ``core.metrics``.
+See docs/evaluation.md.
 """
 
 from .embedding import classical_mds, linkage_matrix, mds, procrustes_error, smacof

@@ -1,9 +1,7 @@
-"""``shapesig.blend_actions``: time-aligned SRVT geodesic blends of two or more actions (issues 6, 18), and
-``shapesig.bake_blend_timing``: a blend written with editable timing baked into a plain action.
-
-Thin operators: they parse their properties, call ``blend_actions.blend_actions`` / ``bake_strip`` (read, blend,
-write new actions with a fake user; nothing is created on error), optionally assign the first blend, and report.
-See docs/blending.md.
+"""``shapesig.blend_actions``: time-aligned SRVT geodesic blends of two or more actions, and
+``shapesig.bake_blend_timing``: a blend written with editable timing baked into a plain action. Thin operators:
+they parse their properties, call ``blend_actions.blend_actions`` / ``bake_strip`` (nothing is created on error),
+optionally assign the first blend, and report. See docs/blending.md.
 """
 
 import bpy

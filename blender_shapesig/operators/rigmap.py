@@ -1,16 +1,7 @@
-"""Bone-map operators (the "Bone Map" panel of the ShapeSig tab; issue 14's saved maps).
-
-Thin: each checks the active armature in ``poll`` (``poll_message_set``), calls one ``rigmap`` function and
-reports. Every operator that changes the map is one undo step; a bad map file (not JSON, unknown joints, a joint
-given twice, no bone of this armature) is refused with a one-line ERROR report and nothing is changed.
-
-* ``shapesig.bone_map_detect``: store the automatic map (``core.rigs`` name tables) on the armature, to edit it.
-* ``shapesig.bone_map_clear``: remove the stored map (automatic detection again).
-* ``shapesig.bone_map_set``: give one bone a canonical joint (or none).
-* ``shapesig.bone_map_export`` / ``shapesig.bone_map_import``: the saved-map JSON ``{"bone": "joint"}`` that
-  ``--bone-map FILE.json`` reads.
-* ``shapesig.bone_map_import_saved``: import a map of the preferences' maps folder by name;
-  ``shapesig.bone_map_pick``: the folder's map that names most of the armature's bones.
+"""Bone-map operators of the "Bone Map" panel: detect, clear, set one bone's joint, export / import the saved-map
+JSON, import a saved map by name and pick the maps folder's best map. Thin: each checks the active armature in
+``poll``, calls one ``rigmap`` function and reports; a change is one undo step and a bad map file is refused
+with one line, changing nothing. See docs/rigs.md, "The Bone Map editor".
 """
 
 import os

@@ -1,23 +1,8 @@
-"""Signature search operators (sidebar tab "ShapeSig"; settings and results in ``scene.shapesig``).
-
-Thin: each parses the scene's settings, calls ``blender_shapesig.library`` (the scene's search library) and
-reports. Preconditions (an armature, a query action, results to pick from) are checked in ``poll``
-(``library.search_problem`` / ``library.result_problem``), whose message Blender shows on the greyed-out button
-and in the error of a script's call.
-
-* ``shapesig.build_index``: index every library clip not in the cache yet, stepping the one index generator
-  (``core.index.iter_entries``): with a window modally, one clip per timer tick, with a progress bar (Esc
-  cancels; what is done stays cached); without one (background, the bpy module, scripts) synchronously.
-* ``shapesig.rank``: rank the library by sim^n against the query, optionally re-rank the best K by elastic
-  distance (``library.RankJob``); fills ``window_manager.shapesig_results`` (transient: not an UNDO operator,
-  so a click pushes no whole-file undo step). Clips not in the index are computed on the way (and cached); in
-  the UI the click runs modally with a progress bar (Esc cancels), headless synchronously. Before a level-4
-  index, Build Index and Find Similar ask for confirmation with the estimated time and disk.
-* ``shapesig.assign_result``: make the selected result the active armature's action (a folder clip is first
-  written as a new action).
-* ``shapesig.preview_result``: assign the result temporarily and play; run again to stop and restore.
-* ``shapesig.clear_index``: delete the cache's own files (never anything else in the index folder).
-* ``shapesig.explain_result``: why the selected result differs (``core.elastic.explain``), stored on its row for the panel.
+"""Signature search operators (sidebar tab "ShapeSig"; settings in ``scene.shapesig``): ``shapesig.build_index``,
+``shapesig.rank`` (Find Similar, with an optional elastic re-rank), ``shapesig.assign_result``,
+``shapesig.preview_result``, ``shapesig.clear_index`` and ``shapesig.explain_result``. Thin: they parse the
+settings, call ``library`` and report; preconditions are in ``poll`` (``library.search_problem`` /
+``result_problem``). See docs/search.md and docs/dev/blender_layer.md.
 """
 
 import time

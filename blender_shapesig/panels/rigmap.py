@@ -1,10 +1,7 @@
-"""The "Bone Map" subpanel of the ShapeSig sidebar tab (issue 14's map editor).
-
-It lists the active armature's bones (a UI list over ``armature.data.bones``: filter and sort for free), each
-with the canonical joint it is compared as and, when that differs, the automatically detected one. A joint is
-changed from the row's menu (``shapesig.bone_map_set``: one undo step, stored on the armature data); Detect,
-Clear, Import / Export JSON and the saved maps of the preferences' folder are buttons. Nothing is stored until the
-first edit: until then the panel shows the map the search would use (``rigmap.bone_map_of``).
+"""The "Bone Map" subpanel of the ShapeSig sidebar tab: the active armature's bones, each with the canonical joint it
+is compared as (and the detected one when that differs), a joint changed from the row's menu, and buttons for
+Detect, Clear, Import / Export JSON and the saved maps. Until the first edit it shows the map the search would use
+(``rigmap.bone_map_of``). See docs/rigs.md, "The Bone Map editor".
 """
 
 import os

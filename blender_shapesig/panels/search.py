@@ -1,16 +1,7 @@
-"""Sidebar tab "ShapeSig": signature search (3D Viewport, Dope Sheet and NLA sidebars).
-
-Query (the active armature's action or a chosen one, optional frame range inside it), library (file actions
-with a name filter / assets only, folders of clips with an optional .asf skeleton), a cost note at level 4, Build
-Index and Find Similar (progress bars while they run, Esc cancels), the results list (window manager: transient)
-with a header naming its one sort column (d_S* when re-ranked, else sim^n) and the measured time of the click,
-unique labels, the matched frames and the bones compared, and, for the selected result, Assign, Preview
-and Blend (``shapesig.blend_actions`` with the query as A and the result as B). The Moments toggle ranks windows
-of the clips (Assign / Preview / Blend then use the window); "Why different" draws the selected result's largest
-joint (group) shares as bars and its alignment cost along the query as a strip (``shapesig.explain_result``
-computes them when the search did not). The operators' ``poll`` owns
-their preconditions (their buttons grey out, with the reason as tooltip); the panel shows the same reason as a
-label (``library.search_problem``), never an exception.
+"""Sidebar tab "ShapeSig" (3D Viewport, Dope Sheet and NLA sidebars): the signature search panel, with the query,
+the library, Build Index and Find Similar, the results list and, for the selected result, Assign, Preview,
+Blend and "Why different". It only draws: preconditions are the operators' ``poll``, shown as a label
+(``library.search_problem``). See docs/search.md, "In Blender".
 """
 
 import json

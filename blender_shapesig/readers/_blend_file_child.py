@@ -1,13 +1,7 @@
-"""Read the actions of a .blend file in a child process (see ``readers.blend_file.read_blend_file``).
-
-Blender trusts the pointers stored in a .blend file; a damaged one crashes it while loading, which would
-end the animator's session (or the command line). So a .blend clip file is read here, in a separate
-process — this Python with the bpy module, or the Blender binary in background mode — and the clips come
-back as plain arrays. Run as ``python _blend_file_child.py JSON`` or ``blender --background --factory-startup
---python _blend_file_child.py -- JSON``; JSON holds ``path``, ``action``, ``space``, ``rig``, ``out``, ``package_dir``
-(the folder holding the package), ``package`` (its folder name) and ``sys_path`` (the parent's, for the
-bundled wheels). The result is an .npz at ``out`` with a JSON header: ``{"clips": [...]}`` or
-``{"error": "one line"}``.
+"""Read the actions of a .blend file in a child process (see ``readers.blend_file.read_blend_file``): a damaged file
+that crashes Blender's reader ends only this process. Run by this Python with the bpy module or by the Blender
+binary in background mode, with one JSON argument; the clips come back as an .npz. The protocol:
+docs/dev/blender_layer.md.
 """
 
 import importlib

@@ -1,22 +1,7 @@
-"""Acclaim skeletons and takes as Blender data: the armature builder behind ``shapesig.import_acclaim``.
-
-``import_acclaim(context, asf_path, amc_paths)`` builds an armature from the ASF skeleton and one action per
-AMC take (several AMCs at once give several actions on the one armature; the first becomes the active action,
-all get a fake user). ``clip_to_pose`` maps core Acclaim clips (and blends of them) onto such an armature.
-
-Geometry. The ASF world is Y up; Blender is Z up. As Blender's BVH importer does (forward -Z, up Y), points
-and frames are mapped by ``A: (x, y, z) -> (x, -z, y)`` and scaled by
-``meters_per_unit * scale`` (CMU ``length 0.45``: one unit is 1/0.45 inch, so scale 1 gives meters).
-Each bone's head is its parent's tail, its tail is ``head + direction * length`` (the root: a short bone
-along the root's ``orientation`` Y axis, i.e. up). Blender's bone Y axis must point along the bone, while the
-ASF ``axis`` frame C generally does not (e.g. CMU femurs: C's Y points up the leg), so each bone's roll is
-chosen to bring the rest frame ``B`` as close as possible to ``A C``: its X axis is ``A C x`` made
-orthogonal to the bone. The pose rotation of bone b is then ``P = B^T A (C M C^-1) A^T B`` (M the AMC
-rotation); when ``B = A C`` (the root, and every bone whose axis frame has Y along the bone) this is
-``P = M``: the AMC rotations apply directly. The root's location is ``B^T (s A T - rest head)``.
-Positions after posing equal core.io.acclaim.forward_kinematics mapped by ``s A`` (tested).
-
-On any error nothing is left created and the one-line ShapeSigError propagates.
+"""Acclaim skeletons and takes as Blender data, the armature builder behind ``shapesig.import_acclaim``:
+``import_acclaim(context, asf_path, amc_paths)`` builds an armature from the ASF and one action per AMC take, and
+``clip_to_pose`` maps core Acclaim clips (and blends of them) onto such an armature. On any error nothing is left
+created. Geometry (axes, rolls, pose rotations): docs/action_io.md, "Importer".
 """
 
 import os

@@ -1,15 +1,7 @@
-"""``.blend`` clips: the actions of a .blend file, read in a child process.
-
-``read_blend_file(path, action=None)``: every action in the file that animates pose bones, or the one named.
-The actions (and the file's armature objects, for bone rotation modes and order) are appended with
-``bpy.data.libraries.load``, read with ``action_io.read_action`` and every data-block the append created is
-removed again (``read_blend_here``). That runs in a child process (``_blend_file_child``: this Python with the bpy
-module, or the Blender binary in background mode), so a damaged file that crashes Blender's reader is a
-ParseError here, never a crash of the command line or the animator's session; the file's structure is checked
-first (``core.io.blend_file.check_blend``). ``SHAPESIG_BLEND_IN_PROCESS=1``: read in this process.
-
-Space: "armature" (default) gives each action in armature axes when an armature with its bones is in the
-file, else pose space (``meta["rotation_space"] == "pose"``); "native" gives pose-bone rotations.
+"""``.blend`` clips: ``read_blend_file(path, action_name=None)`` reads the actions of a .blend file that animate pose
+bones, in a child process (``_blend_file_child``), so a damaged file is a ParseError, never a crash; the file's
+structure is checked first (``core.io.blend_file.check_blend``). ``SHAPESIG_BLEND_IN_PROCESS=1`` reads in this
+process. See docs/dev/blender_layer.md.
 """
 
 import json

@@ -1,15 +1,7 @@
-"""BVH clips through Blender's own importer (``io_anim_bvh``), leaving the file as it was.
-
-Settings (``import_armature``, the one place that calls ``bpy.ops.import_anim.bvh``): rotate_mode 'NATIVE',
-frame_start 1, no fps scaling, the scene's fps and range untouched, scale 1, default axis conversion (BVH Y up
-/ -Z forward -> Blender Z up). The file is validated first (``core.io.bvh.check_bvh``: the importer's own
-failures are tracebacks) and handed over as UTF-8 (a BOM / UTF-16 / latin-1 file as a UTF-8 copy).
-
-``import_bvh`` imports into a temporary scene, reads the action with ``action_io.read_action`` (pose-bone
-rotations in each bone's rest frame; rest frames include the Y-up -> Z-up conversion) and removes everything
-the import created. fps = 1 / the file's ``Frame Time`` (rounded to a whole rate when within 0.01 %); every
-frame is kept here (the Daz-friendly CMU files' rest pose and ramp too: ``core.io.sources.read`` trims them,
-``core.clip.trim``).
+"""BVH clips through Blender's own importer (``io_anim_bvh``), leaving the file as it was: ``import_armature`` is the
+one call of ``bpy.ops.import_anim.bvh`` (fixed settings, the file validated first by ``core.io.bvh.check_bvh``),
+``import_bvh`` reads the imported action with ``action_io.read_action`` and removes everything the import created.
+Every frame is kept (trimming is ``core.clip.trim``'s). See docs/dev/blender_layer.md.
 """
 
 import contextlib

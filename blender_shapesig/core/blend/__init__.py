@@ -1,18 +1,6 @@
-"""Time-aligned SRVT geodesic blends of curves and clips (reference eq. 5.14, sec. 9.1), as a package of
-verb-named modules; everything is importable from ``blender_shapesig.core.blend`` as before.
-
-* ``combine``: the curves: the merged grid, the SRVT average, the blended timing (``geodesic_blend``,
-  ``compute_warp``, ``default_frames``, weights and names); two or more curves.
-* ``move_root``: the blended root translation about the clips' up axis.
-* ``mix``: clips: ``blend_clips`` (two), ``blend_many`` (two or more, aligned to the first),
-  ``blend_clip_series`` (several weights, one warp); every result carries ``meta["source_times"]``.
-* ``mask``: per-bone-group weights through the canonical joints (``GROUPS``, ``bone_weights``).
-* ``cycle``: frame ranges, cycle detection (one stride) and seamless loops (``find_cycle``, ``one_cycle``,
-  ``close_loop``).
-* ``make``: ``make_blends``, the one recipe of the command line and the operator: ranges, cycles, the blend,
-  back onto the rig, planted feet (``core.blend.feet``), loops.
-
-See docs/blending.md.
+"""Time-aligned SRVT geodesic blends of curves and clips (reference eq. 5.14, sec. 9.1), in verb-named modules
+(``combine``, ``move_root``, ``mix``, ``mask``, ``cycle``, ``make``, ``feet``); the public names are importable from
+``blender_shapesig.core.blend``. See docs/blending.md.
 """
 
 from .combine import (  # noqa: F401

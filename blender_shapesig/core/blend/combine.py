@@ -1,33 +1,8 @@
-"""Combine curves: the time-aligned SRVT geodesic blend of two or more curves (eq. 5.14, generalised).
-
-The blend of R0 and R1 at weight w (w = 0 gives R0, w = 1 gives R1; in the notation of eq. 5.14,
-s = 1 - w) is built in five steps:
-
-1. Both curves are moved to P* (right-translated to start at the identity).
-2. With ``align``, the elastic warp phi of R1 onto R0 is found by dynamic programming
-   (``elastic_align``, sec. 4.3) and R1 is replaced by R1 o phi; without it phi is the identity.
-3. Both curves are sampled on the *merged grid* G: R0's knots, the warp's nodes and phi^-1 of R1's
-   knots. On every interval of G both R0 and R1 o phi are single geodesics (eq. 5.8), so their SRVTs
-   q0 and q1 (eq. 5.11) are exact piecewise constants there, and the blend
-   ``q = (1 - w) q0 + w q1`` is the straight line between them in L2 (eq. 5.14): the curve
-   ``inverse_srvt(q, G)`` lies on the d_P* geodesic from R0 to R1 o phi, at distance w from R0
-   and 1 - w from R1 o phi (in units of d_P*(R0, R1 o phi)).
-4. The blended curve lives on R0's (the warp's) parameter u. It is resampled to the output frame
-   count with the *blended timing*: the sample at parameter u is placed at the clip time
-   ``(1 - w) D0 u + w D1 phi(u)`` (D0, D1 the two durations), i.e. the corresponding instants of
-   both clips are averaged. The default length is ``(1 - w) N0 + w N1`` frames, or any ``frames``.
-5. The result is right-translated by the geodesic interpolation at w of the two start poses
-   ``exp(w log(R1[0] R0[0]^T)) R0[0]`` per joint.
-
-**More than two curves** (weights w_0..w_{n-1}, summing to 1): every curve i >= 1 is aligned to the
-reference R0 (its own warp phi_i), the merged grid holds R0's knots and every warp's nodes and phi_i^-1 of
-curve i's knots, the blend is ``q = sum_i w_i q_i`` (the weighted mean in L2 of the SRVTs, the point of the
-simplex of eq. 5.14's straight lines), the timing ``sum_i w_i D_i phi_i(u)`` and the start pose the
-weighted Karcher mean of the start poses. For two curves every step is the two-curve formula above,
-operation for operation (the same floats), so ``geodesic_blend(R0, R1, w)`` is unchanged.
-
-**Per-joint weights** (masks): the weight may differ per joint in the SRVT step (and the start pose);
-the timing (step 4) uses one weight vector for all joints, so every joint shares one warp and one clock.
+"""Combine curves: the time-aligned SRVT geodesic blend of two or more curves (eq. 5.14, generalised):
+``geodesic_blend`` moves the curves to P*, aligns them by the elastic warp (``compute_warp``), averages their SRVTs
+on the merged grid, resamples with the blended timing and restores the blended start pose; also the weights'
+checks and names and ``default_frames``. Per-joint weights (masks) act on the SRVT and the start pose only.
+See docs/blending.md.
 """
 
 import math

@@ -1,23 +1,6 @@
-"""Choose what of each source is blended: frame ranges, one cycle (stride) of a periodic motion, and seamless loops.
-
-**Cycle detection** (``find_cycle``) by the self-similarity of the curve: for every lag tau (in seconds, 0.4 to
-2.5 s by default) the mean squared rotation angle between the poses ``R[k]`` and ``R[k + tau]`` over the clip
-(moving bones except the root, whose rotation carries the heading) on the comparison time base (30 fps, 0.05 s
-low-pass: ``prepare.prepare_rotations``). A periodic motion returns close to itself after one period: its
-self-distance D(tau) has minima at the period and its multiples. The period is the first local minimum whose
-depth is at least 60 % of the deepest one (a half stride of a gait is no minimum in joint rotations: the left and
-right legs swap). It is refined to the clip's own frames (+-1 / 30 s). Of all windows of one period the cycle
-is the one whose end pose is closest to its start pose (optionally: closest to a given pose as well, to start
-several clips at the same phase).
-
-**Loops** (``close_loop``): a blend of one cycle of each source ends near its first pose. The residual per joint,
-``C = log(B[M] B[0]^T)``, is spread linearly over the cycle (``B'[k] = exp(-k/M C) B[k]``), so the last frame
-equals the first exactly and the cycle's M distinct poses (frames 0..M-1) repeat with a regular step
-M-1 -> 0 (the seam eased by a local circular low-pass over +-SEAM_SMOOTH s, fading out over three times that,
-so the seam is no rougher than the capture's own frame-to-frame noise), and the cycle is turned to start
-after its quietest step (the seam where the motion is slowest: ``meta["loop"]["seam"]``, frames of the blend
-moved from the start to the end); the root height is closed the same way, the horizontal travel is kept as the cycle's offset (played
-with the Cycles modifier's "Repeat with Offset", the root velocity across the seam is the last frame's).
+"""Choose what of each source is blended: frame ranges (``crop_range``), one cycle of a periodic motion by the
+self-similarity of the curve (``find_cycle``, ``one_cycle``) and seamless loops (``close_loop``: the residual spread
+over the cycle, the seam eased and turned to the quietest step). See docs/blending.md, "Ranges and loops".
 """
 
 import numpy as np

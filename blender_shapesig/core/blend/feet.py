@@ -1,42 +1,8 @@
-"""Planted feet in blends (issue 18): foot contacts of the sources, carried through the warp, kept planted in the
-blend by an analytic two-bone IK post-pass.
-
-Contract (used by the blend command and operator):
-    lock_feet(blend, sources) -> (Clip, report)
-``blend`` is a result of ``core.blend`` (``meta["source_times"]``: per source, the time in seconds from that
-source's first frame of every blended frame; for two-clip blends it is derived from ``meta["time_map"]`` (A's
-normalized parameter u per frame) and ``meta["warp"]`` (B's normalized time phi(u))); ``sources`` are the clips
-blended, each on its own rig (with the rest skeleton its reader puts in meta, ``core.clip.skeleton``), the first one's
-rig being the blend's. Returns a new Clip (the blend with planted feet) and a JSON-able report
-``{"contacts": [...], "feet": [...], ...}``.
-
-The method, per leg (thigh, shin, foot through the canonical joints of ``core.rigs``):
-
-1. **Contacts** of each source (``find_contacts``), for two points of the foot: the *heel* (the foot bone's head,
-   the ankle) and the *ball* (its tail: the toe's head, or the BVH End Site). A point is in contact on the frames
-   where it is low, ``height < floor + CONTACT_HEIGHT`` (``floor``: the point's lowest height within
-   ``FLOOR_WINDOW``, so ground that is not level, or not at 0, is followed), and slow, ``speed < CONTACT_SPEED``
-   (positions averaged over ``SPEED_WINDOW`` first: marker noise); gaps shorter than ``MIN_GAP`` are filled and
-   contacts shorter than ``MIN_CONTACT`` dropped. Thresholds are in metres and seconds, the clip's unit from
-   ``skeleton.unit_meters`` (Acclaim: known; BVH and Blender scenes: guessed from the legs).
-2. **Carried through the warp**: a blended frame is in contact for a point when the sources' contact indicators at
-   their corresponding times (linear interpolation), weighted with the blend weights, sum to more than 1/2; a tie
-   (exactly 1/2, e.g. w = 0.5 with one source in contact) counts where the blended point is low.
-3. **Planted**: on each contact run of the blend, the point's goal is its mean blended position over the run plus
-   the sources' own slide there (each source's positions minus their mean, held at its last contact frame where
-   its foot is already lifted, turned into the blend's heading, weighted): the blend slides as little as its
-   sources do, and a blend equal to a source (w = 0) is left as it is. The offset goal - position moves the ankle
-   (the foot keeps its blended orientation, so a ball offset moves the ankle as much); heel and ball offsets are
-   averaged with their contact weights, which ramp linearly to 0 over ``RAMP`` seconds outside each run, the
-   offset at the run's end fading out there (no pops).
-4. **IK**: where a leg cannot reach its target (``|target - hip|`` beyond ``SOFT_REACH`` of thigh + shin and
-   beyond what the blended leg already stretches), the root is lowered along the up axis by the smallest amount
-   that lets it, at most ``MAX_LOWER`` of the leg (smoothed over ``RAMP``); beyond that the leg straightens softly
-   (``_soft_reach``: no snap) and the foot falls short. Each leg is solved analytically: the knee lies in the
-   plane of the blended leg (hip, target, blended knee), at the distances of the thigh and shin lengths; the thigh
-   and shin turn by the smallest rotations that point them at the new knee and target; the foot keeps its blended
-   world orientation. Rotations are written back in the clip's space (pose space through
-   ``meta["rest_rotations"]``).
+"""Planted feet in blends: ``lock_feet(blend, sources) -> (Clip, report)`` finds the sources' foot contacts (heel and
+ball, ``find_contacts``), carries them through the warp into the blend's frames, keeps those points planted and
+solves each leg with an analytic two-bone IK (lowering the root where a leg cannot reach). The legs are found
+through the canonical joints of ``core.rigs``, positions through ``core.clip.skeleton``. See docs/blending.md,
+"Planted feet".
 """
 
 from dataclasses import replace

@@ -1,29 +1,8 @@
-"""Make blends an animator can use, in one call shared by the command line and the Blend operator (issue 18):
-frame ranges, one cycle and seamless loops, masks, two or more clips, planted feet.
-
-``make_blends(clips, weights, ...)`` runs, in order:
-
-1. **Ranges**: each source cropped to its frames S..E (its own numbering, inclusive: ``cycle.crop_range``).
-2. **Cycles** (``loop``): each source cropped to one cycle (``cycle.one_cycle``; the others start at the phase
-   of the first, so the strides match instead of being squeezed by the warp).
-3. **Blend**: two clips through ``mix.blend_clip_series`` (one warp for every weight; a mask of per-bone-group
-   weights), more through ``mix.blend_many`` (every clip aligned to the first; later weight vectors reuse the
-   first one's warps).
-4. **Back onto the rig**: blends of several rigs are made in the comparison space and written back by ``back``
-   (``rigs.onto_rig`` for the command line, ``rigmap.back_onto_armature`` in Blender).
-5. **Planted feet** (``feet="lock"``): ``feet.lock_feet(blend, sources)`` with the sources on their own rigs.
-6. **Loop**: ``cycle.close_loop`` (the last frame equals the first, the residual spread over the cycle). It comes
-   after the feet so the seam stays closed.
-
-Durations are the weighted average in seconds (whatever the frame rates); only ``loop`` and ranges change what
-is blended.
-
-**Editable timing** (``editable_timing``): a blend is a pose curve on the reference's parameter u played with the
-blended clock (``meta["time_map"]``: u of every frame, piecewise linear in time with knots at the warps' nodes).
-Split into the pose curve sampled uniformly in u (an action) and the clock as keys (scene frame, action frame) at
-the warps' nodes, the clock can be edited (an NLA strip's animated Strip Time in Blender) and baked again
-(``sample_at``: the action at the clock's frames). Baking the unedited keys gives the blend back, up to the two
-geodesic resamplings (a fraction of a frame's step).
+"""Make blends an animator can use, in one call shared by the command line and the Blend operator:
+``make_blends(clips, weights, ...)`` crops ranges, cuts one cycle, blends (two clips or more, masks), puts
+blends of several rigs back onto the rig, plants the feet and closes loops, in that order;
+``editable_timing`` / ``sample_at`` split a blend into a pose curve and an editable clock and bake it back.
+See docs/blending.md.
 """
 
 from dataclasses import replace

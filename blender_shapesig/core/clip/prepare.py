@@ -1,31 +1,6 @@
-"""A robust curve preparation for comparisons and warps: one time base in seconds and a low-pass of the
-angular velocity in the Lie algebra (never imports bpy).
-
-Why. Raw motion capture carries frame-to-frame jitter (20-39 % of the steps of back, neck, toes and hands
-reverse direction at 120 Hz). The SRVT divides a step by its duration and takes a square root, so jitter of
-amplitude e at F frames per second has a velocity of about e F: the same take recorded at 120 Hz and at 30 Hz
-has very different SRVTs, and d_S* between a clip and its decimated copy was 0.4-0.6 of the distance from a
-walk to the nearest run. A comparison should not depend on the rate a clip happens to be sampled at.
-
-What. ``prepare_rotations(R, fps)``:
-
-1. **Low-pass in the Lie algebra.** The right logarithmic derivative (eq. 5.10) of the piecewise-geodesic curve
-   is a sequence of angular velocities omega_k = log(R_{k+1} R_k^T) * fps in so(3)^d, one per interval, at times
-   (k + 1/2) / fps. Each coordinate is convolved with a Gaussian of ``SMOOTH_SECONDS`` (a kernel in seconds, so
-   the same cut-off frequency at every rate; its frequency response is exp(-(2 pi f sigma)^2 / 2)), and the
-   curve is integrated again from its first pose (``so3.integrate``). The convolution is linear and
-   time-invariant and acts on velocities, not on poses, so it commutes with right translation (the SRVT's
-   invariance) and never needs an average of rotations. At the ends the velocity is reflected.
-2. **One time base.** The smoothed curve, a geodesic between samples (eq. 5.8), is sampled at ``COMPARE_FPS``
-   frames per second (``geodesic_interpolate``) over the clip's duration (frames - 1) / fps. With the low-pass
-   below the new Nyquist frequency (sigma = 0.05 s passes 82 % at 2 Hz, 29 % at 5 Hz, 0.4 % at 10 Hz), the
-   result hardly depends on the clip's own rate.
-
-The strength was chosen by measurement (docs/evaluation.md, "Time base"): on the 10 AMC walks the distance
-between a clip and its copy decimated to 60 / 30 fps, divided by the distance to the nearest run.
-
-``prepare_clip`` does the same to a ``Clip`` (rotations and root path); a clip whose rate is already the target
-and ``smooth=0`` is returned unchanged. Durations are kept: the prepared clip lasts as long as the source.
+"""The comparison time base: ``prepare_rotations`` / ``prepare_clip`` low-pass a curve's angular velocity in the Lie
+algebra (a Gaussian of ``SMOOTH_SECONDS``) and sample it at ``COMPARE_FPS`` over its duration, so a comparison
+does not depend on the rate a clip was captured at. Durations are kept. See docs/model.md, "Time base".
 """
 
 from dataclasses import replace

@@ -1,22 +1,7 @@
-"""Rest skeletons and forward kinematics on Clip data (issue 18: planted feet), without bpy.
-
-A clip holds rotations only; joint positions need the rest skeleton. The readers put it in ``clip.meta`` (one
-recipe, ``rest_meta``): ``meta["rest_heads"]`` / ``meta["rest_tails"]`` = ``{bone: (x, y, z)}``, each bone's
-rest head and tail in the clip's world-aligned axes and units (Blender's armature axes for ``rotation_space``
-"armature" and "pose", the ASF's Y-up axes and units for "asf"), and ``meta["parents"]``. Readers that fill them:
-``formats.acclaim.load_acclaim`` (ASF heads/tails; ``to_blender_axes`` maps them), ``formats.bvh.load_bvh``
-(OFFSET sums, End Sites; what Blender's importer builds), ``action_io.read_action`` with an armature
-(``Bone.head_local`` / ``tail_local``).
-
-Forward kinematics. Let ``X_b`` be bone b's rotation relative to its rest pose in world-aligned axes (the clip's
-rotation in "armature"/"asf" space; ``B P B^T`` for a pose-space rotation P, B the bone's rest orientation
-``meta["rest_rotations"]``). Its world rotation is ``W_b = W_a X_b`` (a: the nearest ancestor the clip holds;
-missing bones are at rest), and because a bone and everything below it turn rigidly about its head,
-
-    head_b(t) = head_a(t) + W_a(t) (h_b - h_a),        tail_b(t) = head_b(t) + W_b(t) (t_b - h_b),
-
-with ``h``, ``t`` the rest heads and tails. The root bone's head is the clip's root translation (in armature
-space that is the root's head; in pose space its location ``loc`` gives ``h_root + B_root loc``).
+"""Rest skeletons and forward kinematics on Clip data, without bpy: the readers put the rest skeleton in
+``clip.meta`` by one recipe (``rest_meta``: ``rest_heads``, ``rest_tails``, ``parents``), and forward kinematics
+turns a clip's rotations into joint positions; also the clip's up vector (``up_vector``) and its unit
+(``unit_meters``). See docs/dev/rotations.md, "Forward kinematics".
 """
 
 import math

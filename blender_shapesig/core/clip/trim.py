@@ -1,29 +1,7 @@
-"""Rest-pose and ramp frames at the ends of a clip: detection and trimming (never imports bpy).
-
-Converted motion capture often carries frames that are not part of the take: the CMU "Daz-friendly" BVH files
-start with the rest pose and ramp into the first real pose over frames 2-6 (the first four steps are 5-14x the
-clip's median step), retargeted iClone exports may start with a T-pose frame (one huge step), AMC originals have
-none. Left in, these frames add a few large increments that carry the first pose relative to the rest pose:
-the signature measures read them as motion (docs/evaluation.md, "The rest-pose ramp").
-
-The rule (``detect_trim``) looks at how every joint moves against its own habit: r_k = median over the moving
-joints of |log(R_{k+1} R_k^T)|_j / (joint j's median step). A ramp or a snap out of a T-pose moves *all* joints
-at several times their usual speed at once, so r is 5-25 on the Daz ramps (against 0.1-2.5 in the motion),
-while a glitch of a few joints (the shins of run 09_10) or the take of a jump from a standstill does not raise
-the median over joints at the very first step.
-
-* a head (tail) exists only if the first (last) step is an outlier, r > ``START_RATIO``, or the first (last)
-  frame is a rest pose: the median over moving joints of each joint's angle from its rest orientation, divided
-  by that joint's median angle over the clip, is below ``REST_RATIO`` (0.03-0.07 on the Daz files' first frame,
-  0.9-1.05 on every frame of the AMC and iClone files). The second test catches the glitchy run 09_10, whose
-  own large steps hide its ramp from the first;
-* it then covers the first run of consecutive steps above ``KEEP_RATIO`` and, from a rest pose, every frame
-  still on its way out of it (rest ratio below ``LEAVE_RATIO``), whichever is longer, within the first (last)
-  ``MAX_SECONDS`` (the Daz ramps settle in 4-8 steps of 1/120 s; never more than a quarter of the clip).
-
-A head of h steps drops frames 0..h-1, so the clip starts at the pose where the normal motion begins. On the
-Daz files of the shared CMU sets this keeps frame 6 to 9 onward (earlier versions asked for ``--start 7``);
-the AMC originals and the iClone exports of subject 02 have nothing to trim.
+"""Rest-pose and ramp frames at the ends of a clip (converted motion capture that starts in the rest pose or a
+T-pose): ``detect_trim`` finds them from robust per-frame ratios over joints (a step against each joint's median
+step, an angle from rest against its median angle) and the trimming drops them. See docs/model.md, "Time base",
+and docs/evaluation.md, "The rest-pose ramp of the BVH files".
 """
 
 from dataclasses import dataclass, replace

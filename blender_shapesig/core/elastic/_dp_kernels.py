@@ -1,36 +1,8 @@
-"""DP kernels for the elastic distance (see elastic.py for the maths).
-
-Both kernels take the same arguments and return ``(value, nodes)``: the minimal energy at node
-(n0, n1) and, when asked, the optimal path as an int array (count, 2) of grid nodes from (0, 0)
-to (n0, n1). They evaluate every candidate with the same floating-point expression, in the same
-order, so their results are identical:
-
-    x      = P + chunk_1 + chunk_2 + ... + chunk_last        (left to right)
-    energy = (B0[di, i] + B1[dj, j]) - x
-    cand   = A[k, l] + energy,          A[i, j] = min over the steps of cand
-
-where the step's entries (in table order) are cut into chunks of four (the last one has 1 to 4),
-a chunk is ((c1 g1 + c2 g2) + (c3 g3 + c4 g4)) with g = G[k + ea, l + eb] (shorter chunks drop
-the missing terms: c1 g1, (c1 g1 + c2 g2), ((c1 g1 + c2 g2) + c3 g3)), and P = -(penalty * pen)
-is there only when the penalty is non-zero, with pen = (di d^2 + r P1 d) + r^2 P2,
-d = l h1 - k h0. Ties go to the first step in table order.
-
-Thin steps (di, 1) and (1, dj) are the exception: all their entries have one coefficient c (weight 1), and
-their cross sum is a single chunk c * run, with run the running sum from the node's corner outwards,
-
-    (a, 1):  run = ((G[i-1, j-1] + G[i-2, j-1]) + G[i-3, j-1]) + ... + G[i-a, j-1]
-    (1, b):  run = ((G[i-1, j-1] + G[i-1, j-2]) + G[i-1, j-3]) + ... + G[i-1, j-b]
-
-so x = P + c * run (x = c * run without a penalty). Each kernel builds run incrementally over a (and over
-b), one load of G per thin step and node instead of a (or b): 89 of the 475 weights per node at D = 9. ``B0[d, i]`` is the integral of |q0|^2
-over the d intervals before node i (summed locally, not as a difference of cumulative sums, which
-would cost accuracy on long curves); ``B1`` likewise.
-
-``dp_numba`` needs numba (JIT-compiled on first use, cached on disk, releases the GIL); it keeps
-only the values A and recovers the path by re-evaluating the candidates of the nodes on it.
-``HAVE_NUMBA`` says whether numba can be imported. ``dp_numpy`` is pure numpy: the energies of
-a block of DP rows at once by shifted slices of G, then one vectorized min/argmin over all steps
-per DP row.
+"""DP kernels of the elastic distance: ``dp_numba`` (JIT-compiled, cached, releases the GIL; ``HAVE_NUMBA`` says
+whether it exists) and ``dp_numpy`` (pure numpy, vectorized per DP row). Both take the same arguments, return
+``(value, nodes)`` and evaluate every candidate with one floating-point expression in one order, so their results
+are identical. The maths is in ``elastic``; the floating-point contract is in docs/elastic.md, "Implementation
+notes".
 """
 
 import numpy as np

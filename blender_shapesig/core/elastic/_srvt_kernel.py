@@ -1,24 +1,7 @@
-"""One compiled pass from rotation matrices to the flattened SRVT of the elastic DP (numba, optional).
-
-``srvt_rows(R, dt, zero_step)`` returns ``Q`` (frames-1, 3 joints) with ``Q[k, 3 j: 3 j + 3]`` the per-joint SRVT
-(``curves.srvt(R, norm="joint")``, the default norm) of the step from frame k to k+1:
-
-1. the increment ``M = R[k+1, j] R[k, j]^T``, each entry summed ``(a0 b0 + a1 b1) + a2 b2`` as
-   ``so3._mul_transpose``;
-2. its logarithm exactly as ``so3._log_rows``: the axial vector ``w`` of the skew part (|w| = sin theta),
-   ``c = (tr M - 1) / 2``, ``theta = arctan2(|w|, c)``; the axis ``w / |w|`` while c >= 0 (``w`` times
-   theta / sin theta, 1 at the identity), beyond pi/2 the column of the symmetric part ``(M + M^T)/2 - c I``
-   with the largest diagonal (the first on ties), normalized, its sign taken from ``w``;
-3. the SRVT zero rule of ``curves.srvt_of_velocity``: ``eta = step * (1 / dt[k])``, q = 0 where the step's angle
-   is at most ``ZERO_STEP`` (its squared length at most ``zero2``) or eta is 0, else ``eta / sqrt(|eta|)``
-   (as ``eta * (1 / sqrt(|eta|))``).
-
-The same operations as the numpy route, nearly all in the same order, so the two agree to an ulp or two: numpy's
-``arctan2`` is used for theta (between two compiled passes); ``eta`` is the step times 1 / dt (one division per
-frame, numpy divides) and the sums of three squares are taken left to right (numpy's einsum may pair them
-otherwise). tests/core/test_elastic_prep.py checks 1e-14 relative, also for steps near 0 and pi, at the ZERO_STEP
-threshold and for still joints. About three times faster than the numpy route on a 300-frame, 31-joint curve
-(0.19 against 0.63 ms; docs/elastic.md, fourth pass). ``HAVE_NUMBA`` False: ``srvt_rows`` is None.
+"""One compiled pass (numba, optional) from rotation matrices to the flattened per-joint SRVT of the elastic DP:
+``srvt_rows(R, dt, zero_step)`` gives what ``curves.srvt(R, norm="joint")`` gives (increments, the closed-form
+logarithm of ``so3``, the SRVT zero rule), to an ulp or two. ``HAVE_NUMBA`` False: ``srvt_rows`` is None.
+See docs/elastic.md, "Implementation notes".
 """
 
 import numpy as np

@@ -1,12 +1,7 @@
-"""Per-thread work arrays reused by successive ``elastic_distance`` / ``elastic_align`` calls.
-
-A 300 x 300-frame call needs about 3 MB of large temporaries (the SRVTs, the Gram matrix G and its inputs, the DP
-values A). Allocated afresh, each comes from the allocator's heap or from new pages of the OS depending on its
-state: in one state (reached, e.g., after a few ``elastic_align`` calls) every call paid ~430 page faults, about
-0.8 ms of a 5 ms call on this machine's VM (docs/elastic.md, fourth pass). Reusing the same arrays makes the cost
-independent of that state. ``memo`` keeps the small tables that depend only on the problem's shape. Only the single-call path uses them (the arrays never leave the call); the distance
-matrix keeps its SRVTs and allocates as before. Arrays above ``MAX_BYTES`` are allocated per call and not kept, so
-a thread retains at most a few times ``MAX_BYTES``; ``release()`` frees this thread's arrays.
+"""Per-thread work arrays reused by successive single ``elastic_distance`` / ``elastic_align`` calls (the SRVTs, the
+Gram matrix, the DP values), so a call's cost does not depend on the allocator's state; ``memo`` keeps the small
+tables that depend only on the problem's shape, arrays above ``MAX_BYTES`` are not kept, ``release()`` frees this
+thread's arrays. See docs/elastic.md, "Implementation notes".
 """
 
 import threading

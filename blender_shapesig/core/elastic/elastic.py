@@ -1,53 +1,9 @@
-"""Elastic shape distance d_S* by dynamic programming (reference secs. 4.3, 6.2).
-
-Both curves are moved to P* (the SRVT is right-invariant, so this changes nothing in q) and
-transformed to their piecewise-constant SRVTs q0 (on the grid t0, N0 frames) and q1 (t1, N1
-frames). The DP runs directly on the N0 x N1 grid of frame pairs: node (i, j) means
-"time t0[i] of curve 0 is matched with time t1[j] of curve 1". A step from (k, l) to (i, j),
-with 1 <= i - k <= D and 1 <= j - l <= D, is the linear map phi of [t0[k], t0[i]] onto
-[t1[l], t1[j]]; its energy is the *exact* integral (eq. 4.8)
-
-    int_{t0[k]}^{t0[i]} |q0(t) - q1(phi(t)) sqrt(phi')|^2 dt
-        + penalty * sum_{k < m <= i} (phi(t0[m]) - t0[m])^2
-
-for the piecewise-constant q0, q1 (all breakpoints of both grids merged exactly). The path is
-pinned at both ends: A[0, 0] = 0, every other start is +inf, and the result is read at
-(N0-1, N1-1). ``elastic_distance`` is the square root of that minimum.
-
-Expanding the square, a step's energy is
-
-    int_k^i |q0|^2 + int_l^j |q1|^2 - 2 sqrt(phi') int <q0(t), q1(phi(t))> dt (+ penalty)
-
-(the first two from small tables of sums over the last d intervals). The cross integral is a
-weighted sum of the inner products G[a, b] = <q0_a, q1_b> (summed over joints; G = Q0 Q1^T is
-computed once per pair). On
-uniform grids the weights depend only on the step (di, dj): interval a' of curve 0 (in units
-of its spacing h0) meets interval b' of curve 1 on a length min((a'+1) dj, (b'+1) di) -
-max(a' dj, b' di) (in units of h0 / dj), which is an integer table computed once per depth.
-With the factor 2 sqrt(phi') it becomes 2 W sqrt(h0 h1 / (di dj)). A step has di + dj - 1
-non-zero weights.
-
-Pruning: a step (g a, g b) with g = gcd > 1 passes exactly through the grid node (k + a, l + b)
-on the same line, and both the integral and the penalty sum split there, so its energy equals
-that of g steps (a, b). Such steps are therefore redundant (for any penalty, on uniform grids)
-and are pruned by default: at D = 9 this leaves 55 of the 81 steps.
-
-Slope limit: a path of n steps covers between n and n D intervals on each axis, so it exists
-iff max(N0-1, N1-1) <= D min(N0-1, N1-1). When the frame ratio is beyond the requested depth,
-the largest step on the long curve's axis is raised automatically to the smallest one that
-reaches (ceil of the interval ratio), the short axis keeps D; ``elastic_align(...,
-return_info=True)`` reports it. Only the band of nodes on some path from (0, 0) to
-(N0-1, N1-1) is computed, and steps longer than a curve are dropped. A step table of more than
-MAX_TABLE_ENTRIES weights (frame ratios in the hundreds) raises CurveError.
-
-Curves must be sampled uniformly (the times t0, t1 are i / (N0-1), j / (N1-1)); the overlap
-tables rely on it.
-
-Kernels: a numba kernel (``method="numba"``, JIT-compiled with cache=True and nogil=True) and a
-pure-numpy DP vectorized over all steps of one DP row (``method="numpy"``, the baseline); the
-default ``method="auto"`` takes numba when it can be imported, else numpy. Both evaluate every
-candidate with the same floating-point expression (see _dp_kernels) and give identical results.
-See docs/elastic.md for the measured cost.
+"""Elastic shape distance d_S* (reference secs. 4.3, 6.2): ``elastic_align`` / ``elastic_distance`` find the best
+piecewise-linear warp phi of curve 1 onto curve 0 by a dynamic programme on the grid of frame pairs, with the
+exact energy of eq. 4.8 per step, pinned ends, pruned non-coprime steps and an automatic slope limit
+(``step_table``, ``required_depth``); also ``reparametrize``, ``warp_grid`` and ``elastic_distance_matrix``.
+Curves must be sampled uniformly. ``method`` picks the numba or numpy kernel of ``_dp_kernels`` (identical
+results). See docs/elastic.md.
 """
 
 import math

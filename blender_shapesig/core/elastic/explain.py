@@ -1,13 +1,8 @@
-"""Why two clips differ: the share of each joint in their elastic distance, and the alignment cost over time.
-
-The elastic energy of an optimal DP path (d_S*^2, pinned or with a free window) is an integral over the query's
-time of |q0(t) - q1(phi(t)) sqrt(phi'(t))|^2, and the squared norm is a sum over joints, so the energy splits
-exactly into (query interval x joint) pieces (``subsequence.path_costs``). Summed over time, a joint's piece is
-its contribution: ``joints`` gives each bone's share of the energy (non-negative, summing to 1), ``groups`` the
-same summed over the canonical joint groups of ``core.rigs`` (spine and head, each arm, each leg) when the bones
-are canonical joints. Summed over joints, the pieces give ``cost_over_time``: the energy spent on each interval of
-the query on the comparison time base (``fps`` intervals a second; they sum to ``energy``), i.e. where in the
-query the match is poor. Shares are of the energy (the squared distance): they add up, the distances do not.
+"""Why two clips differ: the elastic energy of an optimal path (pinned or with a free window) split exactly into
+(query interval x joint) pieces (``subsequence.path_costs``). ``explain_path`` / ``explain_clips`` give ``joints``
+(each bone's share of d_S*^2, summing to 1), ``groups`` (the same over the canonical joint groups of
+``core.rigs``) and ``cost_over_time`` (the energy on each interval of the query on the comparison time base).
+See docs/search.md, "Moments".
 """
 
 import numpy as np

@@ -1,42 +1,8 @@
-"""The elastic distance with a free start and end on the long curve: where in R1 does R0 occur?
-
-Derivation from the pinned DP (``elastic``, ``_dp_kernels``). There, node (i, j) of the N0 x N1 frame grid
-means "time t0[i] of curve 0 is matched with time t1[j] of curve 1", a step (k, l) -> (i, j) is the linear map
-of [t0[k], t0[i]] onto [t1[l], t1[j]], its energy is the exact integral
-
-    E = int_{t0[k]}^{t0[i]} |q0(t) - q1(phi(t)) sqrt(phi')|^2 dt,
-
-and the DP reads A[N0-1, N1-1] from A[0, 0] = 0 (every other start is +inf).
-
-The energy of a step only involves the SRVT values on the intervals it covers. So the pinned DP of R0 against the
-piece R1[l0..l1] (the same spacing h1, the same steps) is the pinned DP above restricted to columns l0..l1, and
-
-    min over (l0, l1) of  DP_pinned(R0, R1[l0..l1])  =  min_j A[n0, j]   with   A[0, l] = 0 for every l,
-    A[i, j] = min over steps (di, dj) of  A[i - di, j - dj] + E((i - di, j - dj) -> (i, j))   (i >= 1)
-
-(the open-begin/open-end, or *subsequence*, DP): a zero first row lets the path start at any frame of R1, reading
-the minimum over the last row lets it end at any frame. The path's first and last columns name the window. The
-recursion is the pinned one, so the step table (``elastic.step_table``, pruned of the redundant non-coprime
-steps), the overlap weights and the tables of window sums are reused unchanged; only the boundary and the
-read-out differ, and no band is needed (every node with j >= 0 is reachable from row 0).
-
-Units. R0 runs over [0, 1] (h0 = 1 / n0). The SRVT energy is invariant under an affine change of R1's clock
-(q1 -> q1 / sqrt(alpha) and phi' -> alpha phi' cancel), so R1 is given the same spacing as R0 (h1 = h0, both
-curves on the comparison time base of ``core.clip.prepare``): the energy of a window is then exactly
-``elastic_distance(R0, R1[l0..l1])^2`` up to rounding, whatever its length. A time-shift penalty (eq. 4.8's
-lambda) compares t with phi(t) and has no meaning when R1's window is unknown: it is not offered.
-
-Kernels. ``method="numba"`` (a JIT kernel, cache=True, nogil=True) and ``method="numpy"`` (the reference,
-vectorized over the columns of one DP row) evaluate every candidate with one floating-point expression, that of
-``_dp_kernels`` with no penalty term:
-
-    x = chunk_1 + chunk_2 + ... (left to right; a chunk is ((c1 g1 + c2 g2) + (c3 g3 + c4 g4)) over up to four
-        entries of the step, g = G[k + ea, l + eb]),   cand = A[k, l] + ((B0[di, i] + B1[dj, j]) - x),
-
-ties going to the first step in table order and, at the end, to the first column; so both give identical
-values, paths and windows. ``path_costs`` splits a path's energy exactly into pieces (query interval x joint):
-a step's integral is a sum over the merged breakpoints of length x |q0_a - sqrt(phi') q1_b|^2, per joint a sum
-of squares; it serves ``core.elastic.explain`` for both the pinned and the open DP.
+"""The elastic distance with a free start and end on the long curve (the open-begin/open-end, or subsequence, DP):
+where in R1 does R0 occur? The pinned recursion of ``elastic`` with a zero first row and the minimum read over the
+last row; the path's first and last columns name the window. Numba and numpy kernels share the floating-point
+contract of ``_dp_kernels`` (no penalty term); ``path_costs`` splits a path's energy exactly into (query interval
+x joint) pieces for ``explain``. Derivation in docs/elastic.md, "Implementation notes".
 """
 
 from dataclasses import dataclass

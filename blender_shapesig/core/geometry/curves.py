@@ -1,13 +1,7 @@
-"""Curves in SO(3)^d: validation, right logarithmic derivative, SRVT and its inverse,
-piecewise-geodesic interpolation and the L2 distance d_P* (reference secs. 4-6).
-
-A curve is an array ``R`` of shape ``(frames, joints, 3, 3)`` of rotation matrices, sampled at
-times ``t`` (increasing, from 0 to 1; uniform when omitted). Unit quaternions of shape
-``(frames, joints, 4)`` in scipy's (x, y, z, w) order are accepted wherever a curve is.
-
-Between samples a curve is the geodesic of eq. 5.8, so its right logarithmic derivative and SRVT
-are piecewise constant (eqs. 5.10-5.13): one value per interval, arrays of ``frames - 1`` rows.
-All exponentials, logarithms and quaternion conversions are those of ``core.geometry.so3``.
+"""Curves in SO(3)^d (reference secs. 4-6): validation, the right logarithmic derivative, the SRVT and its inverse,
+piecewise-geodesic interpolation and the L2 distance d_P*. A curve is ``(frames, joints, 3, 3)`` matrices (or
+``(frames, joints, 4)`` xyzw quaternions) at times from 0 to 1, a geodesic between samples, so its derivative and
+SRVT are piecewise constant (one row per interval). See docs/model.md.
 """
 
 import contextlib

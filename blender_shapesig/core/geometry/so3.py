@@ -1,32 +1,8 @@
-"""The rotation toolkit of the package: SO(3) log/exp, increments and their integration, the nearest
-rotation, quaternion and Euler conversions, Blender's rotation channels and the one stillness rule.
-
-Pure numpy, vectorized over any leading shape: a rotation is a (..., 3, 3) array, a rotation vector a
-(..., 3) array (axis times angle, angle in [0, pi]). Names follow scipy's ``Rotation`` (``from_X`` /
-``as_X``) as module functions: ``matrix_from_quat`` / ``quat_from_matrix``, ``matrix_from_euler`` /
-``euler_from_matrix``, ``exp`` (``from_rotvec``) / ``log`` (``as_rotvec``).
-
-Conventions.
-
-* Quaternions: the order of the components is always explicit, ``scalar_first=True`` for Blender's
-  (w, x, y, z), ``scalar_first=False`` for scipy's and the curves API's (x, y, z, w). One implementation
-  serves both orders.
-* Euler angles: Blender's rotation modes ('XYZ', 'ZXY', ...): rotations about the fixed (extrinsic) axes,
-  the first letter applied first, so mode 'XYZ' is ``R = Rz Ry Rx`` (scipy's lowercase 'xyz'). The angles
-  are given in the order of the letters. Blender's ``rotation_euler`` channels store (x, y, z) whatever the
-  mode; ``matrices_from_channels`` / ``channels_from_matrices`` do that bookkeeping.
-
-Accuracy (checked in tests/core/test_so3.py against longdouble references built from exact axis-angle
-pairs, and against scipy). ``log`` takes the angle as ``arctan2(|w|, c)`` with ``w`` the axial vector of the
-skew part (|w| = sin(theta)) and ``c = (tr R - 1) / 2`` (= cos(theta)): unlike ``arccos(c)``, whose round-off
-floor is ~1e-8 near 0, and ``arcsin(|w|)``, which cannot tell theta from pi - theta, arctan2 keeps full
-relative precision near 0 and full absolute precision near pi. The axis is ``w / |w|`` while theta <= pi/2;
-beyond, where |w| -> 0 makes that direction lose digits, the axis is the column of the symmetric part
-``(R + R^T)/2 - c I = (1 - c) a a^T`` with the largest diagonal (at least 1/3 of the length), its sign taken
-from ``w`` (at theta = pi both signs are the same rotation). ``exp`` is Rodrigues' formula written as
-``R = cos(theta) I + b v v^T + a [v]x`` with ``a = sin(theta)/theta`` and ``b = 2 sin^2(theta/2)/theta^2``
-(no cancellation in 1 - cos), and their Taylor series below theta = 1e-6; sin(theta), cos(theta) and sin(theta/2) all come from
-sin(theta/2) and cos(theta/2).
+"""The rotation toolkit of the package, pure numpy and vectorized over leading axes: SO(3) ``log`` / ``exp``,
+increments and their integration, the nearest rotation, quaternions in either component order
+(``scalar_first``), Blender's Euler modes and rotation channels, headings about an up axis and the one stillness
+rule. Names follow scipy's ``Rotation`` (``matrix_from_quat``, ``euler_from_matrix``, ...). Conventions and the
+accuracy of ``log`` / ``exp``: docs/dev/rotations.md.
 """
 
 import numpy as np

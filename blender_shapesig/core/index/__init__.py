@@ -1,15 +1,7 @@
-"""The signature search index: rank a library of clips by the normalized log-signature distance sim^n
-(eq. 9.1), optionally re-rank the best by the elastic distance d_S*.
-
-One owner per concept, data flowing one way (words -> entry -> store -> rank):
-
-* ``words``: global Lyndon word codes over a skeleton's letters and the count sketch;
-* ``entry``: ``IndexEntry`` (one clip's moving joints, log-signature direction, increments, sketch),
-  ``make_entry``, ``entry_distance`` and the increments of two entries on a bone subset;
-* ``store``: ``SignatureCache``, a pure store of entries (memory + disk, lazy heavy arrays, memory limit,
-  compact mode, format version); it never loads clips nor computes entries;
-* ``rank``: ``iter_entries`` (the one index generator: computes what the store lacks and puts it there),
-  ``build_index``, ``rank_clips`` -> ``RankList`` of ``RankResult``.
+"""The signature search index: rank a library of clips by sim^n (eq. 9.1) and optionally re-rank the best by d_S*.
+Data flows one way, ``words`` (word codes, sketch) -> ``entry`` (``IndexEntry``) -> ``store`` (``SignatureCache``)
+-> ``rank`` (``iter_entries``, ``build_index``, ``rank_clips``); ``windows`` and ``dedupe`` build on them.
+See docs/search.md.
 """
 
 from ..metrics import DEFAULT_LEVEL

@@ -1,29 +1,7 @@
-"""Near-duplicate clusters of a library: the pure logic of ``dedupe`` (never imports bpy, dask or matplotlib).
-
-Two stages, as in the search (``core.index``):
-
-1. **The signature k-NN graph.** Every clip's index entry (``index.make_entry``: the unit log-signature
-   direction of its moving joints) is put on one *common bone tuple* (``common_entry``): clips mapped into the
-   comparison space (``rigs.apply_bone_map``) all name their joints in the canonical order ``rigs.JOINTS``, so
-   an entry on a subset of them is the same direction on all of them, with the missing joints still (their
-   letters have zero coordinates, ``index.entry``). The count sketches then shortlist ``pool`` neighbours per
-   clip (one matrix product), the exact sim^n (``pair_sim``, equal to ``index.entry_distance``) keeps the ``k``
-   nearest, and the union of these edges is the candidate graph (``knn_graph``): about k n pairs, not n^2 / 2.
-2. **The elastic check.** Only candidate pairs get the elastic distance d_S* (``check_pairs``), through
-   ``metrics.clip_distance`` on the comparison time base (``prepare``: one rate in seconds and the SRVT
-   low-pass), on curves rebuilt from the entries' increments (no file is read again).
-
-**Threshold** (``relative_threshold``): a pair is a near-duplicate when d_S* <= tau, by default
-``tau = THRESHOLD_RATIO * median(d_S* of the checked candidate pairs)``. The candidate pairs are each clip's
-k nearest takes, so with k larger than a typical cluster their median is the distance between *different* takes
-of similar motions (a walk and the next walk); a copy is far below it. The ratio was chosen by measurement
-(docs/search.md, "Library report").
-
-**Clusters** (``clusters``): confirmed edges are merged in order of increasing distance, *complete linkage*:
-two groups join only when every pair across them is within tau (pairs that were not candidates are checked
-on demand). Connected components alone chain: A ~ B ~ C puts A and C together even when they differ by more
-than tau, and in a library of one subject's walks (a take, its BVH and AMC copies, the next take) a chain can
-swallow the whole class; docs/search.md measures both rules.
+"""Near-duplicate clusters of a library, the pure logic of ``dedupe`` (never imports bpy, dask or matplotlib): a
+signature k-NN graph on a common bone tuple (``common_entry``, ``knn_graph``), the elastic check of its candidate
+pairs on the comparison time base (``check_pairs``), the threshold (``relative_threshold``) and complete-linkage
+``clusters``. See docs/search.md, "Library report (dedupe)".
 """
 
 import time

@@ -1,20 +1,7 @@
-"""The index entry of one clip, and distances between entries.
-
-An entry (``IndexEntry``) holds the clip's bones, its *moving* joints (still joints are dropped: their letters
-have zero coefficients in every Lyndon word that contains them), the unit log-signature direction a/|a| at
-``level`` on the moving joints only (float32, Lyndon coordinates), |a|, the per-frame increments
-log(R[k+1] R[k]^T) of the moving joints (float32; they rebuild the curve up to a right translation, which none
-of the distances sees) and a count sketch of the direction (``words.sketch``).
-
-Why that is exact. The log-signature of a path that never moves along some coordinates lies in the free Lie
-algebra over the other letters, so in the Lyndon basis every coordinate of a word containing a still letter is
-0, and the coordinates of the other words are those of the log-signature computed on the moving letters alone.
-Two clips of one skeleton (the same bone tuple) therefore compare exactly by matching their words by global code
-(``words.word_codes``): sim = |u - v| with both directions zero outside their own words. This equals
-``signatures.normalized_distance`` on the two curves (tested).
-
-Clips of different skeletons are compared on the bones both have, in the query's bone order
-(``metrics.clip_distance``'s convention), from the stored increments on that subset (``pair_increments``).
+"""The index entry of one clip (``IndexEntry``, ``make_entry``): its moving joints, the unit log-signature direction
+on them, |a|, the increments and the count sketch; and distances between entries (``entry_distance``, exact by
+word codes) and the increments of two entries on their shared bones (``pair_increments``).
+See docs/search.md, "The index and its cache".
 """
 
 from dataclasses import dataclass

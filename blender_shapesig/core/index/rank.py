@@ -1,17 +1,7 @@
-"""Ranking a library against a query, and the one index generator.
-
-    iter_entries(items, level, store, errors)  # THE index loop: yields (item, entries) per item, computing
-                                               # (make_entry) and storing what the store does not hold
-    build_index(items, level, cache)           # fill the store (the CLI, scripts); the modal operator steps
-                                               # iter_entries itself, one item per timer tick
-    rank_clips(query, library, ...)            # -> RankList of RankResult, best first
-
-Speed. Ranking one query against many clips of one skeleton: the sketches (one matrix product) select the best
-``max(EXACT_POOL, 4 top, rerank)`` candidates, and only those are compared exactly; without ``top``, or when the
-library is no larger than the pool, every clip is compared exactly. With a compact store, clips whose directions
-are not stored are ranked by their sketches alone and their results are flagged ``approximate``. Clips of other
-skeletons are compared on the shared bones, from their increments (slower; see ``entry``).
-See docs/search.md for the measurements (recall of the sketch against the exact ranking, memory).
+"""Ranking a library against a query and the one index generator: ``iter_entries`` (computes what the store lacks
+and stores it), ``build_index`` and ``rank_clips`` (-> ``RankList`` of ``RankResult``): sketches shortlist, exact
+word-code distances, other skeletons on their shared bones, an optional d_S* re-rank.
+See docs/search.md.
 """
 
 import dataclasses

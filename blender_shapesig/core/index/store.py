@@ -1,20 +1,8 @@
-"""The signature cache: a pure store of index entries keyed by (content key, level).
-
-It stores and returns entries; it never loads clips nor computes entries (``rank.iter_entries`` does, and puts
-what it computes here). On disk it owns only its own folder, ``<the folder named>/blender_shapesig-cache/``, marked
-by a ``CACHEDIR.TAG`` it wrote: one ``<sha1>.npz`` per library item (all its clips: meta as JSON, then per clip
-its sketch, direction and increments), a ``manifest.json`` with the format version, the light pack and its own
-temporary files; it deletes nothing else, and refuses a folder of that name it did not mark. When the folder
-cannot be used (made, marked or written: a full disk, a read-only folder, a path that is a file, an unsafe
-fallback folder) the cache goes on in memory only and says so once (``warning``).
-
-Reads are *light*: the meta and sketches are read when an item is looked up (``get``), the heavy arrays
-(directions and increments) only when a distance needs them (``heavy``). ``memory_limit`` bounds the heavy
-arrays kept in memory (least recently loaded dropped first, re-read from disk when needed).
-
-The *light pack* (``light_pack.bin``, written by ``save_pack`` at the end of ``rank_clips`` / ``build_index``)
-holds every entry file's meta and sketches, so a new process looks a library up with one read; a packed entry
-is used only while its entry file keeps the size and mtime it had, and a damaged pack is ignored.
+"""The signature cache (``SignatureCache``): a pure store of index entries keyed by (content key, level), in memory
+and on disk in a folder it owns (``<the folder named>/blender_shapesig-cache/``, marked by a ``CACHEDIR.TAG`` it
+wrote: one ``<sha1>.npz`` per library item, a manifest, the light pack), deleting nothing it did not write and
+going on in memory with one ``warning`` when the folder cannot be used. It never loads clips nor computes entries
+(``rank.iter_entries`` does). See docs/search.md, "The index and its cache".
 """
 
 import errno

@@ -1,28 +1,7 @@
-"""Moments: rank (clip, window) pairs against a query, not whole clips.
-
-Two stages, like the whole-clip search:
-
-1. **Shortlist by signatures.** On the comparison time base (``core.clip.prepare``, ``COMPARE_FPS``), a clip's
-   development has the prefix signatures P_t = S(x)_{0,t}. By Chen's identity S(x)_{0,t} = S(x)_{0,s} ⊗
-   S(x)_{s,t}, so the signature of the window [s, t] is S(x)_{s,t} = P_s^{-1} ⊗ P_t, with P_s^{-1} the antipode
-   (``tensor.antipode``, exact for group-like elements). The prefixes are computed once per clip on a grid of
-   ``stride`` frames (each from the previous one and the signature of one stride of increments), and every
-   window of every scale is then one product of two of them. Windows last ``scales`` x the query's duration in
-   seconds (so re-timed copies, 0.8x to 1.25x, are met by some scale) and start every ``stride`` (a fraction
-   ``STRIDE`` of the query's duration); a clip shorter than a window is one window, the whole clip. Each window is
-   compared with the query by sim^n (eq. 9.1) in tensor coordinates (``tensor.log``; the norm is the orthonormal
-   one of ``signatures``) at ``WINDOW_LEVEL`` = 2: a level-3 prefix over 30 moving joints holds 90^3 = 729,000
-   numbers, and a clip needs hundreds of prefixes, so level 3 would cost gigabytes where level 2 costs
-   megabytes.
-2. **Refine by the elastic distance with a free window.** For the ``rerank`` clips whose best windows are
-   closest, the open-begin/open-end DP (``core.elastic.subsequence``) matches the whole query against the clip around
-   its ``REFINE_WINDOWS`` best non-overlapping windows (each padded by ``PAD`` of its length on both sides): the
-   path's ends are the moment's frames, its energy's square root the result's ``elastic``. The refined results
-   are ordered by it, before the others.
-
-Results are ``RankResult``s with ``start``/``end`` in the clip's own frame numbers (``Clip.frame_start``, so a
-crop or a trim is accounted for): comparison frame f of a clip of N frames at F fps maps to frame
-``frame_start + round(f * (N - 1) / (M - 1))`` with M the comparison frames (the same duration).
+"""Moments: rank (clip, window) pairs against a query, not whole clips. Windows are shortlisted by sim^n from prefix
+signatures (Chen's identity, one product per window) on the comparison time base, and the best clips are refined
+by the elastic DP with a free window (``core.elastic.subsequence``); results carry ``start`` / ``end`` in the
+clip's own frame numbers. See docs/search.md, "Moments".
 """
 
 import time

@@ -1,12 +1,7 @@
-"""Word codes and the count sketch of the signature index.
-
-A log-signature in the Lyndon basis has one coordinate per Lyndon word over the letters of the path. The index
-names each word by a *global* integer code over the skeleton's letters (joint j has letters 3j, 3j+1, 3j+2), so
-that directions computed on different sets of moving joints of one skeleton can be matched word by word
-(``entry.entry_distance``), and hashes those codes into a count sketch whose buckets are comparable across clips.
-
-Why matching by code is exact: a sub-alphabet keeps its order, so its Lyndon words and their bracketings are the
-same words of the full alphabet; a word containing a still letter has coordinate 0 (see ``entry``).
+"""Word codes and the count sketch of the signature index: every Lyndon word gets a global integer code over the
+skeleton's letters (joint j has letters 3j, 3j+1, 3j+2), so directions computed on different sets of moving
+joints match word by word, exactly (``entry.entry_distance``), and the codes hash into a count sketch whose
+buckets are comparable across clips. See docs/search.md.
 """
 
 from functools import lru_cache

@@ -1,21 +1,6 @@
-"""Acclaim ASF/AMC motion capture (the CMU database format), without bpy: the one door to the format.
-
-``asf.parse_asf`` reads skeletons, ``amc.parse_amc`` motions; this module gives an AMC take as a Clip
-(``load_acclaim``) in ASF axes or Blender's (``to_blender_axes``) and re-exports the parsers' names.
-
-Conventions (all in the ASF's world: right-handed, Y up):
-
-* ``C`` (a bone's ``axis``) is the orientation of the bone's local frame in the world:
-  ``C = R_3(a_3) R_2(a_2) R_1(a_1)`` for axis order ``"123"`` (the first named axis is applied first).
-* ``M`` (a frame's AMC rotation) is built the same way from the bone's ``dof`` angles in their listed order
-  (the root's from its ``axis`` order), about the bone's local axes.
-* A bone's *local rotation* (relative to its parent, in world-aligned axes) is ``L = C M C^-1``; its world
-  rotation is ``G = G_parent L``; its head is its parent's tail (the root's head is the AMC root
-  translation), and its tail is ``head + G (direction * length)``.
-* Lengths and translations are in the ASF's units. CMU files say ``length 0.45``: one unit is
-  ``1/0.45`` inch, so ``meters = value * 0.0254 / length_unit`` (``Skeleton.meters_per_unit``).
-* Only rotations (``rx``, ``ry``, ``rz``) of non-root bones are animated; ``tx/ty/tz/l`` channels of
-  non-root bones are read (value count checked) and ignored.
+"""Acclaim ASF/AMC motion capture (the CMU format) without bpy, the one door to the format: ``load_acclaim`` gives
+an AMC take as a Clip in ASF axes or Blender's (``to_blender_axes``), ``forward_kinematics``, and the names of
+the parsers ``asf.parse_asf`` and ``amc.parse_amc``. Conventions: docs/action_io.md, "ASF/AMC".
 """
 
 import os

@@ -1,23 +1,7 @@
-"""BVH files without bpy: our own reader, the text Blender's importer can read and the checks it lacks.
-
-``load_bvh(path)`` reads a BVH take as a Clip **equal to what Blender's importer gives** (``readers.bvh.import_bvh``
-with our settings, read back in armature space) without Blender: it is the reader the library index and the CLI
-use for ``.bvh`` (``core.io.sources``), ~100x faster than importing an armature. Why the two agree: the importer
-keys each pose bone's rotation as ``P = B^-1 E B`` (``E`` the joint's Euler rotation from its channels in BVH
-axes, ``B`` the bone's rest orientation) and then rotates the armature data by its axis conversion ``A`` (BVH Y up
-/ -Z forward -> Blender Z up), so the rest frames become ``A B`` and the armature-space rotation
-``(A B) P (A B)^T = A E A^T`` does not depend on the bones' rest frames at all; likewise the root's location
-becomes ``A p`` (``p`` the root's position channels). The only differences are the importer's 32-bit floats
-(~1e-7). Names follow the importer (spaces joined by ``_``, repeated names suffixed ``.001``, ...), every frame
-of the MOTION section is kept (the importer reads every data line), the joints' rotation modes are the channel
-orders (its ``NATIVE`` mode). Not kept: ``meta["rest_rotations"]`` (the importer's bone rolls; armature space does
-not need them).
-
-Blender's BVH importer (``io_anim_bvh``) reads plain UTF-8 only and fails with a traceback on a malformed
-file; ``check_bvh`` validates the structure (HIERARCHY, balanced braces, CHANNELS counts, MOTION header,
-one number per channel in every frame) and every number (finite, within float32: Blender keys 32-bit
-floats) first, naming the line, so the importer only ever sees a file it reads. The Blender half is
-``blender_shapesig.readers.bvh`` (bringing a BVH rig into a scene).
+"""BVH files without bpy: ``load_bvh`` reads a take as a Clip equal to what Blender's importer gives in armature
+space (to its 32-bit floats), the reader of the index and the command line; ``check_bvh`` validates the
+structure and every number first, naming the line, so Blender's importer only ever sees a file it reads. Why the
+two agree: docs/dev/rotations.md. The Blender half is ``blender_shapesig.readers.bvh``.
 """
 
 import os

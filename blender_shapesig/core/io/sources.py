@@ -1,23 +1,8 @@
 """Where clips come from: the one front door for reading clips by name (pure Python, never imports bpy).
-
-A *source* is what a user names: a file (``.bvh``, ``.amc``, ``.blend``), ``FILE.blend#ACTION``, a folder of
-such files, or a clip already in memory. This module owns, once for the whole package:
-
-* ``ClipSpec``: a parsed CLIP argument with the options that change what is read (skeleton, crop, frame
-  rate); ``ClipSpec.parse(text)`` splits ``FILE.blend#ACTION``.
-* the extensions (``EXTENSIONS``) and discovery of clip files in folders (``discover``);
-* the skeleton of an ``.amc``: ``acclaim.find_asf``;
-* the **key recipe** (``ClipSpec.key``, ``file_key``, ``clip_key``): one string that changes whenever anything
-  the distances depend on changes. The command line, the panel's folder libraries and the tools build keys
-  only here, so they share signature-cache entries for the same file;
-* the **reader registry**: one reader per extension, ``read(spec) -> [Clip]``. ``.amc`` and ``.bvh`` are read
-  here (pure Python, ``core.io``; the BVH reader gives what Blender's importer gives); ``.blend`` by the
-  Blender layer, which registers its reader (``register_reader``) when the package is imported, so core never
-  names it and stays importable without Blender;
-* ``LibraryItem``: a library member that is loaded only when its key is not cached (``library``,
-  ``clip_item``).
-
-Data flows one way: sources -> Clip -> maths (curves, elastic, signatures, index) -> writers.
+``ClipSpec`` (a parsed CLIP argument: ``FILE.blend#ACTION``, skeleton, crop, frame rate, trim), discovery in
+folders (``EXTENSIONS``, ``discover``), the **cache key recipe** (``ClipSpec.key``, ``file_key``, ``clip_key``),
+``read(spec)`` through the reader registry (the ``.blend`` reader is registered by the Blender layer) and
+``LibraryItem``. See docs/architecture.md, "A file to a ranked row".
 """
 
 import dataclasses

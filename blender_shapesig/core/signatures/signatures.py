@@ -1,43 +1,8 @@
-"""Signatures, log-signatures and the signature similarity measures (reference secs. 7-9).
-
-The path (sec. 7.2). A curve R in SO(3)^d sampled at frames 0..m, joined by geodesics, has a
-piecewise-constant right logarithmic derivative, so its signature is that of the piecewise-linear
-*development* in R^(3d): the path starting at 0 whose k-th increment is log(R[k+1] R[k]^T) as rotation
-vectors, stacked by joint (coordinates 3j, 3j+1, 3j+2 belong to joint j). The time grid plays no part
-(reparametrization invariance, eq. 7.10); only the increments do. We pass the *path* (cumulative sum
-of the increments) to iisignature, which expects points; passing the increments themselves as points,
-as the thesis' public code did, computes the signature of a different path.
-
-Two implementations give one answer: ``method="iisignature"`` (the reference, optional at import
-time) and ``method="numpy"`` (``tensor.py``: Chen's identity with the top level as one matrix product,
-closed-form truncated logarithm, exact projection onto the Lyndon basis; Lyndon coordinates at levels <= 3
-straight from the increments by ``tensor.lyndon_log_signature``, a third of the level-3 products). ``method="auto"`` uses
-numpy, which is the faster of the two in ``benchmarks/bench_signatures.py`` for every operation here
-(see docs/signatures.md) and is the only one when iisignature is missing.
-
-Layouts. ``signature``: levels 1..n of the truncated signature, level k row-major over d^k words (the
-layout of ``iisignature.sig``, level 0 = 1 omitted). ``log_signature``: with ``basis="lyndon"`` the
-coordinates in the Lyndon basis in the order of ``iisignature.logsig``'s default output; with
-``basis="tensor"`` the log-signature expanded in tensor space (same layout as ``signature``). The
-tensor-space coordinates are orthonormal: their Euclidean norm is unchanged by any orthogonal map of
-R^(3d) (reordering bones, rotating the frame of every joint by one rotation); Lyndon coordinates are
-not.
-
-Measures (x, y paths; S the truncated signature at level n):
-
-* ``group_distance``: rho^n(x, y) = ||S(y)^-1 ⊗ S(x)||_{G^n} (eqs. 8.1-8.3), with the Lyons-Victoir
-  norm ||g|| = max_i (i! |g_i|)^(1/i) + max_i (i! |(g^-1)_i|)^(1/i), both terms computed;
-* ``concat_distance``: sigma_*^n = |log S(x * reversed y)| + |log S(y * reversed x)| (eq. 8.5). The group
-  concatenation of curves (eq. 7.9) right-translates the second curve to start where the first ends,
-  which leaves its increments log(R[k+1] R[k]^T) unchanged, so the development of u * v is the path
-  concatenation of the developments and S(x * reversed y) = S(x) ⊗ S(y)^-1;
-* ``linear_distance``: sigma_L^n = |log S(x) - log S(y)| (eq. 8.6);
-* ``normalized_distance``: sim^n = |a/|a| - b/|b|| for the log-signatures a, b (eq. 9.1). The zero case:
-  a log-signature with norm <= ``ZERO_NORM`` (a curve that does not move) has no direction and is
-  taken as the zero vector, so sim = 0 when both are zero and sim = 1 when exactly one is.
-
-Norms of log-signatures are Euclidean norms of the chosen coordinates (``basis``, Lyndon by default,
-as in the thesis, which used iisignature's default basis).
+"""Signatures, log-signatures and the signature measures of the reference (secs. 7-9): of the development of a curve
+in SO(3)^d (the path in R^(3d) whose increments are log(R[k+1] R[k]^T)), ``signature``, ``log_signature`` (Lyndon
+or tensor coordinates) and the measures ``group_distance`` (rho^n), ``concat_distance`` (sigma_*^n),
+``linear_distance`` (sigma_L^n) and ``normalized_distance`` (sim^n, zero rule ``ZERO_NORM``). ``method`` is
+``"numpy"`` (``tensor``) or ``"iisignature"`` (optional); ``"auto"`` takes numpy. See docs/signatures.md.
 """
 
 import math

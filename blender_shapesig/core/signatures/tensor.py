@@ -1,22 +1,7 @@
-"""Truncated tensor algebra T^(n)(R^d) in numpy (reference sec. 7).
-
-A truncated tensor of depth ``n`` over R^d is a list ``[a_0, a_1, ..., a_n]`` of 1-D float arrays,
-``a_k`` holding the d^k coefficients of level k in row-major order (the first letter of a word is the
-most significant index). This is the layout of iisignature: ``flatten`` drops level 0 and concatenates
-the rest, which is exactly what ``iisignature.sig`` returns.
-
-Contents:
-
-* products, the exponential, the logarithm (closed-form truncated series) and inverses;
-* ``signature_from_increments``: the signature of a piecewise-linear path by Chen's identity, the
-  levels below the top as cumulative sums over time and the top level as one matrix product over time;
-* ``lyndon_log_signature``: the Lyndon coordinates of the log-signature at levels <= 3 straight from the
-  increments by matrix products (no level-3 tensor, no running level-2 sums);
-* Lyndon words, their standard bracketings and the projection of a Lie element (a log-signature in
-  tensor form) onto the Lyndon basis, giving the same coordinates as ``iisignature.logsig``;
-* the Witt formula for the dimension of the truncated free Lie algebra.
-
-Nothing here imports iisignature; this module is the fallback when it is missing.
+"""The truncated tensor algebra T^(n)(R^d) in numpy (reference sec. 7), iisignature's layout (a list of levels, each
+row-major over its words): products, exp, log and inverses, ``signature_from_increments`` (Chen's identity),
+``lyndon_log_signature`` (levels <= 3 straight from the increments), Lyndon words and the projection onto the
+Lyndon basis, and Witt's formula. It never imports iisignature. See docs/signatures.md.
 """
 
 import math
