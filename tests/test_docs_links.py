@@ -1,0 +1,81 @@
+"""Every relative link and image in README.md and docs/**/*.md points at a file that exists, and every
+``#anchor`` at a heading of the target page (GitHub's anchor rule: lower case, punctuation dropped, spaces to
+hyphens)."""
+
+import os
+import re
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LINK = re.compile(r"!?\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
+FENCE = re.compile(r"^(```|~~~)")
+
+
+def _pages():
+    pages = [os.path.join(ROOT, "README.md")]
+    for folder, _dirs, files in os.walk(os.path.join(ROOT, "docs")):
+        pages += [os.path.join(folder, f) for f in files if f.endswith(".md")]
+    return sorted(pages)
+
+
+def _prose(path, keep_code=False):
+    """(line number, line) of the page outside fenced code blocks, inline code removed (kept as text with
+    ``keep_code``: GitHub's heading anchors include it)."""
+    out, fenced = [], False
+    with open(path, encoding="utf-8") as fh:
+        for no, line in enumerate(fh, start=1):
+            if FENCE.match(line.strip()):
+                fenced = not fenced
+                continue
+            if not fenced:
+                out.append((no, line.replace("`", "") if keep_code else re.sub(r"`[^`]*`", "", line)))
+    return out
+
+
+def _anchor(heading):
+    text = re.sub(r"[^\w\- ]", "", heading.strip().lower())
+    return text.replace(" ", "-")
+
+
+def _anchors(path):
+    found = set()
+    for _no, line in _prose(path, keep_code=True):
+        m = re.match(r"^#{1,6}\s+(.*)", line)
+        if m:
+            found.add(_anchor(m.group(1)))
+    return found
+
+
+def _links(path):
+    for no, line in _prose(path):
+        for target in LINK.findall(line):
+            if not re.match(r"^[a-z][a-z0-9+.-]*:", target):  # http:, https:, mailto: are not checked here
+                yield no, target
+
+
+def test_anchor_rule():
+    assert _anchor("Blender 5.2 LTS beside 5.0") == "blender-52-lts-beside-50"
+    assert _anchor("Time base: seconds, not frames") == "time-base-seconds-not-frames"
+
+
+@pytest.mark.parametrize("page", _pages(), ids=lambda p: os.path.relpath(p, ROOT))
+def test_relative_links_resolve(page):
+    bad = []
+    for no, target in _links(page):
+        path, _, anchor = target.partition("#")
+        dest = os.path.normpath(os.path.join(os.path.dirname(page), path)) if path else page
+        if not os.path.exists(dest):
+            bad.append(f"line {no}: {target} (no such file)")
+        elif anchor and dest.endswith(".md") and anchor not in _anchors(dest):
+            bad.append(f"line {no}: {target} (no such heading)")
+    assert not bad, f"{os.path.relpath(page, ROOT)}: " + "; ".join(bad)
+
+
+def test_the_guide_is_reachable_from_the_readme():
+    targets = {t for _no, t in _links(os.path.join(ROOT, "README.md"))}
+    assert "docs/README.md" in targets
+    index = {t.partition("#")[0] for _no, t in _links(os.path.join(ROOT, "docs", "README.md"))}
+    for page in ("install.md", "search.md", "blending.md", "cli.md", "rigs.md", "faq.md", "performance.md",
+                 "architecture.md", "dev/README.md"):
+        assert page in index
