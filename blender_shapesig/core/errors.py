@@ -30,6 +30,11 @@ class ParseError(ShapeSigError):
         self.line = line
 
 
+class UnreadableFileError(ParseError):
+    """A file the readers do not open (``core.files``): not a regular file (a FIFO, a device, a socket, a dangling
+    or looping link), unreadable, or over a size cap. Libraries skip such files and report them once."""
+
+
 def check_integer(value, name, minimum=1, allow_none=False, maximum=None):
     """``value`` as an int >= minimum (and <= maximum when given; an integral float is fine); ShapeSigError
     naming ``name`` otherwise."""

@@ -23,6 +23,7 @@ import bpy
 from .. import action_io, compat
 from ..core.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
+from ..core.files import check_file
 from ..core.formats.blend import check_blend
 from . import _blend_child
 from .scratch import id_snapshot, remove_new_ids
@@ -83,7 +84,9 @@ def _read_isolated(path, action_name, space):
 
 
 def read_blend_here(path, action_name=None, space="armature"):
-    """``read_blend_file`` in this process (what the child process runs)."""
+    """``read_blend_file`` in this process (what the child process runs): a regular file within the size cap
+    (``core.files``) only."""
+    check_file(path)
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
             available = list(data_from.actions)
