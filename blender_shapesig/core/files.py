@@ -106,8 +106,13 @@ def _size_problem(size, path) -> Optional[str]:
     if size <= limit:
         return None
     blend = os.fspath(path).lower().endswith(".blend")
-    return (f"is {size / 2 ** 20:,.0f} MB, over the {limit / 2 ** 20:,.0f} MB limit for "
+    return (f"is {_mb(size)} MB, over the {_mb(limit)} MB limit for "
             f"{'.blend' if blend else 'clip'} files (${MAX_BLEND_MB_ENV if blend else MAX_FILE_MB_ENV} raises it)")
+
+
+def _mb(nbytes) -> str:
+    mb = nbytes / 2 ** 20
+    return f"{mb:,.0f}" if mb >= 10 else f"{mb:.2g}"
 
 
 def check_file(path, cap=True) -> os.stat_result:
