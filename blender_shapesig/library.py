@@ -297,8 +297,7 @@ def _file_actions(settings, obj):
 
 
 def _folder_specs(context, settings, skipped):
-    """The folders' clip files as ClipSpecs, not keyed yet (keying hashes a file: ``SearchLibrary.members``);
-    files the readers do not open (not regular files, over a cap: ``core.files``) go to ``skipped``."""
+    """The folders' clip files as ClipSpecs, not keyed yet; files the readers do not open go to ``skipped``."""
     folders = _folders(context, settings)
     if not folders:
         raise ShapeSigError("no library folders: add some in the panel or the add-on preferences")
@@ -335,8 +334,7 @@ class SearchLibrary:
     unkeyed: int = 0  # members that could not be keyed (their reasons are in ``skipped``)
 
     @property
-    def size(self) -> int:
-        """Members: the query, the actions, the folder files."""
+    def size(self) -> int:  # the query, the actions, the folder files
         return 1 + len(self.actions) + len(self.specs)
 
     def members(self):
@@ -349,8 +347,7 @@ class SearchLibrary:
             self.unkeyed += item is None
             yield item
 
-    def skipped_text(self) -> str:
-        """'; skipped 4 files that are not regular files or cannot be read: x.bvh, ...' or ''."""
+    def skipped_text(self) -> str:  # '; skipped 4 files that are not regular files or ...: x.bvh, ...' or ''
         return f"; {skipped_line(self.skipped)}" if self.skipped else ""
 
 
@@ -369,20 +366,10 @@ def search_library(context, settings) -> SearchLibrary:
     return SearchLibrary(action, q, actions, specs, skipped)
 
 
-def library_items(context, settings, obj) -> List[sources.LibraryItem]:
-    """The library as LibraryItems: the file's actions (filtered), then the folders' clip files (all keyed now;
-    files that cannot be are left out)."""
-    items = []
-    trim, fps = _read_options(settings)
-    if settings.use_file_actions:
-        action_changes.refresh_fingerprints(context)
-        digests = {}
-        items += [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps)
-                  for a in _file_actions(settings, obj)]
-    if settings.use_folders:
-        skipped = []
-        items += [it for it in (_spec_item(s, skipped) for s in _folder_specs(context, settings, skipped)) if it]
-    return items
+def library_items(context, settings, obj=None) -> List[sources.LibraryItem]:
+    """The library as LibraryItems: the file's actions (filtered, without the query's), then the folders' clip
+    files, all keyed now (files that cannot be are left out). ``obj``: unused (the query's armature is used)."""
+    return [it for it in search_library(context, settings).members() if it is not None][1:]
 
 
 def index_items(context, settings) -> List[sources.LibraryItem]:
@@ -391,9 +378,8 @@ def index_items(context, settings) -> List[sources.LibraryItem]:
 
 
 def index_steps(lib: SearchLibrary, level, cache, errors):
-    """Build Index in steps: one per member of ``lib`` (``SearchLibrary.members``: a folder file is keyed at its
-    turn), yielding (item or None, entries) after indexing it when the store lacks it (``index.iter_entries``;
-    a read error joins ``errors``)."""
+    """Build Index, one step per member of ``lib`` (a folder file is keyed at its turn): (item or None, entries),
+    indexed when the store lacks it (``index.iter_entries``; a read error joins ``errors``)."""
     for item in lib.members():
         if item is None:
             yield None, []
