@@ -46,6 +46,7 @@ from . import compat
 from .action_hashes import action_hash, read_hash
 from .core.clip import Clip
 from .core.errors import ShapeSigError
+from .core.files import check_frames
 from .core.skeleton import rest_meta
 # the rotation maths is core.so3's; the channel conversions are re-exported here, where callers know them
 from .core.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
@@ -252,6 +253,8 @@ def _read_range(action, channels, names, frame_range):
         rng = _action_frame_range(action, channels, list(channels))
     if rng is None:
         raise ShapeSigError(f"action {action.name!r} has no keyframes")
+    # a key at frame 10,000,000 would be sampled frame by frame: the clip files' frame cap (core.files)
+    check_frames(int(rng[1]) - int(rng[0]) + 1, None, what=f"clip (action {action.name!r})")
     return rng
 
 

@@ -5,9 +5,10 @@ reports. Preconditions (an armature, a query action, results to pick from) are c
 (``library.search_problem`` / ``library.result_problem``), whose message Blender shows on the greyed-out button
 and in the error of a script's call.
 
-* ``shapesig.build_index``: index every library clip not in the cache yet, stepping the one index generator
-  (``core.index.iter_entries``): with a window modally, one clip per timer tick, with a progress bar (Esc
-  cancels; what is done stays cached); without one (background, the bpy module, scripts) synchronously.
+* ``shapesig.build_index``: index every library clip not in the cache yet, one member per step
+  (``library.index_steps``: a folder file is hashed at its turn, then ``core.index.iter_entries``): with a window
+  modally, one clip per timer tick, with a progress bar (Esc cancels; what is done stays cached); without one
+  (background, the bpy module, scripts) synchronously.
 * ``shapesig.rank``: rank the library by sim^n against the query, optionally re-rank the best K by elastic
   distance (``library.RankJob``); fills ``window_manager.shapesig_results`` (transient: not an UNDO operator,
   so a click pushes no whole-file undo step). Clips not in the index are computed on the way (and cached); in
@@ -26,7 +27,6 @@ import bpy
 from bpy.props import BoolProperty
 
 from .. import library, results
-from ..core import index
 from ..core.explain import top_joints
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
@@ -125,10 +125,11 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
 
     def _prepare(self, context):
         self.settings = library.settings_of(context)
-        self.items = library.index_items(context, self.settings)
+        self.lib = library.search_library(context, self.settings)  # folder files are hashed in the steps
+        self.total = self.lib.size
         self.cache = get_cache(context)
         self.errors = []
-        self.steps = index.iter_entries(self.items, self.settings.level, self.cache, self.errors)
+        self.steps = library.index_steps(self.lib, self.settings.level, self.cache, self.errors)
         self.done = 0
         self.before = dict(self.cache.stats)
 
@@ -143,16 +144,18 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         # a clip that fails to read was a miss too: it is counted apart, never as computed
         failed = len(self.errors)
         computed = self.cache.stats["misses"] - self.before.get("misses", 0) - failed
-        msg = (f"index: {self.done} of {len(self.items)} clips, {computed} computed, "
-               f"{self.done - computed - failed} already indexed")
+        msg = (f"index: {self.done} of {self.total} clips, {computed} computed, "
+               f"{self.done - computed - failed - self.lib.unkeyed} already indexed")
         if cancelled:
             msg = "cancelled; " + msg
         if self.errors:
             msg += f"; {failed} could not be read ({self.errors[0]})"
+        msg += self.lib.skipped_text()
         if self.cache.warning:  # the index folder could not be used: one line, however many clips
             msg += f"; {self.cache.warning}"
         library.results_of(context).message = msg
-        self.report({"WARNING"} if (self.errors or cancelled or self.cache.warning) else {"INFO"}, msg)
+        self.report({"WARNING"} if (self.errors or cancelled or self.lib.skipped or self.cache.warning) else {"INFO"},
+                    msg)
         _tag_redraw(context)
         if getattr(self, "then_rank", False) and not cancelled:
             try:
@@ -165,7 +168,7 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
             return {"FINISHED"}
         try:
             self._prepare(context)
-            while self.done < len(self.items):
+            while self.done < self.total:
                 self._step()
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Build Index: {exc}")
@@ -186,7 +189,7 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
             return {"CANCELLED"}
         self.settings.index_running = True
         self.settings.index_progress = 0.0
-        return self._begin_modal(context, len(self.items))
+        return self._begin_modal(context, self.total)
 
     def modal(self, context, event):
         if event.type == "ESC":
@@ -196,17 +199,17 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         try:
-            if self.done < len(self.items):
+            if self.done < self.total:
                 self._step()
         except Exception as exc:  # noqa: BLE001 - never leave a modal operator running after an error
             self._end_modal(context)
             self.settings.index_running = False
             self.report({"ERROR"}, f"Build Index: {exc}")
             return {"CANCELLED"}
-        self.settings.index_progress = self.done / max(len(self.items), 1)
+        self.settings.index_progress = self.done / max(self.total, 1)
         context.window_manager.progress_update(self.done)
         _tag_redraw(context)
-        if self.done >= len(self.items):
+        if self.done >= self.total:
             self._end_modal(context)
             self._finish(context)
             return {"FINISHED"}
@@ -237,7 +240,7 @@ class SHAPESIG_OT_rank(_ModalSteps, bpy.types.Operator):
         msg = self.job.store()
         out = library.results_of(context)
         out.running = False
-        self.report({"WARNING"} if self.job.warnings or self.job.failed else {"INFO"}, msg)
+        self.report({"WARNING"} if self.job.warnings or self.job.failed or self.job.skipped else {"INFO"}, msg)
         _tag_redraw(context)
         return {"FINISHED"}
 

@@ -23,6 +23,7 @@ import bpy
 from .. import action_io, compat
 from ..core.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
+from ..core.files import check_file
 from ..core.formats.blend import check_blend
 from . import _blend_child
 from ..owners import find_owner
@@ -85,7 +86,9 @@ def _read_isolated(path, action_name, space, rig=False):
 
 
 def read_blend_here(path, action_name=None, space="armature", rig=False):
-    """``read_blend_file`` in this process (what the child process runs)."""
+    """``read_blend_file`` in this process (what the child process runs): a regular file within the size cap
+    (``core.files``) only."""
+    check_file(path)
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
             available = list(data_from.actions)

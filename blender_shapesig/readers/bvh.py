@@ -3,7 +3,7 @@
 Settings (``import_armature``, the one place that calls ``bpy.ops.import_anim.bvh``): rotate_mode 'NATIVE',
 frame_start 1, no fps scaling, the scene's fps and range untouched, scale 1, default axis conversion (BVH Y up
 / -Z forward -> Blender Z up). The file is validated first (``core.formats.bvh.check_bvh``: the importer's own
-failures are tracebacks) and handed over as UTF-8 (a BOM / UTF-16 / latin-1 file as a UTF-8 copy).
+failures are tracebacks; a regular file within the size, line and frame caps of ``core.files``) and handed over as UTF-8 (a BOM / UTF-16 / latin-1 file as a UTF-8 copy).
 
 ``import_bvh`` imports into a temporary scene, reads the action with ``action_io.read_action`` (pose-bone
 rotations in each bone's rest frame; rest frames include the Y-up -> Z-up conversion) and removes everything
@@ -20,6 +20,7 @@ import bpy
 
 from .. import action_io
 from ..core.errors import ParseError, ShapeSigError
+from ..core.files import check_file
 from ..core.formats.bvh import bvh_text, check_bvh
 from .scratch import id_snapshot, quiet_fds, remove_new_ids
 
@@ -116,8 +117,9 @@ def import_bvh(path, name=None, space="armature"):
     if space not in SPACES:
         raise ShapeSigError(f"space must be one of {', '.join(SPACES)}, got {space!r}")
     path = os.fspath(path)
-    if not os.path.isfile(path):
+    if not os.path.lexists(path):
         raise ParseError("no such file", path)
+    check_file(path)  # a regular file within the size cap; check_bvh then reads it within the frame cap
     with _scratch_scene():
         arm, frame_time = import_armature(path)
         fps = 1.0 / frame_time
