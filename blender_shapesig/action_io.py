@@ -17,6 +17,7 @@ from .bone_channels import PROPS as _PROPS, bone_channels
 from .core.clip.clip import Clip
 from .core.errors import ShapeSigError
 from .core.clip.skeleton import rest_meta
+from .core.io.files import check_frames
 # the rotation maths is core.geometry.so3's; the channel conversions are re-exported here, where callers know them
 from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
@@ -197,6 +198,8 @@ def _read_range(action, channels, names, frame_range):
         rng = _action_frame_range(action, channels, list(channels))
     if rng is None:
         raise ShapeSigError(f"action {action.name!r} has no keyframes")
+    # a key at frame 10,000,000 would be sampled frame by frame: the clip files' frame cap (core.io.files)
+    check_frames(int(rng[1]) - int(rng[0]) + 1, None, what=f"clip (action {action.name!r})")
     return rng
 
 

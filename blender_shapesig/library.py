@@ -20,7 +20,8 @@ from . import action_changes, action_io, compat, rigmap
 from .core import index, rigs
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
-from .core.errors import ShapeSigError, check_frame_range, check_integer
+from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
+from .core.io.files import skipped_line
 from .owners import find_owner
 from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, results_of, settings_of
@@ -276,36 +277,95 @@ def _file_actions(settings, obj):
         yield action
 
 
-def library_items(context, settings, obj) -> List[sources.LibraryItem]:
-    """The library as LibraryItems: the file's actions (filtered), then the folders' clip files."""
-    items = []
+def _folder_specs(context, settings, skipped):
+    """The folders' clip files as ClipSpecs, not keyed yet; files the readers do not open go to ``skipped``."""
+    folders = _folders(context, settings)
+    if not folders:
+        raise ShapeSigError("no library folders: add some in the panel or the add-on preferences")
+    asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
+    if asf is not None and not os.path.isfile(asf):
+        raise ShapeSigError(f"the skeleton file {asf} does not exist")
+    trim, fps = _read_options(settings)
+    return [sources.ClipSpec.parse(s, start=settings.crop_start or None, asf=asf, trim=trim, fps=fps)
+            for s in sources.discover(folders, skipped=skipped)]
+
+
+def _spec_item(spec, skipped):
+    """The LibraryItem of a folder file (its key hashes the file), or None with the reason in ``skipped``."""
+    try:
+        return sources.spec_item(spec)
+    except (ShapeSigError, OSError) as exc:
+        skipped.append(exc if isinstance(exc, ShapeSigError) else UnreadableFileError(
+            f"cannot be read ({exc.strerror or exc})", spec.path))
+        return None
+
+
+@dataclass
+class SearchLibrary:
+    """What a search reads: the query (its action and item), the file's actions as items, and the folders' clip
+    files as ClipSpecs that are keyed only in ``members``, one per step, so that hashing the files runs inside
+    the progress loop (Esc reaches it). ``skipped``: the files left out (not regular files, unreadable, over a
+    cap: one-line ShapeSigErrors)."""
+
+    action: object
+    query: ActionItem
+    actions: list
+    specs: list
+    skipped: list
+    unkeyed: int = 0  # members that could not be keyed (their reasons are in ``skipped``)
+
+    @property
+    def size(self) -> int:  # the query, the actions, the folder files
+        return 1 + len(self.actions) + len(self.specs)
+
+    def members(self):
+        """Yield each member's LibraryItem, the query first; a folder file is keyed at its turn (None when it
+        cannot be: its reason joins ``skipped``)."""
+        yield self.query
+        yield from self.actions
+        for spec in self.specs:
+            item = _spec_item(spec, self.skipped)
+            self.unkeyed += item is None
+            yield item
+
+    def skipped_text(self) -> str:  # '; skipped 4 files that are not regular files or ...: x.bvh, ...' or ''
+        return f"; {skipped_line(self.skipped)}" if self.skipped else ""
+
+
+def search_library(context, settings) -> SearchLibrary:
+    """The query and the library without reading or hashing a clip file (``SearchLibrary``)."""
+    obj, action, q = query_item(context, settings)
+    actions, specs, skipped = [], [], []
     trim, fps = _read_options(settings)
     if settings.use_file_actions:
-        action_changes.refresh_fingerprints(context)
         digests = {}
-        items += [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps)
-                  for a in _file_actions(settings, obj)]
+        actions = [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps)
+                   for a in _file_actions(settings, obj)]
+        actions = [it for it in actions if it.key != q.key]
     if settings.use_folders:
-        folders = _folders(context, settings)
-        if not folders:
-            raise ShapeSigError("no library folders: add some in the panel or the add-on preferences")
-        asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
-        if asf is not None and not os.path.isfile(asf):
-            raise ShapeSigError(f"the skeleton file {asf} does not exist")
-        items += sources.library(folders, start=settings.crop_start or None, asf=asf, trim=trim, fps=fps)
-    return items
+        specs = _folder_specs(context, settings, skipped)
+    return SearchLibrary(action, q, actions, specs, skipped)
 
 
-def _search_items(context, settings):
-    """(query action, query item, library items without the query)."""
-    obj, action, q = query_item(context, settings)
-    return action, q, [it for it in library_items(context, settings, obj) if it.key != q.key]
+def library_items(context, settings, obj=None) -> List[sources.LibraryItem]:
+    """The library as LibraryItems: the file's actions (filtered, without the query's), then the folders' clip
+    files, all keyed now (files that cannot be are left out). ``obj``: unused (the query's armature is used)."""
+    return [it for it in search_library(context, settings).members() if it is not None][1:]
 
 
 def index_items(context, settings) -> List[sources.LibraryItem]:
-    """What Build Index indexes: the query, then the library."""
-    _action, q, items = _search_items(context, settings)
-    return [q] + items
+    """What Build Index indexes: the query, then the library (every folder file keyed now)."""
+    return [it for it in search_library(context, settings).members() if it is not None]
+
+
+def index_steps(lib: SearchLibrary, level, cache, errors):
+    """Build Index, one step per member of ``lib`` (a folder file is keyed at its turn): (item or None, entries),
+    indexed when the store lacks it (``index.iter_entries``; a read error joins ``errors``)."""
+    for item in lib.members():
+        if item is None:
+            yield None, []
+        else:
+            yield next(index.iter_entries([item], level, cache, errors))
 
 
 def missing_count(context, settings) -> int:
@@ -436,8 +496,10 @@ class RankJob:
     """One Find Similar click in small steps, so that the UI can show progress and Esc can cancel it (the
     operator steps it from a timer; headless it runs the steps in a loop):
 
-    1. index the query and library clips the store does not hold, one clip per step (``index.iter_entries``;
-       what is done stays cached when the click is cancelled; clips that fail are counted apart);
+    1. key each member (``SearchLibrary.members``: a folder file is hashed at its turn, never before the
+       progress bar) and index it when the store does not hold it, one clip per step (``index.iter_entries``;
+       what is done stays cached when the click is cancelled; clips that fail are counted apart, files that
+       are not regular files or are over a cap were skipped unopened and are reported once);
     2. rank every readable clip by sim^n (``index.rank_clips``; fast: everything is in the store);
     3. with Re-rank K, the d_S* of the first K rows, one per step (``rank_clips`` with the elastic metric on
        the one clip: the same pair increments and DP as its re-rank).
@@ -449,23 +511,28 @@ class RankJob:
     def __init__(self, context, settings, started=None):
         self.t0 = time.perf_counter() if started is None else started
         self.settings = settings
-        self.action, self.query, self.items = _search_items(context, settings)
+        self.lib = search_library(context, settings)  # no clip file read or hashed yet
+        self.action, self.query = self.lib.action, self.lib.query
         self.query_name = self.action.name  # the action may be removed while the click runs
-        if not self.items:
+        if not self.lib.actions and not self.lib.specs:
             raise ShapeSigError("the library is empty: no other action animates this armature"
                                 + (" or matches the filter" if settings.name_filter else "")
-                                + ("" if settings.use_folders else "; add folders of clips"))
+                                + ("" if settings.use_folders else "; add folders of clips")
+                                + self.lib.skipped_text())
         self.cache, self.level = get_cache(context), settings.level
         self.rerank, self.top = max(int(settings.rerank), 0), max(int(settings.top), 0)
-        todo = [it for it in [self.query] + self.items if not self.cache.contains(it.key, self.level)]
-        if settings.use_windows:
-            todo = []  # moments read the clips themselves (core.index.windows), not the signature index
+        self.items = []  # the library's members as they are keyed (without the query)
         self.errors, self.failed, self.indexed = [], set(), 0
-        self._entries = index.iter_entries(todo, self.level, self.cache, self.errors)
-        self.total = len(todo) + 1 + self.rerank
+        self._members = self.lib.members()
+        self.total = self.lib.size + 1 + self.rerank
         self.done = 0
         self.ranked = self.rows = None
         self._head = []
+
+    @property
+    def skipped(self):
+        """The files left out unread (not regular files, unreadable, over a cap): one-line errors."""
+        return self.lib.skipped
 
     @property
     def progress(self) -> float:
@@ -479,20 +546,30 @@ class RankJob:
         """Do one step; True when the rows are ready."""
         self.done += 1
         if self.ranked is None:
-            got = next(self._entries, None)
-            if got is not None:
-                item, entries = got
-                if entries:
-                    self.indexed += 1
-                else:
-                    self.failed.add(item.key)
-                return False
-            self._rank()
-            return self.finished
+            item = next(self._members, StopIteration)
+            if item is StopIteration:
+                self._rank()
+                return self.finished
+            if item is not None:
+                self._index(item)
+            return False
         self._elastic(self._head.pop(0))
         if not self._head:
             self._order()
         return self.finished
+
+    def _index(self, item):
+        """One member (keyed by ``SearchLibrary.members``): indexed when the store lacks it (moments read the
+        clips themselves, ``core.index.windows``); what is done stays cached when the click is cancelled."""
+        if item is not self.query:
+            self.items.append(item)
+        if self.settings.use_windows or self.cache.contains(item.key, self.level):
+            return
+        _item, entries = next(index.iter_entries([item], self.level, self.cache, self.errors))
+        if entries:
+            self.indexed += 1
+        else:
+            self.failed.add(item.key)
 
     def run(self):
         """All steps (the synchronous path); returns the rows."""
@@ -505,7 +582,9 @@ class RankJob:
             raise ShapeSigError(f"the query {self.query.name!r} could not be read: {self.errors[0]}")
         items = [it for it in self.items if it.key not in self.failed]
         if not items:
-            raise ShapeSigError(f"no library clip could be read ({self.errors[0]})")
+            reasons = [str(e) for e in self.errors + self.skipped]
+            raise ShapeSigError(f"no library clip could be read ({reasons[0] if reasons else 'none found'})"
+                                + self.lib.skipped_text())
         if self.settings.use_windows:
             return self._rank_windows(items)
         cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
@@ -559,6 +638,7 @@ class RankJob:
                f"{self.indexed} newly indexed")
         if self.failed:
             msg += f", {len(self.failed)} could not be read"
+        msg += self.lib.skipped_text()
         msg += f"; {out.seconds:.2f} s"
         if self.rerank:
             msg += f"; the best {len(self.rows)} by sim^{level} re-ranked"

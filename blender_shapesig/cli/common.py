@@ -132,19 +132,36 @@ def load_one(spec, asf=None, crop=None, bone_map="auto"):
     return read_one(clip_spec(spec, asf, crop, bone_map))
 
 
-def load_many(specs, asf=None, args=None):
-    """Every clip the CLIP arguments name (a .blend may hold several), cropped by ``args``."""
+def load_many(specs, asf=None, args=None, skipped=None):
+    """Every clip the CLIP arguments name (a .blend may hold several), cropped by ``args``. With a ``skipped``
+    list, a file that is not a regular file or is over a cap (``core.io.files``) is skipped into it, else refused."""
+    from ..core.errors import UnreadableFileError
     from ..core.io.sources import read
 
     out = []
     bar = progress(args, len(specs), "loading") if args is not None else NoBar()
     try:
         for spec in specs:
-            out.extend(read(clip_spec(spec, asf, crop_of(args), bone_map_of(args))))
+            try:
+                out.extend(read(clip_spec(spec, asf, crop_of(args), bone_map_of(args))))
+            except UnreadableFileError as exc:
+                if skipped is None:
+                    raise
+                skipped.append(exc)
             bar.update()
     finally:
         bar.close()
     return out
+
+
+def report_skipped(skipped):
+    """One stderr line for the files a command skipped (not regular files, unreadable, over a cap); the JSON's
+    ``"skipped"`` list: one line per file."""
+    from ..core.io.files import skipped_line
+
+    if skipped:
+        sys.stderr.write(f"{PROG}: warning: {skipped_line(skipped)}\n")
+    return [str(e) for e in skipped]
 
 
 def display_name(clip):

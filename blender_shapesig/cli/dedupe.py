@@ -18,9 +18,14 @@ def run(args):
     if sched and sched not in LOCAL_SCHEDULERS and "://" not in sched and ":" not in sched:
         raise c.CommandError(f"--scheduler {sched!r}: give {', '.join(LOCAL_SCHEDULERS)} or an address "
                              f"(tcp://host:8786)")
-    out = dedupe_library(args.paths, args.out, args.threshold, sched, k=args.k, level=args.level or c.DEFAULT_LEVEL,
-                         depth=args.depth, cache_dir=c.cache_dir(args, index), plots=not args.no_plots,
-                         asf=args.asf or None, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
+    unreadable = []
+    try:
+        out = dedupe_library(args.paths, args.out, args.threshold, sched, k=args.k,
+                             level=args.level or c.DEFAULT_LEVEL, depth=args.depth,
+                             cache_dir=c.cache_dir(args, index), plots=not args.no_plots, unreadable=unreadable,
+                             asf=args.asf or None, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
+    finally:
+        c.report_skipped(unreadable)  # the report's "skipped" lists them with the other sources left out
     for w in out.get("warnings", ()):
         sys.stderr.write(f"{c.PROG}: warning: {w}\n")
     lines = [f"{out['clips']} clips, {len(out['clusters'])} near-duplicate clusters; report: {out['report']}"]

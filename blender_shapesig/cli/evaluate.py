@@ -18,7 +18,10 @@ def run(args):
     )
     for m in metrics:
         metric_label(m)
-    entries = evaluation.read_index(args.index)
+    entries, skipped = evaluation.readable_entries(evaluation.read_index(args.index), args.data)
+    skipped = c.report_skipped(skipped)
+    if not entries:
+        raise c.CommandError(f"no readable clip listed in {args.index} ({skipped[0]})")
     summary = evaluation.evaluate(
         entries,
         evaluation.entry_loader(args.data, args.asf, fps=args.fps, trim=args.trim, bone_map=args.bone_map),
@@ -30,6 +33,7 @@ def run(args):
         progress=None if args.no_progress else "tqdm",
         repeat=args.repeat,
     )
+    summary = dict(summary, skipped=skipped)
     lines = [f"{summary['clips']} clips; wrote {os.path.join(args.out, 'summary.json')}"]
     for name, row in summary["metrics"].items():
         lines.append(f"  {name:16s} accuracy {row['accuracy']:.3f}  {row['seconds']:.2f} s")

@@ -11,9 +11,11 @@ def run(args):
     from ..core.pairwise import clip_distance_matrix
 
     label = metric_label(args.metric, args.level)
-    clips = c.load_many(args.clips, args.asf, args)
+    skipped = []
+    clips = c.load_many(args.clips, args.asf, args, skipped)
+    skipped = c.report_skipped(skipped)
     if len(clips) < 2:
-        raise c.CommandError("matrix needs at least two clips")
+        raise c.CommandError("matrix needs at least two clips" + (f" ({skipped[0]})" if skipped else ""))
     names = evaluation.unique_names([c.name for c in clips])
     labels = None
     if args.labels:
@@ -43,6 +45,7 @@ def run(args):
         "metric": label,
         "clips": names,
         "seconds": seconds,
+        "skipped": skipped,
     }
     text = f"wrote {paths['csv']} ({len(clips)} clips, {label}, {seconds:.2f} s)"
     if figures:

@@ -5,12 +5,22 @@ import sys
 from . import common as c
 
 
-def library_items(specs, args):
+def library_items(specs, args, skipped=None):
     """Library items of the CLIP arguments, keyed by ``ClipSpec.key`` (file bytes, skeleton, action, crop): a
-    cached file is not even read again. Missing files and unknown types fail here, at once."""
+    cached file is not even read again. Missing files and unknown types fail here, at once; a file that is not
+    a regular file or is over a cap (``core.io.files``) is skipped into ``skipped`` (when given)."""
+    from ..core.errors import UnreadableFileError
     from ..core.io.sources import spec_item
 
-    return [spec_item(c.clip_spec(s, args.asf, c.crop_of(args), args.bone_map).check()) for s in specs]
+    items = []
+    for s in specs:
+        try:
+            items.append(spec_item(c.clip_spec(s, args.asf, c.crop_of(args), args.bone_map).check()))
+        except UnreadableFileError as exc:
+            if skipped is None:
+                raise
+            skipped.append(exc)
+    return items
 
 
 def _rank_windows(query, items, args, progress):
@@ -55,9 +65,11 @@ def run(args):
     query = read_one(spec)
     # the query is keyed like the library: its signature is a cache hit when it was indexed before
     query_item = spec_item(spec, load=lambda _spec: query)
-    items = library_items(args.clips, args)
+    skipped = []
+    items = library_items(args.clips, args, skipped)
+    skipped = c.report_skipped(skipped)
     if not items:
-        raise c.CommandError("no clips to rank")
+        raise c.CommandError("no clips to rank" + (f" ({skipped[0]})" if skipped else ""))
     cache = index.SignatureCache(c.cache_dir(args, index))
     bar = c.progress(args, len(items), "signatures")
     done = [0]
@@ -106,7 +118,7 @@ def run(args):
     notes = [trim_note(query)] + [trim_note(r.name, r.trimmed) for r in results]
     out = {"query": query.name, "metric": label, "results": rows, "query_trim": trimmed_range(query)["frames"],
            "query_trimmed": trimmed_range(query)["cut"],
-           "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}}
+           "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}, "skipped": skipped}
     lines = [f"query: {query.name}  metric: {label}"]
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"

@@ -30,6 +30,11 @@ class ParseError(ShapeSigError):
         self.line = line
 
 
+class UnreadableFileError(ParseError):
+    """A file the readers do not open (``core.io.files``): not a regular file (a FIFO, a device, a socket, a dangling
+    or looping link), unreadable, or over a size cap. Libraries skip such files and report them once."""
+
+
 def error_line(exc) -> str:
     """Any exception as one line for a user (the operators' reports, the command line's stderr): a ShapeSigError's
     message, an OSError's file and reason, "out of memory", a removed Blender data-block said so, else the type

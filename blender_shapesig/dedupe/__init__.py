@@ -16,17 +16,24 @@ from . import parallel
 __all__ = ["dedupe_library", "library_items"]
 
 
-def library_items(paths, **options):
+def library_items(paths, unreadable=None, **options):
     """``(items, skipped)``: a LibraryItem per clip source found in ``paths`` (``sources.discover``; a
     ``ClipSpec`` in ``paths`` is taken as it is, e.g. an .amc with its own skeleton), and a one-line reason
-    for each source whose key cannot be made (an .amc without a unique .asf, a missing file)."""
+    for each source whose key cannot be made (an .amc without a unique .asf, a missing file). Files the readers
+    do not open (not regular files, over a cap: ``core.io.files``) are never opened; their UnreadableFileErrors
+    also go to ``unreadable`` when given."""
     from ..core.io import sources
 
     given = [p for p in paths if isinstance(p, sources.ClipSpec)]
     names = [p for p in paths if not isinstance(p, sources.ClipSpec)]
     specs = list(given)
     items, skipped = [], []
-    for text in (sources.discover(names) if names else []):
+    refused = []
+    found = sources.discover(names, skipped=refused) if names else []
+    skipped += [str(e) for e in refused]
+    if unreadable is not None:
+        unreadable += refused
+    for text in found:
         try:
             specs.append(sources.ClipSpec.parse(text, **options))
         except (ShapeSigError, OSError) as exc:
@@ -62,19 +69,20 @@ def sign_library(items, level, store, mapper, chunk=8):
 
 
 def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_dedupe.DEFAULT_K,
-                   level=DEFAULT_LEVEL, depth=DEFAULT_DEPTH, cache_dir=None, plots=True, **options):
+                   level=DEFAULT_LEVEL, depth=DEFAULT_DEPTH, cache_dir=None, plots=True, unreadable=None, **options):
     """Deduplicate the clips in ``paths`` (files, folders, ``FILE.blend#ACTION``, ClipSpecs) and write the report into
     ``out_dir``. ``threshold``: the relative-d_S* gate (default: relative to the library, ``core.index.dedupe``);
     ``scheduler``: None (a thread pool, no Dask), a local Dask scheduler name or a cluster address;
-    ``cache_dir``: the signature cache folder (None: memory only). ``options``: ClipSpec fields (asf, fps,
-    trim, bone_map). Returns the report dict."""
+    ``cache_dir``: the signature cache folder (None: memory only); ``unreadable``: a list that receives the
+    files skipped unopened (``library_items``). ``options``: ClipSpec fields (asf, fps, trim, bone_map). Returns
+    the report dict."""
     from ..core.index import SignatureCache
     from .report import write_report
 
     t0 = time.perf_counter()
     if scheduler:
         parallel.require_dask(scheduler)  # before any clip is read
-    items, skipped = library_items(paths, **options)
+    items, skipped = library_items(paths, unreadable, **options)
     if not items:
         raise ShapeSigError("no readable clip found in " + ", ".join(map(str, paths)))
     store = SignatureCache(cache_dir, memory_limit=1 << 40)  # every entry stays loaded for the graph

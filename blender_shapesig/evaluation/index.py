@@ -8,9 +8,11 @@ from typing import Optional
 
 from ..core.io import sources
 from ..core.clip.prepare import decimate_clip
-from ..core.errors import ShapeSigError
+from ..core.errors import ShapeSigError, UnreadableFileError
+from ..core.io.files import file_problem
 
-__all__ = ["IndexEntry", "read_index", "unique_names", "labels_from_csv", "entry_spec", "entry_loader"]
+__all__ = ["IndexEntry", "read_index", "unique_names", "labels_from_csv", "entry_spec", "entry_loader",
+           "readable_entries"]
 
 
 @dataclass(frozen=True)
@@ -97,6 +99,21 @@ def entry_spec(entry: IndexEntry, data, asf=None, fps=None, trim="auto", bone_ma
     skeleton = os.path.join(data, entry.skeleton) if entry.skeleton else asf
     return sources.ClipSpec.parse(os.path.join(data, entry.file), asf=skeleton, start=entry.start, end=entry.end,
                                   fps=fps, trim=trim or "auto", bone_map=bone_map)
+
+
+def readable_entries(entries, data):
+    """``(entries, skipped)``: the entries whose file the readers open, and an UnreadableFileError for each other
+    one (a FIFO, a device, a dangling or looping link, a file over a cap: ``core.io.files``). A missing file stays
+    (reading it names it)."""
+    keep, skipped = [], []
+    for entry in entries:
+        path = sources.ClipSpec.parse(os.path.join(data, entry.file)).path
+        problem = file_problem(path) if os.path.lexists(path) else None
+        if problem is None:
+            keep.append(entry)
+        else:
+            skipped.append(UnreadableFileError(problem, path))
+    return keep, skipped
 
 
 def entry_loader(data, asf=None, cache=None, fps=None, trim="auto", bone_map="auto"):

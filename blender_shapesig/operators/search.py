@@ -110,10 +110,11 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
 
     def _prepare(self, context):
         self.settings = library.settings_of(context)
-        self.items = library.index_items(context, self.settings)
+        self.lib = library.search_library(context, self.settings)  # folder files are hashed in the steps
+        self.total = self.lib.size
         self.cache = get_cache(context)
         self.errors = []
-        self.steps = index.iter_entries(self.items, self.settings.level, self.cache, self.errors)
+        self.steps = library.index_steps(self.lib, self.settings.level, self.cache, self.errors)
         self.done = 0
         self.before = dict(self.cache.stats)
 
@@ -128,16 +129,18 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         # a clip that fails to read was a miss too: it is counted apart, never as computed
         failed = len(self.errors)
         computed = self.cache.stats["misses"] - self.before.get("misses", 0) - failed
-        msg = (f"index: {self.done} of {len(self.items)} clips, {computed} computed, "
-               f"{self.done - computed - failed} already indexed")
+        msg = (f"index: {self.done} of {self.total} clips, {computed} computed, "
+               f"{self.done - computed - failed - self.lib.unkeyed} already indexed")
         if cancelled:
             msg = "cancelled; " + msg
         if self.errors:
             msg += f"; {failed} could not be read ({self.errors[0]})"
+        msg += self.lib.skipped_text()
         if self.cache.warning:  # the index folder could not be used: one line, however many clips
             msg += f"; {self.cache.warning}"
         library.results_of(context).message = msg
-        self.report({"WARNING"} if (self.errors or cancelled or self.cache.warning) else {"INFO"}, msg)
+        self.report({"WARNING"} if (self.errors or cancelled or self.lib.skipped or self.cache.warning) else {"INFO"},
+                    msg)
         _tag_redraw(context)
         if getattr(self, "then_rank", False) and not cancelled:
             try:
@@ -150,7 +153,7 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
             return {"FINISHED"}
         try:
             self._prepare(context)
-            while self.done < len(self.items):
+            while self.done < self.total:
                 self._step()
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Build Index: {exc}")
@@ -171,7 +174,7 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
             return {"CANCELLED"}
         self.settings.index_running = True
         self.settings.index_progress = 0.0
-        return self._begin_modal(context, len(self.items))
+        return self._begin_modal(context, self.total)
 
     def modal(self, context, event):
         if event.type == "ESC":
@@ -181,17 +184,17 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         try:
-            if self.done < len(self.items):
+            if self.done < self.total:
                 self._step()
         except Exception as exc:  # noqa: BLE001 - never leave a modal operator running after an error
             self._end_modal(context)
             self.settings.index_running = False
             self.report({"ERROR"}, f"Build Index: {exc}")
             return {"CANCELLED"}
-        self.settings.index_progress = self.done / max(len(self.items), 1)
+        self.settings.index_progress = self.done / max(self.total, 1)
         context.window_manager.progress_update(self.done)
         _tag_redraw(context)
-        if self.done >= len(self.items):
+        if self.done >= self.total:
             self._end_modal(context)
             self._finish(context)
             return {"FINISHED"}
@@ -222,7 +225,7 @@ class SHAPESIG_OT_rank(_ModalSteps, bpy.types.Operator):
         msg = self.job.store()
         out = library.results_of(context)
         out.running = False
-        self.report({"WARNING"} if self.job.warnings or self.job.failed else {"INFO"}, msg)
+        self.report({"WARNING"} if self.job.warnings or self.job.failed or self.job.skipped else {"INFO"}, msg)
         _tag_redraw(context)
         return {"FINISHED"}
 

@@ -16,6 +16,7 @@ from .. import action_io, compat
 from ..bone_channels import bone_channels
 from ..core.clip.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
+from ..core.io.files import check_file
 from ..core.io.blend_file import check_blend
 from . import _blend_file_child
 from ..owners import find_owner
@@ -32,7 +33,7 @@ BLEND_CHILD_TIMEOUT = 600.0
 def read_blend_file(path, action_name=None, space="armature", rig=False):
     """The clips of a .blend file (every action animating pose bones, or ``action_name``), read in a child
     process. ``rig``: each clip's ``meta["rig"]`` describes the armature that owns its action (``rig_of``: what
-    ``write_blend`` rebuilds the armature from), absent when no armature holds its bones."""
+    ``write_blend_file`` rebuilds the armature from), absent when no armature holds its bones."""
     check_blend(path)
     if os.environ.get(BLEND_IN_PROCESS_ENV) == "1":
         return read_blend_here(path, action_name, space, rig)
@@ -78,7 +79,9 @@ def _read_isolated(path, action_name, space, rig=False):
 
 
 def read_blend_here(path, action_name=None, space="armature", rig=False):
-    """``read_blend_file`` in this process (what the child process runs)."""
+    """``read_blend_file`` in this process (what the child process runs): a regular file within the size cap
+    (``core.io.files``) only."""
+    check_file(path)
     try:
         with bpy.data.libraries.load(path, link=False) as (data_from, _to):
             available = list(data_from.actions)

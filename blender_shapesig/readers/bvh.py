@@ -1,5 +1,5 @@
 """BVH clips through Blender's own importer (``io_anim_bvh``), leaving the file as it was: ``import_armature`` is the
-one call of ``bpy.ops.import_anim.bvh`` (fixed settings, the file validated first by ``core.io.bvh.check_bvh``),
+one call of ``bpy.ops.import_anim.bvh`` (fixed settings, the file validated first by ``core.io.bvh.check_bvh`` and held to the caps of ``core.io.files``),
 ``import_bvh`` reads the imported action with ``action_io.read_action`` and removes everything the import created.
 Every frame is kept (trimming is ``core.clip.trim``'s). See docs/dev/blender_layer.md.
 """
@@ -12,6 +12,7 @@ import bpy
 
 from .. import action_io
 from ..core.errors import ParseError, ShapeSigError
+from ..core.io.files import check_file
 from ..core.io.bvh import bvh_text, check_bvh
 from .scratch import id_snapshot, quiet_fds, remove_new_ids
 
@@ -108,8 +109,9 @@ def import_bvh(path, name=None, space="armature"):
     if space not in SPACES:
         raise ShapeSigError(f"space must be one of {', '.join(SPACES)}, got {space!r}")
     path = os.fspath(path)
-    if not os.path.isfile(path):
+    if not os.path.lexists(path):
         raise ParseError("no such file", path)
+    check_file(path)  # a regular file within the size cap; check_bvh then reads it within the frame cap
     with _scratch_scene():
         arm, frame_time = import_armature(path)
         fps = 1.0 / frame_time

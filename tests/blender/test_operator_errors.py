@@ -34,7 +34,7 @@ def test_search_operators_report_any_failure_in_one_line(rig, monkeypatch, capfd
     def fail(*_args, **_kw):
         raise exc
 
-    monkeypatch.setattr(library, "_search_items", fail)
+    monkeypatch.setattr(library, "search_library", fail)
     res, settings = library.results_of(bpy.context), bpy.context.scene.shapesig
     for op, label in ((bpy.ops.shapesig.rank, "Find Similar"), (bpy.ops.shapesig.build_index, "Build Index")):
         for mode in ("EXEC_DEFAULT", "INVOKE_DEFAULT"):

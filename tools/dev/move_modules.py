@@ -43,6 +43,7 @@ MOVES = {
     "core.formats.text": "core.io.text",
     "core.dedupe": "core.index.dedupe",
     "core.feet": "core.blend.feet",
+    "core.files": "core.io.files",
     "readers.blend": "readers.blend_file",
     "readers._blend_child": "readers._blend_file_child",
     "write_blend": "write_blend_file",

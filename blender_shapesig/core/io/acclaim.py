@@ -15,6 +15,7 @@ from ..errors import ParseError
 from ..clip.skeleton import map_rest_meta, rest_meta
 from .amc import Motion, forward_kinematics, parse_amc
 from .asf import Bone, Skeleton, parse_asf
+from .files import file_problem
 from .text import decode_text
 
 __all__ = [
@@ -41,7 +42,8 @@ def find_asf(amc_path, asf=None) -> str:
         return asf
     folder = os.path.dirname(os.path.abspath(amc_path))
     try:
-        found = sorted(f for f in os.listdir(folder) if f.lower().endswith(".asf"))
+        found = sorted(f for f in os.listdir(folder)
+                       if f.lower().endswith(".asf") and file_problem(os.path.join(folder, f)) is None)
     except OSError:
         raise ParseError("cannot list the folder to find its .asf skeleton", amc_path) from None
     if not found:

@@ -14,9 +14,11 @@ import numpy as np
 from ..errors import ParseError
 from ..geometry.so3 import matrix_from_euler
 from .asf import Skeleton
+from .files import MAX_FRAMES_ENV, check_frames, max_frames
 from .text import finite_float, read_text
 
 _FRAME_NUMBER = re.compile(r"[+-]?\d+")  # a frame-number line: digits with one optional sign
+_HEADER_LINES = 10_000  # comments and header lines an AMC may have besides its frames
 
 __all__ = ["Motion", "parse_amc", "forward_kinematics"]
 
@@ -132,6 +134,8 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
         for n in animated:
             rows[n].append(current[n])
 
+    limit = max_frames()
+    _check_line_count(text, (len(animated) + 1) * limit, where)
     lines = text.splitlines()
     last = max((k for k, ln in enumerate(lines, 1) if ln.strip()), default=0)
     for no, raw in enumerate(lines, 1):
@@ -157,6 +161,8 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
                 raise ParseError(f"frame number {number} follows {frame_numbers[-1]} (frames must be "
                                  f"consecutive)", where, no)
             frame_numbers.append(number)
+            if len(frame_numbers) > limit:
+                check_frames(len(frame_numbers), where, no, more=True)
             current = {}
             frame_line = no
             continue
@@ -189,6 +195,15 @@ def parse_amc(path_or_text, skeleton: Skeleton) -> Motion:
                 arr[:, k] *= to_rad
         values[name] = arr
     return Motion(skeleton=skeleton, frame_numbers=np.array(frame_numbers), values=values, path=path)
+
+def _check_line_count(text, frame_lines, where):
+    """The frame cap before an AMC's text is split into lines: a frame takes a line per animated bone and one for
+    its number, so more lines than ``frame_lines`` (and a header) means more frames than the cap."""
+    lines = text.count("\n") or text.count("\r")
+    if lines > frame_lines + _HEADER_LINES:
+        raise ParseError(f"{lines:,} lines, more than the frame limit allows ({max_frames():,} frames; "
+                         f"${MAX_FRAMES_ENV} raises it)", where)
+
 
 def _to_floats(rows, line_numbers, name, where):
     """(rows, values) floats from rows of tokens ``[bone, v1, v2, ...]``; ParseError naming the first bad line."""

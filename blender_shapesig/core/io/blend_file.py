@@ -11,6 +11,7 @@ import os
 import struct
 
 from ..errors import ParseError
+from .files import open_regular
 
 __all__ = ["check_blend"]
 
@@ -19,7 +20,7 @@ class _Skipper:
     """Sequential reads and forward skips over a (possibly zstd- or gzip-compressed) file."""
 
     def __init__(self, path):
-        self.fh = open(path, "rb")
+        self.fh = open_regular(path)  # a regular file within the size cap (core.io.files), never a FIFO
         magic = self.fh.read(4)
         self.fh.seek(0)
         self.stream, self.size = self.fh, os.path.getsize(path)

@@ -5,6 +5,7 @@ two agree: docs/dev/rotations.md. The Blender half is ``blender_shapesig.readers
 """
 
 import os
+import re
 import warnings
 from dataclasses import dataclass, field
 from typing import List, Optional
@@ -12,6 +13,7 @@ from typing import List, Optional
 import numpy as np
 
 from ..errors import ParseError
+from .files import check_frames, max_frames, read_bytes
 from .text import decode_text, finite_float
 
 __all__ = ["bvh_text", "check_bvh", "load_bvh", "parse_bvh", "BvhJoint", "BVH_TO_BLENDER"]
@@ -21,17 +23,18 @@ BVH_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 # A E A^T by indexing (batched 3x3 products are slow in numpy): A[i] = _SIGN[i] e_{_PERM[i]}.
 _PERM = np.argmax(np.abs(BVH_TO_BLENDER), axis=1)
 _SIGNS = np.outer(BVH_TO_BLENDER[np.arange(3), _PERM], BVH_TO_BLENDER[np.arange(3), _PERM])
+# The MOTION header's frame count (checked against the frame cap before the text is split into lines), and the
+# most lines a hierarchy may add to the frames (5 lines a joint: 20,000 joints).
+_FRAMES_HEADER = re.compile(r"(?i)\bMOTION\s+Frames\s*:\s*(\d{1,30})")
+_HIERARCHY_LINES = 100_000
 # Blender's bone names hold at most 63 bytes.
 _MAX_NAME_BYTES = 63
 
 def bvh_text(path):
     """(text, plain): the file's text (UTF-8; UTF-16/32 or UTF-8 with a byte-order mark; else latin-1) and
-    whether it is plain UTF-8 without a BOM, the only encoding Blender's importer reads."""
-    try:
-        with open(path, "rb") as fh:
-            data = fh.read()
-    except OSError as exc:
-        raise ParseError(f"cannot read BVH file: {exc.strerror or exc}", path) from None
+    whether it is plain UTF-8 without a BOM, the only encoding Blender's importer reads. UnreadableFileError
+    for a file the readers do not open (``core.io.files``: not a regular file, over the size or line cap)."""
+    data = read_bytes(path, "BVH")  # a regular file within the size and line caps (core.io.files)
     if data.startswith((b"\xff\xfe", b"\xfe\xff", b"\xef\xbb\xbf", b"\x00\x00\xfe\xff")):
         return decode_text(data), False
     try:
@@ -46,7 +49,7 @@ _FLOAT32_MAX = 3.4028234e38
 def check_bvh(path):
     """Validate a BVH file's structure and numbers before Blender's importer sees it (its failures are
     tracebacks); returns the frame time. Raises ParseError naming the line."""
-    lines = bvh_text(path)[0].splitlines()
+    lines = _bvh_lines(path)
     if not any(ln.strip() for ln in lines):
         raise ParseError("empty BVH file", path)
     channels, depth, joints = 0, 0, 0
@@ -100,6 +103,7 @@ def check_bvh(path):
         raise ParseError("'Frame Time' must be a positive number", path, n2)
     if frames < 1:
         raise ParseError("no frames", path, n1)
+    check_frames(frames, path, n1)
     data = [(i, ln) for i, ln in enumerate(lines[n2:], n2 + 1) if ln.strip()]
     if len(data) < frames:
         raise ParseError(f"{len(data)} frames of motion data for 'Frames: {frames}' (truncated file?)", path)
@@ -110,6 +114,20 @@ def check_bvh(path):
         for v in values:
             finite_float(v, path, i, limit=_FLOAT32_MAX)
     return frame_time
+
+
+def _bvh_lines(path):
+    """The lines of a BVH file, after the frame cap (``core.io.files.check_frames``) was checked on its text: the
+    MOTION header's ``Frames:`` and the number of lines (every data line is a frame), so that a file claiming or
+    holding millions of frames is refused before it is split into lines and parsed."""
+    text = bvh_text(path)[0]
+    header = _FRAMES_HEADER.search(text)
+    if header is not None:
+        check_frames(int(header.group(1)), path, text.count("\n", 0, header.start(1)) + 1)
+    lines = text.count("\n") or text.count("\r")
+    if lines > max_frames() + _HIERARCHY_LINES:
+        check_frames(lines - _HIERARCHY_LINES, path, more=True)  # every line of motion data is a frame
+    return text.splitlines()
 
 
 def _header_value(line, label, convert, what, path, no):
@@ -217,6 +235,7 @@ def _motion(lines, start, columns, path):
     frames = _header_value(body[0], "Frames", int, "N", path, start + 2)
     frame_time = _header_value(body[1], "Frame Time", float, "seconds", path, start + 3)
     rows = body[2:]
+    check_frames(max(frames, len(rows)), path)
     if len(rows) < max(frames, 1):
         raise ParseError(f"{len(rows)} frames of motion data for 'Frames: {frames}' (truncated file?)", path)
     with warnings.catch_warnings():
@@ -239,7 +258,7 @@ def parse_bvh(path):
     if not os.path.isfile(path):
         raise ParseError("no such file", path)
     try:
-        lines = bvh_text(path)[0].splitlines()
+        lines = _bvh_lines(path)
         first = next((ln.split()[0] for ln in lines if ln.strip()), "")
         if first.upper() != "HIERARCHY":
             raise ParseError("expected HIERARCHY (is this a BVH file?)" if first else "empty BVH file", path)

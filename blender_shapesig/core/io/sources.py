@@ -14,9 +14,10 @@ from typing import Callable, List, Optional, Sequence
 import numpy as np
 
 from ..clip.clip import Clip
-from ..errors import ParseError, ShapeSigError
+from ..errors import ParseError, ShapeSigError, UnreadableFileError
 from ..clip.prepare import check_fps
 from ..clip.trim import TRIM_MODES, trim_clip
+from . import files
 from .registry import EXTENSIONS, reader_for, register_reader
 
 __all__ = [
@@ -80,14 +81,16 @@ class ClipSpec:
         return self.path if self.action is None else f"{self.path}#{self.action}"
 
     def check(self) -> "ClipSpec":
-        """ParseError when the file is missing, a folder or of an unknown type (the command line's messages)."""
-        if not os.path.exists(self.path):
+        """ParseError when the file is missing, a folder or of an unknown type (the command line's messages);
+        UnreadableFileError when it is not a regular file or over the size cap (``core.io.files``)."""
+        if not os.path.lexists(self.path):
             raise ParseError("file not found", self.path)
         if os.path.isdir(self.path):
             raise ParseError("is a folder, expected a .bvh, .amc or .blend file", self.path)
         if self.ext not in EXTENSIONS:
             raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected .bvh, .amc, .blend or "
                              f"FILE.blend#ACTION", self.path)
+        files.check_file(self.path)  # UnreadableFileError: a FIFO, a device, a broken link, over the size cap
         return self
 
     def skeleton(self) -> Optional[str]:
@@ -124,28 +127,37 @@ def _bone_map_key(bone_map) -> str:
     return f"{TABLES_VERSION}:" + file_key(bone_map) if os.path.isfile(bone_map) else f"missing:{bone_map}"
 
 
-def discover(paths, recursive=True) -> List[str]:
+def discover(paths, recursive=True, skipped=None) -> List[str]:
     """Clip specs for files and ``FILE.blend#ACTION`` given directly and clip files found in folders (each
-    folder's files sorted by path), without repeats. ShapeSigError for a path that does not exist."""
+    folder's files sorted by path), without repeats. Only regular files (links to them too) within the size cap
+    are taken: the others (a FIFO, a device, a dangling or looping link, an unreadable or too large file) are
+    never opened and go to ``skipped`` (UnreadableFileErrors) when given. ShapeSigError for a path that does not
+    exist."""
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
     out, seen = [], set()
     for p in paths:
         p = os.fspath(p)
+        path = ClipSpec.parse(p).path
         if os.path.isdir(p):
             walker = os.walk(p) if recursive else [(p, [], os.listdir(p))]
             found = []
             for root, _dirs, names in walker:
                 found += [os.path.join(root, n) for n in names if n.lower().endswith(EXTENSIONS)]
             specs = sorted(found)
-        elif os.path.isfile(ClipSpec.parse(p).path):
+        elif os.path.lexists(path):
             specs = [p]
         else:
-            raise ShapeSigError(f"library path {ClipSpec.parse(p).path!r} does not exist")
+            raise ShapeSigError(f"library path {path!r} does not exist")
         for s in specs:
-            if s not in seen:
-                seen.add(s)
+            if s in seen:
+                continue
+            seen.add(s)
+            problem = files.file_problem(ClipSpec.parse(s).path)
+            if problem is None:
                 out.append(s)
+            elif skipped is not None:
+                skipped.append(UnreadableFileError(problem, s))
     return out
 
 
@@ -222,14 +234,15 @@ _FILE_KEYS = {}  # (path, size, mtime_ns) -> content hash: a file is re-hashed o
 
 def file_key(path, extra="") -> str:
     """SHA-1 of a file's bytes, with its size and mtime and ``extra`` (the rest of a ClipSpec's key), so that any
-    edit of the file gives a new key. The hash is remembered for the process until the file's stat changes."""
+    edit of the file gives a new key. The hash is remembered for the process until the file's stat changes.
+    UnreadableFileError for a file the readers would not open (``core.io.files.check_file``)."""
     path = os.path.abspath(os.fspath(path))
-    st = os.stat(path)
+    st = files.check_file(path)  # never hash a FIFO or a device (it would never end), nor a file over the cap
     memo = (path, st.st_size, st.st_mtime_ns)
     digest = _FILE_KEYS.get(memo)
     if digest is None:
         h = hashlib.sha1()
-        with open(path, "rb") as f:
+        with files.open_regular(path) as f:
             for block in iter(lambda: f.read(1 << 20), b""):
                 h.update(block)
         digest = _FILE_KEYS[memo] = h.hexdigest()

@@ -4,6 +4,7 @@ import math
 import os
 
 from ..errors import ParseError
+from .files import read_bytes
 
 __all__ = ["decode_text", "read_text", "finite_float"]
 
@@ -20,19 +21,16 @@ def decode_text(data: bytes) -> str:
 
 def read_text(path_or_text, kind):
     """(text, path or None) of a ``kind`` file ("ASF", "AMC"): bytes and text with a newline (or blank) are
-    the file's content; a pathlib.Path or any other str is a path."""
+    the file's content; a pathlib.Path or any other str is a path, read within the caps of ``core.io.files``
+    (UnreadableFileError for a FIFO, a device, a broken link, a file or a line too long)."""
     if isinstance(path_or_text, (bytes, bytearray)):
         path_or_text = decode_text(bytes(path_or_text))
     if isinstance(path_or_text, str) and ("\n" in path_or_text or path_or_text.strip() == ""):
         return path_or_text, None
     path = os.fspath(path_or_text)
-    if not os.path.isfile(path):
+    if not os.path.lexists(path):
         raise ParseError(f"no such {kind} file", path)
-    try:
-        with open(path, "rb") as fh:
-            return decode_text(fh.read()), path
-    except OSError as exc:
-        raise ParseError(f"cannot read {kind} file: {exc.strerror or exc}", path) from None
+    return decode_text(read_bytes(path, kind)), path
 
 
 def finite_float(token, where, line, what="", limit=math.inf):
