@@ -20,7 +20,7 @@ Timed, each the median over ``--repeat`` runs after one warm-up, as the process 
 * ``core_blend_aligned``: ``core.blend.blend_clips`` on the clips already read (warp included);
 * ``elastic_align``: the warp alone (core.elastic).
 
-Issue 18's options (the operator entries above are timed with Feet: None, as before the option existed):
+The blend options (the operator entries above are timed with Feet: None, as before the option existed):
 
 * ``operator_feet_lock``: the aligned operator with planted feet (the bench armature is a line of bones, so
   its rest skeleton is not a body: the figure to read is ``core_lock_feet``);

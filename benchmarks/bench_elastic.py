@@ -17,7 +17,7 @@ Usage (from the repository root):
    The numba DP and the whole call on two threads (``threads=2``: process CPU of both threads and wall time;
    the second core is often busy on the shared machine). Also the parts of the whole call (SRVT of both
    curves, Gram matrix) and the whole call's speed-up over the
-   numpy DP alone (the target of issue 16: >= 10x), and the first call in a fresh process (cache warm / cold).
+   numpy DP alone (the target: >= 10x), and the first call in a fresh process (cache warm / cold).
 2. The all-pairs matrix of 27 clips (9 walks of subject 07, 8 walks of subject 08, 10 runs of
    subject 09; ASF/AMC from ``--data``/uscresl_humanoid-gail, 128-417 frames, 31 bones) with
    ``elastic_distance_matrix`` at workers=1 and workers=2 (wall time). Without ``--data`` (or
@@ -162,7 +162,7 @@ def pair_benchmark(repeat, pruning=False):
     out["load_average_1min"] = os.getloadavg()[0]
     out["times_ms"] = {k: {"cpu": round(v[0] * 1e3, 3), "wall": round(v[1] * 1e3, 3)} for k, v in results.items()}
     if "elastic_distance" in results:
-        # the target of issue 16: the whole call against the numpy DP alone, same run (CPU and wall)
+        # the target: the whole call against the numpy DP alone, same run (CPU and wall)
         out["speedup_whole_call_vs_numpy_dp"] = {
             "cpu": round(results["numpy_dp"][0] / results["elastic_distance"][0], 1),
             "wall": round(results["numpy_dp"][1] / results["elastic_distance"][1], 1)}

@@ -1,4 +1,4 @@
-"""Benchmark of planted feet (issue 18): stance drift of walk x run blends before and after ``core.blend.feet.lock_feet``.
+"""Benchmark of planted feet: stance drift of walk x run blends before and after ``core.blend.feet.lock_feet``.
 
 Usage (from the repository root; no Blender needed, except for ``--cli``):
 

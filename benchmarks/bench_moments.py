@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Moments (issue 19): re-timed excerpts of long takes are found in their take, ranked first, window IoU >= 0.5.
+"""Moments: re-timed excerpts of long takes are found in their take, ranked first, window IoU >= 0.5.
 
   .venv/bin/python benchmarks/bench_moments.py --data ../shared/data/cmu [--rerank K] [--json FILE]
 

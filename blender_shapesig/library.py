@@ -69,7 +69,7 @@ class ActionKey:
     read_hash: str
     armature_digest: str
     frame_range: Optional[Tuple[int, int]] = None
-    trim: str = "none"            # issue 15: "auto" trims rest-pose / ramp frames (core.clip.trim)
+    trim: str = "none"            # "auto" trims rest-pose / ramp frames (core.clip.trim)
     fps: Optional[float] = None   # the rate read at (None: the action's own, else the scene's)
 
     @property
@@ -186,7 +186,7 @@ def _check_values(settings):
 
 
 def _read_options(settings):
-    """(trim, fps) every clip of a search is read with (issue 15): the Trim toggle, the FPS field (0: each clip's
+    """(trim, fps) every clip of a search is read with: the Trim toggle, the FPS field (0: each clip's
     own rate; else refused unless plausible, ``prepare.check_fps``)."""
     from .core.clip.prepare import check_fps
 
@@ -374,7 +374,7 @@ def missing_count(context, settings) -> int:
     return sum(not cache.contains(it.key, settings.level) for it in index_items(context, settings))
 
 
-# Cost of an index (issue 17: level 4 must not start unannounced). Measured: 110 CMU clips with 17 moving joints
+# Cost of an index (level 4 must not start unannounced). Measured: 110 CMU clips with 17 moving joints
 # took 277.9 s and 750 MB at level 4. An entry is dominated by its log-signature direction (float32, Witt's
 # dimension of R^(3 x moving joints) at the level), and computing it scales with that dimension too.
 COST_REFERENCE = {"clips": 110, "moving": 17, "level": 4, "seconds": 277.9, "bytes": 750e6}
@@ -481,7 +481,7 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
         row.window_action = ""
         row.explain = json.dumps(r.explain) if getattr(r, "explain", None) else ""
-        trimmed = getattr(r, "trimmed", ())  # the frames compared when trimming cut some (issue 15)
+        trimmed = getattr(r, "trimmed", ())  # the frames compared when trimming cut some
         # kept / read apart from the moment's window: Assign and Preview of a trimmed clip give the whole action
         row.kept_first, row.kept_last = trimmed[:2] if trimmed else (0, 0)
         row.read_first, row.read_last = trimmed[2:] if trimmed else (0, 0)

@@ -37,7 +37,7 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                             default=True)
     source: StringProperty(name="Source", description="Action name, or the clip file (FILE.blend#ACTION)")
     clip_name: StringProperty(name="Clip", description="The clip's name inside its source")
-    # issue 17: readable rows
+    # readable rows
     label: StringProperty(name="Label", description="Unique display label: the action, or the file (with its "
                           "action for a .blend, and as many parent folders as tell two files apart)")
     spec: StringProperty(name="File", description="The clip file as discovered (FILE.blend#ACTION); empty for "
@@ -46,17 +46,17 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                             precision=2)
     frame_first: IntProperty(name="First Frame", description="First frame of the matched clip or window")
     frame_last: IntProperty(name="Last Frame", description="Last frame of the matched clip or window")
-    # issue 19: moments and explanations
+    # moments and explanations
     window_action: StringProperty(name="Window Action", description="The action written for the matched window "
                                   "(Assign / Preview of a moment); Blend uses it")
     explain: StringProperty(name="Explanation", description="Why different (JSON, core.elastic.explain): per-joint "
                             "shares of the elastic distance and the alignment cost over time")
-    # issue 15: the frames read before trimming, when trimming cut some (0..0: nothing trimmed)
+    # the frames read before trimming, when trimming cut some (0..0: nothing trimmed)
     kept_first: IntProperty(name="Compared From", description="First frame compared, after trimming")
     kept_last: IntProperty(name="Compared To", description="Last frame compared, after trimming")
     read_first: IntProperty(name="Read From", description="First frame read, before trimming")
     read_last: IntProperty(name="Read To", description="Last frame read, before trimming")
-    # issue 27: the identity of what the row names, so that a replaced target is refused (results.check_target)
+    # the identity of what the row names, so that a replaced target is refused (results.check_target)
     target: StringProperty(name="Target", description="At the search: the action's read hash, or the file's "
                            "path, size and modification time")
     written: StringProperty(name="Written", description="Actions written for this row and their read hashes "
@@ -105,7 +105,7 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                             "(library actions, folder clips and the query unless it has a frame range); rest-pose "
                             "and ramp frames need none (Trim: Auto). 0 keeps all",
                             default=0, soft_min=0)
-    # issue 15: how every clip is read (query, file actions, folder clips); part of each clip's index key
+    # how every clip is read (query, file actions, folder clips); part of each clip's index key
     trim: EnumProperty(
         name="Trim", description="Rest-pose / ramp frames at the ends of each clip (core/clip/trim.py); an explicit "
         "crop start or frame range keeps its end",

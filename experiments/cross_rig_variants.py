@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Variants of sim³ tried against issue 14's last criterion, and what each costs on the evaluation sets.
+"""Variants of sim³ tried against the cross-rig same-take criterion, and what each costs on the evaluation sets.
 
   .venv/bin/python experiments/cross_rig_variants.py --data ../shared/data/cmu [--variants none,channel,time3,...]
 

@@ -7,7 +7,7 @@
 For every walk of the shared sets (the Daz BVH walks of tools/eval_sets/cmu_large.csv against its runs, the AMC
 walks of tools/eval_sets/cmu_amc.csv against its runs): the distance between the clip and its copy decimated to
 60 and 30 fps (every 2nd / 4th frame from the first: a clip of N frames at 120 fps loses its last (N - 1) mod 4
-frames, up to 25 ms, at 30 fps), divided by the distance from the clip to the nearest run. Issue 15's bounds:
+frames, up to 25 ms, at 30 fps), divided by the distance from the clip to the nearest run. The bounds:
 below ``BOUNDS`` (0.05 for sim^3, 0.15 for d_S*) for every walk at both rates; and the 30 fps copy, as a query,
 has a walk of its set (not itself) nearer than every run ("ranks walks first"). Prints one row per walk with
 PASS / SAME / FAIL (SAME: within the bounds, and the 30 fps copy ranks a run first only where the 120 fps original
@@ -37,7 +37,7 @@ from blender_shapesig.core.clip.prepare import decimate_clip  # noqa: E402
 from blender_shapesig.core.clip.trim import trim_clip  # noqa: E402
 
 SETS = ("cmu_large.csv", "cmu_amc.csv")
-BOUNDS = {"sim3": 0.05, "elastic": 0.15}  # issue 15: decimated copy / nearest other class
+BOUNDS = {"sim3": 0.05, "elastic": 0.15}  # decimated copy / nearest other class
 RATES = ("60fps", "30fps")
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""The same take in other formats and skeletons ranks first (issue 14), and the comparison-space measurement.
+"""The same take in other formats and skeletons ranks first, and the comparison-space measurement.
 
   .venv/bin/python experiments/rank_across_rigs.py --data ../shared/data/cmu [--bone-map auto|none] [--rerank K]
       [--metric sim3|linear3|elastic|...] [--all] [--joints [--plot OUT.png]]

@@ -323,7 +323,7 @@ def test_rank_rerank_and_top(capsys, amc):
 
 
 def test_rank_results_carry_path_and_action(capsys, tmp_path):
-    """Issue 17: two files with the same display name (two copies of 16_15.bvh) are told apart by "path", the
+    """two files with the same display name (two copies of 16_15.bvh) are told apart by "path", the
     argument as given; "action" is null for files that are not .blend."""
     paths = []
     for sub in ("a", "b"):
@@ -437,7 +437,7 @@ def _cli_json(*args):
 
 
 def test_subprocess_rank_blend_results_name_their_action(amc, tmp_path):
-    """Issue 17: a .blend in the library yields one result per action, each with "path" (the file as given)
+    """a .blend in the library yields one result per action, each with "path" (the file as given)
     and "action" (the action's name), so a script can load exactly that action again."""
     pytest.importorskip("bpy")
     out = tmp_path / "two.blend"

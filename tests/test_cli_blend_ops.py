@@ -1,4 +1,4 @@
-"""The command line's ``blend`` for animators (issue 18): three clips, ranges, planted feet (the issue's stance
+"""The command line's ``blend`` for animators: three clips, ranges, planted feet (the stance
 drift bounds through the command line), loops, masks and their one-line refusals, on real CMU clips."""
 
 import json

@@ -1,4 +1,4 @@
-"""The command line's ``blend`` with a .blend source (issue 27): the source is read in the child process (never
+"""The command line's ``blend`` with a .blend source: the source is read in the child process (never
 opened in the command line's process), only the armature that owns A's action is rebuilt in the output (no text
 blocks, drivers, other objects or source actions), an action no armature plays is given the armature its slot
 names or refused in one line when two rigs fit it, and a damaged source is one line (exit 2), never a crash."""

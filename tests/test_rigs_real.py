@@ -1,4 +1,4 @@
-"""Across rigs on real clips (issue 14): the same CMU take in other formats / skeletons ranks first both ways,
+"""Across rigs on real clips: the same CMU take in other formats / skeletons ranks first both ways,
 coverage and refusals on the command line, unmappable bones, saved maps, a blend onto A's rig.
 
 Crops (explicit until automatic trimming lands): the Daz BVH files from frame 7 (rest frame and the converter's

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Fuzz the motion readers with mutated real files (issue 10).
+"""Fuzz the motion readers with mutated real files.
 
     .venv/bin/python tools/fuzz_readers.py --cases 2000 --seed 1
     .venv/bin/python tools/fuzz_readers.py --cases 300 --seed 7 --targets bvh,blend --batch 50 --keep /tmp/fails
@@ -27,7 +27,7 @@ message, NaN, a different result, a hang, a crash) is a failure: listed at the e
 copies the failing cases' files into DIR.
 
 The mutators (``mutate``) and the checks (``check_clip``, ``read_acclaim_case``) are also used by the
-bounded fuzz tests in ``tests/core/test_fuzz_readers.py`` and ``tests/blender/test_robustness.py``.
+bounded fuzz tests in ``tests/core/test_fuzz_readers.py`` and ``tests/blender/test_bad_input_in_blender.py``.
 """
 
 import argparse

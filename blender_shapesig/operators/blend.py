@@ -206,7 +206,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         return blend_weights(self.inbetweens, self.weight)  # in-betweens within 1..MAX_INBETWEENS
 
     def _options(self):
-        """The issue-18 options as ``blend_actions`` keywords (ranges, extra actions, mask, groups, loop, feet,
+        """The options as ``blend_actions`` keywords (ranges, extra actions, mask, groups, loop, feet,
         timing); ShapeSigError (one line) on bad input."""
         from ..core.blend import parse_groups, parse_mask, parse_range
 

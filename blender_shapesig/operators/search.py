@@ -15,10 +15,9 @@ from ..core import index
 from ..core.elastic.explain import top_joints
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
-from ..library import CACHES as _CACHES  # noqa: F401
-from ..library import get_cache, library_items, missing_count, query_item, rank_into_settings
+from ..library import get_cache
 
-__all__ = ["classes", "get_cache", "query_item", "library_items", "rank_into_settings", "missing_count"]
+__all__ = ["classes"]
 
 
 def _tag_redraw(context):
@@ -41,7 +40,7 @@ def _poll_with(problem):
 
 
 def _confirm_cost(op, context, event, settings):
-    """Before a costly (level-4) index in the UI: a confirmation with the estimated time and disk (issue 17).
+    """Before a costly (level-4) index in the UI: a confirmation with the estimated time and disk.
     None to go on, else the invoke's return value (the dialog; OK runs the operator again, confirmed)."""
     if op.confirmed or settings is None or settings.level < library.COSTLY_LEVEL or context.window is None \
             or bpy.app.background:

@@ -118,7 +118,7 @@ def _draw_library(layout, s):
         col.prop(s, "folders", text="")
         col.prop(s, "asf", text="Skeleton (.asf)")
     col.prop(s, "crop_start")
-    row = col.row(align=True)  # issue 15: how every clip is read
+    row = col.row(align=True)  # how every clip is read
     row.prop(s, "trim", expand=True)
     row.prop(s, "fps")
 

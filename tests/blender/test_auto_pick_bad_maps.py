@@ -1,4 +1,4 @@
-"""Auto-Pick with saved-map files that are not bone maps in the maps folder (issue 27): a non-UTF-8, a
+"""Auto-Pick with saved-map files that are not bone maps in the maps folder: a non-UTF-8, a
 200,000-deep, a too-large and a not-an-object JSON file beside a good map. Find Similar still ranks (with the
 good map picked), and each bad file is skipped with one warning naming it."""
 

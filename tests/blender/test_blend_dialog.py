@@ -1,4 +1,4 @@
-"""The Blend dialog for animators (issue 18), headless on real CMU clips imported with Blender's BVH importer:
+"""The Blend dialog for animators, headless on real CMU clips imported with Blender's BVH importer:
 A/B frame ranges, more actions with weights, loops, planted feet, masks, editable timing (an NLA strip with
 animated Strip Time) and its bake; sources untouched, nothing orphaned through save and a fresh process, bad input
 refused in one line creating nothing."""

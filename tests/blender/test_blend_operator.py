@@ -252,7 +252,7 @@ def test_selected_pose_bones_subset(rig):
     assert _angle(got.rotations, expected.rotations) < 1e-5
 
 
-# ------------------------------------------------------------ animator safety: never orphan an action (issue 17)
+# ------------------------------------------------------------ animator safety: never orphan an action
 
 _REOPEN = textwrap.dedent("""
     import hashlib, json, sys

@@ -1,4 +1,4 @@
-"""The Bone Map editor (issue 14's saved maps) and the search's read options (issue 15's trim toggle and fps), on
+"""The Bone Map editor and the search's read options, on
 real CMU clips imported with Blender's BVH importer: the map is stored on the armature and survives save ->
 reopen in a fresh process; export -> import round-trips and is what core reads with --bone-map FILE; a hand-edited
 map raises a result's coverage; bad JSON is refused with nothing changed; the search and the Blend operator read

@@ -1,5 +1,5 @@
 """The demo's blend (tools/demo.py: walk 07_01 and run 09_02 from the Daz-friendly BVH files, trimmed by
-``trim_action``, blended by shapesig.blend_actions) starts in motion, not in the files' rest pose (issue 15: a
+``trim_action``, blended by shapesig.blend_actions) starts in motion, not in the files' rest pose (a
 T-pose that snapped into the walk, 43-46 degrees between frames 2 and 4)."""
 
 import importlib.util

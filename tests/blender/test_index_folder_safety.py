@@ -1,4 +1,4 @@
-"""The panel's index folder (issue 27): Build Index, Find Similar and Clear Index touch only the cache's own
+"""The panel's index folder: Build Index, Find Similar and Clear Index touch only the cache's own
 subfolder and its own files (a user's ``keep.npz`` and other files in the folder named, $SHAPESIG_CACHE_DIR or the
 Index Folder preference ``//``, survive), and an index folder that cannot be used gives the same results as a
 working one, with one WARNING line."""

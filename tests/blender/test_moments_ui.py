@@ -1,4 +1,4 @@
-"""Moments and "Why different" in Blender (issue 19) on real CMU clips: with the panel's Moments toggle, a re-timed
+"""Moments and "Why different" in Blender on real CMU clips: with the panel's Moments toggle, a re-timed
 excerpt of the 16_15 walk (a 471-frame take, imported with Blender's BVH importer) is found in its take with the
 right window; Assign, Preview and Blend use the window; the explanation is stored on the row and drawn (bars and
 a strip); Why Different explains a whole-clip result."""

@@ -1,4 +1,4 @@
-"""Every operator's failure is one line (issue 27): whatever escapes an operator (OSError, MemoryError, a removed
+"""Every operator's failure is one line: whatever escapes an operator (OSError, MemoryError, a removed
 data-block's ReferenceError) is reported as one ERROR line with CANCELLED, its traceback on the console, and no
 state stays set (``running``, ``index_running``, timers); a query action removed during a modal rank ends it
 cleanly."""
@@ -11,7 +11,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import errors_ui, library, operators  # noqa: E402
-from test_safety import _error, cache_env, rig  # noqa: E402,F401
+from test_operators_lose_nothing import _error, cache_env, rig  # noqa: E402,F401
 
 FAILURES = (OSError(28, "No space left on device", "/index/x.npz"), MemoryError(),
             ReferenceError("StructRNA of type Action has been removed"))

@@ -1,4 +1,4 @@
-"""Result rows know their target (issue 27): a row remembers the read hash of its action or the path, size and
+"""Result rows know their target: a row remembers the read hash of its action or the path, size and
 time of its file at the search, and Assign, Preview, Blend and Why Different refuse in one line a target that
 changed since (an action deleted and another renamed to its name, a file replaced), creating nothing."""
 
@@ -10,7 +10,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import library, results  # noqa: E402
 from test_blend_operator import _import_bvh  # noqa: E402
-from test_safety import BVH, _error, cache_env, rig  # noqa: E402,F401
+from test_operators_lose_nothing import BVH, _error, cache_env, rig  # noqa: E402,F401
 
 CHANGED = "changed since the search; search again"
 

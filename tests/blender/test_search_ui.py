@@ -362,7 +362,7 @@ def test_actions_of_another_rig_are_read_with_it_and_mapped(rig):
     """An ASF/AMC walk on its own armature shares almost no bone names with the BVH rig: read with its own armature
     (not the query's, which would make its unkeyed BVH bones look like rest poses) and mapped onto the canonical
     joints (core.rigs), it is compared on all of them (coverage 1, not a partial match) and ranks among the walks,
-    before the runs and the jump (issue 14: before, it was a second-tier match on the one shared bone)."""
+    before the runs and the jump (before, it was a second-tier match on the one shared bone)."""
     acc = BVH.parent / "acclaim"
     bpy.ops.shapesig.import_acclaim(filepath=str(acc / "07_02.amc"), asf_path=str(acc / "07-walk.asf"))
     amc_rig = bpy.context.view_layer.objects.active

@@ -1,4 +1,4 @@
-"""Blends animators can use (issue 18), through ``core.blend.make_blends``, the recipe the command line and the
+"""Blends animators can use, through ``core.blend.make_blends``, the recipe the command line and the
 Blend operator share: three clips, ranges, loops, masks and planted feet on real CMU clips from tests/data."""
 
 import functools

@@ -1,4 +1,4 @@
-"""Saved bone-map JSON files that are not bone maps (issue 27): not UTF-8, nested 200,000 deep, not an object,
+"""Saved bone-map JSON files that are not bone maps: not UTF-8, nested 200,000 deep, not an object,
 larger than the 1 MB cap. Each is one ParseError naming the file from ``core.rigs.load_map``, and one line on
 stderr with exit 2 from the command line's ``--bone-map FILE.json`` (no Python exception names); a good map
 still works beside them."""

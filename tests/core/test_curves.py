@@ -1,4 +1,4 @@
-"""Curve core (issue 2): right logarithmic derivative, SRVT and inverse, geodesic interpolation, d_P*.
+"""Curve core: right logarithmic derivative, SRVT and inverse, geodesic interpolation, d_P*.
 
 Truth comes from closed forms (constant-speed rotations), another library (scipy's Slerp), exact
 invariances (right translation, piecewise-linear reparametrization, eq. 4.6) and a fine Riemann sum.

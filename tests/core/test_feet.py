@@ -1,4 +1,4 @@
-"""core.clip.skeleton forward kinematics and core.blend.feet (planted feet, issue 18) on real CMU clips from tests/data."""
+"""core.clip.skeleton forward kinematics and core.blend.feet (planted feet) on real CMU clips from tests/data."""
 
 import pathlib
 

@@ -1,4 +1,4 @@
-"""Bad input to the ASF/AMC reader and degenerate curves in core (issue 10), without bpy.
+"""Bad input to the ASF/AMC reader and degenerate curves in core, without bpy.
 
 A bounded hypothesis fuzz mutates the real CMU files (the mutators of tools/fuzz_readers.py: truncation,
 garbage bytes, dropped / repeated lines, wrong value counts, NaN / inf / huge numbers, missing sections,

@@ -1,4 +1,4 @@
-"""Moments (issue 19): the free-window elastic DP against brute force, windowed ranking of re-timed excerpts of a
+"""Moments: the free-window elastic DP against brute force, windowed ranking of re-timed excerpts of a
 real clip (tests/data), and the explanations (per-joint shares, cost over time), in the core and the CLI."""
 
 import json

@@ -1,4 +1,4 @@
-"""The signature cache owns only what it wrote (issue 27): its own marked subfolder of the folder a user names,
+"""The signature cache owns only what it wrote: its own marked subfolder of the folder a user names,
 where it deletes only its own files; a safe per-user fallback folder; and a folder it cannot use (a full disk, a
 read-only folder, a path that is a file, an unsafe fallback) gives the same ranking as no cache plus exactly one
 warning. Rankings are compared with an in-memory cache (the truth: no disk at all)."""

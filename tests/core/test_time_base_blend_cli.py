@@ -1,4 +1,4 @@
-"""Issue 15: a blend of a 120 fps and a 30 fps clip lasts the weighted average of its sources' durations in
+"""a blend of a 120 fps and a 30 fps clip lasts the weighted average of its sources' durations in
 seconds, through the real command line (``blend`` writes a .blend; the actions are read back in a fresh process).
 
 The 30 fps clip is a real one: the Daz BVH run 09_02 with every 4th frame kept and ``Frame Time`` 1/30 s (what a

@@ -15,7 +15,7 @@ from blender_shapesig.core.clip.prepare import (decimate_clip, lattice_cut, latt
                                            prepare_rotations)
 from blender_shapesig.core.clip.trim import detect_trim, trim_clip, trim_note, trimmed_range
 
-BOUNDS = {"sim3": 0.05, "elastic": 0.15}  # issue 15: decimated copy / nearest clip of the other class
+BOUNDS = {"sim3": 0.05, "elastic": 0.15}  # decimated copy / nearest clip of the other class
 
 
 def _amc(data_dir, name, asf):

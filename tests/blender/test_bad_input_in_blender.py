@@ -1,4 +1,4 @@
-"""Bad input in Blender (issue 10): fuzzed BVH and .blend readers, degenerate actions through the operators,
+"""Bad input in Blender: fuzzed BVH and .blend readers, degenerate actions through the operators,
 no data loss (source F-curve buffers bit-identical, nothing created on errors, one undo step), corrupt caches.
 
 The BVH and .blend fuzz here is small (a few hypothesis examples); ``tools/fuzz_readers.py`` runs the long
@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig import action_io, compat, library  # noqa: E402
 from blender_shapesig.core.io.sources import read  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
 from blender_shapesig.core.clip.clip import Clip  # noqa: E402
@@ -497,10 +497,9 @@ def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
     for i, f in enumerate(files):  # truncate one, garbage in one, empty one ...
         blob = f.read_bytes()
         f.write_bytes([blob[: len(blob) // 2], b"garbage" * 10, b""][i % 3])
-    search_mod = importlib.import_module("blender_shapesig.operators.search")
-    search_mod._CACHES.clear()  # a fresh session reads the damaged files
+    library.CACHES.clear()  # a fresh session reads the damaged files
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
-    cache = search_mod.get_cache(bpy.context)
+    cache = library.get_cache(bpy.context)
     assert cache.stats["invalid"] >= len(files)
     again = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}
     assert again.keys() == first.keys()

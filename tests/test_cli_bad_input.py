@@ -1,4 +1,4 @@
-"""The command line on bad and degenerate input (issue 10): every failure is exit code 2 with one line on
+"""The command line on bad and degenerate input: every failure is exit code 2 with one line on
 stderr and nothing on stdout, nothing half-written (no --out file, no matrix), and degenerate but valid clips
 (two frames, constant, no rotation channels, 10,000 frames) give finite numbers.
 

@@ -1,4 +1,4 @@
-"""Animator-safe operators (issue 17) on real CMU clips (BVH walks 07_01, 07_02, run 09_02, jump 13_32; the
+"""Animator-safe operators on real CMU clips (BVH walks 07_01, 07_02, run 09_02, jump 13_32; the
 Acclaim walks): no action is ever lost (Assign, Preview/Stop, blends; save -> reopen in a fresh process keeps
 every pre-existing action bit-identical), Stop restores exactly, values out of range are refused (one-line
 error, file unchanged), the results list is readable (one sort column named in its header, unique labels,
