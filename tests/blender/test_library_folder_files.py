@@ -16,7 +16,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import library  # noqa: E402
-from blender_shapesig.core import search
+from blender_shapesig.core import index as search
 from blender_shapesig.core.io import sources  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
