@@ -17,7 +17,7 @@ import numpy as np
 import bpy
 
 from . import action_changes, action_io, compat, rigmap
-from .core import index, rigs
+from .core import index
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
@@ -76,7 +76,7 @@ class ActionKey:
     def text(self) -> str:
         """The cache key."""
         return (f"action:{self.read_hash}|arm:{self.armature_digest}|range:{self.frame_range}"
-                f"|space:armature|keyed|bone_map=auto{rigs.TABLES_VERSION}"
+                f"|space:armature|keyed|bone_map={sources.bone_map_key('auto')}"
                 + (f"|{sources.trim_key(self.trim)}" if self.trim != "none" else "")
                 + (f"|fps={self.fps}" if self.fps else ""))
 
@@ -130,10 +130,9 @@ def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=No
         # only the bones the action keys (a bone it does not animate is unknown, not the rest pose)
         clip = action_io.read_action(action, armature=arm, frame_range=key.frame_range, name=name,
                                      space="armature", exclude_unkeyed=True, fps=key.fps)
-        if key.trim == "auto":  # as folder clips are trimmed at the front door (core.io.sources.read)
-            clip = sources.trim_ends(clip, start=key.frame_range[0] if key.frame_range else None)
-        # the comparison space across rigs, as folder clips get it at the front door (core.io.sources.read)
-        return rigs.apply_bone_map(clip, rigmap.bone_map_of(arm))
+        # trimmed (an explicit range's start kept) and into the comparison space, as files are (sources.read)
+        start = key.frame_range[0] if key.frame_range else None
+        return sources.after_read([clip], trim=key.trim, start=start, bone_map=rigmap.bone_map_of(arm))[0]
 
     return ActionItem(action.name, key.text, load, source=action.name, action=action.name, action_key=key)
 

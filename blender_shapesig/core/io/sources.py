@@ -22,7 +22,7 @@ from .registry import EXTENSIONS, reader_for, register_reader
 
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "discover",
-    "read", "read_one", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
+    "read", "read_one", "after_read", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
 ]
 
 
@@ -107,7 +107,7 @@ class ClipSpec:
         skeleton = self.skeleton()
         extra = (f"asf={file_key(skeleton) if skeleton else ''}|action={self.action}|start={self.start}"
                  f"|end={self.end}|fps={self.fps}|{trim_key(self.trim)}")
-        extra += f"|bone_map={_bone_map_key(self.bone_map)}"
+        extra += f"|bone_map={bone_map_key(self.bone_map)}"
         return file_key(self.path, extra)
 
 
@@ -116,7 +116,7 @@ def trim_key(trim) -> str:
     return f"trim={trim}{_TRIM_VERSION if trim != 'none' else ''}"
 
 
-def _bone_map_key(bone_map) -> str:
+def bone_map_key(bone_map) -> str:
     """The key part of a ``bone_map`` option: the tables' version for "auto", a saved map's content."""
     from ..rigs import TABLES_VERSION
 
@@ -191,16 +191,23 @@ def read(spec, **options) -> List[Clip]:
     if not clips:
         raise ParseError("no armature action found" if spec.action is None else f"no action {spec.action!r}",
                          spec.path)
-    if spec.fps is not None:
-        clips = [dataclasses.replace(c, fps=float(spec.fps)) for c in clips]
-    if spec.trim == "auto" and (spec.start is None or spec.end is None):
-        clips = [trim_ends(c, spec.start, spec.end) for c in clips]
-    if spec.start is not None or spec.end is not None:
-        clips = [c.crop(spec.start, spec.end) for c in clips]
-    if spec.bone_map not in (None, "none"):
+    return after_read(clips, fps=spec.fps, trim=spec.trim, start=spec.start, end=spec.end, bone_map=spec.bone_map)
+
+
+def after_read(clips, fps=None, trim="none", start=None, end=None, bone_map="none") -> List[Clip]:
+    """The steps after a reader, in order, for files and the Blender layer's actions alike: the frame rate
+    (``fps`` overrides), the trim rule ("auto": ``trim_ends``, keeping an explicit end), the crop (scene frames
+    ``start``..``end``, inclusive) and the bone map into the comparison space (``rigs.apply_bone_map``)."""
+    if fps is not None:
+        clips = [dataclasses.replace(c, fps=float(fps)) for c in clips]
+    if trim == "auto" and (start is None or end is None):
+        clips = [trim_ends(c, start, end) for c in clips]
+    if start is not None or end is not None:
+        clips = [c.crop(start, end) for c in clips]
+    if bone_map not in (None, "none"):
         from ..rigs import apply_bone_map
 
-        clips = [apply_bone_map(c, spec.bone_map) for c in clips]
+        clips = [apply_bone_map(c, bone_map) for c in clips]
     return clips
 
 
