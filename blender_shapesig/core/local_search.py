@@ -1,0 +1,367 @@
+"""Local search: clips compared by what animators call "the same motion" (issue 29), pose and motion, window by window.
+
+Per clip (``features``): the positions of a few key points (head, chest, elbows, wrists, knees, ankles) relative to
+the hips in the body's own horizontal frame (the facing of the hips and shoulders removed frame by frame), in leg
+lengths, by forward kinematics on the canonical joints of the comparison space (``core.rigs``), so rigs, body sizes,
+units and directions do not matter; plus the hips' path in that turning frame and the turned angle (the motion
+channels), all at ``RATE`` samples per second. **First stage** (``index_entry``, ``first_stage``): the clip's
+sliding windows (``WINDOW`` seconds, hop ``HOP``), each described by its mean pose (the basepoint) and the level-2
+log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a signed square
+root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window), projected by a fixed,
+data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
+their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
+matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
+(Sakoe-Chiba band, numba when available, else numpy). ``search`` runs both. Pure numpy; no bpy.
+"""
+
+import math
+from typing import Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from .clip import Clip
+from .errors import ShapeSigError
+
+try:  # numba is optional: Blender's Python does not ship it
+    import numba as _numba
+except ImportError:  # pragma: no cover - depends on the environment
+    _numba = None
+
+__all__ = ["RATE", "WINDOW", "HOP", "DIM", "SHORTLIST", "POINTS", "Settings", "body_positions", "features",
+           "window_vectors", "index_entry", "first_stage", "dtw", "rerank", "search", "entry_bytes"]
+
+RATE = 30.0  # samples per second of the features
+WINDOW = 1.0  # seconds per window
+HOP = 0.25  # seconds between windows
+DIM = 96  # numbers per window in the index
+SHORTLIST = 20  # clips the second stage re-ranks
+RERANK_STEP = 2  # the second stage's sequences: every 2nd feature sample (15 per second)
+BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
+# key points: (canonical joint, "head" or "tail" of its bone); a missing joint's head falls back to its parent's tail
+POINTS = (("head", "head"), ("chest", "head"), ("forearm.L", "head"), ("forearm.R", "head"), ("hand.L", "head"),
+          ("hand.R", "head"), ("shin.L", "head"), ("shin.R", "head"), ("foot.L", "head"), ("foot.R", "head"))
+_PARENTS = {"hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine_mid", "neck": "chest",
+            "head": "neck", **{f"clavicle.{s}": "chest" for s in "LR"},
+            **{f"upper_arm.{s}": f"clavicle.{s}" for s in "LR"}, **{f"forearm.{s}": f"upper_arm.{s}" for s in "LR"},
+            **{f"hand.{s}": f"forearm.{s}" for s in "LR"}, **{f"thigh.{s}": "hips" for s in "LR"},
+            **{f"shin.{s}": f"thigh.{s}" for s in "LR"}, **{f"foot.{s}": f"shin.{s}" for s in "LR"},
+            **{f"toe.{s}": f"foot.{s}" for s in "LR"}}
+_ORDER = tuple(_PARENTS)
+
+
+class Settings:
+    """The recipe's constants in one object (experiments vary them; the defaults are the module's)."""
+
+    def __init__(self, rate=RATE, window=WINDOW, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
+                 turn_weight=0.5, normalize="parts", seed=29):
+        self.rate, self.window, self.hop, self.dim = float(rate), float(window), float(hop), dim
+        self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
+        self.normalize, self.seed = normalize, seed
+
+    def key(self):
+        return (self.rate, self.window, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+                self.normalize, self.seed)
+
+
+DEFAULT = Settings()
+
+
+# ------------------------------------------------------------------------------------------------- positions
+
+def _rest_offsets(clip: Clip, joints):
+    heads = clip.meta.get("rest_heads") or {}
+    tails = clip.meta.get("rest_tails") or {}
+    by_joint = clip.meta.get("bone_map") or {}
+    h = {j: np.asarray(heads[by_joint[j]], float) for j in joints if by_joint.get(j) in heads}
+    t = {j: np.asarray(tails[by_joint[j]], float) for j in joints if by_joint.get(j) in tails}
+    return h, t
+
+
+def _leg(h):
+    legs = [np.linalg.norm(h[f"thigh.{s}"] - h[f"foot.{s}"]) for s in "LR" if f"thigh.{s}" in h and f"foot.{s}" in h]
+    leg = float(np.mean(legs)) if legs else 0.0
+    if not leg > 0:
+        raise ShapeSigError("local search needs the legs (thigh and foot) and the rest skeleton")
+    return leg
+
+
+def body_positions(clip: Clip, points=POINTS):
+    """(hips, P, side): the hips' path (frames, 3), the key points (frames, points, 3) and the body's left-minus-right
+    vector (hip joints plus shoulders, frames, 3), in leg lengths in the comparison space's axes (Z up), by forward
+    kinematics down the canonical joints. ``clip`` must be in the
+    comparison space (``rigs.to_comparison_space``, what ``sources.read`` gives with a bone map)."""
+    if clip.meta.get("rotation_space") != "comparison":
+        raise ShapeSigError(f"clip {clip.name!r} is not in the comparison space (read it with a bone map)")
+    joints = [j for j in _ORDER if j in clip.bones]
+    index = {b: i for i, b in enumerate(clip.bones)}
+    h, t = _rest_offsets(clip, joints)
+    leg = _leg(h)
+    R = clip.rotations
+    F = R.shape[0]
+    if clip.meta.get("root_path") == "hips_legs" and clip.root_translation is not None:
+        hips = np.asarray(clip.root_translation, float)
+    else:
+        hips = np.zeros((F, 3))
+    pos = {}
+
+    def parent(j):
+        p = _PARENTS[j]
+        while p is not None and p not in index:
+            p = _PARENTS[p]
+        return p
+
+    for j in joints:
+        if j not in h:
+            continue
+        p = parent(j)
+        while p is not None and p not in h:
+            p = parent(p)
+        pos[j] = hips.copy() if p is None else pos[p] + R[:, index[p]] @ ((h[j] - h[p]) / leg)
+    out, names = [], []
+    for j, end in points:
+        if end == "head" and j in pos:
+            out.append(pos[j])
+        else:
+            p = j if end == "tail" else parent(j) if j in _PARENTS else None
+            if p is None or p not in pos or p not in t:
+                raise ShapeSigError(f"clip {clip.name!r}: no {j!r} for the local search")
+            out.append(pos[p] + R[:, index[p]] @ ((t[p] - h[p]) / leg))
+        names.append(j)
+    side = np.zeros((F, 3))
+    for a in ("thigh", "upper_arm"):
+        if f"{a}.L" in pos and f"{a}.R" in pos:
+            side += pos[f"{a}.L"] - pos[f"{a}.R"]
+    return hips, np.stack(out, axis=1), side
+
+
+def _resample(x, fps, rate):
+    """Linear interpolation of (frames, ...) at ``rate`` samples per second (the same span in seconds)."""
+    F = x.shape[0]
+    if F < 2 or abs(fps - rate) < 1e-9:
+        return x
+    n = int(math.floor((F - 1) * rate / fps + 1e-9)) + 1
+    s = np.arange(n) * (fps / rate)
+    i = np.minimum(np.floor(s).astype(int), F - 2)
+    w = (s - i).reshape((-1,) + (1,) * (x.ndim - 1))
+    return x[i] * (1 - w) + x[i + 1] * w
+
+
+def _facing(side):
+    """(frames,) the body's yaw: the angle of its horizontal right-to-left direction (hips and shoulders),
+    unwrapped (the facing is a quarter turn from it; only differences and the frame matter)."""
+    return np.unwrap(np.arctan2(side[:, 1], side[:, 0]))
+
+
+def features(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
+    """The clip's channels at ``settings.rate``: ``pose`` (T, 3 * points) the key points relative to the hips in the
+    body's horizontal frame (leg lengths), ``motion`` (T, 4) the hips' path integrated in that turning frame and
+    the turned angle (radians, from the first sample)."""
+    hips, P, side = body_positions(clip)
+    hips = _resample(hips, clip.fps, settings.rate)
+    P = _resample(P, clip.fps, settings.rate)
+    yaw = _facing(_resample(side, clip.fps, settings.rate))
+    c, s = np.cos(yaw), np.sin(yaw)
+    rel = P - hips[:, None]
+    local = np.stack([c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1],
+                      -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1], rel[..., 2]], axis=-1)
+    dh = np.diff(hips, axis=0)
+    cm, sm = c[:-1], s[:-1]
+    dl = np.stack([cm * dh[:, 0] + sm * dh[:, 1], -sm * dh[:, 0] + cm * dh[:, 1], dh[:, 2]], axis=1)
+    path = np.vstack([np.zeros((1, 3)), np.cumsum(dl, axis=0)])
+    motion = np.column_stack([path, yaw - yaw[0]])
+    return {"pose": local.reshape(len(local), -1), "motion": motion, "rate": np.float64(settings.rate)}
+
+
+# ------------------------------------------------------------------------------------------------- windows
+
+def _windows(T, rate, window, hop):
+    """Start indices and the length (samples) of the sliding windows of T samples; one window if shorter."""
+    w = max(2, int(round(window * rate)))
+    step = max(1, int(round(hop * rate)))
+    if T <= w:
+        return np.array([0]), T
+    starts = np.arange(0, T - w + 1, step)
+    if starts[-1] != T - w:
+        starts = np.append(starts, T - w)
+    return starts, w
+
+
+def _levy_areas(X, starts, w):
+    """(windows, d(d-1)/2): the Levy areas (level 2 of the log-signature, Lyndon basis [i, j], i < j) of each
+    window X[s:s+w] (``w`` samples), by prefix sums: A_ij = 1/2 sum_k (Y_i dX_j - Y_j dX_i), Y = X - X[s]."""
+    d = X.shape[1]
+    dX = np.diff(X, axis=0)
+    M = np.einsum("ki,kj->kij", X[:-1], dX)  # X_k (x) dX_k
+    cM = np.concatenate([np.zeros((1, d, d)), np.cumsum(M, axis=0)])
+    cD = np.concatenate([np.zeros((1, d)), np.cumsum(dX, axis=0)])
+    e = starts + w - 1
+    S = cM[e] - cM[starts] - np.einsum("wi,wj->wij", X[starts], cD[e] - cD[starts])
+    A = 0.5 * (S - np.swapaxes(S, 1, 2))
+    iu = np.triu_indices(d, 1)
+    return A[:, iu[0], iu[1]]
+
+
+def _unit_rows(x, floor):
+    n = np.linalg.norm(x, axis=1, keepdims=True)
+    return x / np.maximum(n, floor)
+
+
+_PROJECTIONS = {}
+
+
+def _projection(n_in, dim, seed):
+    key = (n_in, dim, seed)
+    if key not in _PROJECTIONS:
+        rng = np.random.default_rng(seed)
+        _PROJECTIONS[key] = (rng.standard_normal((n_in, dim)) / math.sqrt(dim)).astype(np.float32)
+    return _PROJECTIONS[key]
+
+
+def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT) -> np.ndarray:
+    """(windows, n) the unprojected window descriptors: [mean pose, level 1, signed-sqrt level 2] of the path
+    [pose, motion], each part normalized (``settings.normalize``: "parts" = unit length with a floor, eq. 9.1
+    per window; "none" = raw, leg lengths) and weighted."""
+    pose, motion = feat["pose"], feat["motion"].copy()
+    motion[:, 3] *= settings.turn_weight
+    X = np.column_stack([pose, motion])
+    starts, w = _windows(len(X), float(feat["rate"]), settings.window, settings.hop)
+    cP = np.concatenate([np.zeros((1, pose.shape[1])), np.cumsum(pose, axis=0)])
+    base = (cP[starts + w] - cP[starts]) / w
+    lvl1 = X[starts + w - 1] - X[starts]
+    lvl2 = _levy_areas(X, starts, w)
+    lvl2 = np.sign(lvl2) * np.sqrt(np.abs(lvl2))
+    if settings.normalize == "parts":
+        # a still window has no direction: below the floor (leg lengths) its motion parts keep their size
+        base = _unit_rows(base, 1e-6)
+        lvl1 = _unit_rows(lvl1, 0.25)
+        lvl2 = _unit_rows(lvl2, 0.25)
+    parts = [settings.pose_weight * base, settings.motion_weight * lvl1, settings.motion_weight * lvl2]
+    return np.column_stack(parts)
+
+
+def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
+    """The compact arrays the search keeps per clip: ``windows`` (N, DIM) float16 (projected window descriptors)
+    and ``sequence`` (T', 3 * points) float16 (the pose every ``RERANK_STEP``-th sample, for the second stage)."""
+    return entry_from_features(features(clip, settings), settings)
+
+
+def entry_from_features(feat, settings: Settings = DEFAULT):
+    V = window_vectors(feat, settings).astype(np.float32)
+    if settings.dim:
+        V = V @ _projection(V.shape[1], settings.dim, settings.seed)
+    return {"windows": V.astype(np.float16), "sequence": feat["pose"][::RERANK_STEP].astype(np.float16)}
+
+
+def entry_bytes(entry) -> int:
+    return int(sum(np.asarray(v).nbytes for v in entry.values()))
+
+
+# ------------------------------------------------------------------------------------------------- stage one
+
+def _sq_dist(A, B):
+    d = (A * A).sum(1)[:, None] + (B * B).sum(1)[None] - 2.0 * (A @ B.T)
+    return np.maximum(d, 0.0)
+
+
+def first_stage(query, entries: Sequence, block: int = 256) -> np.ndarray:
+    """(len(entries),) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's
+    distance + the same from the entry's side). ``query`` and ``entries``: ``index_entry`` dicts (or window
+    arrays). Computed against all windows at once, in blocks of ``block`` entries."""
+    q = np.asarray(query["windows"] if isinstance(query, Mapping) else query, dtype=np.float32)
+    wins = [np.asarray(e["windows"] if isinstance(e, Mapping) else e, dtype=np.float32) for e in entries]
+    out = np.empty(len(wins))
+    for b0 in range(0, len(wins), block):
+        chunk = wins[b0:b0 + block]
+        lens = np.array([len(w) for w in chunk])
+        W = np.concatenate(chunk)
+        D = np.sqrt(_sq_dist(q, W))  # (nq, total)
+        bounds = np.concatenate([[0], np.cumsum(lens)])
+        q_side = np.minimum.reduceat(D, bounds[:-1], axis=1).mean(axis=0)
+        e_min = D.min(axis=0)
+        e_side = np.add.reduceat(e_min, bounds[:-1]) / lens
+        out[b0:b0 + len(chunk)] = 0.5 * (q_side + e_side)
+    return out
+
+
+# ------------------------------------------------------------------------------------------------- stage two
+
+def _dtw_numpy(a, b, band):
+    n, m = len(a), len(b)
+    C = _sq_dist(a, b)
+    D = np.full((n + 1, m + 1), np.inf)
+    D[0, 0] = 0.0
+    for i in range(1, n + 1):
+        lo = max(1, int(math.ceil((i - 1) * m / n)) - band) if band >= 0 else 1
+        hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1) if band >= 0 else m
+        for j in range(lo, hi + 1):
+            D[i, j] = C[i - 1, j - 1] + min(D[i - 1, j], D[i, j - 1], D[i - 1, j - 1])
+    return math.sqrt(D[n, m])
+
+
+if _numba is not None:
+    @_numba.njit(cache=True, nogil=True)
+    def _dtw_numba(a, b, band):  # pragma: no cover - compiled
+        n, m, d = a.shape[0], b.shape[0], a.shape[1]
+        prev = np.full(m + 1, np.inf)
+        cur = np.full(m + 1, np.inf)
+        prev[0] = 0.0
+        for i in range(1, n + 1):
+            for j in range(m + 1):
+                cur[j] = np.inf
+            if band >= 0:
+                lo = max(1, int(math.ceil((i - 1) * m / n)) - band)
+                hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1)
+            else:
+                lo, hi = 1, m
+            for j in range(lo, hi + 1):
+                c = 0.0
+                for k in range(d):
+                    t = a[i - 1, k] - b[j - 1, k]
+                    c += t * t
+                best = prev[j - 1]
+                if prev[j] < best:
+                    best = prev[j]
+                if cur[j - 1] < best:
+                    best = cur[j - 1]
+                cur[j] = c + best
+            prev, cur = cur, prev
+        return math.sqrt(prev[m])
+
+
+def dtw(a, b, band: Optional[int] = None) -> float:
+    """Dynamic time warping of two sequences (frames, channels): the square root of the least sum of squared
+    Euclidean distances over warping paths (tslearn's and aeon's convention); ``band`` (samples, around the
+    diagonal scaled to the lengths; None: no band) restricts the path (Sakoe-Chiba)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    bw = -1 if band is None else int(band)
+    if bw >= 0:
+        bw = max(bw, 1)
+    if _numba is not None:
+        return float(_dtw_numba(a, b, bw))
+    return _dtw_numpy(a, b, bw)
+
+
+def _band(n, m, band=BAND):
+    return int(math.ceil(band * max(n, m))) + 1
+
+
+def rerank(query, candidates: Sequence, band: float = BAND) -> np.ndarray:
+    """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the sum of
+    the two lengths (clips of other durations stay comparable)."""
+    a = np.asarray(query["sequence"], dtype=np.float64)
+    out = np.empty(len(candidates))
+    for i, c in enumerate(candidates):
+        b = np.asarray(c["sequence"], dtype=np.float64)
+        out[i] = dtw(a, b, _band(len(a), len(b), band)) / math.sqrt(len(a) + len(b))
+    return out
+
+
+def search(query, entries: Sequence, shortlist: int = SHORTLIST) -> List[int]:
+    """The entries' indices, best first: all by ``first_stage``, the first ``shortlist`` re-ranked by ``rerank``."""
+    d1 = first_stage(query, entries)
+    order = list(np.argsort(d1, kind="stable"))
+    head = order[:shortlist]
+    d2 = rerank(query, [entries[i] for i in head])
+    head = [head[i] for i in np.argsort(d2, kind="stable")]
+    return head + order[shortlist:]

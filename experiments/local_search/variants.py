@@ -1,0 +1,66 @@
+"""The local search's variants (issue 29) and their evaluation on one set from cached features: the first stage's
+matrix, the second stage's DTW on the shortlist, 1-NN / mAP under a protocol, and the crop probes."""
+
+import numpy as np
+
+import common as cm
+from blender_shapesig.core import local_search as ls
+
+# name -> (Settings, shortlist K, re-rank band)
+VARIANTS = {
+    "default": (ls.Settings(), ls.SHORTLIST, ls.BAND),
+    "stage1": (ls.Settings(), 0, ls.BAND),
+}
+
+
+def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, **kw):
+    VARIANTS[name] = (ls.Settings(**kw), shortlist, band)
+
+
+def entries(feats, settings):
+    return [ls.entry_from_features(f, settings) for f in feats]
+
+
+def first_matrix(Q, E):
+    return np.stack([ls.first_stage(q, E) for q in Q])
+
+
+def evaluate(items, feats, variant, kind="loo"):
+    settings, k, band = variant
+    labels = [it.label for it in items]
+    E = entries(feats["full"], settings)
+    D1 = first_matrix(E, E)
+    cache = {}
+
+    def d2(a, b, qe, ce):
+        key = (a, b)
+        if key not in cache:
+            cache[key] = ls.rerank(qe, [ce], band)[0]
+        return cache[key]
+
+    prot = cm.protocol(items, kind)
+    orders1 = [np.asarray(c)[np.argsort(D1[q, c], kind="stable")] for q, c in prot]
+    s1 = cm.scores(orders1, labels, [q for q, _ in prot])
+    orders = [cm.two_stage_order(D1[q], c, k, lambda j, q=q: d2(q, j, E[q], E[j])) for q, c in prot]
+    s2 = cm.scores(orders, labels, [q for q, _ in prot])
+    crops = {}
+    everyone = list(range(len(items)))
+    for crop in (("start", 0.1), ("end", 0.1)):
+        if crop not in feats:
+            continue
+        Qc = entries(feats[crop], settings)
+        Dc = first_matrix(Qc, E)
+        ok = 0
+        for q in everyone:
+            order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band)[0])
+            ok += order[0] == q
+        crops[crop[0]] = ok
+    size = np.mean([ls.entry_bytes(e) for e in E])
+    return {"stage1": s1, "two_stage": s2, "crops": crops, "n": len(items), "bytes": size}
+
+
+def format_row(set_name, name, r):
+    c = r["crops"]
+    crop = " ".join(f"{k} {v}/{r['n']}" for k, v in c.items())
+    return (f"{set_name:10s} {name:24s} stage1 1-NN {r['stage1'][0]:.3f} mAP {r['stage1'][1]:.3f} | two-stage "
+            f"1-NN {r['two_stage'][0]:.3f} mAP {r['two_stage'][1]:.3f} | crops {crop} | {r['bytes'] / 1024:.1f} KB")
