@@ -1,9 +1,10 @@
 """Local search: clips compared by what animators call "the same motion" (issue 29), pose and motion, window by window.
 
-Per clip (``features``): the positions of a few key points (head, chest, elbows, wrists, knees, ankles) relative to
-the hips in the body's own horizontal frame (the facing of the hips and shoulders removed frame by frame), in leg
-lengths, by forward kinematics on the canonical joints of the comparison space (``core.rigs``), so rigs, body sizes,
-units and directions do not matter; plus the hips' path in that turning frame and the turned angle (the motion
+Per clip (``features``): the positions of a few key points (head, shoulders, elbows, wrists, knees, ankles) of a
+canonical body posed like the clip (the rig's segment directions by forward kinematics on the canonical joints of
+the comparison space, ``core.rigs``; an adult's proportions in leg lengths), relative to the pelvis in the body's
+own horizontal frame (the facing of the hips and shoulders removed frame by frame), so rigs, body sizes, units and
+directions do not matter; plus the hips' path in that turning frame and the turned angle (the motion
 channels), all at ``RATE`` samples per second. **First stage** (``index_entry``, ``first_stage``): the clip's
 sliding windows (``WINDOW`` seconds, hop ``HOP``), each described by its mean pose (the basepoint) and the level-2
 log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a signed square
@@ -27,19 +28,25 @@ try:  # numba is optional: Blender's Python does not ship it
 except ImportError:  # pragma: no cover - depends on the environment
     _numba = None
 
-__all__ = ["RATE", "WINDOW", "HOP", "DIM", "SHORTLIST", "POINTS", "Settings", "body_positions", "features",
-           "window_vectors", "index_entry", "first_stage", "dtw", "rerank", "search", "entry_bytes"]
+__all__ = ["RATE", "WINDOW", "HOP", "DIM", "SHORTLIST", "MIX", "FREE", "BAND", "POINTS", "SEGMENTS", "Settings", "rig_positions",
+           "body_positions", "features",
+           "window_vectors", "index_entry", "first_stage", "dtw", "rerank", "combine", "search", "entry_bytes"]
 
 RATE = 30.0  # samples per second of the features
 WINDOW = 1.0  # seconds per window
 HOP = 0.25  # seconds between windows
 DIM = 96  # numbers per window in the index
 SHORTLIST = 20  # clips the second stage re-ranks
-RERANK_STEP = 2  # the second stage's sequences: every 2nd feature sample (15 per second)
+MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
+FREE = 0.15  # the second stage may leave out this fraction of either sequence at each end
 BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
-# key points: (canonical joint, "head" or "tail" of its bone); a missing joint's head falls back to its parent's tail
-POINTS = (("head", "head"), ("chest", "head"), ("forearm.L", "head"), ("forearm.R", "head"), ("hand.L", "head"),
-          ("hand.R", "head"), ("shin.L", "head"), ("shin.R", "head"), ("foot.L", "head"), ("foot.R", "head"))
+# the canonical body's key points and segment lengths (leg lengths: hip joint to ankle = 1; after Winter's
+# anthropometric table: thigh and shank 0.245 and 0.246 of the height, upper arm 0.186, forearm 0.146, hip and
+# shoulder widths 0.191 and 0.259, hip joints to shoulders 0.288, shoulders to the top of the head 0.182)
+POINTS = ("head", "shoulder.L", "shoulder.R", "elbow.L", "elbow.R", "wrist.L", "wrist.R", "knee.L", "knee.R",
+          "ankle.L", "ankle.R")
+SEGMENTS = {"hip": 0.195, "thigh": 0.5, "shin": 0.5, "torso": 0.59, "shoulder": 0.265, "upper_arm": 0.38,
+            "forearm": 0.30, "head": 0.37}
 _PARENTS = {"hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine_mid", "neck": "chest",
             "head": "neck", **{f"clavicle.{s}": "chest" for s in "LR"},
             **{f"upper_arm.{s}": f"clavicle.{s}" for s in "LR"}, **{f"forearm.{s}": f"upper_arm.{s}" for s in "LR"},
@@ -53,14 +60,14 @@ class Settings:
     """The recipe's constants in one object (experiments vary them; the defaults are the module's)."""
 
     def __init__(self, rate=RATE, window=WINDOW, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
-                 turn_weight=0.5, normalize="parts", seed=29):
+                 turn_weight=0.5, normalize="parts", seed=29, step=2):
         self.rate, self.window, self.hop, self.dim = float(rate), float(window), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
-        self.normalize, self.seed = normalize, seed
+        self.normalize, self.seed, self.step = normalize, seed, step
 
     def key(self):
         return (self.rate, self.window, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
-                self.normalize, self.seed)
+                self.normalize, self.seed, self.step)
 
 
 DEFAULT = Settings()
@@ -85,11 +92,11 @@ def _leg(h):
     return leg
 
 
-def body_positions(clip: Clip, points=POINTS):
-    """(hips, P, side): the hips' path (frames, 3), the key points (frames, points, 3) and the body's left-minus-right
-    vector (hip joints plus shoulders, frames, 3), in leg lengths in the comparison space's axes (Z up), by forward
-    kinematics down the canonical joints. ``clip`` must be in the
-    comparison space (``rigs.to_comparison_space``, what ``sources.read`` gives with a bone map)."""
+def rig_positions(clip: Clip):
+    """(heads, tails): {joint: (frames, 3)} every canonical joint's head and (where the rest skeleton has it) its
+    bone's tail, in leg lengths in the comparison space's axes (Z up), by forward kinematics down the canonical
+    joints with the rig's own rest offsets. ``clip`` must be in the comparison space (``rigs.to_comparison_space``,
+    what ``sources.read`` gives with a bone map)."""
     if clip.meta.get("rotation_space") != "comparison":
         raise ShapeSigError(f"clip {clip.name!r} is not in the comparison space (read it with a bone map)")
     joints = [j for j in _ORDER if j in clip.bones]
@@ -97,41 +104,67 @@ def body_positions(clip: Clip, points=POINTS):
     h, t = _rest_offsets(clip, joints)
     leg = _leg(h)
     R = clip.rotations
-    F = R.shape[0]
     if clip.meta.get("root_path") == "hips_legs" and clip.root_translation is not None:
         hips = np.asarray(clip.root_translation, float)
     else:
-        hips = np.zeros((F, 3))
-    pos = {}
-
-    def parent(j):
-        p = _PARENTS[j]
-        while p is not None and p not in index:
-            p = _PARENTS[p]
-        return p
-
+        hips = np.zeros((R.shape[0], 3))
+    heads, tails = {}, {}
     for j in joints:
         if j not in h:
             continue
-        p = parent(j)
+        p = _PARENTS[j]
         while p is not None and p not in h:
-            p = parent(p)
-        pos[j] = hips.copy() if p is None else pos[p] + R[:, index[p]] @ ((h[j] - h[p]) / leg)
-    out, names = [], []
-    for j, end in points:
-        if end == "head" and j in pos:
-            out.append(pos[j])
-        else:
-            p = j if end == "tail" else parent(j) if j in _PARENTS else None
-            if p is None or p not in pos or p not in t:
-                raise ShapeSigError(f"clip {clip.name!r}: no {j!r} for the local search")
-            out.append(pos[p] + R[:, index[p]] @ ((t[p] - h[p]) / leg))
-        names.append(j)
-    side = np.zeros((F, 3))
-    for a in ("thigh", "upper_arm"):
-        if f"{a}.L" in pos and f"{a}.R" in pos:
-            side += pos[f"{a}.L"] - pos[f"{a}.R"]
-    return hips, np.stack(out, axis=1), side
+            p = _PARENTS[p]
+        heads[j] = hips.copy() if p is None else heads[p] + R[:, index[p]] @ ((h[j] - h[p]) / leg)
+        if j in t and np.linalg.norm(t[j] - h[j]) > 1e-9:
+            tails[j] = heads[j] + R[:, index[j]] @ ((t[j] - h[j]) / leg)
+    return heads, tails
+
+
+def _unit(v):
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+
+
+def _need(heads, tails, clip, *options):
+    for kind, j in options:
+        src = heads if kind == "head" else tails
+        if j in src:
+            return src[j]
+    raise ShapeSigError(f"clip {clip.name!r}: no {options[0][1]!r} joint for the local search (bone map)")
+
+
+def body_positions(clip: Clip):
+    """(pelvis, P, side): the key points (frames, len(POINTS), 3) of a **canonical body** posed like the clip, its
+    pelvis' path (frames, 3) and its left-minus-right vector (hip joints plus shoulders), in leg lengths, Z up.
+
+    Rigs put joints at other places along a chain (a hips bone's head at the pelvis or between the hip joints, a
+    clavicle's head at the sternum or by the neck) and bodies have other proportions, so only the **directions**
+    of the rig's segments are kept: hip joint to knee to ankle, shoulder to elbow to wrist, pelvis to the
+    shoulders' midpoint, neck to the top of the head, the hip and shoulder lines; their lengths are
+    ``SEGMENTS``' (an adult's proportions in leg lengths, hip joint to ankle = 1)."""
+    heads, tails = rig_positions(clip)
+    need = lambda *o: _need(heads, tails, clip, *o)  # noqa: E731
+    hip = {s: need(("head", f"thigh.{s}")) for s in "LR"}
+    knee = {s: need(("head", f"shin.{s}"), ("tail", f"thigh.{s}")) for s in "LR"}
+    ankle = {s: need(("head", f"foot.{s}"), ("tail", f"shin.{s}")) for s in "LR"}
+    shoulder = {s: need(("head", f"upper_arm.{s}")) for s in "LR"}
+    elbow = {s: need(("head", f"forearm.{s}"), ("tail", f"upper_arm.{s}")) for s in "LR"}
+    wrist = {s: need(("head", f"hand.{s}"), ("tail", f"forearm.{s}")) for s in "LR"}
+    top = need(("tail", "head"), ("head", "head"), ("tail", "neck"))
+    pelvis = 0.5 * (hip["L"] + hip["R"])
+    neck_rig = 0.5 * (shoulder["L"] + shoulder["R"])
+    L = SEGMENTS
+    neck = pelvis + L["torso"] * _unit(neck_rig - pelvis)
+    out = {"head": neck + L["head"] * _unit(top - neck_rig)}
+    hip_dir, sh_dir = _unit(hip["L"] - hip["R"]), _unit(shoulder["L"] - shoulder["R"])
+    for s, sign in (("L", 1.0), ("R", -1.0)):
+        c_hip = pelvis + sign * L["hip"] * hip_dir
+        out[f"knee.{s}"] = c_hip + L["thigh"] * _unit(knee[s] - hip[s])
+        out[f"ankle.{s}"] = out[f"knee.{s}"] + L["shin"] * _unit(ankle[s] - knee[s])
+        out[f"shoulder.{s}"] = neck + sign * L["shoulder"] * sh_dir
+        out[f"elbow.{s}"] = out[f"shoulder.{s}"] + L["upper_arm"] * _unit(elbow[s] - shoulder[s])
+        out[f"wrist.{s}"] = out[f"elbow.{s}"] + L["forearm"] * _unit(wrist[s] - elbow[s])
+    return pelvis, np.stack([out[p] for p in POINTS], axis=1), hip_dir + sh_dir
 
 
 def _resample(x, fps, rate):
@@ -241,7 +274,7 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
 
 def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
     """The compact arrays the search keeps per clip: ``windows`` (N, DIM) float16 (projected window descriptors)
-    and ``sequence`` (T', 3 * points) float16 (the pose every ``RERANK_STEP``-th sample, for the second stage)."""
+    and ``sequence`` (T', 3 * points) float16 (the pose every ``settings.step``-th sample, for the second stage)."""
     return entry_from_features(features(clip, settings), settings)
 
 
@@ -249,7 +282,7 @@ def entry_from_features(feat, settings: Settings = DEFAULT):
     V = window_vectors(feat, settings).astype(np.float32)
     if settings.dim:
         V = V @ _projection(V.shape[1], settings.dim, settings.seed)
-    return {"windows": V.astype(np.float16), "sequence": feat["pose"][::RERANK_STEP].astype(np.float16)}
+    return {"windows": V.astype(np.float16), "sequence": feat["pose"][::settings.step].astype(np.float16)}
 
 
 def entry_bytes(entry) -> int:
@@ -285,29 +318,40 @@ def first_stage(query, entries: Sequence, block: int = 256) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------------- stage two
 
-def _dtw_numpy(a, b, band):
+def _dtw_numpy(a, b, band, free_a, free_b):
     n, m = len(a), len(b)
     C = _sq_dist(a, b)
     D = np.full((n + 1, m + 1), np.inf)
     D[0, 0] = 0.0
+    D[0, 1:free_b + 1] = 0.0  # open begin: the path may start after skipping up to free_b samples of b
+    D[1:free_a + 1, 0] = 0.0
     for i in range(1, n + 1):
-        lo = max(1, int(math.ceil((i - 1) * m / n)) - band) if band >= 0 else 1
-        hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1) if band >= 0 else m
+        lo, hi = _row_span(i, n, m, band)
         for j in range(lo, hi + 1):
             D[i, j] = C[i - 1, j - 1] + min(D[i - 1, j], D[i, j - 1], D[i - 1, j - 1])
-    return math.sqrt(D[n, m])
+    return math.sqrt(min(D[n, m - free_b:].min(), D[n - free_a:, m].min()))
+
+
+def _row_span(i, n, m, band):
+    if band < 0:
+        return 1, m
+    return max(1, int(math.ceil((i - 1) * m / n)) - band), min(m, int(math.floor((i - 1) * m / n)) + band + 1)
 
 
 if _numba is not None:
     @_numba.njit(cache=True, nogil=True)
-    def _dtw_numba(a, b, band):  # pragma: no cover - compiled
+    def _dtw_numba(a, b, band, free_a, free_b):  # pragma: no cover - compiled
         n, m, d = a.shape[0], b.shape[0], a.shape[1]
         prev = np.full(m + 1, np.inf)
         cur = np.full(m + 1, np.inf)
         prev[0] = 0.0
+        for j in range(1, free_b + 1):
+            prev[j] = 0.0
+        best_end = np.inf
         for i in range(1, n + 1):
             for j in range(m + 1):
                 cur[j] = np.inf
+            cur[0] = 0.0 if i <= free_a else np.inf
             if band >= 0:
                 lo = max(1, int(math.ceil((i - 1) * m / n)) - band)
                 hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1)
@@ -324,44 +368,64 @@ if _numba is not None:
                 if cur[j - 1] < best:
                     best = cur[j - 1]
                 cur[j] = c + best
+            if i >= n - free_a and cur[m] < best_end:
+                best_end = cur[m]
+            if i == n:
+                for j in range(m - free_b, m + 1):
+                    if cur[j] < best_end:
+                        best_end = cur[j]
             prev, cur = cur, prev
-        return math.sqrt(prev[m])
+        return math.sqrt(best_end)
 
 
-def dtw(a, b, band: Optional[int] = None) -> float:
+def dtw(a, b, band: Optional[int] = None, free_a: int = 0, free_b: int = 0) -> float:
     """Dynamic time warping of two sequences (frames, channels): the square root of the least sum of squared
     Euclidean distances over warping paths (tslearn's and aeon's convention); ``band`` (samples, around the
-    diagonal scaled to the lengths; None: no band) restricts the path (Sakoe-Chiba)."""
+    diagonal scaled to the lengths; None: no band) restricts the path (Sakoe-Chiba); ``free_a`` / ``free_b``: up to
+    that many samples at either end of ``a`` / ``b`` may be left out (open begin and end: crops)."""
     a = np.ascontiguousarray(a, dtype=np.float64)
     b = np.ascontiguousarray(b, dtype=np.float64)
-    bw = -1 if band is None else int(band)
-    if bw >= 0:
-        bw = max(bw, 1)
+    bw = -1 if band is None else max(int(band), 1)
+    fa, fb = max(0, min(int(free_a), len(a) - 1)), max(0, min(int(free_b), len(b) - 1))
     if _numba is not None:
-        return float(_dtw_numba(a, b, bw))
-    return _dtw_numpy(a, b, bw)
+        return float(_dtw_numba(a, b, bw, fa, fb))
+    return _dtw_numpy(a, b, bw, fa, fb)
 
 
 def _band(n, m, band=BAND):
     return int(math.ceil(band * max(n, m))) + 1
 
 
-def rerank(query, candidates: Sequence, band: float = BAND) -> np.ndarray:
-    """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the sum of
-    the two lengths (clips of other durations stay comparable)."""
+def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) -> np.ndarray:
+    """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the square
+    root of the sum of the two lengths (clips of other durations stay comparable); up to ``free`` of either
+    sequence's length may be left out at each end (crops)."""
     a = np.asarray(query["sequence"], dtype=np.float64)
     out = np.empty(len(candidates))
     for i, c in enumerate(candidates):
         b = np.asarray(c["sequence"], dtype=np.float64)
-        out[i] = dtw(a, b, _band(len(a), len(b), band)) / math.sqrt(len(a) + len(b))
+        out[i] = dtw(a, b, _band(len(a), len(b), band), int(free * len(a)), int(free * len(b)))
+        out[i] /= math.sqrt(len(a) + len(b))
     return out
 
 
-def search(query, entries: Sequence, shortlist: int = SHORTLIST) -> List[int]:
-    """The entries' indices, best first: all by ``first_stage``, the first ``shortlist`` re-ranked by ``rerank``."""
+def combine(d1, d2, mix=MIX) -> np.ndarray:
+    """The shortlist's final score: d2 / mean(d2) + mix * d1 / mean(d1) (each stage relative to the shortlist, so
+    neither's unit matters; mix = 0: the second stage alone)."""
+    d1, d2 = np.asarray(d1, float), np.asarray(d2, float)
+    s = d2 / max(d2.mean(), 1e-12)
+    if mix:
+        s = s + mix * d1 / max(d1.mean(), 1e-12)
+    return s
+
+
+def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MIX) -> List[int]:
+    """The entries' indices, best first: all by ``first_stage``, the first ``shortlist`` re-ranked by ``combine``
+    of both stages."""
     d1 = first_stage(query, entries)
     order = list(np.argsort(d1, kind="stable"))
     head = order[:shortlist]
     d2 = rerank(query, [entries[i] for i in head])
-    head = [head[i] for i in np.argsort(d2, kind="stable")]
+    score = combine(d1[head], d2, mix)
+    head = [head[i] for i in np.argsort(score, kind="stable")]
     return head + order[shortlist:]

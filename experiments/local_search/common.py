@@ -17,7 +17,9 @@ if ROOT not in sys.path:
 from blender_shapesig.core import local_search as ls  # noqa: E402
 from blender_shapesig.core import rigs, sources  # noqa: E402
 
-ALL_JOINTS = tuple((j, "head") for j in ls._ORDER[1:])  # the DTW baseline: every canonical joint but the hips
+
+
+FEATURES = "canon1"  # the feature recipe's tag in the cache files' names (change it when features change)
 
 
 class Item:
@@ -77,16 +79,18 @@ def cached(path, make):
 
 
 def clip_features(clip, settings=ls.DEFAULT):
-    """The local search's features plus the DTW baseline's sequence (all joints, same frame)."""
+    """The local search's features plus the DTW baseline's sequence ``all``: every canonical joint's head of the
+    rig (its own proportions) but the hips, relative to the hips, in the hips' heading frame, in leg lengths."""
     f = ls.features(clip, settings)
-    hips, P, side = ls.body_positions(clip, ALL_JOINTS)
-    hips = ls._resample(hips, clip.fps, settings.rate)
+    heads, _ = ls.rig_positions(clip)
+    names = [j for j in ls._ORDER[1:] if j in heads]
+    P = np.stack([heads[j] for j in names], axis=1) - heads["hips"][:, None]
+    side = (heads["thigh.L"] - heads["thigh.R"]) + (heads["upper_arm.L"] - heads["upper_arm.R"])
     P = ls._resample(P, clip.fps, settings.rate)
     yaw = ls._facing(ls._resample(side, clip.fps, settings.rate))
     c, s = np.cos(yaw), np.sin(yaw)
-    rel = P - hips[:, None]
-    local = np.stack([c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1],
-                      -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1], rel[..., 2]], axis=-1)
+    local = np.stack([c[:, None] * P[..., 0] + s[:, None] * P[..., 1],
+                      -s[:, None] * P[..., 0] + c[:, None] * P[..., 1], P[..., 2]], axis=-1)
     f["all"] = local.reshape(len(local), -1)
     return f
 
@@ -103,14 +107,16 @@ def set_features(items, cache_path, crops=(("start", 0.1), ("end", 0.1))):
 
 # --------------------------------------------------------------------------------------------- rankings
 
-def two_stage_order(d1_row, candidates, k, d2_of):
-    """Candidates (indices) ordered by d1, the first k re-ordered by d2_of(j)."""
+def two_stage_order(d1_row, candidates, k, d2_of, mix=0.0):
+    """Candidates (indices) ordered by d1, the first k re-ordered by d2_of(j) (``mix`` > 0: by
+    d2 / mean d2 + mix * d1 / mean d1 over the k, ``local_search.combine``)."""
     cand = np.asarray(candidates)
     order = cand[np.argsort(d1_row[cand], kind="stable")]
     if k:
         head = order[:k]
         d2 = np.array([d2_of(j) for j in head])
-        order = np.concatenate([head[np.argsort(d2, kind="stable")], order[k:]])
+        score = ls.combine(d1_row[head], d2, mix)
+        order = np.concatenate([head[np.argsort(score, kind="stable")], order[k:]])
     return order
 
 

@@ -62,7 +62,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     items = cm.load_hdm05(args.data)
     print(f"{len(items)} clips", file=sys.stderr)
-    feats = cm.set_features(items, os.path.join(args.out, "hdm05_features.pkl"))
+    feats = cm.set_features(items, os.path.join(args.out, f"hdm05_features_{cm.FEATURES}.pkl"))
     acc, mAP, secs, _ = dtw_baseline(feats["full"], items, args.tslearn)
     print(f"DTW positions ({'tslearn' if args.tslearn else 'ours'}, 30 Hz, all joints): 1-NN {acc:.3f} mAP {mAP:.3f}"
           f" ({secs:.1f} s)")

@@ -6,15 +6,22 @@ import numpy as np
 import common as cm
 from blender_shapesig.core import local_search as ls
 
-# name -> (Settings, shortlist K, re-rank band)
-VARIANTS = {
-    "default": (ls.Settings(), ls.SHORTLIST, ls.BAND),
-    "stage1": (ls.Settings(), 0, ls.BAND),
-}
+# name -> (Settings, shortlist K, re-rank band, re-rank free ends, mix)
+VARIANTS = {}
 
 
-def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, **kw):
-    VARIANTS[name] = (ls.Settings(**kw), shortlist, band)
+def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **kw):
+    VARIANTS[name] = (ls.Settings(**kw), shortlist, band, free, mix)
+
+
+add("default")
+add("mix0", mix=0.0)
+add("mix0.5", mix=0.5)
+add("mix2", mix=2.0)
+add("closed_ends", free=0.0)
+add("k50", shortlist=50)
+add("step1", step=1)
+add("k50_step1", shortlist=50, step=1)
 
 
 def entries(feats, settings):
@@ -26,7 +33,7 @@ def first_matrix(Q, E):
 
 
 def evaluate(items, feats, variant, kind="loo"):
-    settings, k, band = variant
+    settings, k, band, free, mix = variant
     labels = [it.label for it in items]
     E = entries(feats["full"], settings)
     D1 = first_matrix(E, E)
@@ -35,13 +42,13 @@ def evaluate(items, feats, variant, kind="loo"):
     def d2(a, b, qe, ce):
         key = (a, b)
         if key not in cache:
-            cache[key] = ls.rerank(qe, [ce], band)[0]
+            cache[key] = ls.rerank(qe, [ce], band, free)[0]
         return cache[key]
 
     prot = cm.protocol(items, kind)
     orders1 = [np.asarray(c)[np.argsort(D1[q, c], kind="stable")] for q, c in prot]
     s1 = cm.scores(orders1, labels, [q for q, _ in prot])
-    orders = [cm.two_stage_order(D1[q], c, k, lambda j, q=q: d2(q, j, E[q], E[j])) for q, c in prot]
+    orders = [cm.two_stage_order(D1[q], c, k, lambda j, q=q: d2(q, j, E[q], E[j]), mix) for q, c in prot]
     s2 = cm.scores(orders, labels, [q for q, _ in prot])
     crops = {}
     everyone = list(range(len(items)))
@@ -50,17 +57,18 @@ def evaluate(items, feats, variant, kind="loo"):
             continue
         Qc = entries(feats[crop], settings)
         Dc = first_matrix(Qc, E)
-        ok = 0
+        ok = ok1 = 0
         for q in everyone:
-            order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band)[0])
+            order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band, free)[0], mix)
             ok += order[0] == q
-        crops[crop[0]] = ok
+            ok1 += np.argmin(Dc[q]) == q
+        crops[crop[0]] = (ok1, ok)
     size = np.mean([ls.entry_bytes(e) for e in E])
     return {"stage1": s1, "two_stage": s2, "crops": crops, "n": len(items), "bytes": size}
 
 
 def format_row(set_name, name, r):
     c = r["crops"]
-    crop = " ".join(f"{k} {v}/{r['n']}" for k, v in c.items())
+    crop = " ".join(f"{k} {v[0]}->{v[1]}/{r['n']}" for k, v in c.items())
     return (f"{set_name:10s} {name:24s} stage1 1-NN {r['stage1'][0]:.3f} mAP {r['stage1'][1]:.3f} | two-stage "
             f"1-NN {r['two_stage'][0]:.3f} mAP {r['two_stage'][1]:.3f} | crops {crop} | {r['bytes'] / 1024:.1f} KB")
