@@ -6,7 +6,7 @@ the comparison space, ``core.rigs``; an adult's proportions in leg lengths), rel
 own horizontal frame (the facing of the hips and shoulders removed frame by frame), so rigs, body sizes, units and
 directions do not matter; plus the hips' path in that turning frame and the turned angle (the motion
 channels), all at ``RATE`` samples per second. **First stage** (``index_entry``, ``first_stage``): the clip's
-sliding windows (``WINDOW`` seconds, hop ``HOP``), each described by its mean pose (the basepoint) and the level-2
+sliding windows (``WINDOWS``: 0.5 and 1 s, hop a quarter window), each described by its mean pose (the basepoint) and the level-2
 log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a signed square
 root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window), projected by a fixed,
 data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
@@ -28,13 +28,13 @@ try:  # numba is optional: Blender's Python does not ship it
 except ImportError:  # pragma: no cover - depends on the environment
     _numba = None
 
-__all__ = ["RATE", "WINDOW", "HOP", "DIM", "SHORTLIST", "MIX", "FREE", "BAND", "POINTS", "SEGMENTS", "Settings", "rig_positions",
+__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MIX", "FREE", "BAND", "POINTS", "SEGMENTS", "Settings", "rig_positions",
            "body_positions", "features",
            "window_vectors", "index_entry", "first_stage", "dtw", "rerank", "combine", "search", "entry_bytes"]
 
 RATE = 30.0  # samples per second of the features
-WINDOW = 1.0  # seconds per window
-HOP = 0.25  # seconds between windows
+WINDOWS = (0.5, 1.0)  # seconds per window, two scales (clips shorter than a window have one window of that scale)
+HOP = 0.25  # between windows, a fraction of the window
 DIM = 96  # numbers per window in the index
 SHORTLIST = 20  # clips the second stage re-ranks
 MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
@@ -42,11 +42,11 @@ FREE = 0.15  # the second stage may leave out this fraction of either sequence a
 BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
 # the canonical body's key points and segment lengths (leg lengths: hip joint to ankle = 1; after Winter's
 # anthropometric table: thigh and shank 0.245 and 0.246 of the height, upper arm 0.186, forearm 0.146, hip and
-# shoulder widths 0.191 and 0.259, hip joints to shoulders 0.288, shoulders to the top of the head 0.182)
+# shoulder widths 0.191 and 0.259, hip joints to shoulders 0.288, shoulders to the skull's base about 0.1)
 POINTS = ("head", "shoulder.L", "shoulder.R", "elbow.L", "elbow.R", "wrist.L", "wrist.R", "knee.L", "knee.R",
           "ankle.L", "ankle.R")
 SEGMENTS = {"hip": 0.195, "thigh": 0.5, "shin": 0.5, "torso": 0.59, "shoulder": 0.265, "upper_arm": 0.38,
-            "forearm": 0.30, "head": 0.37}
+            "forearm": 0.30, "head": 0.2}
 _PARENTS = {"hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine_mid", "neck": "chest",
             "head": "neck", **{f"clavicle.{s}": "chest" for s in "LR"},
             **{f"upper_arm.{s}": f"clavicle.{s}" for s in "LR"}, **{f"forearm.{s}": f"upper_arm.{s}" for s in "LR"},
@@ -59,15 +59,17 @@ _ORDER = tuple(_PARENTS)
 class Settings:
     """The recipe's constants in one object (experiments vary them; the defaults are the module's)."""
 
-    def __init__(self, rate=RATE, window=WINDOW, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
-                 turn_weight=0.5, normalize="parts", seed=29, step=2):
-        self.rate, self.window, self.hop, self.dim = float(rate), float(window), float(hop), dim
+    def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
+                 turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
+                 scale_weight=1.0):
+        self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
+        self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
 
     def key(self):
-        return (self.rate, self.window, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
-                self.normalize, self.seed, self.step)
+        return (self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+                self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight)
 
 
 DEFAULT = Settings()
@@ -150,7 +152,7 @@ def body_positions(clip: Clip):
     shoulder = {s: need(("head", f"upper_arm.{s}")) for s in "LR"}
     elbow = {s: need(("head", f"forearm.{s}"), ("tail", f"upper_arm.{s}")) for s in "LR"}
     wrist = {s: need(("head", f"hand.{s}"), ("tail", f"forearm.{s}")) for s in "LR"}
-    top = need(("tail", "head"), ("head", "head"), ("tail", "neck"))
+    top = need(("head", "head"), ("tail", "neck"))  # the skull's base: head bones' tails point up or forward
     pelvis = 0.5 * (hip["L"] + hip["R"])
     neck_rig = 0.5 * (shoulder["L"] + shoulder["R"])
     L = SEGMENTS
@@ -251,25 +253,31 @@ def _projection(n_in, dim, seed):
 
 
 def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT) -> np.ndarray:
-    """(windows, n) the unprojected window descriptors: [mean pose, level 1, signed-sqrt level 2] of the path
-    [pose, motion], each part normalized (``settings.normalize``: "parts" = unit length with a floor, eq. 9.1
-    per window; "none" = raw, leg lengths) and weighted."""
+    """(windows, n) the unprojected window descriptors of every scale (``settings.windows`` seconds, hop
+    ``settings.hop`` of each): [mean pose, level 1, signed-sqrt level 2] of the path [pose, motion], each part
+    normalized (``settings.normalize``: "parts" = unit length with a floor, eq. 9.1 per window; "none" = raw, leg
+    lengths) and weighted, plus a one-hot of the scale (windows of other lengths are not each other's nearest)."""
     pose, motion = feat["pose"], feat["motion"].copy()
     motion[:, 3] *= settings.turn_weight
     X = np.column_stack([pose, motion])
-    starts, w = _windows(len(X), float(feat["rate"]), settings.window, settings.hop)
     cP = np.concatenate([np.zeros((1, pose.shape[1])), np.cumsum(pose, axis=0)])
-    base = (cP[starts + w] - cP[starts]) / w
-    lvl1 = X[starts + w - 1] - X[starts]
-    lvl2 = _levy_areas(X, starts, w)
-    lvl2 = np.sign(lvl2) * np.sqrt(np.abs(lvl2))
-    if settings.normalize == "parts":
-        # a still window has no direction: below the floor (leg lengths) its motion parts keep their size
-        base = _unit_rows(base, 1e-6)
-        lvl1 = _unit_rows(lvl1, 0.25)
-        lvl2 = _unit_rows(lvl2, 0.25)
-    parts = [settings.pose_weight * base, settings.motion_weight * lvl1, settings.motion_weight * lvl2]
-    return np.column_stack(parts)
+    out = []
+    for k, window in enumerate(settings.windows):
+        starts, w = _windows(len(X), float(feat["rate"]), window, settings.hop * window)
+        base = (cP[starts + w] - cP[starts]) / w
+        lvl1 = X[starts + w - 1] - X[starts]
+        lvl2 = _levy_areas(X, starts, w)
+        lvl2 = np.sign(lvl2) * np.sqrt(np.abs(lvl2))
+        if settings.normalize == "parts":
+            # a still window has no direction: below the floor (leg lengths) its motion parts keep their size
+            base = _unit_rows(base, 1e-6)
+            lvl1 = _unit_rows(lvl1, 0.25)
+            lvl2 = _unit_rows(lvl2, 0.25)
+        scale = np.zeros((len(starts), len(settings.windows)))
+        scale[:, k] = settings.scale_weight
+        out.append(np.column_stack([settings.pose_weight * base, settings.motion_weight * lvl1,
+                                    settings.motion_weight * lvl2, scale]))
+    return np.concatenate(out)
 
 
 def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
@@ -278,11 +286,23 @@ def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarra
     return entry_from_features(features(clip, settings), settings)
 
 
+def _sequence(feat, settings):
+    """The second stage's sequence: the pose (``settings.sequence`` "centered": minus its mean over the clip) and,
+    with ``velocity_weight``, the motion channels' rates (leg lengths and radians per second)."""
+    seq = feat["pose"]
+    if settings.sequence == "centered":
+        seq = seq - seq.mean(axis=0)
+    if settings.velocity_weight:
+        vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
+        seq = np.column_stack([seq, settings.velocity_weight * vel])
+    return seq[::settings.step]
+
+
 def entry_from_features(feat, settings: Settings = DEFAULT):
     V = window_vectors(feat, settings).astype(np.float32)
     if settings.dim:
         V = V @ _projection(V.shape[1], settings.dim, settings.seed)
-    return {"windows": V.astype(np.float16), "sequence": feat["pose"][::settings.step].astype(np.float16)}
+    return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16)}
 
 
 def entry_bytes(entry) -> int:

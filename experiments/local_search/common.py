@@ -19,7 +19,7 @@ from blender_shapesig.core import rigs, sources  # noqa: E402
 
 
 
-FEATURES = "canon1"  # the feature recipe's tag in the cache files' names (change it when features change)
+FEATURES = "canon2"  # the feature recipe's tag in the cache files' names (change it when features change)
 
 
 class Item:

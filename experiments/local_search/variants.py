@@ -15,12 +15,23 @@ def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **
 
 
 add("default")
+add("w1.0", windows=(1.0,))
+add("w0.5", windows=(0.5,))
+add("w0.5_1_2", windows=(0.5, 1.0, 2.0))
 add("mix0", mix=0.0)
 add("mix0.5", mix=0.5)
 add("mix2", mix=2.0)
 add("closed_ends", free=0.0)
 add("k50", shortlist=50)
 add("step1", step=1)
+add("centered", sequence="centered")
+add("vel0.1", velocity_weight=0.1)
+add("centered_vel0.1", sequence="centered", velocity_weight=0.1)
+add("mix2_vel0.1", mix=2.0, velocity_weight=0.1)
+add("centered_band0.1", sequence="centered", band=0.1)
+add("centered_band0.1_vel1", sequence="centered", band=0.1, velocity_weight=1.0)
+add("centered_vel1", sequence="centered", velocity_weight=1.0)
+add("centered_mix0.5", sequence="centered", mix=0.5)
 add("k50_step1", shortlist=50, step=1)
 
 
