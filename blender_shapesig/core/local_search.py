@@ -1,4 +1,4 @@
-"""Local search: clips compared by what animators call "the same motion" (issue 29), pose and motion, window by window.
+"""Local search: clips compared by what animators call "the same motion" (issue 29): pose and motion, by windows.
 
 Per clip (``features``): the positions of a few key points (head, shoulders, elbows, wrists, knees, ankles) of a
 canonical body posed like the clip (the rig's segment directions by forward kinematics on the canonical joints of
@@ -6,13 +6,14 @@ the comparison space, ``core.rigs``; an adult's proportions in leg lengths), rel
 own horizontal frame (the facing of the hips and shoulders removed frame by frame), so rigs, body sizes, units and
 directions do not matter; plus the hips' path in that turning frame and the turned angle (the motion
 channels), all at ``RATE`` samples per second. **First stage** (``index_entry``, ``first_stage``): the clip's
-sliding windows (``WINDOWS``: 0.5 and 1 s, hop a quarter window), each described by its mean pose (the basepoint) and the level-2
-log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a signed square
-root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window), projected by a fixed,
-data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
+sliding windows (``WINDOWS``: 0.5 and 1 s, hop a quarter window), each described by its mean pose (the basepoint)
+and the level-2 log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a
+signed square root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window), projected by a
+fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
 their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
 matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
-(Sakoe-Chiba band, numba when available, else numpy). ``search`` runs both. Pure numpy; no bpy.
+(Sakoe-Chiba band, open ends, numba when available, else numpy); ``combine`` scores the shortlist by both stages.
+``search`` runs it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
 """
 
 import math
@@ -20,6 +21,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
+from .blas import one_blas_thread
 from .clip import Clip
 from .errors import ShapeSigError
 
@@ -28,15 +30,20 @@ try:  # numba is optional: Blender's Python does not ship it
 except ImportError:  # pragma: no cover - depends on the environment
     _numba = None
 
-__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MIX", "FREE", "BAND", "POINTS", "SEGMENTS", "Settings", "rig_positions",
-           "body_positions", "features",
-           "window_vectors", "index_entry", "first_stage", "dtw", "rerank", "combine", "search", "entry_bytes"]
+__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
+           "POINTS", "SEGMENTS", "Settings", "DEFAULT", "rig_positions", "body_positions", "features",
+           "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
+           "first_stage", "dtw", "rerank", "path_distances", "combine", "search"]
 
 RATE = 30.0  # samples per second of the features
 WINDOWS = (0.5, 1.0)  # seconds per window, two scales (clips shorter than a window have one window of that scale)
 HOP = 0.25  # between windows, a fraction of the window
 DIM = 96  # numbers per window in the index
 SHORTLIST = 20  # clips the second stage re-ranks
+# the index's size: at most this many windows per scale (a longer hop beyond 20 s) and samples of the second stage's
+# sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 33 * 2 bytes = 43 KB per clip
+MAX_WINDOWS = 80
+MAX_SEQUENCE = 200
 MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
 FREE = 0.15  # the second stage may leave out this fraction of either sequence at each end
 BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
@@ -61,15 +68,17 @@ class Settings:
 
     def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
                  turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
-                 scale_weight=1.0):
+                 scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE):
         self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
         self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
+        self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
 
     def key(self):
         return (self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
-                self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight)
+                self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
+                self.global_weight, self.max_windows, self.max_sequence)
 
 
 DEFAULT = Settings()
@@ -209,12 +218,15 @@ def features(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
 
 # ------------------------------------------------------------------------------------------------- windows
 
-def _windows(T, rate, window, hop):
-    """Start indices and the length (samples) of the sliding windows of T samples; one window if shorter."""
+def _windows(T, rate, window, hop, most=None):
+    """Start indices and the length (samples) of the sliding windows of T samples; one window if shorter; at most
+    ``most`` windows (a longer hop in long clips)."""
     w = max(2, int(round(window * rate)))
     step = max(1, int(round(hop * rate)))
     if T <= w:
         return np.array([0]), T
+    if most and (T - w) // step + 1 > most:
+        step = int(math.ceil((T - w) / (most - 1)))
     starts = np.arange(0, T - w + 1, step)
     if starts[-1] != T - w:
         starts = np.append(starts, T - w)
@@ -263,7 +275,7 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
     cP = np.concatenate([np.zeros((1, pose.shape[1])), np.cumsum(pose, axis=0)])
     out = []
     for k, window in enumerate(settings.windows):
-        starts, w = _windows(len(X), float(feat["rate"]), window, settings.hop * window)
+        starts, w = _windows(len(X), float(feat["rate"]), window, settings.hop * window, settings.max_windows)
         base = (cP[starts + w] - cP[starts]) / w
         lvl1 = X[starts + w - 1] - X[starts]
         lvl2 = _levy_areas(X, starts, w)
@@ -295,14 +307,23 @@ def _sequence(feat, settings):
     if settings.velocity_weight:
         vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
         seq = np.column_stack([seq, settings.velocity_weight * vel])
-    return seq[::settings.step]
+    return seq[::max(settings.step, int(math.ceil(len(seq) / settings.max_sequence)))]
+
+
+def whole_path(feat) -> np.ndarray:
+    """(10,) the whole clip's level-2 log-signature of its motion channels (the pelvis' path in the turning frame
+    and the turned angle; level 2 by signed square root): where, how far and how the take turns."""
+    X = feat["motion"]
+    lvl2 = _levy_areas(X, np.array([0]), len(X))[0]
+    return np.concatenate([X[-1] - X[0], np.sign(lvl2) * np.sqrt(np.abs(lvl2))])
 
 
 def entry_from_features(feat, settings: Settings = DEFAULT):
     V = window_vectors(feat, settings).astype(np.float32)
     if settings.dim:
         V = V @ _projection(V.shape[1], settings.dim, settings.seed)
-    return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16)}
+    return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
+            "path": whole_path(feat).astype(np.float32)}
 
 
 def entry_bytes(entry) -> int:
@@ -316,24 +337,33 @@ def _sq_dist(A, B):
     return np.maximum(d, 0.0)
 
 
-def first_stage(query, entries: Sequence, block: int = 256) -> np.ndarray:
-    """(len(entries),) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's
-    distance + the same from the entry's side). ``query`` and ``entries``: ``index_entry`` dicts (or window
-    arrays). Computed against all windows at once, in blocks of ``block`` entries."""
-    q = np.asarray(query["windows"] if isinstance(query, Mapping) else query, dtype=np.float32)
-    wins = [np.asarray(e["windows"] if isinstance(e, Mapping) else e, dtype=np.float32) for e in entries]
-    out = np.empty(len(wins))
-    for b0 in range(0, len(wins), block):
-        chunk = wins[b0:b0 + block]
-        lens = np.array([len(w) for w in chunk])
-        W = np.concatenate(chunk)
-        D = np.sqrt(_sq_dist(q, W))  # (nq, total)
-        bounds = np.concatenate([[0], np.cumsum(lens)])
-        q_side = np.minimum.reduceat(D, bounds[:-1], axis=1).mean(axis=0)
-        e_min = D.min(axis=0)
-        e_side = np.add.reduceat(e_min, bounds[:-1]) / lens
-        out[b0:b0 + len(chunk)] = 0.5 * (q_side + e_side)
-    return out
+def stack(entries: Sequence) -> Dict[str, np.ndarray]:
+    """The library's windows in one block for ``first_stage`` (build it once per library): ``windows`` (all, DIM)
+    float32, their squared norms and ``bounds`` (each entry's first row, and the end)."""
+    wins = [np.asarray(e["windows"], dtype=np.float32) for e in entries]
+    W = np.concatenate(wins) if wins else np.zeros((0, 1), np.float32)
+    bounds = np.concatenate([[0], np.cumsum([len(w) for w in wins])]).astype(np.int64)
+    return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds}
+
+
+def first_stage(query, library, block: int = 65536) -> np.ndarray:
+    """(entries,) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's distance + the
+    same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries or the entries.
+    All the library's windows at once, ``block`` rows at a time, with one BLAS thread (small products)."""
+    lib = library if isinstance(library, dict) and "bounds" in library else stack(library)
+    q = np.asarray(query["windows"], dtype=np.float32)
+    qn = (q * q).sum(1)[:, None]
+    W, norms, bounds = lib["windows"], lib["norms"], lib["bounds"]
+    D = np.empty((len(q), len(W)), dtype=np.float32)
+    with one_blas_thread():
+        for r0 in range(0, len(W), block):
+            r1 = min(len(W), r0 + block)
+            D[:, r0:r1] = qn + norms[None, r0:r1] - 2.0 * (q @ W[r0:r1].T)
+    np.sqrt(np.maximum(D, 0.0, out=D), out=D)
+    lens = np.diff(bounds)
+    q_side = np.minimum.reduceat(D, bounds[:-1], axis=1).mean(axis=0)
+    e_side = np.add.reduceat(D.min(axis=0), bounds[:-1]) / lens
+    return 0.5 * (q_side + e_side).astype(np.float64)
 
 
 # ------------------------------------------------------------------------------------------------- stage two
@@ -429,23 +459,39 @@ def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) 
     return out
 
 
-def combine(d1, d2, mix=MIX) -> np.ndarray:
-    """The shortlist's final score: d2 / mean(d2) + mix * d1 / mean(d1) (each stage relative to the shortlist, so
-    neither's unit matters; mix = 0: the second stage alone)."""
-    d1, d2 = np.asarray(d1, float), np.asarray(d2, float)
-    s = d2 / max(d2.mean(), 1e-12)
+def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:
+    """The shortlist's final score: d2 / mean(d2) + mix * d1 / mean(d1) (+ global_weight * dg / mean(dg), ``dg``
+    the distances of the whole clips' paths); each term relative to the shortlist (finite values), so no unit
+    matters; mix = 0: the second stage alone."""
+    def rel(x):
+        x = np.asarray(x, float)
+        fin = x[np.isfinite(x)]
+        return x / max(fin.mean() if len(fin) else 1.0, 1e-12)
+
+    s = rel(d2)
     if mix:
-        s = s + mix * d1 / max(d1.mean(), 1e-12)
+        s = s + mix * rel(d1)
+    if global_weight and dg is not None:
+        s = s + global_weight * rel(dg)
     return s
 
 
-def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MIX) -> List[int]:
-    """The entries' indices, best first: all by ``first_stage``, the first ``shortlist`` re-ranked by ``combine``
-    of both stages."""
-    d1 = first_stage(query, entries)
+def path_distances(query, candidates) -> np.ndarray:
+    q = np.asarray(query["path"], float)
+    return np.array([np.linalg.norm(np.asarray(c["path"], float) - q) for c in candidates])
+
+
+def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MIX,
+           settings: Settings = DEFAULT, library=None) -> List[int]:
+    """The entries' indices, best first: all by ``first_stage`` (on ``library``, the entries' ``stack``, when
+    given), the first ``shortlist`` re-ranked by ``combine`` of both stages (and of the whole paths when
+    ``settings.global_weight``)."""
+    d1 = first_stage(query, entries if library is None else library)
     order = list(np.argsort(d1, kind="stable"))
     head = order[:shortlist]
-    d2 = rerank(query, [entries[i] for i in head])
-    score = combine(d1[head], d2, mix)
+    cands = [entries[i] for i in head]
+    d2 = rerank(query, cands)
+    dg = path_distances(query, cands) if settings.global_weight else None
+    score = combine(d1[head], d2, mix, dg, settings.global_weight)
     head = [head[i] for i in np.argsort(score, kind="stable")]
     return head + order[shortlist:]

@@ -107,7 +107,7 @@ def set_features(items, cache_path, crops=(("start", 0.1), ("end", 0.1))):
 
 # --------------------------------------------------------------------------------------------- rankings
 
-def two_stage_order(d1_row, candidates, k, d2_of, mix=0.0):
+def two_stage_order(d1_row, candidates, k, d2_of, mix=0.0, dg_of=None, gw=0.0):
     """Candidates (indices) ordered by d1, the first k re-ordered by d2_of(j) (``mix`` > 0: by
     d2 / mean d2 + mix * d1 / mean d1 over the k, ``local_search.combine``)."""
     cand = np.asarray(candidates)
@@ -115,7 +115,8 @@ def two_stage_order(d1_row, candidates, k, d2_of, mix=0.0):
     if k:
         head = order[:k]
         d2 = np.array([d2_of(j) for j in head])
-        score = ls.combine(d1_row[head], d2, mix)
+        dg = None if not gw else np.array([dg_of(j) for j in head])
+        score = ls.combine(d1_row[head], d2, mix, dg, gw)
         order = np.concatenate([head[np.argsort(score, kind="stable")], order[k:]])
     return order
 

@@ -37,12 +37,13 @@ def main(argv=None):
     E = vs.entries(feats, settings)
     t_index = (time.perf_counter() - t0) / len(E)
     lib = [E[i % len(E)] for i in range(args.n)]
+    stacked = ls.stack(lib)
     seqs = [feats[i % len(feats)]["all"] for i in range(args.n)]
     rng = np.random.default_rng(0)
     queries = rng.choice(len(E), size=args.queries, replace=False)
 
     def one(q):
-        d1 = ls.first_stage(E[q], lib)
+        d1 = ls.first_stage(E[q], stacked)
         head = np.argsort(d1, kind="stable")[:k]
         d2 = ls.rerank(E[q], [lib[j] for j in head], band, free)
         return head[np.argsort(ls.combine(d1[head], d2, mix), kind="stable")]
@@ -54,7 +55,7 @@ def main(argv=None):
     t_query = (time.perf_counter() - t0) / len(queries)
     t0 = time.perf_counter()
     for q in queries:
-        ls.first_stage(E[q], lib)
+        ls.first_stage(E[q], stacked)
     t_first = (time.perf_counter() - t0) / len(queries)
 
     from tslearn.metrics import dtw as ts_dtw

@@ -15,6 +15,9 @@ def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **
 
 
 add("default")
+add("global2", global_weight=2.0)
+add("centered_global2", sequence="centered", global_weight=2.0)
+add("centered_global4", sequence="centered", global_weight=4.0)
 add("w1.0", windows=(1.0,))
 add("w0.5", windows=(0.5,))
 add("w0.5_1_2", windows=(0.5, 1.0, 2.0))
@@ -40,7 +43,8 @@ def entries(feats, settings):
 
 
 def first_matrix(Q, E):
-    return np.stack([ls.first_stage(q, E) for q in Q])
+    lib = ls.stack(E)
+    return np.stack([ls.first_stage(q, lib) for q in Q])
 
 
 def evaluate(items, feats, variant, kind="loo"):
@@ -59,7 +63,10 @@ def evaluate(items, feats, variant, kind="loo"):
     prot = cm.protocol(items, kind)
     orders1 = [np.asarray(c)[np.argsort(D1[q, c], kind="stable")] for q, c in prot]
     s1 = cm.scores(orders1, labels, [q for q, _ in prot])
-    orders = [cm.two_stage_order(D1[q], c, k, lambda j, q=q: d2(q, j, E[q], E[j]), mix) for q, c in prot]
+    gw = settings.global_weight
+    dg = lambda q, j: float(np.linalg.norm(E[q]["path"] - E[j]["path"]))  # noqa: E731
+    orders = [cm.two_stage_order(D1[q], c, k, lambda j, q=q: d2(q, j, E[q], E[j]), mix,
+                                 lambda j, q=q: dg(q, j), gw) for q, c in prot]
     s2 = cm.scores(orders, labels, [q for q, _ in prot])
     crops = {}
     everyone = list(range(len(items)))
@@ -70,7 +77,8 @@ def evaluate(items, feats, variant, kind="loo"):
         Dc = first_matrix(Qc, E)
         ok = ok1 = 0
         for q in everyone:
-            order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band, free)[0], mix)
+            order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band, free)[0], mix,
+                                       lambda j, q=q: float(np.linalg.norm(Qc[q]["path"] - E[j]["path"])), gw)
             ok += order[0] == q
             ok1 += np.argmin(Dc[q]) == q
         crops[crop[0]] = (ok1, ok)
