@@ -15,6 +15,7 @@ def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **
 
 
 add("default")
+add("raw", normalize="none")
 add("global2", global_weight=2.0)
 add("centered_global2", sequence="centered", global_weight=2.0)
 add("centered_global4", sequence="centered", global_weight=4.0)
