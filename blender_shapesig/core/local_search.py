@@ -1,0 +1,497 @@
+"""Local search: clips compared by what animators call "the same motion" (issue 29): pose and motion, by windows.
+
+Per clip (``features``): the positions of a few key points (head, shoulders, elbows, wrists, knees, ankles) of a
+canonical body posed like the clip (the rig's segment directions by forward kinematics on the canonical joints of
+the comparison space, ``core.rigs``; an adult's proportions in leg lengths), relative to the pelvis in the body's
+own horizontal frame (the facing of the hips and shoulders removed frame by frame), so rigs, body sizes, units and
+directions do not matter; plus the hips' path in that turning frame and the turned angle (the motion
+channels), all at ``RATE`` samples per second. **First stage** (``index_entry``, ``first_stage``): the clip's
+sliding windows (``WINDOWS``: 0.5 and 1 s, hop a quarter window), each described by its mean pose (the basepoint)
+and the level-2 log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a
+signed square root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window), projected by a
+fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
+their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
+matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
+(Sakoe-Chiba band, open ends, numba when available, else numpy); ``combine`` scores the shortlist by both stages.
+``search`` runs it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
+"""
+
+import math
+from typing import Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from .blas import one_blas_thread
+from .clip import Clip
+from .errors import ShapeSigError
+
+try:  # numba is optional: Blender's Python does not ship it
+    import numba as _numba
+except ImportError:  # pragma: no cover - depends on the environment
+    _numba = None
+
+__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
+           "POINTS", "SEGMENTS", "Settings", "DEFAULT", "rig_positions", "body_positions", "features",
+           "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
+           "first_stage", "dtw", "rerank", "path_distances", "combine", "search"]
+
+RATE = 30.0  # samples per second of the features
+WINDOWS = (0.5, 1.0)  # seconds per window, two scales (clips shorter than a window have one window of that scale)
+HOP = 0.25  # between windows, a fraction of the window
+DIM = 96  # numbers per window in the index
+SHORTLIST = 20  # clips the second stage re-ranks
+# the index's size: at most this many windows per scale (a longer hop beyond 20 s) and samples of the second stage's
+# sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 33 * 2 bytes = 43 KB per clip
+MAX_WINDOWS = 80
+MAX_SEQUENCE = 200
+MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
+FREE = 0.15  # the second stage may leave out this fraction of either sequence at each end
+BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
+# the canonical body's key points and segment lengths (leg lengths: hip joint to ankle = 1; after Winter's
+# anthropometric table: thigh and shank 0.245 and 0.246 of the height, upper arm 0.186, forearm 0.146, hip and
+# shoulder widths 0.191 and 0.259, hip joints to shoulders 0.288, shoulders to the skull's base about 0.1)
+POINTS = ("head", "shoulder.L", "shoulder.R", "elbow.L", "elbow.R", "wrist.L", "wrist.R", "knee.L", "knee.R",
+          "ankle.L", "ankle.R")
+SEGMENTS = {"hip": 0.195, "thigh": 0.5, "shin": 0.5, "torso": 0.59, "shoulder": 0.265, "upper_arm": 0.38,
+            "forearm": 0.30, "head": 0.2}
+_PARENTS = {"hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine_mid", "neck": "chest",
+            "head": "neck", **{f"clavicle.{s}": "chest" for s in "LR"},
+            **{f"upper_arm.{s}": f"clavicle.{s}" for s in "LR"}, **{f"forearm.{s}": f"upper_arm.{s}" for s in "LR"},
+            **{f"hand.{s}": f"forearm.{s}" for s in "LR"}, **{f"thigh.{s}": "hips" for s in "LR"},
+            **{f"shin.{s}": f"thigh.{s}" for s in "LR"}, **{f"foot.{s}": f"shin.{s}" for s in "LR"},
+            **{f"toe.{s}": f"foot.{s}" for s in "LR"}}
+_ORDER = tuple(_PARENTS)
+
+
+class Settings:
+    """The recipe's constants in one object (experiments vary them; the defaults are the module's)."""
+
+    def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
+                 turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
+                 scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE):
+        self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
+        self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
+        self.normalize, self.seed, self.step = normalize, seed, step
+        self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
+        self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
+
+    def key(self):
+        return (self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+                self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
+                self.global_weight, self.max_windows, self.max_sequence)
+
+
+DEFAULT = Settings()
+
+
+# ------------------------------------------------------------------------------------------------- positions
+
+def _rest_offsets(clip: Clip, joints):
+    heads = clip.meta.get("rest_heads") or {}
+    tails = clip.meta.get("rest_tails") or {}
+    by_joint = clip.meta.get("bone_map") or {}
+    h = {j: np.asarray(heads[by_joint[j]], float) for j in joints if by_joint.get(j) in heads}
+    t = {j: np.asarray(tails[by_joint[j]], float) for j in joints if by_joint.get(j) in tails}
+    return h, t
+
+
+def _leg(h):
+    legs = [np.linalg.norm(h[f"thigh.{s}"] - h[f"foot.{s}"]) for s in "LR" if f"thigh.{s}" in h and f"foot.{s}" in h]
+    leg = float(np.mean(legs)) if legs else 0.0
+    if not leg > 0:
+        raise ShapeSigError("local search needs the legs (thigh and foot) and the rest skeleton")
+    return leg
+
+
+def rig_positions(clip: Clip):
+    """(heads, tails): {joint: (frames, 3)} every canonical joint's head and (where the rest skeleton has it) its
+    bone's tail, in leg lengths in the comparison space's axes (Z up), by forward kinematics down the canonical
+    joints with the rig's own rest offsets. ``clip`` must be in the comparison space (``rigs.to_comparison_space``,
+    what ``sources.read`` gives with a bone map)."""
+    if clip.meta.get("rotation_space") != "comparison":
+        raise ShapeSigError(f"clip {clip.name!r} is not in the comparison space (read it with a bone map)")
+    joints = [j for j in _ORDER if j in clip.bones]
+    index = {b: i for i, b in enumerate(clip.bones)}
+    h, t = _rest_offsets(clip, joints)
+    leg = _leg(h)
+    R = clip.rotations
+    if clip.meta.get("root_path") == "hips_legs" and clip.root_translation is not None:
+        hips = np.asarray(clip.root_translation, float)
+    else:
+        hips = np.zeros((R.shape[0], 3))
+    heads, tails = {}, {}
+    for j in joints:
+        if j not in h:
+            continue
+        p = _PARENTS[j]
+        while p is not None and p not in h:
+            p = _PARENTS[p]
+        heads[j] = hips.copy() if p is None else heads[p] + R[:, index[p]] @ ((h[j] - h[p]) / leg)
+        if j in t and np.linalg.norm(t[j] - h[j]) > 1e-9:
+            tails[j] = heads[j] + R[:, index[j]] @ ((t[j] - h[j]) / leg)
+    return heads, tails
+
+
+def _unit(v):
+    return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-9)
+
+
+def _need(heads, tails, clip, *options):
+    for kind, j in options:
+        src = heads if kind == "head" else tails
+        if j in src:
+            return src[j]
+    raise ShapeSigError(f"clip {clip.name!r}: no {options[0][1]!r} joint for the local search (bone map)")
+
+
+def body_positions(clip: Clip):
+    """(pelvis, P, side): the key points (frames, len(POINTS), 3) of a **canonical body** posed like the clip, its
+    pelvis' path (frames, 3) and its left-minus-right vector (hip joints plus shoulders), in leg lengths, Z up.
+
+    Rigs put joints at other places along a chain (a hips bone's head at the pelvis or between the hip joints, a
+    clavicle's head at the sternum or by the neck) and bodies have other proportions, so only the **directions**
+    of the rig's segments are kept: hip joint to knee to ankle, shoulder to elbow to wrist, pelvis to the
+    shoulders' midpoint, neck to the top of the head, the hip and shoulder lines; their lengths are
+    ``SEGMENTS``' (an adult's proportions in leg lengths, hip joint to ankle = 1)."""
+    heads, tails = rig_positions(clip)
+    need = lambda *o: _need(heads, tails, clip, *o)  # noqa: E731
+    hip = {s: need(("head", f"thigh.{s}")) for s in "LR"}
+    knee = {s: need(("head", f"shin.{s}"), ("tail", f"thigh.{s}")) for s in "LR"}
+    ankle = {s: need(("head", f"foot.{s}"), ("tail", f"shin.{s}")) for s in "LR"}
+    shoulder = {s: need(("head", f"upper_arm.{s}")) for s in "LR"}
+    elbow = {s: need(("head", f"forearm.{s}"), ("tail", f"upper_arm.{s}")) for s in "LR"}
+    wrist = {s: need(("head", f"hand.{s}"), ("tail", f"forearm.{s}")) for s in "LR"}
+    top = need(("head", "head"), ("tail", "neck"))  # the skull's base: head bones' tails point up or forward
+    pelvis = 0.5 * (hip["L"] + hip["R"])
+    neck_rig = 0.5 * (shoulder["L"] + shoulder["R"])
+    L = SEGMENTS
+    neck = pelvis + L["torso"] * _unit(neck_rig - pelvis)
+    out = {"head": neck + L["head"] * _unit(top - neck_rig)}
+    hip_dir, sh_dir = _unit(hip["L"] - hip["R"]), _unit(shoulder["L"] - shoulder["R"])
+    for s, sign in (("L", 1.0), ("R", -1.0)):
+        c_hip = pelvis + sign * L["hip"] * hip_dir
+        out[f"knee.{s}"] = c_hip + L["thigh"] * _unit(knee[s] - hip[s])
+        out[f"ankle.{s}"] = out[f"knee.{s}"] + L["shin"] * _unit(ankle[s] - knee[s])
+        out[f"shoulder.{s}"] = neck + sign * L["shoulder"] * sh_dir
+        out[f"elbow.{s}"] = out[f"shoulder.{s}"] + L["upper_arm"] * _unit(elbow[s] - shoulder[s])
+        out[f"wrist.{s}"] = out[f"elbow.{s}"] + L["forearm"] * _unit(wrist[s] - elbow[s])
+    return pelvis, np.stack([out[p] for p in POINTS], axis=1), hip_dir + sh_dir
+
+
+def _resample(x, fps, rate):
+    """Linear interpolation of (frames, ...) at ``rate`` samples per second (the same span in seconds)."""
+    F = x.shape[0]
+    if F < 2 or abs(fps - rate) < 1e-9:
+        return x
+    n = int(math.floor((F - 1) * rate / fps + 1e-9)) + 1
+    s = np.arange(n) * (fps / rate)
+    i = np.minimum(np.floor(s).astype(int), F - 2)
+    w = (s - i).reshape((-1,) + (1,) * (x.ndim - 1))
+    return x[i] * (1 - w) + x[i + 1] * w
+
+
+def _facing(side):
+    """(frames,) the body's yaw: the angle of its horizontal right-to-left direction (hips and shoulders),
+    unwrapped (the facing is a quarter turn from it; only differences and the frame matter)."""
+    return np.unwrap(np.arctan2(side[:, 1], side[:, 0]))
+
+
+def features(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
+    """The clip's channels at ``settings.rate``: ``pose`` (T, 3 * points) the key points relative to the hips in the
+    body's horizontal frame (leg lengths), ``motion`` (T, 4) the hips' path integrated in that turning frame and
+    the turned angle (radians, from the first sample)."""
+    hips, P, side = body_positions(clip)
+    hips = _resample(hips, clip.fps, settings.rate)
+    P = _resample(P, clip.fps, settings.rate)
+    yaw = _facing(_resample(side, clip.fps, settings.rate))
+    c, s = np.cos(yaw), np.sin(yaw)
+    rel = P - hips[:, None]
+    local = np.stack([c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1],
+                      -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1], rel[..., 2]], axis=-1)
+    dh = np.diff(hips, axis=0)
+    cm, sm = c[:-1], s[:-1]
+    dl = np.stack([cm * dh[:, 0] + sm * dh[:, 1], -sm * dh[:, 0] + cm * dh[:, 1], dh[:, 2]], axis=1)
+    path = np.vstack([np.zeros((1, 3)), np.cumsum(dl, axis=0)])
+    motion = np.column_stack([path, yaw - yaw[0]])
+    return {"pose": local.reshape(len(local), -1), "motion": motion, "rate": np.float64(settings.rate)}
+
+
+# ------------------------------------------------------------------------------------------------- windows
+
+def _windows(T, rate, window, hop, most=None):
+    """Start indices and the length (samples) of the sliding windows of T samples; one window if shorter; at most
+    ``most`` windows (a longer hop in long clips)."""
+    w = max(2, int(round(window * rate)))
+    step = max(1, int(round(hop * rate)))
+    if T <= w:
+        return np.array([0]), T
+    if most and (T - w) // step + 1 > most:
+        step = int(math.ceil((T - w) / (most - 1)))
+    starts = np.arange(0, T - w + 1, step)
+    if starts[-1] != T - w:
+        starts = np.append(starts, T - w)
+    return starts, w
+
+
+def _levy_areas(X, starts, w):
+    """(windows, d(d-1)/2): the Levy areas (level 2 of the log-signature, Lyndon basis [i, j], i < j) of each
+    window X[s:s+w] (``w`` samples), by prefix sums: A_ij = 1/2 sum_k (Y_i dX_j - Y_j dX_i), Y = X - X[s]."""
+    d = X.shape[1]
+    dX = np.diff(X, axis=0)
+    M = np.einsum("ki,kj->kij", X[:-1], dX)  # X_k (x) dX_k
+    cM = np.concatenate([np.zeros((1, d, d)), np.cumsum(M, axis=0)])
+    cD = np.concatenate([np.zeros((1, d)), np.cumsum(dX, axis=0)])
+    e = starts + w - 1
+    S = cM[e] - cM[starts] - np.einsum("wi,wj->wij", X[starts], cD[e] - cD[starts])
+    A = 0.5 * (S - np.swapaxes(S, 1, 2))
+    iu = np.triu_indices(d, 1)
+    return A[:, iu[0], iu[1]]
+
+
+def _unit_rows(x, floor):
+    n = np.linalg.norm(x, axis=1, keepdims=True)
+    return x / np.maximum(n, floor)
+
+
+_PROJECTIONS = {}
+
+
+def _projection(n_in, dim, seed):
+    key = (n_in, dim, seed)
+    if key not in _PROJECTIONS:
+        rng = np.random.default_rng(seed)
+        _PROJECTIONS[key] = (rng.standard_normal((n_in, dim)) / math.sqrt(dim)).astype(np.float32)
+    return _PROJECTIONS[key]
+
+
+def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT) -> np.ndarray:
+    """(windows, n) the unprojected window descriptors of every scale (``settings.windows`` seconds, hop
+    ``settings.hop`` of each): [mean pose, level 1, signed-sqrt level 2] of the path [pose, motion], each part
+    normalized (``settings.normalize``: "parts" = unit length with a floor, eq. 9.1 per window; "none" = raw, leg
+    lengths) and weighted, plus a one-hot of the scale (windows of other lengths are not each other's nearest)."""
+    pose, motion = feat["pose"], feat["motion"].copy()
+    motion[:, 3] *= settings.turn_weight
+    X = np.column_stack([pose, motion])
+    cP = np.concatenate([np.zeros((1, pose.shape[1])), np.cumsum(pose, axis=0)])
+    out = []
+    for k, window in enumerate(settings.windows):
+        starts, w = _windows(len(X), float(feat["rate"]), window, settings.hop * window, settings.max_windows)
+        base = (cP[starts + w] - cP[starts]) / w
+        lvl1 = X[starts + w - 1] - X[starts]
+        lvl2 = _levy_areas(X, starts, w)
+        lvl2 = np.sign(lvl2) * np.sqrt(np.abs(lvl2))
+        if settings.normalize == "parts":
+            # a still window has no direction: below the floor (leg lengths) its motion parts keep their size
+            base = _unit_rows(base, 1e-6)
+            lvl1 = _unit_rows(lvl1, 0.25)
+            lvl2 = _unit_rows(lvl2, 0.25)
+        scale = np.zeros((len(starts), len(settings.windows)))
+        scale[:, k] = settings.scale_weight
+        out.append(np.column_stack([settings.pose_weight * base, settings.motion_weight * lvl1,
+                                    settings.motion_weight * lvl2, scale]))
+    return np.concatenate(out)
+
+
+def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
+    """The compact arrays the search keeps per clip: ``windows`` (N, DIM) float16 (projected window descriptors)
+    and ``sequence`` (T', 3 * points) float16 (the pose every ``settings.step``-th sample, for the second stage)."""
+    return entry_from_features(features(clip, settings), settings)
+
+
+def _sequence(feat, settings):
+    """The second stage's sequence: the pose (``settings.sequence`` "centered": minus its mean over the clip) and,
+    with ``velocity_weight``, the motion channels' rates (leg lengths and radians per second)."""
+    seq = feat["pose"]
+    if settings.sequence == "centered":
+        seq = seq - seq.mean(axis=0)
+    if settings.velocity_weight:
+        vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
+        seq = np.column_stack([seq, settings.velocity_weight * vel])
+    return seq[::max(settings.step, int(math.ceil(len(seq) / settings.max_sequence)))]
+
+
+def whole_path(feat) -> np.ndarray:
+    """(10,) the whole clip's level-2 log-signature of its motion channels (the pelvis' path in the turning frame
+    and the turned angle; level 2 by signed square root): where, how far and how the take turns."""
+    X = feat["motion"]
+    lvl2 = _levy_areas(X, np.array([0]), len(X))[0]
+    return np.concatenate([X[-1] - X[0], np.sign(lvl2) * np.sqrt(np.abs(lvl2))])
+
+
+def entry_from_features(feat, settings: Settings = DEFAULT):
+    V = window_vectors(feat, settings).astype(np.float32)
+    if settings.dim:
+        V = V @ _projection(V.shape[1], settings.dim, settings.seed)
+    return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
+            "path": whole_path(feat).astype(np.float32)}
+
+
+def entry_bytes(entry) -> int:
+    return int(sum(np.asarray(v).nbytes for v in entry.values()))
+
+
+# ------------------------------------------------------------------------------------------------- stage one
+
+def _sq_dist(A, B):
+    d = (A * A).sum(1)[:, None] + (B * B).sum(1)[None] - 2.0 * (A @ B.T)
+    return np.maximum(d, 0.0)
+
+
+def stack(entries: Sequence) -> Dict[str, np.ndarray]:
+    """The library's windows in one block for ``first_stage`` (build it once per library): ``windows`` (all, DIM)
+    float32, their squared norms and ``bounds`` (each entry's first row, and the end)."""
+    wins = [np.asarray(e["windows"], dtype=np.float32) for e in entries]
+    W = np.concatenate(wins) if wins else np.zeros((0, 1), np.float32)
+    bounds = np.concatenate([[0], np.cumsum([len(w) for w in wins])]).astype(np.int64)
+    return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds}
+
+
+def first_stage(query, library, block: int = 65536) -> np.ndarray:
+    """(entries,) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's distance + the
+    same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries or the entries.
+    All the library's windows at once, ``block`` rows at a time, with one BLAS thread (small products)."""
+    lib = library if isinstance(library, dict) and "bounds" in library else stack(library)
+    q = np.asarray(query["windows"], dtype=np.float32)
+    qn = (q * q).sum(1)[:, None]
+    W, norms, bounds = lib["windows"], lib["norms"], lib["bounds"]
+    D = np.empty((len(q), len(W)), dtype=np.float32)
+    with one_blas_thread():
+        for r0 in range(0, len(W), block):
+            r1 = min(len(W), r0 + block)
+            D[:, r0:r1] = qn + norms[None, r0:r1] - 2.0 * (q @ W[r0:r1].T)
+    np.sqrt(np.maximum(D, 0.0, out=D), out=D)
+    lens = np.diff(bounds)
+    q_side = np.minimum.reduceat(D, bounds[:-1], axis=1).mean(axis=0)
+    e_side = np.add.reduceat(D.min(axis=0), bounds[:-1]) / lens
+    return 0.5 * (q_side + e_side).astype(np.float64)
+
+
+# ------------------------------------------------------------------------------------------------- stage two
+
+def _dtw_numpy(a, b, band, free_a, free_b):
+    n, m = len(a), len(b)
+    C = _sq_dist(a, b)
+    D = np.full((n + 1, m + 1), np.inf)
+    D[0, 0] = 0.0
+    D[0, 1:free_b + 1] = 0.0  # open begin: the path may start after skipping up to free_b samples of b
+    D[1:free_a + 1, 0] = 0.0
+    for i in range(1, n + 1):
+        lo, hi = _row_span(i, n, m, band)
+        for j in range(lo, hi + 1):
+            D[i, j] = C[i - 1, j - 1] + min(D[i - 1, j], D[i, j - 1], D[i - 1, j - 1])
+    return math.sqrt(min(D[n, m - free_b:].min(), D[n - free_a:, m].min()))
+
+
+def _row_span(i, n, m, band):
+    if band < 0:
+        return 1, m
+    return max(1, int(math.ceil((i - 1) * m / n)) - band), min(m, int(math.floor((i - 1) * m / n)) + band + 1)
+
+
+if _numba is not None:
+    @_numba.njit(cache=True, nogil=True)
+    def _dtw_numba(a, b, band, free_a, free_b):  # pragma: no cover - compiled
+        n, m, d = a.shape[0], b.shape[0], a.shape[1]
+        prev = np.full(m + 1, np.inf)
+        cur = np.full(m + 1, np.inf)
+        prev[0] = 0.0
+        for j in range(1, free_b + 1):
+            prev[j] = 0.0
+        best_end = np.inf
+        for i in range(1, n + 1):
+            for j in range(m + 1):
+                cur[j] = np.inf
+            cur[0] = 0.0 if i <= free_a else np.inf
+            if band >= 0:
+                lo = max(1, int(math.ceil((i - 1) * m / n)) - band)
+                hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1)
+            else:
+                lo, hi = 1, m
+            for j in range(lo, hi + 1):
+                c = 0.0
+                for k in range(d):
+                    t = a[i - 1, k] - b[j - 1, k]
+                    c += t * t
+                best = prev[j - 1]
+                if prev[j] < best:
+                    best = prev[j]
+                if cur[j - 1] < best:
+                    best = cur[j - 1]
+                cur[j] = c + best
+            if i >= n - free_a and cur[m] < best_end:
+                best_end = cur[m]
+            if i == n:
+                for j in range(m - free_b, m + 1):
+                    if cur[j] < best_end:
+                        best_end = cur[j]
+            prev, cur = cur, prev
+        return math.sqrt(best_end)
+
+
+def dtw(a, b, band: Optional[int] = None, free_a: int = 0, free_b: int = 0) -> float:
+    """Dynamic time warping of two sequences (frames, channels): the square root of the least sum of squared
+    Euclidean distances over warping paths (tslearn's and aeon's convention); ``band`` (samples, around the
+    diagonal scaled to the lengths; None: no band) restricts the path (Sakoe-Chiba); ``free_a`` / ``free_b``: up to
+    that many samples at either end of ``a`` / ``b`` may be left out (open begin and end: crops)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    b = np.ascontiguousarray(b, dtype=np.float64)
+    bw = -1 if band is None else max(int(band), 1)
+    fa, fb = max(0, min(int(free_a), len(a) - 1)), max(0, min(int(free_b), len(b) - 1))
+    if _numba is not None:
+        return float(_dtw_numba(a, b, bw, fa, fb))
+    return _dtw_numpy(a, b, bw, fa, fb)
+
+
+def _band(n, m, band=BAND):
+    return int(math.ceil(band * max(n, m))) + 1
+
+
+def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) -> np.ndarray:
+    """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the square
+    root of the sum of the two lengths (clips of other durations stay comparable); up to ``free`` of either
+    sequence's length may be left out at each end (crops)."""
+    a = np.asarray(query["sequence"], dtype=np.float64)
+    out = np.empty(len(candidates))
+    for i, c in enumerate(candidates):
+        b = np.asarray(c["sequence"], dtype=np.float64)
+        out[i] = dtw(a, b, _band(len(a), len(b), band), int(free * len(a)), int(free * len(b)))
+        out[i] /= math.sqrt(len(a) + len(b))
+    return out
+
+
+def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:
+    """The shortlist's final score: d2 / mean(d2) + mix * d1 / mean(d1) (+ global_weight * dg / mean(dg), ``dg``
+    the distances of the whole clips' paths); each term relative to the shortlist (finite values), so no unit
+    matters; mix = 0: the second stage alone."""
+    def rel(x):
+        x = np.asarray(x, float)
+        fin = x[np.isfinite(x)]
+        return x / max(fin.mean() if len(fin) else 1.0, 1e-12)
+
+    s = rel(d2)
+    if mix:
+        s = s + mix * rel(d1)
+    if global_weight and dg is not None:
+        s = s + global_weight * rel(dg)
+    return s
+
+
+def path_distances(query, candidates) -> np.ndarray:
+    q = np.asarray(query["path"], float)
+    return np.array([np.linalg.norm(np.asarray(c["path"], float) - q) for c in candidates])
+
+
+def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MIX,
+           settings: Settings = DEFAULT, library=None) -> List[int]:
+    """The entries' indices, best first: all by ``first_stage`` (on ``library``, the entries' ``stack``, when
+    given), the first ``shortlist`` re-ranked by ``combine`` of both stages (and of the whole paths when
+    ``settings.global_weight``)."""
+    d1 = first_stage(query, entries if library is None else library)
+    order = list(np.argsort(d1, kind="stable"))
+    head = order[:shortlist]
+    cands = [entries[i] for i in head]
+    d2 = rerank(query, cands)
+    dg = path_distances(query, cands) if settings.global_weight else None
+    score = combine(d1[head], d2, mix, dg, settings.global_weight)
+    head = [head[i] for i in np.argsort(score, kind="stable")]
+    return head + order[shortlist:]

@@ -1,0 +1,94 @@
+"""The local search's variants (issue 29) and their evaluation on one set from cached features: the first stage's
+matrix, the second stage's DTW on the shortlist, 1-NN / mAP under a protocol, and the crop probes."""
+
+import numpy as np
+
+import common as cm
+from blender_shapesig.core import local_search as ls
+
+# name -> (Settings, shortlist K, re-rank band, re-rank free ends, mix)
+VARIANTS = {}
+
+
+def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **kw):
+    VARIANTS[name] = (ls.Settings(**kw), shortlist, band, free, mix)
+
+
+add("default")
+add("raw", normalize="none")
+add("global2", global_weight=2.0)
+add("centered_global2", sequence="centered", global_weight=2.0)
+add("centered_global4", sequence="centered", global_weight=4.0)
+add("w1.0", windows=(1.0,))
+add("w0.5", windows=(0.5,))
+add("w0.5_1_2", windows=(0.5, 1.0, 2.0))
+add("mix0", mix=0.0)
+add("mix0.5", mix=0.5)
+add("mix2", mix=2.0)
+add("closed_ends", free=0.0)
+add("k50", shortlist=50)
+add("step1", step=1)
+add("centered", sequence="centered")
+add("vel0.1", velocity_weight=0.1)
+add("centered_vel0.1", sequence="centered", velocity_weight=0.1)
+add("mix2_vel0.1", mix=2.0, velocity_weight=0.1)
+add("centered_band0.1", sequence="centered", band=0.1)
+add("centered_band0.1_vel1", sequence="centered", band=0.1, velocity_weight=1.0)
+add("centered_vel1", sequence="centered", velocity_weight=1.0)
+add("centered_mix0.5", sequence="centered", mix=0.5)
+add("k50_step1", shortlist=50, step=1)
+
+
+def entries(feats, settings):
+    return [ls.entry_from_features(f, settings) for f in feats]
+
+
+def first_matrix(Q, E):
+    lib = ls.stack(E)
+    return np.stack([ls.first_stage(q, lib) for q in Q])
+
+
+def evaluate(items, feats, variant, kind="loo"):
+    settings, k, band, free, mix = variant
+    labels = [it.label for it in items]
+    E = entries(feats["full"], settings)
+    D1 = first_matrix(E, E)
+    cache = {}
+
+    def d2(a, b, qe, ce):
+        key = (a, b)
+        if key not in cache:
+            cache[key] = ls.rerank(qe, [ce], band, free)[0]
+        return cache[key]
+
+    prot = cm.protocol(items, kind)
+    orders1 = [np.asarray(c)[np.argsort(D1[q, c], kind="stable")] for q, c in prot]
+    s1 = cm.scores(orders1, labels, [q for q, _ in prot])
+    gw = settings.global_weight
+    dg = lambda q, j: float(np.linalg.norm(E[q]["path"] - E[j]["path"]))  # noqa: E731
+    orders = [cm.two_stage_order(D1[q], c, k, lambda j, q=q: d2(q, j, E[q], E[j]), mix,
+                                 lambda j, q=q: dg(q, j), gw) for q, c in prot]
+    s2 = cm.scores(orders, labels, [q for q, _ in prot])
+    crops = {}
+    everyone = list(range(len(items)))
+    for crop in (("start", 0.1), ("end", 0.1)):
+        if crop not in feats:
+            continue
+        Qc = entries(feats[crop], settings)
+        Dc = first_matrix(Qc, E)
+        ok = ok1 = 0
+        for q in everyone:
+            order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band, free)[0], mix,
+                                       lambda j, q=q: float(np.linalg.norm(Qc[q]["path"] - E[j]["path"])), gw)
+            ok += order[0] == q
+            ok1 += np.argmin(Dc[q]) == q
+        crops[crop[0]] = (ok1, ok)
+    size = np.mean([ls.entry_bytes(e) for e in E])
+    return {"stage1": s1, "two_stage": s2, "crops": crops, "n": len(items), "bytes": size}
+
+
+def format_row(set_name, name, r):
+    c = r["crops"]
+    crop = " ".join(f"{k} {v[0]}->{v[1]}/{r['n']}" for k, v in c.items())
+    return (f"{set_name:10s} {name:24s} stage1 1-NN {r['stage1'][0]:.3f} mAP {r['stage1'][1]:.3f} | two-stage "
+            f"1-NN {r['two_stage'][0]:.3f} mAP {r['two_stage'][1]:.3f} | crops {crop} | {r['bytes'] / 1024:.1f} KB")
