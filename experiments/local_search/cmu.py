@@ -27,7 +27,7 @@ def rig_items(data):
 
     import rank_across_rigs as rar
     from dedupe_check import library as shared_library
-    from blender_shapesig.core import sources
+    from blender_shapesig.core.io import sources
 
     items, have = [], set()
     for fmt, take, path, asf in rar.takes():
@@ -52,7 +52,7 @@ def rig_items(data):
 def across_rigs(items, feats, variant, n_lib):
     """Same take first, for the first 20 items querying the first n_lib items' library."""
     settings, k, band, free, mix = variant
-    from blender_shapesig.core import local_search as ls
+    from blender_shapesig.core.index import local as ls
 
     E = vs.entries(feats[:n_lib], settings)
     ok = 0

@@ -14,8 +14,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from blender_shapesig.core import local_search as ls  # noqa: E402
-from blender_shapesig.core import rigs, sources  # noqa: E402
+from blender_shapesig.core.index import local as ls  # noqa: E402
+from blender_shapesig.core import rigs
+from blender_shapesig.core.io import sources  # noqa: E402
 
 
 
@@ -57,7 +58,7 @@ def load_hdm05(data):
 
 def load_eval_set(csv_path, data):
     from blender_shapesig import evaluation as ev
-    from blender_shapesig.core.prepare import decimate_clip
+    from blender_shapesig.core.clip.prepare import decimate_clip
 
     items = []
     for e in ev.read_index(csv_path):

@@ -9,8 +9,10 @@ import itertools
 import numpy as np
 import pytest
 
-from blender_shapesig.core import local_search as ls
-from blender_shapesig.core import rigs, signatures, sources
+from blender_shapesig.core.index import local as ls
+from blender_shapesig.core import rigs
+from blender_shapesig.core.signatures import signatures
+from blender_shapesig.core.io import sources
 from blender_shapesig.core.errors import ShapeSigError
 
 

@@ -44,6 +44,7 @@ MOVES = {
     "core.dedupe": "core.index.dedupe",
     "core.feet": "core.blend.feet",
     "core.files": "core.io.files",
+    "core.local_search": "core.index.local",
     "readers.blend": "readers.blend_file",
     "readers._blend_child": "readers._blend_file_child",
     "write_blend": "write_blend_file",

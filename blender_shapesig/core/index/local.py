@@ -21,9 +21,9 @@ from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
-from .blas import one_blas_thread
-from .clip import Clip
-from .errors import ShapeSigError
+from ..blas import one_blas_thread
+from ..clip.clip import Clip
+from ..errors import ShapeSigError
 
 try:  # numba is optional: Blender's Python does not ship it
     import numba as _numba
