@@ -1,5 +1,5 @@
 """Shared parts of the local-search experiments (issue 29): reading labelled sets through the package's front door
-(``core.sources``, raw clips then ``rigs.apply_bone_map``, so crops are cut before the comparison space as a user's
+(``core.io.sources``, raw clips then ``rigs.apply_bone_map``, so crops are cut before the comparison space as a user's
 would be), per-clip features cached on disk, the DTW baseline's sequences, the two-stage ranking from distance
 matrices, and the scores (leave-one-out / leave-one-actor-out 1-NN and mAP, crop probes)."""
 
