@@ -17,8 +17,8 @@ actions from the six test BVH clips at 30 fps, each a different crop): the test 
 the elastic distance), the file's actions as the library, its index built before (``shapesig.build_index``);
 Moments: the same click with Moments on; Blend Actions: ``bpy.ops.shapesig.blend_actions`` on a walk and a run
 (aligned, weight 0.5). Later clicks: best and median of ``--repeat``. First click of a session: a fresh process
-per click kind and set-up, on the test clips' file (index already built), its first click. The enabling of
-the add-on (importing numba or not) is timed too. The ranked names are compared between numba and numpy (the
+per click kind and set-up, on the test clips' file (index already built), its first click. Enabling the
+add-on (its registration imports the kernel modules, numba with them or not) is timed too. The ranked names are compared between numba and numpy (the
 kernels promise identical results). JSON output with the machine, the load and the date.
 """
 
@@ -44,7 +44,8 @@ BLEND_PAIR = ("07_01", "09_02")  # a walk and a run (action names start with the
 
 
 def _session(setup):
-    """Import bpy and the add-on in ``setup``; seconds spent enabling the add-on."""
+    """Import bpy and enable the add-on in ``setup``; seconds spent enabling it (its registration imports the
+    kernel modules, and numba with them when it is importable)."""
     if setup == "numpy":
         sys.modules["numba"] = None  # import numba raises ImportError: the add-on's numpy fallbacks
     sys.path.insert(0, str(ROOT))
@@ -52,10 +53,11 @@ def _session(setup):
 
     t0 = time.perf_counter()
     import blender_shapesig
-    from blender_shapesig.core import _dp_kernels, _srvt_kernel
 
     blender_shapesig.register()
     enable_s = time.perf_counter() - t0
+    from blender_shapesig.core import _dp_kernels, _srvt_kernel
+
     assert _dp_kernels.HAVE_NUMBA == _srvt_kernel.HAVE_NUMBA == (setup != "numpy"), setup
     return enable_s
 

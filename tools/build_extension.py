@@ -580,7 +580,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.json:
         for z in summary["zips"]:
             print(f"{z['zip']}  {z['bytes'] / 1e6:.1f} MB (installed {z['installed_bytes'] / 1e6:.0f} MB)  "
-                  f"Blender {z['blender_version_min']} to {z['blender_version_max'] or 'newer'}  "
+                  f"Blender >= {z['blender_version_min']}{', < ' + z['blender_version_max'] if z['blender_version_max'] else ''}  "
                   f"wheels: {', '.join(z['wheels']) or '-'}")
         for key, why in summary["left_out"].items():
             print(f"{key}: {'; '.join(why)}")
