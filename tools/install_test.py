@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""Install test: build the linux-x64 extension zip and install it, as a user would, into a clean Blender.
+"""Install test: build the linux-x64 extension zips (one per Blender Python) and install them, as a user would,
+into a clean Blender.
 
-    .venv/bin/python tools/install_test.py                # bpy 5.2.3 LTS, 5.0.1 and 4.2.23 LTS, full + minimal zip
+    .venv/bin/python tools/install_test.py                # bpy 5.2.3 LTS, 5.0.1 and 4.2.23 LTS: full, minimal, lite
     .venv/bin/python tools/install_test.py --bpy 5.0      # one version
-    .venv/bin/python tools/install_test.py --zip FILE.zip # test a given zip instead of building
+    .venv/bin/python tools/install_test.py --zip A.zip --zip B.zip  # test given zips instead of building
 
 For every Blender version the test uses its own throwaway virtualenv on that Blender's Python holding only
 ``bpy`` and the numpy Blender bundles (and bpy's own dependencies): ``.venv-install-5.2/`` (Python 3.13, numpy
@@ -13,18 +14,22 @@ iisignature or blender_shapesig before every run). ``BLENDER_USER_RESOURCES`` po
 folder, so nothing of the developer's Blender setup is used or touched. In that environment a child process
 
 1. checks that scipy, numba, iisignature and blender_shapesig are not importable;
-2. installs the zip with ``bpy.ops.extensions.package_install_files(repo="user_default",
-   enable_on_install=True)`` (Blender extracts the bundled wheels into ``extensions/.local``);
-3. checks that the add-on is enabled as ``bl_ext.user_default.blender_shapesig`` and that every bundled module
+2. installs the other Python's zip (the one whose manifest range does not hold this Blender) and checks that
+   Blender refuses it with one ERROR line naming the version range, installing nothing;
+3. installs this Blender's zip with ``bpy.ops.extensions.package_install_files(repo="user_default",
+   enable_on_install=True)`` (Blender extracts the bundled wheels into ``extensions/.local``) and measures what
+   it put on disk;
+4. checks that the add-on is enabled as ``bl_ext.user_default.blender_shapesig`` and that every bundled module
    (scipy; numba/llvmlite and iisignature when bundled) is imported from the temporary user resources, and that
    the ones not bundled stay unimportable (so the numpy fallbacks are what runs);
-4. runs the operators: ``shapesig.import_acclaim`` on tests/data/acclaim/09_02.amc + 09-run.asf,
+5. runs the operators: ``shapesig.import_acclaim`` on tests/data/acclaim/09_02.amc + 09-run.asf,
    ``shapesig.build_index``, ``shapesig.rank`` and ``shapesig.blend_actions``, and checks their results;
-5. uninstalls the extension with ``extensions.package_uninstall``.
+6. uninstalls the extension with ``extensions.package_uninstall``.
 
-Two zips are tested: "full" (every wheel we ship for linux-x64, cp311 and cp313: scipy, numba + llvmlite,
-iisignature) on every Blender version, and "minimal" (scipy only, what the macos-x64 zip carries; exercises the numba-free DP and the
-numpy signatures inside Blender) on the first version given.
+Three builds are tested: "full" (every wheel we ship for linux-x64: scipy, numba + llvmlite, iisignature) on every
+Blender version, "minimal" (``--without numba,iisignature``: scipy only, what the windows and macOS lite zips
+and macos-x64 carry; exercises the numba-free kernels and the numpy signatures inside Blender) on the first
+version given and "lite" (``--without numba``, the ``-lite`` zip) on the last one.
 
 The build (tools/build_extension.py) needs pip and bpy (any development venv) and Python 3.11 and 3.13 on the
 machine, to compile the iisignature wheels. Exit code 0 when every check passed, 1 when one failed, 2 on a usage/setup error.
