@@ -51,8 +51,8 @@ PACKAGE = "blender_shapesig"
 MANIFEST = ROOT / "blender_manifest.toml"
 # Blender's embedded CPython per line: 4.2 LTS .. 5.0 run 3.11, 5.1 and 5.2 LTS run 3.13 (with numpy 2). Python
 # tag -> version. Each zip carries one Python's wheels and that Python's Blender range, (blender_version_min,
-# blender_version_max or None): Blender refuses the zip outside it ("must be less than the maximum version"), and
-# also refuses a zip without wheels for its own Python ("This Python version (3.13) isn't compatible with (3.11)").
+# blender_version_max or None): Blender's installer refuses the zip outside it ("This Blender version (5.2.3) must
+# be less than the maximum version (5.1.0)", "... doesn't meet the minimum supported version (5.1.0)").
 PYTHONS = {"cp311": "3.11", "cp313": "3.13"}
 BLENDER_RANGE = {"cp311": ("4.2.0", "5.1.0"), "cp313": ("5.1.0", None)}
 
@@ -301,8 +301,7 @@ def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, witho
                    pythons: list[str] | None = None):
     """Return ({(platform, pytag): [wheel paths]}, {(platform, pytag): [notes]}): one entry per zip to build, for
     every platform and Python tag that has its required wheels. A platform and Python without them gets no zip
-    (with a note): Blender would refuse a zip without wheels for its Python, and an add-on without scipy cannot
-    import."""
+    (with a note): an add-on without scipy cannot import."""
     cache.mkdir(parents=True, exist_ok=True)
     chosen: dict[tuple[str, str], list[Path]] = {}
     notes: dict[tuple[str, str], list[str]] = {}
