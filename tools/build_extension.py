@@ -1,25 +1,29 @@
 #!/usr/bin/env python3
-"""Build the blender_shapesig extension zips (one per platform) with Blender's own extension builder.
+"""Build the blender_shapesig extension zips (one per platform and Blender Python) with Blender's own builder.
 
-    python tools/build_extension.py --out DIR [--platforms linux-x64,windows-x64] [--no-wheels] [--validate-only]
+    python tools/build_extension.py --out DIR [--platforms linux-x64,windows-x64] [--pythons cp311,cp313]
+                                    [--without numba] [--no-wheels] [--validate-only]
 
-The top-level ``blender_manifest.toml`` is the one source of truth. This script
+The top-level ``blender_manifest.toml`` is the one source of truth. Blender embeds CPython 3.11 in 4.2 LTS .. 5.0
+and CPython 3.13 in 5.1 and 5.2 LTS; each zip carries the wheels of one of them only and says which Blender
+versions it is for (``blender_version_min`` / ``blender_version_max``, exclusive), so Blender refuses the other
+one. For each Python tag this script
 
 1. stages the package: copies ``blender_shapesig/`` to a temporary folder, puts the manifest beside
-   ``__init__.py`` and adds ``wheels/`` plus the ``platforms = [...]`` and ``wheels = [...]`` lists;
-2. fetches the platform wheels for both Pythons Blender embeds (CPython 3.11 in 4.2 LTS .. 5.0, CPython 3.13
-   in 5.1 and 5.2 LTS) from PyPI into a cache outside git (``~/.cache/blender_shapesig/wheels``, or
-   ``$SHAPESIG_WHEEL_CACHE``, or ``--wheel-cache``) with ``pip download --only-binary=:all: --platform TAG
-   --python-version 3.11|3.13 --implementation cp --no-deps``, and builds the iisignature wheels from the sdist
-   (it has no binary wheels on PyPI) against numpy 2 for each Python this machine has (linux-x64 only);
+   ``__init__.py`` (with that Python's Blender version range) and adds ``wheels/`` plus the
+   ``platforms = [...]`` and ``wheels = [...]`` lists;
+2. fetches that Python's platform wheels from PyPI into a cache outside git (``~/.cache/blender_shapesig/wheels``,
+   or ``$SHAPESIG_WHEEL_CACHE``, or ``--wheel-cache``) with ``pip download --only-binary=:all: --platform TAG
+   --python-version 3.11|3.13 --implementation cp --no-deps``, and builds the iisignature wheel from the sdist
+   (it has no binary wheels on PyPI) against numpy 2 when this machine has that Python (linux-x64 only);
 3. runs ``blender_ext.py build --split-platforms --valid-tags TAGS`` (Blender's builder and tag list, found
-   inside the bpy module), then ``blender_ext.py validate`` on every zip, then checks each zip's contents.
+   inside the bpy module), names each zip ``blender_shapesig-VERSION-PLATFORM-PYTAG[-lite].zip``, then runs
+   ``blender_ext.py validate`` on every zip and checks each zip's contents.
 
-Wheels per platform and Python: scipy is required (a Python without its scipy wheel gets no wheels on that
-platform, so Blender refuses the zip there; a platform left with no Python is left out); numba + llvmlite are
-optional and go together (bundled where PyPI has both; the add-on falls back to numpy otherwise); iisignature
-is optional (linux-x64 only; the add-on falls back to its numpy signatures). numpy is never bundled: Blender
-ships it. Blender installs only the wheels of its own Python (bl_pkg filters by the wheel's Python tag).
+Wheels per platform and Python: scipy is required (a platform and Python without its scipy wheel gets no zip);
+numba + llvmlite are optional and go together (bundled where PyPI has both; the add-on falls back to numpy
+otherwise; ``--without numba`` leaves them out on purpose and names the zips ``...-lite.zip``); iisignature is
+optional (linux-x64 only; the add-on falls back to its numpy signatures). numpy is never bundled: Blender ships it.
 
 Exit code 0 on success, 1 on a build/validation failure, 2 on a usage error. The last line on stdout is a
 JSON summary (``--json`` prints only that).
@@ -45,10 +49,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = "blender_shapesig"
 MANIFEST = ROOT / "blender_manifest.toml"
-# Blender's embedded CPython per line: 4.2 LTS .. 5.0 run 3.11, 5.1 and 5.2 LTS run 3.13 (with numpy 2). Every
-# zip carries wheels for both; Blender installs the ones matching its own Python (and refuses an extension
-# without any). Python tag -> version.
+# Blender's embedded CPython per line: 4.2 LTS .. 5.0 run 3.11, 5.1 and 5.2 LTS run 3.13 (with numpy 2). Python
+# tag -> version. Each zip carries one Python's wheels and that Python's Blender range, (blender_version_min,
+# blender_version_max or None): Blender's installer refuses the zip outside it ("This Blender version (5.2.3) must
+# be less than the maximum version (5.1.0)", "... doesn't meet the minimum supported version (5.1.0)").
 PYTHONS = {"cp311": "3.11", "cp313": "3.13"}
+BLENDER_RANGE = {"cp311": ("4.2.0", "5.1.0"), "cp313": ("5.1.0", None)}
 
 # Blender platform -> pip --platform tags, most specific first. pip expands macOS versions downwards itself,
 # but not manylinux ones, hence the explicit list. Blender 4.2+ on Linux needs glibc >= 2.28, so
@@ -291,19 +297,17 @@ def ensure_iisignature(bext, cache: Path, pytag: str, offline: bool) -> Path | N
     return find_cached_wheel(bext, built, IISIGNATURE, "linux-x64", pytag)
 
 
-def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, without: set[str], refresh: bool = False):
-    """Return ({platform: [wheel paths]}, {platform: [notes]}) for the platforms that have every required
-    wheel for at least one Python; a Python without its required wheels gets none on that platform (Blender
-    then refuses the zip on that Python, rather than installing an add-on that cannot import), and a platform
-    with no Python left is dropped (with a note)."""
+def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, without: set[str], refresh: bool = False,
+                   pythons: list[str] | None = None):
+    """Return ({(platform, pytag): [wheel paths]}, {(platform, pytag): [notes]}): one entry per zip to build, for
+    every platform and Python tag that has its required wheels. A platform and Python without them gets no zip
+    (with a note): an add-on without scipy cannot import."""
     cache.mkdir(parents=True, exist_ok=True)
-    chosen: dict[str, list[Path]] = {}
-    notes: dict[str, list[str]] = {}
+    chosen: dict[tuple[str, str], list[Path]] = {}
+    notes: dict[tuple[str, str], list[str]] = {}
     for platform in platforms:
-        wheels: list[Path] = []
-        note: list[str] = []
-        for pytag in PYTHONS:
-            tagged, missing = [], None
+        for pytag in pythons or list(PYTHONS):
+            tagged, missing, note = [], None, []
             for group, per_tag in REQUIRED_GROUPS.items():
                 found = [ensure_wheel(bext, cache, s, platform, pytag, offline, refresh) for s in per_tag[pytag]]
                 if None in found:
@@ -311,8 +315,8 @@ def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, witho
                     break
                 tagged += found
             if missing:
-                log(f"platform {platform}: no {missing} wheel for {pytag}, so no {pytag} wheels at all")
-                note.append(f"no {pytag}: no {missing} wheel")
+                log(f"platform {platform}: no {missing} wheel for {pytag}, so no {pytag} zip")
+                notes[(platform, pytag)] = [f"left out: no {missing} wheel for {pytag}"]
                 continue
             for group, per_tag in OPTIONAL_GROUPS.items():
                 if group in without:
@@ -324,7 +328,7 @@ def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, witho
                     if found[-1] is None:
                         break
                 if None in found:
-                    note.append(f"no {group} for {pytag} (numpy fallback)")
+                    note.append(f"no {group} (numpy fallback)")
                     log(f"platform {platform}: {group} not bundled (no {pytag} wheel), the numpy fallback is used")
                 else:
                     tagged += found
@@ -335,14 +339,9 @@ def collect_wheels(bext, cache: Path, platforms: list[str], offline: bool, witho
             elif (iis := ensure_iisignature(bext, cache, pytag, offline)) is not None:
                 tagged.append(iis)
             else:
-                note.append(f"no iisignature for {pytag} (numpy fallback)")
-            wheels += tagged
-        if not wheels:
-            log(f"platform {platform} left out: no Python has its required wheels")
-            notes[platform] = ["left out: " + "; ".join(note)]
-            continue
-        chosen[platform] = wheels
-        notes[platform] = sorted(set(note), key=note.index)
+                note.append("no iisignature (numpy fallback)")
+            chosen[(platform, pytag)] = tagged
+            notes[(platform, pytag)] = note
     return chosen, notes
 
 
@@ -356,27 +355,45 @@ def toml_list(values: list[str]) -> str:
     return "[\n" + "".join(f"  {json.dumps(v)},\n" for v in values) + "]"
 
 
-def staged_manifest_text(source: str, platforms: list[str], wheels: list[str]) -> str:
-    """The top-level manifest with ``platforms`` and ``wheels`` inserted before the first table."""
+def staged_manifest_text(source: str, platforms: list[str], wheels: list[str],
+                         blender_range: tuple[str, str | None] | None = None) -> str:
+    """The top-level manifest with ``platforms`` and ``wheels`` inserted before the first table and, with
+    ``blender_range`` = (min, max or None), ``blender_version_min`` raised to min (never lowered) and
+    ``blender_version_max`` (exclusive) set to max."""
     data = tomllib.loads(source)
-    for key in ("platforms", "wheels"):
+    for key in ("platforms", "wheels", "blender_version_max"):
         if key in data:
             raise BuildError(f"blender_manifest.toml must not set '{key}': the build script adds it")
     lines = source.splitlines(keepends=True)
+    expect = dict(data, platforms=platforms, **({"wheels": wheels} if wheels else {}))
+    if blender_range is not None:
+        low, high = blender_range
+        if _version(low) > _version(data["blender_version_min"]):
+            expect["blender_version_min"] = low
+            lines = [f"blender_version_min = {json.dumps(low)}\n" if re.match(r"blender_version_min\s*=", ln)
+                     else ln for ln in lines]
+        if high is not None:
+            expect["blender_version_max"] = high
     first_table = next((i for i, ln in enumerate(lines) if re.match(r"\s*\[", ln)), len(lines))
     extra = ("# Added by tools/build_extension.py.\n"
              f"platforms = {toml_list(platforms)}\n")
     if wheels:
         extra += f"wheels = {toml_list(wheels)}\n"
+    if "blender_version_max" in expect:
+        extra += f"blender_version_max = {json.dumps(expect['blender_version_max'])}\n"
     text = "".join(lines[:first_table]) + extra + "\n" + "".join(lines[first_table:])
     check = tomllib.loads(text)
-    expect = dict(data, platforms=platforms, **({"wheels": wheels} if wheels else {}))
     if check != expect:
         raise BuildError("internal error: the staged manifest does not parse back to the source + additions")
     return text
 
 
-def stage(dest: Path, platforms: list[str], wheels: list[Path]) -> Path:
+def _version(text: str) -> tuple[int, ...]:
+    return tuple(int(x) for x in text.split("."))
+
+
+def stage(dest: Path, platforms: list[str], wheels: list[Path], pytag: str | None = None) -> Path:
+    """The package staged in ``dest``; with ``pytag``, its manifest carries that Python's Blender range."""
     pkg = dest / PACKAGE
     shutil.copytree(ROOT / PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.pyo",
                                                                        "blender_manifest.toml", "wheels"))
@@ -385,7 +402,8 @@ def stage(dest: Path, platforms: list[str], wheels: list[Path]) -> Path:
         for w in wheels:
             shutil.copy2(w, pkg / "wheels" / w.name)
     rel = [f"./wheels/{w.name}" for w in sorted(wheels, key=lambda p: p.name)]
-    text = staged_manifest_text(MANIFEST.read_text(encoding="utf-8"), platforms, rel)
+    text = staged_manifest_text(MANIFEST.read_text(encoding="utf-8"), platforms, rel,
+                                BLENDER_RANGE[pytag] if pytag else None)
     (pkg / "blender_manifest.toml").write_text(text, encoding="utf-8")
     return pkg
 
@@ -394,10 +412,18 @@ def stage(dest: Path, platforms: list[str], wheels: list[Path]) -> Path:
 # Checks on the built zips
 
 
-def check_zip(bext, path: Path, platform: str, expected_wheels: list[Path]) -> dict:
+def check_zip(bext, path: Path, platform: str, pytag: str | None, expected_wheels: list[Path]) -> dict:
+    """Check a built zip (package at the root, no caches, exactly the expected wheels, all for ``platform`` and
+    Python ``pytag``, the generated platform list, ``pytag``'s Blender range) and describe it for the summary."""
     with zipfile.ZipFile(path) as zf:
         names = zf.namelist()
         manifest = tomllib.loads(zf.read("blender_manifest.toml").decode("utf-8"))
+        unpacked = sum(i.file_size for i in zf.infolist())
+        wheel_unpacked = 0
+        for n in names:
+            if n.endswith(".whl"):
+                with zf.open(n) as fh, zipfile.ZipFile(fh) as wheel:
+                    wheel_unpacked += sum(i.file_size for i in wheel.infolist())
     if "__init__.py" not in names:
         raise BuildError(f"{path.name}: no __init__.py at the archive root")
     if any("__pycache__" in n or n.endswith(".pyc") for n in names):
@@ -407,18 +433,72 @@ def check_zip(bext, path: Path, platform: str, expected_wheels: list[Path]) -> d
     if zip_wheels != want:
         raise BuildError(f"{path.name}: wheels {zip_wheels} != expected {want}")
     for n in zip_wheels:
-        if wheel_fields(Path(n).name)["name"] in NEVER_BUNDLE:
+        fields = wheel_fields(Path(n).name)
+        if fields["name"] in NEVER_BUNDLE:
             raise BuildError(f"{path.name}: bundles {n} (Blender ships numpy)")
         if platform not in wheel_blender_platforms(bext, Path(n).name):
             raise BuildError(f"{path.name}: wheel {n} is not for {platform}")
+        if pytag and pytag not in fields["python"].split("."):
+            raise BuildError(f"{path.name}: wheel {n} is not for {pytag}")
     generated = manifest.get("build", {}).get("generated", {})
     if generated.get("platforms") != [platform]:
         raise BuildError(f"{path.name}: [build.generated] platforms = {generated.get('platforms')}")
     gen_wheels = sorted(w.removeprefix("./") for w in generated.get("wheels", []))
     if gen_wheels != want:
         raise BuildError(f"{path.name}: [build.generated] wheels {gen_wheels} != {want}")
-    return {"platform": platform, "zip": str(path), "bytes": path.stat().st_size,
+    low, high = manifest["blender_version_min"], manifest.get("blender_version_max")
+    if pytag and (_version(low) < _version(BLENDER_RANGE[pytag][0]) or high != BLENDER_RANGE[pytag][1]):
+        raise BuildError(f"{path.name}: Blender range {low}..{high} is not {pytag}'s {BLENDER_RANGE[pytag]}")
+    # Installed: the zip unpacked into extensions/<repo>/<id>/ (wheel files included) plus the wheels unpacked
+    # into extensions/.local/lib/pythonX.Y/site-packages/.
+    return {"platform": platform, "python": pytag, "blender_version_min": low, "blender_version_max": high,
+            "zip": str(path), "bytes": path.stat().st_size, "installed_bytes": unpacked + wheel_unpacked,
             "wheels": [Path(n).name for n in zip_wheels]}
+
+
+def zip_name(version: str, platform: str, pytag: str, without: set[str]) -> str:
+    """``blender_shapesig-0.1.0-linux_x64-cp313.zip``; ``-lite`` without numba, ``-noiisignature`` without it."""
+    suffix = "".join(s for s, w in (("-lite", "numba"), ("-noiisignature", "iisignature")) if w in without)
+    return f"{PACKAGE}-{version}-{platform.replace('-', '_')}-{pytag}{suffix}.zip"
+
+
+def build_python(bext, blender_ext: Path, tags: Path, tmp: Path, out: Path | None, pytag: str,
+                 chosen: dict[tuple[str, str], list[Path]], without: set[str]) -> list[dict]:
+    """Stage, validate and (with ``out``) build the zips of Python ``pytag``: one per platform that has its
+    wheels, renamed to ``zip_name``, validated and checked. Returns their summaries."""
+    platforms = [p for (p, t) in chosen if t == pytag]
+    if not platforms:
+        return []
+    wheels = sorted({w for (p, t), ws in chosen.items() if t == pytag for w in ws}, key=lambda w: w.name)
+    pkg = stage(tmp / pytag, platforms, wheels, pytag)
+    proc = run_blender_ext(blender_ext, "validate", str(pkg), "--valid-tags", str(tags))
+    if proc.returncode != 0:
+        raise BuildError(f"Blender's validator rejected the staged {pytag} package")
+    if out is None:
+        return []
+    version = tomllib.loads(MANIFEST.read_text(encoding="utf-8"))["version"]
+    zips = {p: out / zip_name(version, p, pytag, without) for p in platforms}
+    for z in zips.values():  # No stale zip may pass for this build's output.
+        z.unlink(missing_ok=True)
+    built = Path(tempfile.mkdtemp(prefix=".shapesig-build-", dir=out))  # same file system: renamed, not copied
+    try:
+        proc = run_blender_ext(blender_ext, "build", "--split-platforms", "--source-dir", str(pkg),
+                               "--output-dir", str(built), "--valid-tags", str(tags))
+        if proc.returncode != 0:
+            raise BuildError(f"Blender's builder failed ({pytag})")
+        summaries = []
+        for p, z in zips.items():
+            made = built / f"{PACKAGE}-{version}-{p.replace('-', '_')}.zip"  # the builder's own name
+            if not made.is_file():
+                raise BuildError(f"expected zip not built: {made.name} ({pytag})")
+            os.replace(made, z)
+            proc = run_blender_ext(blender_ext, "validate", str(z), "--valid-tags", str(tags))
+            if proc.returncode != 0:
+                raise BuildError(f"Blender's validator rejected {z.name}")
+            summaries.append(check_zip(bext, z, p, pytag, chosen[(p, pytag)]))
+        return summaries
+    finally:
+        shutil.rmtree(built, ignore_errors=True)
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -430,15 +510,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="output folder for the zips")
     ap.add_argument("--platforms", default=",".join(PLATFORMS),
                     help=f"comma-separated Blender platforms (default: {','.join(PLATFORMS)})")
+    ap.add_argument("--pythons", default=",".join(PYTHONS),
+                    help=f"comma-separated Python tags, one zip each per platform (default: {','.join(PYTHONS)})")
     ap.add_argument("--wheel-cache", default=None, help="wheel cache folder (default ~/.cache/blender_shapesig/wheels)")
     ap.add_argument("--offline", action="store_true", help="use cached wheels only, never run pip download")
     ap.add_argument("--no-wheels", action="store_true",
                     help="bundle no wheels (the zips then need scipy from elsewhere; for manifest checks)")
     ap.add_argument("--without", default="", metavar="NAMES",
-                    help="comma-separated optional wheels to leave out: numba, iisignature (tests the fallbacks)")
+                    help="comma-separated optional wheels to leave out: numba (the '-lite' zips: numpy kernels, "
+                         "no JIT), iisignature")
     ap.add_argument("--refresh", action="store_true", help="retry downloads that failed in an earlier build")
     ap.add_argument("--validate-only", action="store_true",
-                    help="stage and run Blender's validator on the staged package, build no zip")
+                    help="stage and run Blender's validator on the staged packages, build no zip")
     ap.add_argument("--blender-ext", default=None, help="path to Blender's bl_pkg/cli/blender_ext.py")
     ap.add_argument("--keep-stage", action="store_true", help="keep the staging folder (printed)")
     ap.add_argument("--json", action="store_true", help="print only the JSON summary on stdout")
@@ -446,9 +529,17 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.monotonic()
     platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
+    pythons = [p.strip() for p in args.pythons.split(",") if p.strip()]
+    without = {w.strip() for w in args.without.split(",") if w.strip()}
     unknown = [p for p in platforms if p not in PLATFORMS]
     if unknown or not platforms:
         print(f"unknown platform(s) {unknown}; choose from {', '.join(PLATFORMS)}", file=sys.stderr)
+        return 2
+    if not pythons or set(pythons) - set(PYTHONS):
+        print(f"--pythons takes {', '.join(PYTHONS)}, got {args.pythons!r}", file=sys.stderr)
+        return 2
+    if without - {"numba", "iisignature"}:
+        print(f"--without takes numba and/or iisignature, got {sorted(without)}", file=sys.stderr)
         return 2
     try:
         blender_ext, tags = find_blender_ext(args.blender_ext)
@@ -457,47 +548,27 @@ def main(argv: list[str] | None = None) -> int:
         out = Path(args.out).resolve()
         cache = Path(args.wheel_cache) if args.wheel_cache else default_wheel_cache()
 
+        wanted = [(p, t) for p in platforms for t in pythons]
         if args.no_wheels:
-            per_platform = {p: [] for p in platforms}
-            notes = {p: ["no wheels (--no-wheels)"] for p in platforms}
+            chosen = {key: [] for key in wanted}
+            notes = {key: ["no wheels (--no-wheels)"] for key in wanted}
         else:
-            without = {w.strip() for w in args.without.split(",") if w.strip()}
-            if without - {"numba", "iisignature"}:
-                print(f"--without takes numba and/or iisignature, got {sorted(without)}", file=sys.stderr)
-                return 2
-            per_platform, notes = collect_wheels(bext, cache, platforms, args.offline, without, args.refresh)
-        if not per_platform:
+            chosen, notes = collect_wheels(bext, cache, platforms, args.offline, without, args.refresh, pythons)
+        if not chosen:
             raise BuildError("no platform has its required wheels: nothing to build")
-        kept = [p for p in platforms if p in per_platform]
-        all_wheels = sorted({w for ws in per_platform.values() for w in ws}, key=lambda p: p.name)
-
+        label = {key: f"{key[0]} {key[1]}" for key in wanted}
+        summary = {"platforms": sorted({p for p, _ in chosen}, key=platforms.index), "pythons": pythons,
+                   "left_out": {label[k]: notes[k] for k in wanted if k not in chosen},
+                   "notes": {label[k]: notes[k] for k in wanted if k in chosen}, "zips": []}
         tmp = Path(tempfile.mkdtemp(prefix="shapesig-stage-"))
         try:
-            pkg = stage(tmp, kept, all_wheels)
-            proc = run_blender_ext(blender_ext, "validate", str(pkg), "--valid-tags", str(tags))
-            if proc.returncode != 0:
-                raise BuildError("Blender's validator rejected the staged package")
-            summary = {"platforms": kept, "left_out": {p: notes[p] for p in platforms if p not in per_platform},
-                       "notes": {p: notes[p] for p in kept}, "zips": []}
             if not args.validate_only:
                 out.mkdir(parents=True, exist_ok=True)
-                version = tomllib.loads(MANIFEST.read_text(encoding="utf-8"))["version"]
-                zips = {p: out / f"{PACKAGE}-{version}-{p.replace('-', '_')}.zip" for p in kept}
-                for z in zips.values():  # No stale zip may pass for this build's output.
-                    z.unlink(missing_ok=True)
-                proc = run_blender_ext(blender_ext, "build", "--split-platforms", "--source-dir", str(pkg),
-                                       "--output-dir", str(out), "--valid-tags", str(tags))
-                if proc.returncode != 0:
-                    raise BuildError("Blender's builder failed")
-                for p, z in zips.items():
-                    if not z.is_file():
-                        raise BuildError(f"expected zip not built: {z}")
-                    proc = run_blender_ext(blender_ext, "validate", str(z), "--valid-tags", str(tags))
-                    if proc.returncode != 0:
-                        raise BuildError(f"Blender's validator rejected {z.name}")
-                    summary["zips"].append(check_zip(bext, z, p, per_platform[p]))
+            for pytag in pythons:
+                summary["zips"] += build_python(bext, blender_ext, tags, tmp, None if args.validate_only else out,
+                                                pytag, chosen, without)
             if args.keep_stage:
-                summary["stage"] = str(pkg)
+                summary["stage"] = str(tmp)
         finally:
             if not args.keep_stage:
                 shutil.rmtree(tmp, ignore_errors=True)
@@ -507,9 +578,11 @@ def main(argv: list[str] | None = None) -> int:
     summary["seconds"] = round(time.monotonic() - t0, 2)
     if not args.json:
         for z in summary["zips"]:
-            print(f"{z['zip']}  {z['bytes'] / 1e6:.1f} MB  wheels: {', '.join(z['wheels']) or '-'}")
-        for p, why in summary["left_out"].items():
-            print(f"{p}: {'; '.join(why)}")
+            print(f"{z['zip']}  {z['bytes'] / 1e6:.1f} MB (installed {z['installed_bytes'] / 1e6:.0f} MB)  "
+                  f"Blender >= {z['blender_version_min']}{', < ' + z['blender_version_max'] if z['blender_version_max'] else ''}  "
+                  f"wheels: {', '.join(z['wheels']) or '-'}")
+        for key, why in summary["left_out"].items():
+            print(f"{key}: {'; '.join(why)}")
     print(json.dumps(summary))
     return 0
 

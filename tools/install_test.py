@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
-"""Install test: build the linux-x64 extension zip and install it, as a user would, into a clean Blender.
+"""Install test: build the linux-x64 extension zips (one per Blender Python) and install them, as a user would,
+into a clean Blender.
 
-    .venv/bin/python tools/install_test.py                # bpy 5.2.3 LTS, 5.0.1 and 4.2.23 LTS, full + minimal zip
+    .venv/bin/python tools/install_test.py                # bpy 5.2.3 LTS, 5.0.1 and 4.2.23 LTS: full, minimal, lite
     .venv/bin/python tools/install_test.py --bpy 5.0      # one version
-    .venv/bin/python tools/install_test.py --zip FILE.zip # test a given zip instead of building
+    .venv/bin/python tools/install_test.py --zip A.zip --zip B.zip  # test given zips instead of building
 
 For every Blender version the test uses its own throwaway virtualenv on that Blender's Python holding only
 ``bpy`` and the numpy Blender bundles (and bpy's own dependencies): ``.venv-install-5.2/`` (Python 3.13, numpy
@@ -13,18 +14,22 @@ iisignature or blender_shapesig before every run). ``BLENDER_USER_RESOURCES`` po
 folder, so nothing of the developer's Blender setup is used or touched. In that environment a child process
 
 1. checks that scipy, numba, iisignature and blender_shapesig are not importable;
-2. installs the zip with ``bpy.ops.extensions.package_install_files(repo="user_default",
-   enable_on_install=True)`` (Blender extracts the bundled wheels into ``extensions/.local``);
-3. checks that the add-on is enabled as ``bl_ext.user_default.blender_shapesig`` and that every bundled module
+2. installs the other Python's zip (the one whose manifest range does not hold this Blender) and checks that
+   Blender refuses it with one ERROR line naming the version range, installing nothing;
+3. installs this Blender's zip with ``bpy.ops.extensions.package_install_files(repo="user_default",
+   enable_on_install=True)`` (Blender extracts the bundled wheels into ``extensions/.local``) and measures what
+   it put on disk;
+4. checks that the add-on is enabled as ``bl_ext.user_default.blender_shapesig`` and that every bundled module
    (scipy; numba/llvmlite and iisignature when bundled) is imported from the temporary user resources, and that
    the ones not bundled stay unimportable (so the numpy fallbacks are what runs);
-4. runs the operators: ``shapesig.import_acclaim`` on tests/data/acclaim/09_02.amc + 09-run.asf,
+5. runs the operators: ``shapesig.import_acclaim`` on tests/data/acclaim/09_02.amc + 09-run.asf,
    ``shapesig.build_index``, ``shapesig.rank`` and ``shapesig.blend_actions``, and checks their results;
-5. uninstalls the extension with ``extensions.package_uninstall``.
+6. uninstalls the extension with ``extensions.package_uninstall``.
 
-Two zips are tested: "full" (every wheel we ship for linux-x64, cp311 and cp313: scipy, numba + llvmlite,
-iisignature) on every Blender version, and "minimal" (scipy only, what the macos-x64 zip carries; exercises the numba-free DP and the
-numpy signatures inside Blender) on the first version given.
+Three builds are tested: "full" (every wheel we ship for linux-x64: scipy, numba + llvmlite, iisignature) on every
+Blender version, "minimal" (``--without numba,iisignature``: scipy only, what the windows and macOS lite zips
+and macos-x64 carry; exercises the numba-free kernels and the numpy signatures inside Blender) on the first
+version given and "lite" (``--without numba``, the ``-lite`` zip) on the last one.
 
 The build (tools/build_extension.py) needs pip and bpy (any development venv) and Python 3.11 and 3.13 on the
 machine, to compile the iisignature wheels. Exit code 0 when every check passed, 1 when one failed, 2 on a usage/setup error.
@@ -48,6 +53,8 @@ ROOT = Path(__file__).resolve().parent.parent
 # Blender line -> (bpy, its Python, the numpy it bundles); the first is the current LTS.
 BPY_VERSIONS = {"5.2": ("5.2.3", "3.13", "2.3.5"), "5.0": ("5.0.1", "3.11", "1.26.4"),
                 "4.2": ("4.2.23", "3.11", "1.26.4")}
+# Blender line -> the Python tag of its zip.
+PYTAGS = {v: "cp" + py.replace(".", "") for v, (_, py, _) in BPY_VERSIONS.items()}
 MUST_BE_ABSENT = ("scipy", "numba", "llvmlite", "iisignature", "blender_shapesig")
 RESULT_PREFIX = "INSTALL_TEST_RESULT "
 EXT_ID = "blender_shapesig"
@@ -125,7 +132,9 @@ def ensure_venv(venv: Path, version: str) -> Path:
     return python
 
 
-def build_zip(out: Path, without: str) -> Path:
+def build_zips(out: Path, without: str) -> dict[str, Path]:
+    """The linux-x64 zips, one per Blender Python: {python tag: zip}, each checked to bundle only its Python's
+    wheels (scipy, plus numba + llvmlite and iisignature unless ``without`` leaves them out)."""
     cmd = [sys.executable, str(ROOT / "tools" / "build_extension.py"), "--out", str(out),
            "--platforms", "linux-x64", "--json"]
     if without:
@@ -134,24 +143,37 @@ def build_zip(out: Path, without: str) -> Path:
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         sys.stderr.write(proc.stderr)
-        raise SetupError(f"building the zip failed ({' '.join(cmd)})")
+        raise SetupError(f"building the zips failed ({' '.join(cmd)})")
     summary = json.loads(proc.stdout.strip().splitlines()[-1])
-    zips = summary["zips"]
-    if len(zips) != 1:
-        raise SetupError(f"expected one linux-x64 zip, got {zips}")
-    log(f"built {zips[0]['zip']} ({zips[0]['bytes'] / 1e6:.1f} MB) in {time.monotonic() - t0:.1f}s")
-    dists = {w.split("-")[0] for w in zips[0]["wheels"]}
-    want = {"scipy"} | (set() if without else {"numba", "llvmlite", "iisignature"})
-    if dists != want:
-        raise SetupError(f"the linux-x64 zip bundles {sorted(dists)}, expected {sorted(want)} "
-                         f"({summary['notes']}); the machine needs Python 3.11 and 3.13 to build iisignature")
-    tags = {w.split("-")[-3] for w in zips[0]["wheels"]}
-    if not without and not {"cp311", "cp313"} <= tags:
-        raise SetupError(f"the linux-x64 zip has wheels for {sorted(tags)}, expected cp311 and cp313")
-    return Path(zips[0]["zip"])
+    zips = {z["python"]: z for z in summary["zips"]}
+    if sorted(zips) != sorted(set(PYTAGS.values())) or len(summary["zips"]) != len(zips):
+        raise SetupError(f"expected one linux-x64 zip per Python {sorted(set(PYTAGS.values()))}, got {summary['zips']}")
+    left = set(without.split(",")) if without else set()
+    want = {"scipy"} | ({"numba", "llvmlite"} - ({"numba", "llvmlite"} if "numba" in left else set())) \
+        | ({"iisignature"} - left)
+    for tag, z in sorted(zips.items()):
+        log(f"built {Path(z['zip']).name} ({z['bytes'] / 1e6:.1f} MB, {z['installed_bytes'] / 1e6:.0f} MB unpacked)"
+            f" in {time.monotonic() - t0:.1f}s")
+        dists = {w.split("-")[0] for w in z["wheels"]}
+        if dists != want:
+            raise SetupError(f"{Path(z['zip']).name} bundles {sorted(dists)}, expected {sorted(want)} "
+                             f"({summary['notes']}); the machine needs Python 3.11 and 3.13 to build iisignature")
+        if {w.split("-")[-3] for w in z["wheels"]} != {tag}:
+            raise SetupError(f"{Path(z['zip']).name} has wheels {z['wheels']}, expected only {tag} ones")
+    return {tag: Path(z["zip"]) for tag, z in zips.items()}
 
 
-def run_child(python: Path, zip_path: Path, label: str, allow_missing: bool, keep: bool) -> dict:
+def zip_fits(zip_path: Path, bpy_version: str) -> bool:
+    """Whether the zip's manifest range (blender_version_min <= version < blender_version_max) holds this Blender."""
+    manifest = _zip_manifest(zip_path)
+    v = tuple(int(x) for x in bpy_version.split("."))
+    low = tuple(int(x) for x in manifest["blender_version_min"].split("."))
+    high = manifest.get("blender_version_max")
+    return low <= v and (high is None or v < tuple(int(x) for x in high.split(".")))
+
+
+def run_child(python: Path, zip_path: Path, label: str, allow_missing: bool, keep: bool,
+              wrong_zip: Path | None = None) -> dict:
     tmp = Path(tempfile.mkdtemp(prefix=f"shapesig-install-{label}-"))
     try:
         user = tmp / "user"
@@ -162,6 +184,8 @@ def run_child(python: Path, zip_path: Path, label: str, allow_missing: bool, kee
                "--work", str(work)]
         if allow_missing:
             cmd.append("--allow-missing-operators")
+        if wrong_zip is not None:
+            cmd += ["--wrong-zip", str(wrong_zip)]
         t0 = time.monotonic()
         proc = subprocess.run(cmd, capture_output=True, text=True, cwd=str(work),
                               env=clean_env({"BLENDER_USER_RESOURCES": str(user)}), timeout=1800)
@@ -179,6 +203,7 @@ def run_child(python: Path, zip_path: Path, label: str, allow_missing: bool, kee
             sys.stderr.write(f"[install_test] the child exited with {proc.returncode}\n")
         result["seconds"] = round(seconds, 1)
         result["label"] = label
+        result.setdefault("installed_bytes", None)
         return result
     finally:
         if keep:
@@ -195,15 +220,19 @@ def main(argv: list[str] | None = None) -> int:
                     help=f"Blender versions, comma-separated: {', '.join(BPY_VERSIONS)} (default all)")
     ap.add_argument("--bpy-venv", default=None,
                     help="use this venv (must hold only bpy + numpy) instead of .venv-install-X.Y; one --bpy only")
-    ap.add_argument("--zip", default=None, help="install this zip instead of building the full one")
-    ap.add_argument("--no-minimal", action="store_true", help="skip the scipy-only zip")
+    ap.add_argument("--zip", action="append", default=[],
+                    help="install this zip instead of building the full ones (repeat it: each Blender version takes "
+                         "the zip whose manifest range holds it, another one is checked to be refused)")
+    ap.add_argument("--wrong-zip", help=argparse.SUPPRESS)
+    ap.add_argument("--no-minimal", action="store_true", help="skip the numba-free zips (lite and scipy-only)")
     ap.add_argument("--out", default=str(ROOT / "build" / "install-test"), help="where to build the zips")
     ap.add_argument("--allow-missing-operators", action="store_true",
                     help="report operators the add-on does not register as skipped instead of failing")
     ap.add_argument("--keep", action="store_true", help="keep the temporary user resources folders")
     args = ap.parse_args(argv)
     if args.child:
-        code = child_main(Path(args.zip), Path(args.work), args.allow_missing_operators)
+        code = child_main(Path(args.zip[0]), Path(args.work), args.allow_missing_operators,
+                          Path(args.wrong_zip) if args.wrong_zip else None)
         # The verdict is printed; leave without the interpreter's teardown: the bpy module of Blender 4.2 can crash
         # there (segfault after the checks, seen once an add-on with property groups was loaded), which would hide
         # a passing run. A crash during the checks still shows as a missing result or a non-zero exit.
@@ -216,8 +245,8 @@ def main(argv: list[str] | None = None) -> int:
     if not versions or any(v not in BPY_VERSIONS for v in versions):
         print(f"--bpy takes {', '.join(BPY_VERSIONS)}", file=sys.stderr)
         return 2
-    if args.zip and not Path(args.zip).is_file():
-        print(f"--zip {args.zip}: no such file", file=sys.stderr)
+    if missing := [z for z in args.zip if not Path(z).is_file()]:
+        print(f"--zip {missing[0]}: no such file", file=sys.stderr)
         return 2
     if args.bpy_venv and len(versions) != 1:
         print("--bpy-venv needs exactly one --bpy version", file=sys.stderr)
@@ -231,17 +260,33 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(args, versions: list[str], t_start: float) -> int:
     out = Path(args.out)
-    full = Path(args.zip).resolve() if args.zip else build_zip(out / "full", "")
-    minimal = None if (args.no_minimal or args.zip) else build_zip(out / "minimal", "numba,iisignature")
+    given = [Path(z).resolve() for z in args.zip]
+    full = given or list(build_zips(out / "full", "").values())
+    extra = []  # (label, zips): the numba-free zips, on one Blender each (the first and the last version given)
+    if not (args.no_minimal or given):
+        extra = [("lite", build_zips(out / "lite", "numba")), ("minimal", build_zips(out / "minimal",
+                                                                                    "numba,iisignature"))]
     results = []
     for i, v in enumerate(versions):
+        bpy_version = BPY_VERSIONS[v][0]
         venv = Path(args.bpy_venv) if args.bpy_venv else ROOT / f".venv-install-{v}"
+        fitting = [z for z in full if zip_fits(z, bpy_version)]
+        wrong = next((z for z in full if not zip_fits(z, bpy_version)), None)
+        if len(fitting) != 1:
+            raise SetupError(f"Blender {bpy_version} needs exactly one zip whose range holds it, got "
+                             f"{[z.name for z in fitting]} of {[z.name for z in full]}")
         python = ensure_venv(venv, v)
-        runs = [("full", full)] + ([("minimal", minimal)] if (minimal and i == 0) else [])
-        for label, zip_path in runs:
-            log(f"bpy {BPY_VERSIONS[v][0]}: installing {zip_path.name} ({label})")
-            r = run_child(python, zip_path, f"{v}-{label}", args.allow_missing_operators, args.keep)
-            r["bpy"] = BPY_VERSIONS[v][0]
+        runs = [("full", fitting[0], wrong)]
+        if i == 0 and extra:
+            runs.append(("minimal", extra[1][1][PYTAGS[v]], None))
+        if i == len(versions) - 1 and extra:
+            runs.append(("lite", extra[0][1][PYTAGS[v]], None))
+        for label, zip_path, wrong_zip in runs:
+            log(f"bpy {bpy_version}: installing {zip_path.name} ({label})"
+                + (f", after {wrong_zip.name} (must be refused)" if wrong_zip else ""))
+            r = run_child(python, zip_path, f"{v}-{label}", args.allow_missing_operators, args.keep, wrong_zip)
+            r["bpy"] = bpy_version
+            r["zip"] = zip_path.name
             results.append(r)
             for c in r["checks"]:
                 mark = {"pass": "ok  ", "fail": "FAIL", "skip": "skip"}[c["status"]]
@@ -253,7 +298,8 @@ def _run(args, versions: list[str], t_start: float) -> int:
     ok = all(r["ok"] for r in results)
     skipped = sorted({c["name"] for r in results for c in r["checks"] if c["status"] == "skip"})
     print(json.dumps({"ok": ok, "seconds": round(total, 1), "skipped": skipped,
-                      "runs": [{k: r[k] for k in ("label", "bpy", "ok", "seconds")} for r in results]}))
+                      "runs": [{k: r.get(k) for k in ("label", "bpy", "zip", "ok", "seconds", "installed_bytes")}
+                               for r in results]}))
     log(f"{'PASSED' if ok else 'FAILED'}: {len(results)} install run(s) in {total:.0f}s"
         + (f"; skipped: {', '.join(skipped)}" if skipped else ""))
     return 0 if ok else 1
@@ -267,6 +313,7 @@ class Checks:
     def __init__(self):
         self.items: list[dict] = []
         self.timings: dict[str, float] = {}
+        self.installed: int | None = None  # bytes on disk after the install: the extension + its wheels
 
     def add(self, name: str, ok: bool, detail: str = "") -> bool:
         self.items.append({"name": name, "status": "pass" if ok else "fail", "detail": detail})
@@ -302,7 +349,7 @@ def _operator_registered(bpy, name: str) -> bool:
         return False
 
 
-def child_main(zip_path: Path, work: Path, allow_missing: bool) -> int:
+def child_main(zip_path: Path, work: Path, allow_missing: bool, wrong_zip: Path | None = None) -> int:
     # The script's folder (tools/) must not shadow anything; the repository must not be importable.
     sys.path[:] = [p for p in sys.path if p and Path(p).resolve() != Path(__file__).resolve().parent]
     import importlib.util
@@ -323,6 +370,8 @@ def child_main(zip_path: Path, work: Path, allow_missing: bool) -> int:
         ck.add("bpy", True, f"Blender {bpy.app.version_string}")
         ext_dir = Path(bpy.utils.user_resource("EXTENSIONS"))
         ck.add("user resources", _under(str(ext_dir), user), str(ext_dir))
+        if wrong_zip is not None:
+            run_refused(bpy, ck, wrong_zip, ext_dir)
         run_install(bpy, ck, zip_path, user)
         run_operators(bpy, ck, work, allow_missing)
         run_uninstall(bpy, ck, ext_dir)
@@ -332,9 +381,38 @@ def child_main(zip_path: Path, work: Path, allow_missing: bool) -> int:
         traceback.print_exc()
         error = f"{type(ex).__name__}: {ex}"
     ok = error is None and all(c["status"] != "fail" for c in ck.items)
-    print(RESULT_PREFIX + json.dumps({"ok": ok, "error": error, "checks": ck.items,
+    print(RESULT_PREFIX + json.dumps({"ok": ok, "error": error, "checks": ck.items, "installed_bytes": ck.installed,
                                       "timings": {k: round(v, 2) for k, v in ck.timings.items()}}), flush=True)
     return 0 if ok else 1
+
+
+def _disk_bytes(root: Path) -> int:
+    return sum(p.stat().st_size for p in root.rglob("*") if p.is_file() and not p.is_symlink()) if root.is_dir() else 0
+
+
+def run_refused(bpy, ck: Checks, zip_path: Path, ext_dir: Path) -> None:
+    """The other Python's zip: Blender refuses it with one ERROR line (its version range or Python) and installs
+    nothing."""
+    import contextlib
+    import io
+
+    before = _disk_bytes(ext_dir / ".local")  # the wheels' folder (Blender also writes its own caches)
+    said = io.StringIO()
+    with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):  # bl_pkg prints its reports
+        try:
+            result = bpy.ops.extensions.package_install_files(filepath=str(zip_path), repo="user_default",
+                                                              enable_on_install=True)
+        except RuntimeError as ex:  # an ERROR report raised by bpy.ops
+            result = {"CANCELLED"}
+            print(str(ex).strip())
+    errors = [ln.strip() for ln in said.getvalue().splitlines() if ln.lstrip().startswith("ERROR")]
+    reasons = ("must be less than the maximum version", "doesn't meet the minimum supported version",
+               "isn't compatible with")
+    installed = ADDON_MODULE in [a.module for a in bpy.context.preferences.addons] or any(
+        (Path(r.directory) / EXT_ID).exists() for r in bpy.context.preferences.extensions.repos if r.directory)
+    ck.add(f"refuses {zip_path.name}", len(errors) == 1 and any(r in errors[0] for r in reasons)
+           and not installed and _disk_bytes(ext_dir / ".local") == before,
+           f"{result}, Blender said {errors!r}; {'INSTALLED' if installed else 'nothing installed'}")
 
 
 def run_install(bpy, ck: Checks, zip_path: Path, user: Path) -> None:
@@ -350,6 +428,10 @@ def run_install(bpy, ck: Checks, zip_path: Path, user: Path) -> None:
     ck.add("package_install_files", result == {"FINISHED"}, f"{result} in {ck.timings['install']:.1f}s")
     addons = [a.module for a in bpy.context.preferences.addons]
     ck.add("add-on enabled", ADDON_MODULE in addons, ADDON_MODULE)
+    ext_root = Path(bpy.utils.user_resource("EXTENSIONS"))
+    ck.installed = _disk_bytes(ext_root / "user_default" / EXT_ID) + _disk_bytes(ext_root / ".local")
+    ck.add("installed size", ck.installed > 0, f"{ck.installed / 1e6:.0f} MB (the extension's folder + "
+           "extensions/.local)")
     mod = sys.modules.get(ADDON_MODULE)
     pkg_dir = Path(repos["user_default"].directory) / EXT_ID
     ck.add("add-on files", mod is not None and _under(getattr(mod, "__file__", None), pkg_dir),
