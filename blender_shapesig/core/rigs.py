@@ -246,13 +246,16 @@ def parse_map(text, where: str = "bone map") -> Dict[str, str]:
 
 
 def load_map(path) -> Dict[str, str]:
-    """Read a saved map file (``parse_map``); files over ``MAX_MAP_BYTES`` are refused without being read."""
+    """Read a saved map file (``parse_map``); files over ``MAX_MAP_BYTES`` and files that are not regular files
+    (a FIFO, a device, a dangling link) are refused without being read."""
+    from .io.files import open_regular  # a regular file only: a FIFO named .json never blocks
+
     path = os.fspath(path)
     try:
         if os.path.getsize(path) > MAX_MAP_BYTES:
             raise ParseError(f"the bone map is larger than {MAX_MAP_BYTES // 2 ** 20} MB; a bone map is a small "
                              f"JSON object", path)
-        with open(path, "rb") as fh:
+        with open_regular(path, cap=False) as fh:
             data = fh.read(MAX_MAP_BYTES + 1)
     except OSError as exc:
         raise ParseError(f"cannot read the bone map ({exc.strerror or exc})", path) from None

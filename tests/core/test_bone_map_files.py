@@ -70,3 +70,26 @@ def test_cli_good_map_beside_the_bad_ones_still_works(bad_maps, tmp_path, capsys
             "--asf", os.path.join(ACC, "07-walk.asf"), "--bone-map", path, "--json", "--allow-partial"]
     assert cli.main(args) == 0
     assert json.loads(capsys.readouterr().out)["distance"] > 0
+
+
+@pytest.mark.parametrize("kind", ["fifo", "dangling link", "link to /dev/zero"])
+def test_a_map_that_is_not_a_regular_file_is_refused_without_blocking(tmp_path, kind):
+    """A FIFO named .json (which would block a plain open), a dangling link or a device: one line, at once (run in a
+    child with a time limit, so a regression fails instead of hanging the suite)."""
+    import subprocess
+    import sys
+
+    path = tmp_path / "map.json"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "dangling link":
+        os.symlink(tmp_path / "missing.json", path)
+    else:
+        os.symlink("/dev/zero", path)
+    code = ("import sys\nfrom blender_shapesig.core import rigs\nfrom blender_shapesig.core.errors import ParseError\n"
+            "try:\n    rigs.load_map(sys.argv[1])\nexcept ParseError as exc:\n    print(exc)\n")
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=60,
+                         cwd=root)
+    lines = out.stdout.strip().splitlines()
+    assert out.returncode == 0 and len(lines) == 1 and "map.json" in lines[0], (out.stdout, out.stderr)
