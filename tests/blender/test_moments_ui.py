@@ -87,3 +87,17 @@ def test_why_different_on_a_whole_clip_result(take):
     assert bpy.ops.shapesig.explain_result() == {"FINISHED"}
     ex = json.loads(_rows()[0].explain)
     assert sum(ex["joints"].values()) == pytest.approx(1.0) and len(ex["cost_over_time"]) > 10
+
+
+def test_moments_with_a_one_frame_pose_in_the_file(take):
+    """A pose-library-like action (one key per bone, one frame) beside the takes: Moments ranks the takes and names
+    the pose once as skipped; no traceback."""
+    clip = action_io.read_action(bpy.data.actions["take"], armature=take)
+    pose = action_io.write_action(clip.crop(clip.frame_start + 30, clip.frame_start + 30), armature=take, name="pose")
+    pose.use_fake_user = True
+    s = bpy.context.scene.shapesig
+    s.use_windows = True
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    names = [r.name for r in _rows()]
+    assert names[0] == "take" and "pose" not in names
+    assert "pose" in bpy.context.window_manager.shapesig_results.message

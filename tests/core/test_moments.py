@@ -197,3 +197,16 @@ def test_cli_rank_windows_json(folders, capsys):
     code = cli.main(["rank", str(folders / "walk" / "07_01.amc"), str(folders / "walk" / "07_02.amc"),
                      "--windows", "--metric", "elastic", "--no-cache"])
     assert code == 2
+
+
+def test_a_one_frame_pose_in_the_library_is_skipped_with_a_warning(library):
+    """A pose (one frame, as a pose-library action) cannot hold a moment: it is left out with one warning naming it,
+    and the takes are still ranked."""
+    take = library["16_15"]
+    pose = take.crop(take.frame_start + 40, take.frame_start + 40)
+    pose = pose.__class__(**{**pose.__dict__, "name": "a_pose"})
+    query = retimed_excerpt(take, 101, 340, 1.0)
+    results = rank_windows(query, [pose] + list(library.values()), rerank=2)
+    assert results[0].name == "16_15" and "a_pose" not in [r.name for r in results]
+    assert [w for w in results.warnings if "a_pose" in w] == [w for w in results.warnings if "a_pose" in w][:1]
+    assert any("a_pose" in w and "frame" in w for w in results.warnings)

@@ -151,6 +151,10 @@ def _refine(query, clip, windows, depth):
 
 def _moment(query, item, clip, level, scales, stride, allow_partial, warnings, skipped):
     """The clip's best window as a RankResult (with private fields for the refinement), or None."""
+    if clip.frames < 2:  # a pose (e.g. a pose-library action) holds no motion, so no moment
+        skipped.append(clip.name)
+        warnings.append(f"{clip.name}: {clip.frames} frame, too short for a moment; skipped")
+        return None
     shared, cov = coverage(query.clip, clip)
     if not allow_partial and cov < MIN_COVERAGE:
         skipped.append(clip.name)
