@@ -7,17 +7,31 @@ from . import common as c
 
 def library_items(specs, args, skipped=None):
     """Library items of the CLIP arguments, keyed by ``ClipSpec.key`` (file bytes, skeleton, action, crop): a
-    cached file is not even read again. Missing files and unknown types fail here, at once; a file that is not
-    a regular file or is over a cap (``core.io.files``) is skipped into ``skipped`` (when given)."""
-    from ..core.errors import UnreadableFileError
-    from ..core.io.sources import spec_item
+    cached file is not even read again. A folder stands for the clip files in it (``sources.discover``; an
+    ``.amc`` finds its own ``.asf`` there). Missing files and unknown types fail here, at once; a file that is
+    not a regular file or is over a cap (``core.io.files``), or a folder's file that cannot be keyed (an ``.amc``
+    whose skeleton is not found), is skipped into ``skipped`` (when given)."""
+    import os
 
-    items = []
+    from ..core.errors import ShapeSigError, UnreadableFileError
+    from ..core.io.sources import discover, spec_item
+
+    members = []
     for s in specs:
+        if os.path.isdir(s):
+            members += [(f, True) for f in discover([s], skipped=skipped)]
+        else:
+            members.append((s, False))
+    items = []
+    for s, in_folder in members:
         try:
             items.append(spec_item(c.clip_spec(s, args.asf, c.crop_of(args), args.bone_map).check()))
         except UnreadableFileError as exc:
             if skipped is None:
+                raise
+            skipped.append(exc)
+        except ShapeSigError as exc:
+            if skipped is None or not in_folder:
                 raise
             skipped.append(exc)
     return items
@@ -143,7 +157,7 @@ def add_parser(sub):
         "--no-cache keeps them in memory only.",
     )
     p.add_argument("query", metavar="QUERY", help=c.CLIP_HELP)
-    p.add_argument("clips", metavar="CLIP", nargs="+", help=c.CLIP_HELP)
+    p.add_argument("clips", metavar="CLIP", nargs="+", help=c.CLIP_HELP + ", or a folder of clip files")
     c.add_metric(p, depth_help=f"DP search depth D for the elastic re-rank (default {c.DEFAULT_DEPTH})")
     p.add_argument("--rerank", type=int, default=None, metavar="K",
                    help="re-order the first K by elastic distance (with --windows: refine the first K moments by "
