@@ -56,3 +56,24 @@ def bvh_channel_rotations(path):
 def bvh_channels():
     """``bvh_channel_rotations``: the BVH reference the readers are checked against."""
     return bvh_channel_rotations
+
+
+# Blender 4.2's bpy module frees Python-defined classes of its space types after the interpreter has finalized and
+# crashes at process exit (SIGSEGV in bpy_class_free from ~SpaceType, depending only on the heap's layout: a plain
+# `import bpy` plus a dataclass can trigger it); 5.0 and 5.2 do not. Once pytest has reported, such a process
+# leaves with the session's own exit status instead of running the C exit handlers.
+_SESSION = {}
+
+
+def pytest_sessionfinish(session, exitstatus):
+    _SESSION["status"] = int(exitstatus)
+
+
+def pytest_unconfigure(config):
+    bpy = sys.modules.get("bpy")
+    if bpy is not None and tuple(bpy.app.version) < (4, 3, 0) and "status" in _SESSION:
+        import os
+
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(_SESSION["status"])
