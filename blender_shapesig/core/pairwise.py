@@ -189,8 +189,9 @@ def distance_matrix(curves, metric, depth=DEFAULT_DEPTH, workers=2, progress=Non
     ``progress(n)`` is called with the number of pairs done. Two-stage names are refused here.
     """
     spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
-    if spec.rerank:
-        raise ShapeSigError(f"{spec.name} is a two-stage search, not a distance: use it in 'evaluate'")
+    if spec.rerank or spec.base == "local":
+        raise ShapeSigError(f"{spec.name} is a two-stage search of clips, not a distance of curves: use it in "
+                            f"'rank' or 'evaluate'")
     curves = [np.asarray(R, dtype=np.float64) for R in curves]
     if not curves:
         return np.zeros((0, 0))

@@ -227,7 +227,7 @@ def test_rows_follow_one_named_sort_column(rig):
     # the same d_S* and order as the core's own re-rank of the best two
     _obj, _act, q = library.query_item(bpy.context, s)
     items = [it for it in library.library_items(bpy.context, s, rig) if it.key != q.key]
-    core = index.rank_clips(q, items, rerank=2, top=2, cache=library.get_cache(bpy.context))
+    core = index.rank_clips(q, items, rerank=2, top=2, cache=library.get_cache(bpy.context), metric="sim")
     # (the rows keep float32)
     assert [(r.name, pytest.approx(r.elastic, rel=1e-6)) for r in core] == [(r.name, r.elastic) for r in bpy.context.window_manager.shapesig_results.results]
     lay = _draw()
