@@ -30,7 +30,8 @@ def _entry(clip: Clip, settings) -> dict:
         e = local.index_entry(clip, settings)
     except ShapeSigError as exc:
         return {"name": clip.name, "refused": error_line(exc)}
-    e.update(name=clip.name, frames=int(clip.frames), trimmed=tuple(int(f) for f in trim_record(clip)))
+    e.update(name=clip.name, frames=int(clip.frames), trimmed=tuple(int(f) for f in trim_record(clip)),
+             bones=len(clip.bones))
     return e
 
 
@@ -74,7 +75,7 @@ def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> d
         raise ShapeSigError(f"query {item.name!r} holds {len(got)} clips; choose one")
     if got[0].get("refused"):
         raise ShapeSigError(f"the local search cannot read the query ({got[0]['refused']}); "
-                            f"rank it by signatures instead (metric sim3)")
+                            f"rank it by signatures instead (metric sim3; in the panel, Similarity: Motion only)")
     return got[0]
 
 

@@ -304,9 +304,10 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
     results = []
     for i, score, d1, d2 in rank_local(q, ok, store, shortlist or SHORTLIST):
         item, e = ok[i]
+        # the body is compared whole: every canonical joint the two clips have (coverage 1)
         results.append(RankResult(name=e["name"], distance=score, frames=e.get("frames", 0), key=item.key,
                                   source=item.source, trimmed=tuple(e.get("trimmed", ())), metric=LOCAL,
-                                  first_stage=d1, dtw=d2))
+                                  first_stage=d1, dtw=d2, shared=min(q.get("bones", 0), e.get("bones", 0))))
     if refused:
         warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1]['name']}: "
                         f"{refused[0][1]['refused']}) are ranked after the others by sim{DEFAULT_LEVEL}")

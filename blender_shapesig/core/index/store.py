@@ -457,7 +457,7 @@ class SignatureCache:
                     if m.get("refused"):
                         out.append({"name": m["name"], "refused": str(m["refused"])})
                         continue
-                    e = {"name": m["name"], "frames": int(m.get("frames", 0)),
+                    e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
                          "trimmed": tuple(int(f) for f in m.get("trimmed", ())),
                          "windows": np.asarray(z[f"w{i}"], np.float16),
                          "sequence": np.asarray(z[f"q{i}"], np.float16), "path": np.asarray(z[f"p{i}"], np.float32)}
@@ -476,6 +476,7 @@ class SignatureCache:
     def _write_local(self, key, settings_key, entries):
         meta = {"format": CACHE_FORMAT, "key": key, "settings": settings_key,
                 "clips": [{"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
+                           "bones": int(e.get("bones", 0)),
                            "trimmed": list(e.get("trimmed", ()))} for e in entries]}
         arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
         for i, e in enumerate(entries):
@@ -507,6 +508,11 @@ class SignatureCache:
                 except OSError as exc:
                     self._memory_only(exc)
             self._local[(key, settings_key)] = list(entries)
+
+    def contains_local(self, key, settings_key):
+        """True when the local-search entries of (key, settings key) are cached (memory or disk), reading nothing."""
+        return (key, settings_key) in self._local or (
+            self.path is not None and os.path.exists(self.local_file_for(key, settings_key)))
 
     def local_stack(self, entries):
         """``local.stack`` of the entries (the library's windows in one block), memoized for the last list of
