@@ -31,7 +31,6 @@ from blender_shapesig import evaluation as ev  # noqa: E402
 from blender_shapesig.core import index  # noqa: E402
 from blender_shapesig.core.clip.clip import Clip  # noqa: E402
 from blender_shapesig.core.index import local  # noqa: E402
-from blender_shapesig.core.index.local_rank import settings_key  # noqa: E402
 
 SETS = (("hdm05", "hdm05.csv"), ("cmu", "cmu_large.csv"))
 
@@ -89,7 +88,7 @@ def main(argv=None):
         t0 = time.perf_counter()
         built = index.build_index(items, cache=cache)
         t_build = time.perf_counter() - t0
-        skey = settings_key()
+        skey = local.settings_key()
         local_bytes = [os.path.getsize(cache.local_file_for(it.key, skey)) for it in items]
         sig_bytes = [os.path.getsize(cache.file_for(it.key, index.DEFAULT_LEVEL)) for it in items]
         ranked = {}

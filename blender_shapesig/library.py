@@ -19,14 +19,13 @@ import bpy
 from . import action_changes, action_io, compat, rigmap
 from .core import index
 from .core.io import sources
-from .core.index.local_rank import settings_key
 from .core.index.windows import WINDOW_LEVEL, rank_windows
-from .core.metrics import DEFAULT_LEVEL, LOCAL
+from .core.metrics import LOCAL
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
 from .core.io.files import skipped_line
 from .owners import find_owner
 from .preferences import ADDON_ID, get_preferences
-from .properties import PANEL_MAX_LEVEL, results_of, settings_of
+from .properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, uses_local
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "file_identity", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
@@ -359,26 +358,15 @@ def index_items(context, settings) -> List[sources.LibraryItem]:
     return [it for it in search_library(context, settings).members() if it is not None]
 
 
-def uses_local(settings) -> bool:
-    """True when Find Similar runs the local search (Similarity: Motion and pose; moments rank by signatures)."""
-    return getattr(settings, "similarity", LOCAL) == LOCAL and not settings.use_windows
-
-
-def index_level(settings) -> int:
-    """The signature level indexed: the panel's Level, or for the local search the default level (its entries'
-    fallback for clips it cannot read, ``index.rank_clips``)."""
-    return DEFAULT_LEVEL if uses_local(settings) else settings.level
-
-
 def indexed(cache, key, level, local) -> bool:
     """True when the store holds the item's signature entries (and with ``local`` its local-search entries)."""
-    return cache.contains(key, level) and (not local or cache.contains_local(key, settings_key()))
+    return cache.contains(key, level) and (not local or cache.contains_local(key))
 
 
 def index_steps(lib: SearchLibrary, level, cache, errors, local=False, computed=None):
     """Build Index, one step per member of ``lib`` (a folder file is keyed at its turn): (item or None, entries),
-    indexed when the store lacks it (``index.iter_entries``, with ``local`` the local-search entries too; a read
-    error joins ``errors``); the keys of the items computed now (not already indexed, read) join ``computed``."""
+    indexed when the store lacks it (``index.iter_entries``, ``local``: its local entries too; a read error joins
+    ``errors``); the keys of the items computed now join ``computed``."""
     for item in lib.members():
         if item is None:
             yield None, []
@@ -493,13 +481,10 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         row.name = row.clip_name = name
         row.label = name if is_action else labels.pop()
         row.distance = r.distance
-        row.has_elastic = r.elastic is not None
-        row.elastic = r.elastic if r.elastic is not None else 0.0
+        row.has_elastic, row.elastic = r.elastic is not None, (r.elastic if r.elastic is not None else 0.0)
         row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
-        row.is_action = is_action
+        row.is_action, row.spec, row.target, row.written = is_action, spec, target, ""
         row.source = name if is_action else spec
-        row.spec = spec
-        row.target, row.written = target, ""
         row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
         # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
@@ -509,11 +494,8 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         # kept / read apart from the moment's window: Assign and Preview of a trimmed clip give the whole action
         row.kept_first, row.kept_last = trimmed[:2] if trimmed else (0, 0)
         row.read_first, row.read_last = trimmed[2:] if trimmed else (0, 0)
-    out.results_index = 0
-    out.query_name = query_name
-    out.order_by = order_by
-    out.query_bones = query_bones
-    out.seconds = seconds
+    out.results_index, out.query_name, out.order_by = 0, query_name, order_by
+    out.query_bones, out.seconds = query_bones, seconds
 
 
 class RankJob:
@@ -610,36 +592,24 @@ class RankJob:
             reasons = [str(e) for e in self.errors + self.skipped]
             raise ShapeSigError(f"no library clip could be read ({reasons[0] if reasons else 'none found'})"
                                 + self.lib.skipped_text())
-        if self.settings.use_windows:
-            return self._rank_windows(items)
-        if self.local:
+        windows, cut = self.settings.use_windows, None
+        if windows:  # moments (core.index.windows), explained; the refinement of the first K runs inside
+            self.ranked = rank_windows(self.query, items, rerank=self.rerank, top=self.top or None,
+                                       depth=self.settings.depth, explain=True, errors=self.errors)
+        elif self.local:  # its second stage runs inside the ranking
             self.ranked = index.rank_clips(self.query, items, metric=LOCAL, top=self.top or None, cache=self.cache)
-            self.warnings = self.errors + self.ranked.warnings
-            self.compared = self.ranked.stats.get("library", len(items))
-            self.by_key = {it.key: it for it in items}
-            self._head = []
-            return self._order()
-        cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
-        self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
-                                       cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
+        else:
+            cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
+            self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
+                                           cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
         self.warnings = self.errors + self.ranked.warnings
-        self.compared = self.ranked.stats.get("library", len(items))  # clips (a .blend item may hold several)
+        # clips (a .blend item may hold several)
+        self.compared = self.ranked.stats.get("compared" if windows else "library", len(items))
         self.by_key = {it.key: it for it in items}
-        self._head = list(self.ranked[:cut]) if self.rerank else []
+        self._head = list(self.ranked[:cut]) if self.rerank and cut is not None else []
         self.total = self.done + len(self._head)
         if not self._head:
             self._order()
-
-    def _rank_windows(self, items):
-        """Moments (``core.index.windows.rank_windows``), explained: one step (the refinement of the first K runs
-        inside it)."""
-        self.ranked = rank_windows(self.query, items, rerank=self.rerank, top=self.top or None,
-                                   depth=self.settings.depth, explain=True, errors=self.errors)
-        self.warnings = self.errors + self.ranked.warnings
-        self.compared = self.ranked.stats.get("compared", len(items))
-        self.by_key = {it.key: it for it in items}
-        self._head = []
-        self._order()
 
     def _elastic(self, r):
         """d_S* of one row: rank_clips' elastic metric on that one clip (its shared bones, the same depth)."""

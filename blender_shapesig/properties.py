@@ -9,7 +9,8 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 
 from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, LOCAL
 
-__all__ = ["ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of"]
+__all__ = ["ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of", "uses_local",
+           "index_level"]
 
 
 # K of the two-stage search the panel uses by default (see docs/evaluation.md, "Winner").
@@ -18,6 +19,16 @@ RERANK_DEFAULT = 10
 # limits only: a script's value out of range is refused by ``library.search_problem``, never clamped.
 PANEL_MAX_LEVEL = 4
 
+
+
+def uses_local(settings) -> bool:
+    """True when Find Similar runs the local search (Similarity: Motion and pose; moments rank by signatures)."""
+    return getattr(settings, "similarity", LOCAL) == LOCAL and not settings.use_windows
+
+
+def index_level(settings) -> int:
+    """The signature level indexed: the Level, or the default one for the local search (its fallback)."""
+    return DEFAULT_LEVEL if uses_local(settings) else settings.level
 
 class ShapeSigResult(bpy.types.PropertyGroup):
     """One ranked clip. ``name`` (the item name) is the action's name or the file's base name."""

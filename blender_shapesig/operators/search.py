@@ -16,6 +16,7 @@ from ..core.elastic.explain import top_joints
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
 from ..library import get_cache
+from ..properties import index_level, uses_local
 
 __all__ = ["classes"]
 
@@ -42,7 +43,7 @@ def _poll_with(problem):
 def _confirm_cost(op, context, event, settings):
     """Before a costly (level-4) index in the UI: a confirmation with the estimated time and disk.
     None to go on, else the invoke's return value (the dialog; OK runs the operator again, confirmed)."""
-    if op.confirmed or settings is None or library.index_level(settings) < library.COSTLY_LEVEL \
+    if op.confirmed or settings is None or index_level(settings) < library.COSTLY_LEVEL \
             or context.window is None \
             or bpy.app.background:
         return None
@@ -115,8 +116,8 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         self.cache = get_cache(context)
         self.errors = []
         self.computed = []
-        self.steps = library.index_steps(self.lib, library.index_level(self.settings), self.cache, self.errors,
-                                         local=library.uses_local(self.settings), computed=self.computed)
+        self.steps = library.index_steps(self.lib, index_level(self.settings), self.cache, self.errors,
+                                         local=uses_local(self.settings), computed=self.computed)
         self.done = 0
 
     def _step(self):

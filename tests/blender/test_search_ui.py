@@ -161,6 +161,24 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     assert best.elastic == pytest.approx(clip_distance(q, _read(best.name, rig), "elastic"), rel=2e-3)
 
 
+def test_find_similar_defaults_to_motion_and_pose(rig):
+    """The default click runs the local search: the rows are the core's ``rank_clips`` (metric local) of the same
+    clips read as the library reads them, sorted by its score; a second click computes nothing."""
+    s = bpy.context.scene.shapesig
+    assert s.similarity == "local"
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    res = bpy.context.window_manager.shapesig_results
+    got = [(r.name, r.distance) for r in res.results]
+    assert res.order_by == "score" and [n for n, _ in got][:2] in (["walk2", "walk3"], ["walk3", "walk2"])
+    q = _read("walk1", rig)
+    truth = search.rank_clips(q, [_read(n, rig) for n, _ in got])  # the default metric
+    assert [(r.name, pytest.approx(r.distance, rel=1e-5)) for r in truth] == got
+    cache = _cache()
+    before = dict(cache.stats)
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert cache.stats["misses"] == before["misses"] and _results() == got
+
+
 def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_env):
     s = bpy.context.scene.shapesig
     assert bpy.ops.shapesig.build_index("INVOKE_DEFAULT") == {"FINISHED"}

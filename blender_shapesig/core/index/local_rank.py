@@ -16,11 +16,7 @@ from ..io.sources import LibraryItem, as_items, clip_item
 from . import local
 from .store import SignatureCache
 
-__all__ = ["settings_key", "item_local_entries", "local_entries", "query_local_entry", "rank_local"]
-
-
-def settings_key(settings=local.DEFAULT) -> str:
-    return repr(settings.key())
+__all__ = ["item_local_entries", "local_entries", "query_local_entry", "rank_local"]
 
 
 def _entry(clip: Clip, settings) -> dict:
@@ -37,7 +33,7 @@ def _entry(clip: Clip, settings) -> dict:
 
 def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.DEFAULT) -> List[dict]:
     """The item's local entries, one per clip: from the store, else computed from its clips (read only then)."""
-    skey = settings_key(settings)
+    skey = local.settings_key(settings)
     got = store.get_local(item.key, skey)
     if got is None:
         got = [_entry(c, settings) for c in item.clips()]

@@ -509,8 +509,10 @@ class SignatureCache:
                     self._memory_only(exc)
             self._local[(key, settings_key)] = list(entries)
 
-    def contains_local(self, key, settings_key):
-        """True when the local-search entries of (key, settings key) are cached (memory or disk), reading nothing."""
+    def contains_local(self, key, settings_key=None):
+        """True when the local-search entries of (key, settings key; default ``local.DEFAULT``'s) are cached
+        (memory or disk), reading nothing."""
+        settings_key = settings_key or local.settings_key()
         return (key, settings_key) in self._local or (
             self.path is not None and os.path.exists(self.local_file_for(key, settings_key)))
 
