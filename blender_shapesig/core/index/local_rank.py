@@ -31,9 +31,10 @@ def _entry(clip: Clip, settings) -> dict:
     return e
 
 
-def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.DEFAULT) -> List[dict]:
-    """The item's local entries, one per clip: from the store, else computed from its clips (read only then)."""
-    skey = local.settings_key(settings)
+def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.DEFAULT, skey=None) -> List[dict]:
+    """The item's local entries, one per clip: from the store, else computed from its clips (read only then).
+    ``skey``: ``local.settings_key(settings)`` when the caller has it (a library's loop)."""
+    skey = skey or local.settings_key(settings)
     got = store.get_local(item.key, skey)
     if got is None:
         got = [_entry(c, settings) for c in item.clips()]
@@ -44,13 +45,13 @@ def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.
 def local_entries(items, store: SignatureCache, progress=None, errors=None, settings=local.DEFAULT):
     """[(item, entry)] for every clip of every item (``rank.iter_entries``' contract for ``progress`` and
     ``errors``: an item that cannot be read is one line in ``errors`` and yields nothing)."""
-    items = as_items(items)
+    items, skey = as_items(items), local.settings_key(settings)
     out = []
     for i, item in enumerate(items):
         if progress is not None and progress(i, len(items), item.name) is False:
             break
         try:
-            out += [(item, e) for e in item_local_entries(item, store, settings)]
+            out += [(item, e) for e in item_local_entries(item, store, settings, skey)]
         except ShapeSigError as exc:
             if errors is None:
                 raise

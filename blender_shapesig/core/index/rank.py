@@ -293,7 +293,7 @@ def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
     results[:len(head)] = head
 
 
-def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partial):
+def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partial, top=None):
     """(results, warnings, skipped, compared) of the local search: the readable clips by ``local_rank.rank_local``;
     the clips its features refuse after them, by sim3 on their shared bones, with one warning."""
     q = query_local_entry(query, store)
@@ -302,7 +302,8 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
     ok = [(item, e) for item, e in got if not e.get("refused")]
     refused = [(item, e) for item, e in got if e.get("refused")]
     results = []
-    for i, score, d1, d2 in rank_local(q, ok, store, shortlist or SHORTLIST):
+    ranked = rank_local(q, ok, store, shortlist or SHORTLIST)
+    for i, score, d1, d2 in ranked[:top]:  # rows only for what is kept
         item, e = ok[i]
         # the body is compared whole: every canonical joint the two clips have (coverage 1)
         results.append(RankResult(name=e["name"], distance=score, frames=e.get("frames", 0), key=item.key,
@@ -311,6 +312,7 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
     if refused:
         warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1]['name']}: "
                         f"{refused[0][1]['refused']}) are ranked after the others by sim{DEFAULT_LEVEL}")
+    if refused and (top is None or len(results) < top):  # their rows only when they can be kept
         qs = _query_entry(query, DEFAULT_LEVEL, store)
         names = {(item.key, e["name"]) for item, e in refused}
         refused_items = list({item.key: item for item, _ in refused}.values())
@@ -322,7 +324,7 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
         for r in tail:
             r.metric = f"sim{DEFAULT_LEVEL}"
         results += tail
-    return results, warnings, skipped, len(results)
+    return results, warnings, skipped, len(ranked) + len(refused)
 
 
 @one_blas_thread()
@@ -358,12 +360,12 @@ def rank_clips(query, library, metric=DEFAULT_METRIC, level=None, rerank=0, top=
     items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
     if base == LOCAL:
         results, warnings, skipped, compared = _rank_by_local(query, items, store, rerank or None, progress, depth,
-                                                              allow_partial)
+                                                              allow_partial, top)
         store.save_pack()
         if store.warning:
             warnings.insert(0, store.warning)
         stats = {k: store.stats[k] - before.get(k, 0) for k in store.stats}
-        stats.update(compared=compared, library=len(results), seconds=time.perf_counter() - t0)
+        stats.update(compared=compared, library=compared, seconds=time.perf_counter() - t0)
         results = results[:top] if top is not None else results
         return RankList(results, warnings, skipped, stats)
     q = _query_entry(query, sig_level, store)
