@@ -61,7 +61,7 @@ def run_excerpt(clips, by_name, cache, spec, rerank):
     rank = next((i for i, r in enumerate(res, 1) if r.name == name), None)
     got = res[rank - 1] if rank else None
     t0 = time.perf_counter()
-    whole = index.rank_clips(query, index.clip_items(clips), cache=cache)
+    whole = index.rank_clips(query, index.clip_items(clips), cache=cache, metric="sim")
     base_sec = time.perf_counter() - t0
     base_rank = next((i for i, r in enumerate(whole, 1) if r.name == name), None)
     return {"take": name, "excerpt": [first, last], "speed": speed, "query_frames": query.frames,

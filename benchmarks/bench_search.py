@@ -136,18 +136,18 @@ def bench_synthetic(n, level, moving_joints, repeat=5):
         items.append(index.LibraryItem(f"c{i}", f"k{i}", lambda: None))
     q, lib = items[0], items[1:]
     M = np.stack(dirs[1:])
-    index.rank_clips(q, lib, level=level, top=10, cache=cache)  # warm-up
+    index.rank_clips(q, lib, level=level, top=10, cache=cache, metric="sim")  # warm-up
     t_rank, t_base, t_all = [], [], []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        res = index.rank_clips(q, lib, level=level, top=10, cache=cache)
+        res = index.rank_clips(q, lib, level=level, top=10, cache=cache, metric="sim")
         t_rank.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         d = np.sqrt(np.maximum(2.0 - 2.0 * (M @ dirs[0]), 0))
         np.argpartition(d, 10)[:10]
         t_base.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        index.rank_clips(q, lib, level=level, cache=cache)  # no top: every clip exactly
+        index.rank_clips(q, lib, level=level, cache=cache, metric="sim")  # no top: every clip exactly
         t_all.append(time.perf_counter() - t0)
     assert len(res) == 10
     return {"clips": n, "coordinates": dim, "rank_top10_ms": 1e3 * min(t_rank),
@@ -171,14 +171,14 @@ def bench_real(files, level):
             last[0] = now
 
         t0 = time.perf_counter()
-        first = index.rank_clips(query, lib[1:], level=level, top=10, cache=cache, progress=progress)
+        first = index.rank_clips(query, lib[1:], level=level, top=10, cache=cache, progress=progress, metric="sim")
         t_first = time.perf_counter() - t0
         t0 = time.perf_counter()
         second = index.rank_clips(query, index.folder_library(files, start=2)[1:], level=level,
-                                   top=10, cache=index.SignatureCache(tmp))
+                                   top=10, cache=index.SignatureCache(tmp), metric="sim")
         t_second = time.perf_counter() - t0
         t0 = time.perf_counter()
-        third = index.rank_clips(query, lib[1:], level=level, top=10, cache=cache)
+        third = index.rank_clips(query, lib[1:], level=level, top=10, cache=cache, metric="sim")
         t_third = time.perf_counter() - t0
         files_n, size = cache.disk_usage()
         assert [r.name for r in first] == [r.name for r in second] == [r.name for r in third]

@@ -20,11 +20,12 @@ from . import action_changes, action_io, compat, rigmap
 from .core import index
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
+from .core.metrics import LOCAL
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
 from .core.io.files import skipped_line
 from .owners import find_owner
 from .preferences import ADDON_ID, get_preferences
-from .properties import PANEL_MAX_LEVEL, results_of, settings_of
+from .properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, uses_local
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "file_identity", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
@@ -357,20 +358,31 @@ def index_items(context, settings) -> List[sources.LibraryItem]:
     return [it for it in search_library(context, settings).members() if it is not None]
 
 
-def index_steps(lib: SearchLibrary, level, cache, errors):
+def indexed(cache, key, level, local) -> bool:
+    """True when the store holds the item's signature entries (and with ``local`` its local-search entries)."""
+    return cache.contains(key, level) and (not local or cache.contains_local(key))
+
+
+def index_steps(lib: SearchLibrary, level, cache, errors, local=False, computed=None):
     """Build Index, one step per member of ``lib`` (a folder file is keyed at its turn): (item or None, entries),
-    indexed when the store lacks it (``index.iter_entries``; a read error joins ``errors``)."""
+    indexed when the store lacks it (``index.iter_entries``, ``local``: its local entries too; a read error joins
+    ``errors``); the keys of the items computed now join ``computed``."""
     for item in lib.members():
         if item is None:
             yield None, []
-        else:
-            yield next(index.iter_entries([item], level, cache, errors))
+            continue
+        misses, failed = cache.stats["misses"], len(errors)
+        got = next(index.iter_entries([item], level, cache, errors, local=local))
+        if computed is not None and cache.stats["misses"] > misses and len(errors) == failed:
+            computed.append(item.key)  # not in the store (or its file unreadable), read and indexed now
+        yield got
 
 
 def missing_count(context, settings) -> int:
     """How many of the query and library clips are not in the index yet."""
     cache = get_cache(context)
-    return sum(not cache.contains(it.key, settings.level) for it in index_items(context, settings))
+    level, local = index_level(settings), uses_local(settings)
+    return sum(not indexed(cache, it.key, level, local) for it in index_items(context, settings))
 
 
 # Cost of an index (level 4 must not start unannounced). Measured: 110 CMU clips with 17 moving joints
@@ -453,6 +465,7 @@ def _row_sources(results, items):
 
 
 ELASTIC_COLUMN = "d_S*"
+LOCAL_COLUMN = "score"  # the local search's final score (core.index.local.combine)
 
 
 def store_results(settings, results, items, query_name, order_by="sim^3", query_bones=0, seconds=0.0):
@@ -468,13 +481,10 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         row.name = row.clip_name = name
         row.label = name if is_action else labels.pop()
         row.distance = r.distance
-        row.has_elastic = r.elastic is not None
-        row.elastic = r.elastic if r.elastic is not None else 0.0
+        row.has_elastic, row.elastic = r.elastic is not None, (r.elastic if r.elastic is not None else 0.0)
         row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
-        row.is_action = is_action
+        row.is_action, row.spec, row.target, row.written = is_action, spec, target, ""
         row.source = name if is_action else spec
-        row.spec = spec
-        row.target, row.written = target, ""
         row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
         # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
@@ -484,11 +494,8 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         # kept / read apart from the moment's window: Assign and Preview of a trimmed clip give the whole action
         row.kept_first, row.kept_last = trimmed[:2] if trimmed else (0, 0)
         row.read_first, row.read_last = trimmed[2:] if trimmed else (0, 0)
-    out.results_index = 0
-    out.query_name = query_name
-    out.order_by = order_by
-    out.query_bones = query_bones
-    out.seconds = seconds
+    out.results_index, out.query_name, out.order_by = 0, query_name, order_by
+    out.query_bones, out.seconds = query_bones, seconds
 
 
 class RankJob:
@@ -499,8 +506,9 @@ class RankJob:
        progress bar) and index it when the store does not hold it, one clip per step (``index.iter_entries``;
        what is done stays cached when the click is cancelled; clips that fail are counted apart, files that
        are not regular files or are over a cap were skipped unopened and are reported once);
-    2. rank every readable clip by sim^n (``index.rank_clips``; fast: everything is in the store);
-    3. with Re-rank K, the d_S* of the first K rows, one per step (``rank_clips`` with the elastic metric on
+    2. rank every readable clip (``index.rank_clips``; fast: everything is in the store): by the local search
+       (Similarity: Motion and pose, the default: its own second stage included), else by sim^n;
+    3. sim^n with Re-rank K, the d_S* of the first K rows, one per step (``rank_clips`` with the elastic metric on
        the one clip: the same pair increments and DP as its re-rank).
 
     The rows are then in the order of ONE column: sim^n, or d_S* when re-ranking (only the K re-ranked rows
@@ -518,8 +526,8 @@ class RankJob:
                                 + (" or matches the filter" if settings.name_filter else "")
                                 + ("" if settings.use_folders else "; add folders of clips")
                                 + self.lib.skipped_text())
-        self.cache, self.level = get_cache(context), settings.level
-        self.rerank, self.top = max(int(settings.rerank), 0), max(int(settings.top), 0)
+        self.cache, self.level, self.local = get_cache(context), index_level(settings), uses_local(settings)
+        self.rerank, self.top = (0 if self.local else max(int(settings.rerank), 0)), max(int(settings.top), 0)
         self.items = []  # the library's members as they are keyed (without the query)
         self.errors, self.failed, self.indexed = [], set(), 0
         self._members = self.lib.members()
@@ -562,9 +570,9 @@ class RankJob:
         clips themselves, ``core.index.windows``); what is done stays cached when the click is cancelled."""
         if item is not self.query:
             self.items.append(item)
-        if self.settings.use_windows or self.cache.contains(item.key, self.level):
+        if self.settings.use_windows or indexed(self.cache, item.key, self.level, self.local):
             return
-        _item, entries = next(index.iter_entries([item], self.level, self.cache, self.errors))
+        _item, entries = next(index.iter_entries([item], self.level, self.cache, self.errors, local=self.local))
         if entries:
             self.indexed += 1
         else:
@@ -584,29 +592,24 @@ class RankJob:
             reasons = [str(e) for e in self.errors + self.skipped]
             raise ShapeSigError(f"no library clip could be read ({reasons[0] if reasons else 'none found'})"
                                 + self.lib.skipped_text())
-        if self.settings.use_windows:
-            return self._rank_windows(items)
-        cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
-        self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
-                                       cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
+        windows, cut = self.settings.use_windows, None
+        if windows:  # moments (core.index.windows), explained; the refinement of the first K runs inside
+            self.ranked = rank_windows(self.query, items, rerank=self.rerank, top=self.top or None,
+                                       depth=self.settings.depth, explain=True, errors=self.errors)
+        elif self.local:  # its second stage runs inside the ranking
+            self.ranked = index.rank_clips(self.query, items, metric=LOCAL, top=self.top or None, cache=self.cache)
+        else:
+            cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
+            self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
+                                           cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
         self.warnings = self.errors + self.ranked.warnings
-        self.compared = self.ranked.stats.get("library", len(items))  # clips (a .blend item may hold several)
+        # clips (a .blend item may hold several)
+        self.compared = self.ranked.stats.get("compared" if windows else "library", len(items))
         self.by_key = {it.key: it for it in items}
-        self._head = list(self.ranked[:cut]) if self.rerank else []
+        self._head = list(self.ranked[:cut]) if self.rerank and cut is not None else []
         self.total = self.done + len(self._head)
         if not self._head:
             self._order()
-
-    def _rank_windows(self, items):
-        """Moments (``core.index.windows.rank_windows``), explained: one step (the refinement of the first K runs
-        inside it)."""
-        self.ranked = rank_windows(self.query, items, rerank=self.rerank, top=self.top or None,
-                                   depth=self.settings.depth, explain=True, errors=self.errors)
-        self.warnings = self.errors + self.ranked.warnings
-        self.compared = self.ranked.stats.get("compared", len(items))
-        self.by_key = {it.key: it for it in items}
-        self._head = []
-        self._order()
 
     def _elastic(self, r):
         """d_S* of one row: rank_clips' elastic metric on that one clip (its shared bones, the same depth)."""
@@ -620,7 +623,7 @@ class RankJob:
             self.rows = sorted(head, key=lambda r: (r.partial, r.elastic, r.distance, r.name))
             self.order_by = "elastic"
         else:
-            self.rows, self.order_by = list(self.ranked), "sim"
+            self.rows, self.order_by = list(self.ranked), ("local" if self.local else "sim")
         self.not_listed = max(self.compared - len(self.rows) - len(self.ranked.skipped), 0)
         self.seconds = time.perf_counter() - self.t0
 
@@ -629,7 +632,7 @@ class RankJob:
         entries = self.cache.get(self.query.key, self.level) or []
         q_bones = len(entries[0].bones) if entries else 0
         level = WINDOW_LEVEL if self.settings.use_windows else self.level
-        column = {"sim": f"sim^{level}", "elastic": ELASTIC_COLUMN}[self.order_by]
+        column = {"sim": f"sim^{level}", "elastic": ELASTIC_COLUMN, "local": LOCAL_COLUMN}[self.order_by]
         store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)
         out = results_of()

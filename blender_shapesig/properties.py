@@ -7,9 +7,10 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
-from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
+from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, LOCAL
 
-__all__ = ["ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of"]
+__all__ = ["ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of", "uses_local",
+           "index_level"]
 
 
 # K of the two-stage search the panel uses by default (see docs/evaluation.md, "Winner").
@@ -18,6 +19,16 @@ RERANK_DEFAULT = 10
 # limits only: a script's value out of range is refused by ``library.search_problem``, never clamped.
 PANEL_MAX_LEVEL = 4
 
+
+
+def uses_local(settings) -> bool:
+    """True when Find Similar runs the local search (Similarity: Motion and pose; moments rank by signatures)."""
+    return getattr(settings, "similarity", LOCAL) == LOCAL and not settings.use_windows
+
+
+def index_level(settings) -> int:
+    """The signature level indexed: the Level, or the default one for the local search (its fallback)."""
+    return DEFAULT_LEVEL if uses_local(settings) else settings.level
 
 class ShapeSigResult(bpy.types.PropertyGroup):
     """One ranked clip. ``name`` (the item name) is the action's name or the file's base name."""
@@ -120,6 +131,18 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     use_windows: BoolProperty(name="Moments", description="Rank moments inside the clips (the best window of each, "
                               "refined by the elastic distance with a free start and end); Assign, Preview and "
                               "Blend use the window", default=False)
+    similarity: EnumProperty(
+        name="Similarity", description="What Find Similar calls the same motion",
+        items=((LOCAL, "Motion and pose (default)",
+                "The local search: windows of the body's key-point positions and motion, each described by its mean "
+                "pose and its level-2 log-signature normalized part by part (the normalized log-signature "
+                "similarity, eq. 9.1, window by window), then the best 20 re-scored by dynamic time warping of the "
+                "pose; across rigs, crops and start phases"),
+               ("sim", "Motion only (signatures)",
+                "sim^n: the normalized log-signature similarity (eq. 9.1) of the whole clips' joint rotations at "
+                "Level n, optionally re-ranked by the elastic distance d_S* (Re-rank); best for the same take in "
+                "another file format")),
+        default=LOCAL)
     level: IntProperty(name="Level", description="Log-signature level n of sim^n", default=DEFAULT_LEVEL,
                        soft_min=1, soft_max=PANEL_MAX_LEVEL)
     # default 10: the evaluation's winner (docs/evaluation.md): a sim^3 shortlist re-ranked by d_S* over the top

@@ -308,7 +308,8 @@ def test_rank_default_cache_env_and_no_cache(capsys, amc, tmp_path, monkeypatch)
 
 
 def test_rank_rerank_and_top(capsys, amc):
-    out, _ = run_json(capsys, ["rank", amc["r1"], amc["w1"], amc["w2"], amc["r2"], "--rerank", "2", "--top", "2"])
+    out, _ = run_json(capsys, ["rank", amc["r1"], amc["w1"], amc["w2"], amc["r2"], "--metric", "sim3",
+                               "--rerank", "2", "--top", "2"])
     assert len(out["results"]) == 2
     el = [r["elastic"] for r in out["results"]]
     assert all(e is not None for e in el) and el == sorted(el)

@@ -155,6 +155,7 @@ def test_no_shared_bones(capsys, clips):
     # rank skips a library clip that shares no bones, with a one-line warning naming it (bones by name:
     # --bone-map none; with the default map, "run" is mapped onto canonical joints and shares none either)
     code = cli.main(["rank", clips["renamed"], bvh, clips["run"], "--json", "--no-progress", "--bone-map", "none",
+                     "--metric", "sim3",
                      "--allow-partial"])  # "run" shares under half of the moving bones: a partial match
     out_text, err = capsys.readouterr()
     assert code == 0
@@ -171,7 +172,7 @@ def test_no_shared_bones(capsys, clips):
 
 
 def test_rank_with_degenerate_library(capsys, clips):
-    got = ok_json(capsys, ["rank", clips["run"], clips["two"], clips["constant"], clips["long"],
+    got = ok_json(capsys, ["rank", clips["run"], clips["two"], clips["constant"], clips["long"], "--metric", "sim3",
                            "--rerank", "3"])
     rows = {r["clip"]: r for r in got["results"]}
     assert set(rows) == {"two", "constant", "long"}

@@ -46,7 +46,7 @@ def clips():
 def test_same_take_in_another_format_ranks_first_both_ways(clips):
     names = list(clips)
     for name in names:
-        res = index.rank_clips(clips[name], [clips[n] for n in names if n != name], allow_partial=False)
+        res = index.rank_clips(clips[name], [clips[n] for n in names if n != name], allow_partial=False, metric="sim")
         assert not res.skipped
         first = res[0]
         assert first.name.split(":")[1] == name.split(":")[1], (name, [(r.name, round(r.distance, 3)) for r in res[:3]])

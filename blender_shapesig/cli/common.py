@@ -203,14 +203,22 @@ def add_common(p, asf=True, crop=True):
                         "its scene's)")
 
 
-def metric_help(default):
+def metric_help(default, local=True):
     return (
-        "l2 (d_P*), elastic (d_S*), group (rho^n), concat (sigma_*^n), linear (sigma_L^n) or sim (sim^n, eq. 9.1); "
+        ("local (the local search: windows of pose and motion by log-signatures, then a DTW re-rank of a "
+         "shortlist; between two clips its first stage), " if local else "")
+        + "l2 (d_P*), elastic (d_S*), group (rho^n), concat (sigma_*^n), linear (sigma_L^n) or sim (sim^n, eq. 9.1); "
         f"a level may be appended (sim3) (default: {default})"
     )
 
 
-def add_metric(p, depth_help=f"DP search depth D for elastic (default {DEFAULT_DEPTH})"):
-    p.add_argument("--metric", default="sim", help=metric_help("sim"))
+def add_metric(p, depth_help=f"DP search depth D for elastic (default {DEFAULT_DEPTH})", default="sim",
+               local=True):
+    """--metric (``default``; None: the command resolves it and its help names ``DEFAULT_METRIC``), --level,
+    --depth."""
+    from ..core.metrics import DEFAULT_METRIC
+
+    p.add_argument("--metric", default=default, help=metric_help(default or f"{DEFAULT_METRIC}, or sim with "
+                                                                           f"--windows", local))
     p.add_argument("--level", type=int, help=f"signature truncation level (default {DEFAULT_LEVEL})")
     p.add_argument("--depth", type=int, default=DEFAULT_DEPTH, help=depth_help)

@@ -22,9 +22,13 @@ def run(args):
     skipped = c.report_skipped(skipped)
     if not entries:
         raise c.CommandError(f"no readable clip listed in {args.index} ({skipped[0]})")
+    groups = [e.column(args.group) for e in entries] if args.group else None
+    read = dict(asf=args.asf, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
+    crops = ({side: evaluation.entry_loader(args.data, cut=(side, evaluation.CROP_FRACTION), **read)
+              for side in ("start", "end")} if args.crops else None)
     summary = evaluation.evaluate(
         entries,
-        evaluation.entry_loader(args.data, args.asf, fps=args.fps, trim=args.trim, bone_map=args.bone_map),
+        evaluation.entry_loader(args.data, **read),
         metrics,
         args.out,
         depth=args.depth,
@@ -32,18 +36,21 @@ def run(args):
         figures=not args.no_figures,
         progress=None if args.no_progress else "tqdm",
         repeat=args.repeat,
+        groups=groups,
+        crops=crops,
     )
-    summary = dict(summary, skipped=skipped)
+    summary = dict(summary, skipped=skipped, group=args.group)
     lines = [f"{summary['clips']} clips; wrote {os.path.join(args.out, 'summary.json')}"]
     for name, row in summary["metrics"].items():
-        lines.append(f"  {name:16s} accuracy {row['accuracy']:.3f}  {row['seconds']:.2f} s")
+        crop = f"  crops {row['crops']['start']}+{row['crops']['end']}/{row['crops']['of']}" if "crops" in row else ""
+        lines.append(f"  {name:16s} accuracy {row['accuracy']:.3f}  mAP {row['map']:.3f}{crop}  {row['seconds']:.2f} s")
     return summary, "\n".join(lines)
 
 
 def add_parser(sub):
     p = sub.add_parser(
         "evaluate",
-        help="leave-one-out 1-NN accuracy of several metrics on a labelled clip set",
+        help="leave-one-out (or leave-one-group-out) 1-NN and mAP of several metrics on a labelled clip set",
         description="Read an index CSV (file,label[,skeleton][,start][,end]; paths relative to --data, start/end "
         "are inclusive frame numbers), compute the pairwise matrix of every metric, and write "
         "DIR/summary.json, confusion tables, matrices and figures.",
@@ -54,8 +61,15 @@ def add_parser(sub):
     p.add_argument(
         "--metrics",
         help="comma-separated metric names (default: l2,elastic,group3,concat3,linear3,sim2,sim3); "
-        "also sim3_levelnorm, sim3_tensor, linear3_tensor, elastic_numpy, sim3+elastic5, ...",
+        "also local (the default search of rank), sim3_levelnorm, sim3_tensor, linear3_tensor, elastic_numpy, "
+        "sim3+elastic5, ...",
     )
+    p.add_argument("--group", metavar="COLUMN",
+                   help="a column of the CSV (e.g. actor): each clip is ranked only against clips of other groups "
+                   "(leave-one-group-out)")
+    p.add_argument("--crops", action="store_true",
+                   help="crop probes: every clip cut by 10%% at its start, then at its end, queries the full set; "
+                   "summary.json counts, per metric, how many rank their source first")
     p.add_argument("--depth", type=int, default=c.DEFAULT_DEPTH, help=f"DP search depth D for elastic (default {c.DEFAULT_DEPTH})")
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--no-figures", action="store_true", help="write only the numbers")

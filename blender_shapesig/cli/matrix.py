@@ -61,7 +61,7 @@ def add_parser(sub):
         "DIR/matrix.npy with an MDS plot and a dendrogram.",
     )
     p.add_argument("clips", metavar="CLIP", nargs="+", help=c.CLIP_HELP)
-    c.add_metric(p)
+    c.add_metric(p, local=False)
     p.add_argument("--workers", type=int, default=2, help="parallel processes (default 2)")
     p.add_argument("--labels", metavar="CSV", help="colour the figures by the 'label' column of an index CSV")
     p.add_argument("--no-figures", action="store_true", help="write only the matrix")

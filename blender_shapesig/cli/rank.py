@@ -41,7 +41,7 @@ def _rank_windows(query, items, args, progress):
     """``rank --windows``: moments of the clips (``core.index.windows``), the signature stage at level 2."""
     from ..core.index.windows import rank_windows
 
-    if args.metric not in ("sim", "sim2") or args.level not in (None, 2):
+    if args.metric not in (None, "sim", "sim2") or args.level not in (None, 2):
         raise c.CommandError("--windows ranks by sim2 (then elastic): leave --metric and --level out")
     return rank_windows(query, items, rerank=args.rerank, top=args.top, depth=args.depth, explain=bool(args.explain),
                         progress=progress, allow_partial=args.allow_partial)
@@ -63,9 +63,9 @@ def _explanation(query, item, result, args):
 
 def run(args):
     from ..core import index
-    from ..core.metrics import metric_label, parse_metric
+    from ..core.metrics import DEFAULT_METRIC, metric_label, parse_metric
 
-    base, level = parse_metric(args.metric, args.level)
+    base, level = parse_metric(args.metric or ("sim" if args.windows else DEFAULT_METRIC), args.level)
     if args.rerank is not None and args.rerank < 0:
         raise c.CommandError("--rerank must be 0 or more")
     if args.top is not None and args.top < 1:
@@ -125,6 +125,8 @@ def run(args):
                      "trim": trim["frames"], "trimmed": trim["cut"]})
         if r.start is not None:
             rows[-1].update(start=r.start, end=r.end)
+        if r.metric:  # the local search: the measure of the row (sim3 for clips it cannot read) and both stages
+            rows[-1].update(metric=r.metric, first_stage=c.finite(r.first_stage), dtw=c.finite(r.dtw))
         if args.explain and len(rows) <= args.explain:
             rows[-1]["explain"] = _explanation(query, item, r, args)
     label = "sim2 windows" if args.windows else metric_label(base, level)
@@ -136,6 +138,8 @@ def run(args):
     lines = [f"query: {query.name}  metric: {label}"]
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
+        if r.get("metric") and r["metric"] != label:
+            el += f"  ({r['metric']})"
         dist = "nan" if r["distance"] is None else f"{r['distance']:.6g}"
         win = f"  frames {r['start']}-{r['end']}" if "start" in r else ""
         lines.append(f"{i:3d}. {r['clip']}{win}  {dist}{el}")
@@ -151,17 +155,21 @@ def add_parser(sub):
     p = sub.add_parser(
         "rank",
         help="rank clips by similarity to a query",
-        description="Rank clips by their distance to QUERY, best first. Signatures are cached in --cache DIR, "
+        description="Rank clips by their distance to QUERY, best first. The default search is 'local' (motion "
+        "and pose, window by window, across rigs; then a DTW re-rank of the first 20); --metric sim3 ranks by the "
+        "whole clips' log-signatures (finds the same take across formats better). Signatures are cached in --cache DIR, "
         "else $SHAPESIG_CACHE_DIR, else the per-user cache folder (~/.cache), in a subfolder blender_shapesig-cache "
         "that it alone writes; "
         "--no-cache keeps them in memory only.",
     )
     p.add_argument("query", metavar="QUERY", help=c.CLIP_HELP)
     p.add_argument("clips", metavar="CLIP", nargs="+", help=c.CLIP_HELP + ", or a folder of clip files")
-    c.add_metric(p, depth_help=f"DP search depth D for the elastic re-rank (default {c.DEFAULT_DEPTH})")
+    c.add_metric(p, depth_help=f"DP search depth D for the elastic re-rank (default {c.DEFAULT_DEPTH})",
+                 default=None)
     p.add_argument("--rerank", type=int, default=None, metavar="K",
-                   help="re-order the first K by elastic distance (with --windows: refine the first K moments by "
-                   "the free-window elastic DP, default 10)")
+                   help="re-order the first K by elastic distance (local: the shortlist its second stage "
+                   "re-scores, default 20; with --windows: refine the first K moments by the free-window elastic "
+                   "DP, default 10)")
     p.add_argument("--windows", action="store_true",
                    help="rank moments inside the clips: each result adds the matching frames (start, end)")
     p.add_argument("--explain", type=int, nargs="?", const=5, default=0, metavar="K",

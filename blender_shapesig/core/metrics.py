@@ -15,11 +15,17 @@ from .errors import CurveError, ShapeSigError
 __all__ = [
     "METRICS", "SIGNATURE_METRICS", "SMOOTHED_METRICS", "time_base_smoothing", "DEFAULT_LEVEL", "DEFAULT_DEPTH", "MAX_LEVEL", "MetricSpec",
     "parse_metric_spec", "parse_metric", "metric_label", "clip_distance", "curve_distance",
-    "check_coverage", "compare_clips",
+    "check_coverage", "compare_clips", "LOCAL", "DEFAULT_METRIC", "ALL_METRICS",
 ]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
-METRICS = ("l2", "elastic") + SIGNATURE_METRICS
+# The local, pose-aware search (``core.index.local``): windows of key-point positions by log-signatures, then a
+# DTW re-rank of a shortlist; the default of ``rank`` and of Find Similar (docs/model.md). Between two clips alone
+# (``clip_distance``) it is the first stage's distance: the combined score needs a library.
+LOCAL = "local"
+DEFAULT_METRIC = LOCAL
+METRICS = ("l2", "elastic") + SIGNATURE_METRICS  # the measures between curves
+ALL_METRICS = (LOCAL,) + METRICS
 # Every measure compares clips on one time base (``prepare.prepare_clip``: sampled at ``prepare.COMPARE_FPS`` over
 # their durations in seconds). The SRVT measures also low-pass the angular velocity (``prepare.SMOOTH_SECONDS``):
 # the square root of the SRVT amplifies the capture jitter, whose velocity grows with the frame rate. The
@@ -42,7 +48,7 @@ _OPTIONS = ("numpy", "joint", "group", "levelnorm", "tensor")  # canonical order
 _OPTION_BASES = {"numpy": ("elastic",), "tensor": ("linear", "sim"), "levelnorm": ("sim",),
                  "joint": ("l2", "elastic"), "group": ("l2", "elastic")}
 _SPEC_RE = re.compile(
-    r"(?P<base>l2|elastic|group|concat|linear|sim)(?P<level>\d*)"
+    r"(?P<base>local|l2|elastic|group|concat|linear|sim)(?P<level>\d*)"
     r"(?P<opts>(?:_(?:numpy|tensor|levelnorm|joint|group))*)"
     r"(?:\+elastic(?P<k>\d+))?"
 )
@@ -95,7 +101,7 @@ def parse_metric_spec(name, level=None) -> MetricSpec:
     m = _SPEC_RE.fullmatch(text)
     if not m:
         raise ShapeSigError(
-            f"unknown metric {name!r}: choose one of {', '.join(METRICS)} (with a level, e.g. sim3), "
+            f"unknown metric {name!r}: choose one of {', '.join(ALL_METRICS)} (with a level, e.g. sim3), "
             f"optionally _tensor / _levelnorm / _numpy / _joint / _group or +elasticK"
         )
     base, digits = m.group("base"), m.group("level")
@@ -112,8 +118,8 @@ def parse_metric_spec(name, level=None) -> MetricSpec:
         lvl = None
     if {"joint", "group"} <= opts:
         raise ShapeSigError(f"metric {name!r}: choose one SRVT norm, _joint or _group")
-    if k and base == "elastic":
-        raise ShapeSigError(f"metric {name!r}: the first stage cannot be elastic")
+    if k and base in ("elastic", LOCAL):
+        raise ShapeSigError(f"metric {name!r}: the first stage cannot be {base} (local has its own second stage)")
     canon = base + ("" if lvl is None else str(lvl)) + "".join(f"_{o}" for o in _OPTIONS if o in opts)
     if k:
         canon += f"+elastic{k}"
@@ -135,7 +141,7 @@ def parse_metric(name, level=None):
     spec = parse_metric_spec(name, level)
     if not spec.plain:
         raise ShapeSigError(f"metric {spec.name!r} is only available for matrices (matrix, evaluate); "
-                            f"here choose one of {', '.join(METRICS)}")
+                            f"here choose one of {', '.join(ALL_METRICS)}")
     return spec.base, spec.level
 
 
@@ -148,6 +154,8 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
     from .signatures import signatures
 
     base, lvl = parse_metric(metric, level)
+    if base == LOCAL:
+        raise ShapeSigError("the local search compares clips (their rest skeletons), not curves: use clip_distance")
     if base == "l2":
         return curves.l2_distance(R0, R1)
     if base == "elastic":
@@ -193,6 +201,10 @@ def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPT
     from .clip.prepare import prepare_clip
 
     base, _ = parse_metric(metric, level)
+    if base == LOCAL:  # the first stage's distance (the second stage ranks a shortlist of a library)
+        from .index import local
+
+        return float(local.first_stage(local.index_entry(a), [local.index_entry(b)])[0])
     if base in ("l2", "elastic"):
         for c in (a, b):
             if c.frames < 2:

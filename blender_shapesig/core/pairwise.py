@@ -21,6 +21,7 @@ from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec, time_base_smo
 __all__ = [
     "prepare_curves", "distance_matrix", "clip_distance_matrix", "level_blocks", "log_signature_feature",
     "signature_features", "feature_matrix", "srvt_matrix", "elastic_matrix", "tensor_pair_matrix",
+    "cross_distance_matrix",
 ]
 
 
@@ -189,8 +190,9 @@ def distance_matrix(curves, metric, depth=DEFAULT_DEPTH, workers=2, progress=Non
     ``progress(n)`` is called with the number of pairs done. Two-stage names are refused here.
     """
     spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
-    if spec.rerank:
-        raise ShapeSigError(f"{spec.name} is a two-stage search, not a distance: use it in 'evaluate'")
+    if spec.rerank or spec.base == "local":
+        raise ShapeSigError(f"{spec.name} is a two-stage search of clips, not a distance of curves: use it in "
+                            f"'rank' or 'evaluate'")
     curves = [np.asarray(R, dtype=np.float64) for R in curves]
     if not curves:
         return np.zeros((0, 0))
@@ -203,6 +205,33 @@ def distance_matrix(curves, metric, depth=DEFAULT_DEPTH, workers=2, progress=Non
         F = signature_features(curves, spec.level, spec.basis, spec.levelnorm, workers, progress)
         return feature_matrix(F, normalized=spec.base == "sim")
     return tensor_pair_matrix(curves, spec.base, spec.level, workers, progress)
+
+
+def cross_distance_matrix(curves_a, curves_b, metric, depth=DEFAULT_DEPTH, progress=None):
+    """(len(a), len(b)) distances of every curve of ``curves_a`` to every curve of ``curves_b`` (same joints; e.g.
+    crop probes against a set): the signature features once per curve for linear and sim, else pair by pair
+    (``metrics.curve_distance``). Two-stage names and ``local`` are refused (``distance_matrix``'s rule)."""
+    from .metrics import curve_distance
+
+    spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
+    if spec.rerank or spec.base == "local":
+        raise ShapeSigError(f"{spec.name} is a two-stage search of clips, not a distance of curves")
+    A = [np.asarray(R, dtype=np.float64) for R in curves_a]
+    B = [np.asarray(R, dtype=np.float64) for R in curves_b]
+    D = np.zeros((len(A), len(B)))
+    if spec.base in ("linear", "sim"):
+        FA, FB = (np.stack([log_signature_feature(R, spec.level, spec.basis, spec.levelnorm) for R in X]) for X in (A, B))
+        for i in range(len(A)):
+            D[i] = ([signatures.normalized_difference(FA[i], f) for f in FB] if spec.base == "sim"
+                    else np.linalg.norm(FB - FA[i], axis=1))
+        return D
+    with use_srvt_norm(spec.srvt_norm or curves_mod.DEFAULT_SRVT_NORM):
+        for i in range(len(A)):
+            for j in range(len(B)):
+                D[i, j] = curve_distance(A[i], B[j], spec.base, spec.level, depth=depth)
+            if progress:
+                progress(len(B))
+    return D
 
 
 def clip_distance_matrix(clips, metric, depth=DEFAULT_DEPTH, workers=2, progress=None, time_base=True):

@@ -11,7 +11,7 @@ from ..core.clip.prepare import decimate_clip
 from ..core.errors import ShapeSigError, UnreadableFileError
 from ..core.io.files import file_problem
 
-__all__ = ["IndexEntry", "read_index", "unique_names", "labels_from_csv", "entry_spec", "entry_loader",
+__all__ = ["IndexEntry", "read_index", "cut_clip", "unique_names", "labels_from_csv", "entry_spec", "entry_loader",
            "readable_entries"]
 
 
@@ -27,6 +27,14 @@ class IndexEntry:
     start: Optional[int] = None
     end: Optional[int] = None
     step: int = 1
+    columns: tuple = ()  # every column of the row as (name, value) pairs (``column``)
+
+    def column(self, name) -> str:
+        """The row's value in column ``name`` (e.g. an actor for ``evaluate --group``); ShapeSigError if absent."""
+        for k, v in self.columns:
+            if k == name:
+                return v
+        raise ShapeSigError(f"the index has no column {name!r} (columns: {', '.join(k for k, _ in self.columns)})")
 
 
 def _opt_int(value, where):
@@ -63,7 +71,8 @@ def read_index(path):
         entries.append(IndexEntry(file=f, label=label, skeleton=(row.get("skeleton") or "").strip(),
                                   start=_opt_int(row.get("start"), f"{path}:{i}"),
                                   end=_opt_int(row.get("end"), f"{path}:{i}"),
-                                  step=_opt_int(row.get("step"), f"{path}:{i}") or 1))
+                                  step=_opt_int(row.get("step"), f"{path}:{i}") or 1,
+                                  columns=tuple((k, (v or "").strip()) for k, v in row.items() if k)))
     if not entries:
         raise ShapeSigError(f"{path}: no clips listed")
     return entries
@@ -116,18 +125,32 @@ def readable_entries(entries, data):
     return keep, skipped
 
 
-def entry_loader(data, asf=None, cache=None, fps=None, trim="auto", bone_map="auto"):
+def cut_clip(clip, side, fraction):
+    """The clip with ``fraction`` of its frames (rounded) cut at its ``side`` ("start" or "end"): a crop probe."""
+    cut = int(round(fraction * clip.frames))
+    if side == "start":
+        return clip.crop(clip.frame_start + cut, None)
+    if side == "end":
+        return clip.crop(None, clip.frame_end - cut)
+    raise ShapeSigError(f"a cut is at the start or the end, not {side!r}")
+
+
+def entry_loader(data, asf=None, cache=None, fps=None, trim="auto", bone_map="auto", cut=None):
     """``loader(entry) -> Clip`` for ``evaluate``: ``sources.read_one`` of ``entry_spec`` (with ``fps``, ``trim``
-    and ``bone_map``). ``cache`` (a dict) keeps the clips read, keyed by the spec, for runs that share files."""
+    and ``bone_map``). ``cache`` (a dict) keeps the clips read, keyed by the spec, for runs that share files.
+    ``cut``: (side, fraction): the clip is cut (``cut_clip``) before the bone map, as a shorter file would be."""
 
     def loader(entry):
-        spec = entry_spec(entry, data, asf, fps, trim, bone_map)
+        spec = entry_spec(entry, data, asf, fps, trim, "none" if cut else bone_map)
         if cache is None:
             clip = sources.read_one(spec)
         else:
             if spec not in cache:
                 cache[spec] = sources.read_one(spec)
             clip = cache[spec]
-        return decimate_clip(clip, entry.step)
+        clip = decimate_clip(clip, entry.step)
+        if cut:
+            clip = sources.after_read([cut_clip(clip, *cut)], bone_map=bone_map)[0]
+        return clip
 
     return loader

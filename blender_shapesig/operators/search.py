@@ -16,6 +16,7 @@ from ..core.elastic.explain import top_joints
 from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
 from ..library import get_cache
+from ..properties import index_level, uses_local
 
 __all__ = ["classes"]
 
@@ -42,7 +43,8 @@ def _poll_with(problem):
 def _confirm_cost(op, context, event, settings):
     """Before a costly (level-4) index in the UI: a confirmation with the estimated time and disk.
     None to go on, else the invoke's return value (the dialog; OK runs the operator again, confirmed)."""
-    if op.confirmed or settings is None or settings.level < library.COSTLY_LEVEL or context.window is None \
+    if op.confirmed or settings is None or index_level(settings) < library.COSTLY_LEVEL \
+            or context.window is None \
             or bpy.app.background:
         return None
     try:
@@ -113,9 +115,10 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         self.total = self.lib.size
         self.cache = get_cache(context)
         self.errors = []
-        self.steps = library.index_steps(self.lib, self.settings.level, self.cache, self.errors)
+        self.computed = []
+        self.steps = library.index_steps(self.lib, index_level(self.settings), self.cache, self.errors,
+                                         local=uses_local(self.settings), computed=self.computed)
         self.done = 0
-        self.before = dict(self.cache.stats)
 
     def _step(self):
         next(self.steps, None)
@@ -125,9 +128,9 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         s = self.settings
         s.index_running = False
         s.index_progress = 1.0 if not cancelled else s.index_progress
-        # a clip that fails to read was a miss too: it is counted apart, never as computed
+        # a clip that fails to read is counted apart, never as computed
         failed = len(self.errors)
-        computed = self.cache.stats["misses"] - self.before.get("misses", 0) - failed
+        computed = len(self.computed)
         msg = (f"index: {self.done} of {self.total} clips, {computed} computed, "
                f"{self.done - computed - failed - self.lib.unkeyed} already indexed")
         if cancelled:

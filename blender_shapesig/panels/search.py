@@ -10,6 +10,7 @@ import bpy
 
 from .. import library
 from ..core.elastic.explain import top_joints
+from ..core.metrics import LOCAL
 from ..results import expected_hash
 
 # the "Why different" box: bars of the largest shares, and the cost over time in this many cells
@@ -55,7 +56,7 @@ def _header(layout, results):
     split.label(text="Clip")
     nums = split.row(align=True)
     nums.label(text=f"{results.order_by} \u25b2")
-    nums.label(text="sim" if results.order_by == library.ELASTIC_COLUMN else "d_S*")
+    nums.label(text={library.ELASTIC_COLUMN: "sim", library.LOCAL_COLUMN: ""}.get(results.order_by, "d_S*"))
     nums.label(text="Frames")
 
 
@@ -126,15 +127,20 @@ def _draw_library(layout, s):
 def _draw_search(layout, context, s):
     col = layout.column(align=True)
     col.prop(s, "use_windows", toggle=True, icon="SEQUENCE")
+    signatures = s.use_windows or s.similarity != LOCAL
+    sub = col.row(align=True)
+    sub.active = not s.use_windows  # moments rank by sim^2 windows
+    sub.prop(s, "similarity", text="")
     row = col.row(align=True)
+    row.active = signatures  # the local search has its own second stage
     row.prop(s, "level")
     row.prop(s, "rerank")
     row = col.row(align=True)
     row.prop(s, "top")
     sub = row.row(align=True)
-    sub.active = s.rerank > 0
+    sub.active = signatures and s.rerank > 0
     sub.prop(s, "depth")
-    if s.level >= library.COSTLY_LEVEL:
+    if signatures and s.level >= library.COSTLY_LEVEL:
         ref = library.COST_REFERENCE
         _message(layout, f"Level {s.level} is costly: {ref['clips']} clips took {ref['seconds']:.0f} s and "
                          f"{ref['bytes'] / 1e6:.0f} MB of index; indexing asks first with an estimate.", "ERROR")
@@ -170,8 +176,11 @@ def _draw_results(layout, s, res):
         return
     item = res.results[res.results_index]
     info = layout.column(align=True)
-    info.label(text=f"sim^{s.level} = {item.distance:.4f}" + (f", d_S* = {item.elastic:.4f}" if item.has_elastic
-                                                              else ""))
+    if res.order_by == library.LOCAL_COLUMN:
+        info.label(text=f"{library.LOCAL_COLUMN} = {item.distance:.4f} (motion and pose)")
+    else:
+        info.label(text=f"sim^{s.level} = {item.distance:.4f}" + (f", d_S* = {item.elastic:.4f}"
+                                                                  if item.has_elastic else ""))
     window = f"frames {item.frame_first}-{item.frame_last}" if item.frame_last else f"{item.frames} frames"
     cover = f" of {res.query_bones} ({item.coverage:.0%})" if res.query_bones else ""
     info.label(text=f"{window}, compared on {item.shared} bones{cover}")

@@ -160,6 +160,7 @@ def test_a_hand_mapped_bone_raises_coverage(daz, data_dir):
     bpy.context.view_layer.objects.active = daz
     s = bpy.context.scene.shapesig
     s.rerank = 0
+    s.similarity = "sim"  # bones compared: the signature search's coverage
     name = other.animation_data.action.name
     row = _rank(s)[name]
     before = (row.shared, row.coverage)

@@ -58,7 +58,8 @@ def test_env_index_folder_keeps_user_files_through_build_rank_and_clear(scene, t
     monkeypatch.setenv(index.CACHE_ENV, str(named))
     assert bpy.ops.shapesig.build_index("EXEC_DEFAULT") == {"FINISHED"}
     own = named / index.CACHE_SUBDIR
-    assert len(list(own.glob("*.npz"))) == 2 and "signature cache" not in _message()
+    # two clips: a signature entry and a local-search entry each
+    assert len(list(own.glob("*.npz"))) == 4 and "signature cache" not in _message()
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
     assert _rows()
     assert bpy.ops.shapesig.clear_index("EXEC_DEFAULT") == {"FINISHED"}
@@ -77,7 +78,7 @@ def test_index_folder_preference_blend_folder_keeps_its_files(scene, tmp_path, m
     assert os.path.abspath(library.cache_dir(bpy.context)) == str(tmp_path)
     assert bpy.ops.shapesig.build_index("EXEC_DEFAULT") == {"FINISHED"}
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
-    assert len(list((tmp_path / index.CACHE_SUBDIR).glob("*.npz"))) == 2
+    assert len(list((tmp_path / index.CACHE_SUBDIR).glob("*.npz"))) == 4  # signature and local entries
     assert bpy.ops.shapesig.clear_index("EXEC_DEFAULT") == {"FINISHED"}
     assert _untouched(tmp_path, files) and blend.read_bytes() == saved
     assert list((tmp_path / index.CACHE_SUBDIR).glob("*.npz")) == []

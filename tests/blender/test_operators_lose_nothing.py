@@ -215,6 +215,11 @@ def test_rows_follow_one_named_sort_column(rig):
     s = bpy.context.scene.shapesig
     res = library.results_of(bpy.context)
     s.rerank, s.top = 0, 0
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}  # the default, Similarity: Motion and pose
+    scores = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
+    assert res.order_by == "score" and scores == sorted(scores) and "sorted by score" in res.message
+    assert "score \u25b2" in _draw().labels()
+    s.similarity = "sim"
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     sims = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
     assert res.order_by == "sim^3" and sims == sorted(sims) and "sorted by sim^3" in res.message
@@ -227,7 +232,7 @@ def test_rows_follow_one_named_sort_column(rig):
     # the same d_S* and order as the core's own re-rank of the best two
     _obj, _act, q = library.query_item(bpy.context, s)
     items = [it for it in library.library_items(bpy.context, s, rig) if it.key != q.key]
-    core = index.rank_clips(q, items, rerank=2, top=2, cache=library.get_cache(bpy.context))
+    core = index.rank_clips(q, items, rerank=2, top=2, cache=library.get_cache(bpy.context), metric="sim")
     # (the rows keep float32)
     assert [(r.name, pytest.approx(r.elastic, rel=1e-6)) for r in core] == [(r.name, r.elastic) for r in bpy.context.window_manager.shapesig_results.results]
     lay = _draw()
@@ -303,7 +308,8 @@ def test_rank_modal_progress_escape_and_measured_time(rig):
     op = stand()
     op.t0 = time.perf_counter()
     op._start(ctx)
-    assert op.job.total == 4 + 1 + 10 - 0 and op.modal(ctx, SimpleNamespace(type="MOUSEMOVE")) == {"PASS_THROUGH"}
+    # the library, the query and no d_S* step (the local search re-scores its shortlist inside the ranking)
+    assert op.job.total == 4 + 1 and op.modal(ctx, SimpleNamespace(type="MOUSEMOVE")) == {"PASS_THROUGH"}
     op.job.step()
     assert 0 < op.job.progress < 1 and op.job.indexed == 1
     assert op.modal(ctx, SimpleNamespace(type="ESC")) == {"CANCELLED"}
@@ -329,6 +335,8 @@ def test_level_four_cost_estimate_and_confirmation(rig, monkeypatch):
 
     s = bpy.context.scene.shapesig
     s.level = 4
+    assert "costly" not in _draw().labels()  # the local search (the default) indexes at the default level
+    s.similarity = "sim"
     clips, seconds, nbytes = library.index_cost(bpy.context, s)
     _o, _a, q = library.query_item(bpy.context, s)
     clip = q.clips()[0]

@@ -98,8 +98,9 @@ def test_registered(addon):
 def test_file_library_ranks_walks_first_and_caches(rig):
     # the index compares on the comparison time base (core.clip.prepare), as clip_distance does by default
     hashes = {a.name: action_io.action_hash(a) for a in bpy.data.actions}
-    assert bpy.ops.shapesig.rank() == {"FINISHED"}
     s = bpy.context.scene.shapesig
+    s.similarity = "sim"  # Similarity: Motion only (the signature index, its cache and the d_S* re-rank)
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
     got = _results()
     assert [n for n, _ in got][:2] in (["walk2", "walk3"], ["walk3", "walk2"])
     assert {n for n, _ in got[2:]} == {"run1", "run2", "jump"}
@@ -160,12 +161,30 @@ def test_file_library_ranks_walks_first_and_caches(rig):
     assert best.elastic == pytest.approx(clip_distance(q, _read(best.name, rig), "elastic"), rel=2e-3)
 
 
+def test_find_similar_defaults_to_motion_and_pose(rig):
+    """The default click runs the local search: the rows are the core's ``rank_clips`` (metric local) of the same
+    clips read as the library reads them, sorted by its score; a second click computes nothing."""
+    s = bpy.context.scene.shapesig
+    assert s.similarity == "local"
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    res = bpy.context.window_manager.shapesig_results
+    got = [(r.name, r.distance) for r in res.results]
+    assert res.order_by == "score" and [n for n, _ in got][:2] in (["walk2", "walk3"], ["walk3", "walk2"])
+    q = _read("walk1", rig)
+    truth = search.rank_clips(q, [_read(n, rig) for n, _ in got])  # the default metric
+    assert [(r.name, pytest.approx(r.distance, rel=1e-5)) for r in truth] == got
+    cache = _cache()
+    before = dict(cache.stats)
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert cache.stats["misses"] == before["misses"] and _results() == got
+
+
 def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_env):
     s = bpy.context.scene.shapesig
     assert bpy.ops.shapesig.build_index("INVOKE_DEFAULT") == {"FINISHED"}
     assert "6 computed" in bpy.context.window_manager.shapesig_results.message and not s.index_running
     files = sorted(p for p in (cache_env / search.CACHE_SUBDIR).iterdir() if p.suffix == ".npz")
-    assert len(files) == 6
+    assert len(files) == 12  # each clip: its signature entry and its local-search entry
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
     assert "0 computed" in bpy.context.window_manager.shapesig_results.message
     # corrupt one entry file on disk, and forget the session's memory layer: it is detected and rebuilt
@@ -183,6 +202,7 @@ def test_folder_library(empty_file, cache_env):
     arm = _import_bvh("07_01", "walk1")
     s = bpy.context.scene.shapesig
     s.use_file_actions, s.use_folders, s.folders, s.crop_start = False, True, str(BVH), 2
+    s.similarity = "sim"  # the query's own file at sim 0 (the local search's float16 windows: about 5e-4)
     s.fps = 120.0  # Blender's BVH importer records no rate: the action is read at the files' (Frame Time 1/120 s)
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     names = [r.name for r in bpy.context.window_manager.shapesig_results.results]
@@ -370,13 +390,16 @@ def test_actions_of_another_rig_are_read_with_it_and_mapped(rig):
     bpy.context.view_layer.objects.active = rig
     s = bpy.context.scene.shapesig
     s.rerank, s.top = 10, 0
-    assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    names = [r.name for r in bpy.context.window_manager.shapesig_results.results]
-    assert len(names) == 6 and not any(r.partial for r in bpy.context.window_manager.shapesig_results.results), names
-    assert names.index(amc_action) < min(names.index(n) for n in ("run1", "run2", "jump")), names
-    assert "shares only" not in bpy.context.window_manager.shapesig_results.message
-    row = bpy.context.window_manager.shapesig_results.results[names.index(amc_action)]
-    assert row.shared == bpy.context.window_manager.shapesig_results.results[0].shared >= 19  # the canonical joints both rigs have
+    for similarity in ("local", "sim"):  # the default search and the signature search
+        s.similarity = similarity
+        assert bpy.ops.shapesig.rank() == {"FINISHED"}
+        rows = bpy.context.window_manager.shapesig_results.results
+        names = [r.name for r in rows]
+        assert len(names) == 6 and not any(r.partial for r in rows), names
+        assert names.index(amc_action) < min(names.index(n) for n in ("run1", "run2", "jump")), names
+        assert "shares only" not in bpy.context.window_manager.shapesig_results.message
+    row = rows[names.index(amc_action)]
+    assert row.shared == rows[0].shared >= 19  # sim: the canonical joints both rigs have
     from blender_shapesig.library import owner_armature
 
     assert owner_armature(bpy.data.actions[amc_action], rig) == amc_rig

@@ -54,7 +54,7 @@ def test_index_entries_and_ranking_run_on_one_thread(two_threads, data_dir, monk
     d = data_dir / "acclaim"
     a = load_acclaim(str(d / "07_01.amc"), str(d / "07-walk.asf"))
     b = load_acclaim(str(d / "07_02.amc"), str(d / "07-walk.asf"))
-    res = search.rank_clips(sources.clip_item(a), [sources.clip_item(b)], cache=search.SignatureCache())
+    res = search.rank_clips(sources.clip_item(a), [sources.clip_item(b)], cache=search.SignatureCache(), metric="sim")
     assert len(res) == 1 and seen == [1, 1]
     assert blas.blas_threads() == 2
 

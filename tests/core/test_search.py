@@ -90,7 +90,7 @@ def test_rank_matches_clip_distance_and_walk_beats_runs(clips, mem):
     # the index signs the curves on the comparison time base, as clip_distance prepares them; see docs/search.md
     q = clips["07_01"]
     lib = [clips[k] for k in ("09_02", "07_02", "16_15", "09_03")]
-    res = search.rank_clips(q, lib, cache=mem)
+    res = search.rank_clips(q, lib, cache=mem, metric="sim")
     assert [r.name for r in res][:2] in (["07_02", "16_15"], ["16_15", "07_02"])
     assert {r.name for r in res[2:]} == {"09_02", "09_03"}
     for r in res:
@@ -104,8 +104,8 @@ def test_level_from_metric_name_and_argument(clips, mem):
     q, other = clips["07_01"], clips["09_02"]
     d2 = search.rank_clips(q, [other], metric="sim2", cache=mem)[0].distance
     assert d2 == pytest.approx(clip_distance(q, other, "sim", 2), rel=1e-5)
-    assert search.rank_clips(q, [other], level=2, cache=mem)[0].distance == pytest.approx(d2, rel=1e-12)
-    assert abs(d2 - search.rank_clips(q, [other], cache=mem)[0].distance) > 1e-3
+    assert search.rank_clips(q, [other], level=2, cache=mem, metric="sim")[0].distance == pytest.approx(d2, rel=1e-12)
+    assert abs(d2 - search.rank_clips(q, [other], cache=mem, metric="sim")[0].distance) > 1e-3
 
 
 def test_different_still_joints_and_other_skeletons(clips, mem):
@@ -116,7 +116,7 @@ def test_different_still_joints_and_other_skeletons(clips, mem):
     c2 = clips["09_02"].select(clips["09_02"].bones[:20])  # another skeleton: a bone subset
     c2.name = "subset"
     c3 = Clip("alien", ("a", "b"), np.repeat(np.eye(3)[None, None], 5, 0).repeat(2, 1))
-    res = search.rank_clips(q, [c1, c2, c3], cache=mem)
+    res = search.rank_clips(q, [c1, c2, c3], cache=mem, metric="sim")
     got = {r.name: r for r in res}
     assert set(got) == {"frozen", "subset"}
     assert got["frozen"].distance == pytest.approx(clip_distance(q, c1, "sim", 3), rel=1e-5)
@@ -134,7 +134,7 @@ def test_few_shared_bones_warns(clips, mem):
     q = clips["07_01"]
     small = clips["07_02"].select(clips["07_02"].bones[:4])
     small.name = "small"
-    res = search.rank_clips(q, [small], cache=mem)
+    res = search.rank_clips(q, [small], cache=mem, metric="sim")
     assert len(res) == 1 and any("small" in w and "shares only" in w for w in res.warnings)
 
 
@@ -142,7 +142,7 @@ def test_still_clip_is_at_distance_one(clips, mem):
     q = clips["07_01"]
     still = dataclasses.replace(q, name="still", rotations=np.repeat(q.rotations[:1], 10, axis=0),
                                 root_translation=None, meta={})
-    res = search.rank_clips(q, [still], cache=mem)
+    res = search.rank_clips(q, [still], cache=mem, metric="sim")
     assert res[0].distance == pytest.approx(1.0)
 
 
@@ -150,8 +150,8 @@ def test_rerank_orders_head_by_elastic_distance(clips):
     # clips at the comparison rate (30 fps): the entries' low-pass then equals clip_distance's exactly
     q = decimate_clip(clips["07_01"].crop(end=clips["07_01"].frame_start + 239), 4)
     lib = [decimate_clip(c.crop(end=c.frame_start + 239), 4) for k, c in clips.items() if k != "07_01"]
-    plain = search.rank_clips(q, lib)
-    res = search.rank_clips(q, lib, rerank=3)
+    plain = search.rank_clips(q, lib, metric="sim")
+    res = search.rank_clips(q, lib, rerank=3, metric="sim")
     head, tail = res[:3], res[3:]
     assert {r.name for r in head} == {r.name for r in plain[:3]}
     assert [r.name for r in tail] == [r.name for r in plain[3:]]
@@ -174,9 +174,9 @@ def test_other_metrics_are_pairwise(clips, mem):
 def test_top_and_sketch_pool(clips, mem):
     q = clips["07_01"]
     lib = [clips[k] for k in ("09_02", "07_02", "16_15", "09_03")]
-    exact = search.rank_clips(q, lib, cache=mem)
+    exact = search.rank_clips(q, lib, cache=mem, metric="sim")
     # a pool of 2 sketch candidates out of 4: the sketch must still find the true best two
-    res = search.rank_clips(q, lib, top=2, pool=2, cache=mem)
+    res = search.rank_clips(q, lib, top=2, pool=2, cache=mem, metric="sim")
     assert [r.name for r in res] == [r.name for r in exact[:2]]
     assert res.stats["compared"] == 2
     assert [r.distance for r in res] == [r.distance for r in exact[:2]]
@@ -194,17 +194,17 @@ def test_sketch_distance_estimates_sim(clips):
 
 def test_exclude_and_bad_input(clips, mem):
     q = clips["07_01"]
-    res = search.rank_clips(q, [q, clips["07_02"]], exclude=(q.name,), cache=mem)
+    res = search.rank_clips(q, [q, clips["07_02"]], exclude=(q.name,), cache=mem, metric="sim")
     assert [r.name for r in res] == ["07_02"]
     with pytest.raises(ShapeSigError, match="top"):
-        search.rank_clips(q, [clips["07_02"]], top=0, cache=mem)
+        search.rank_clips(q, [clips["07_02"]], top=0, cache=mem, metric="sim")
     with pytest.raises(ShapeSigError, match="unknown metric"):
         search.rank_clips(q, [clips["07_02"]], metric="cosine", cache=mem)
     with pytest.raises(ShapeSigError, match="Clips or LibraryItems"):
-        search.rank_clips(q, ["07_02.amc"], cache=mem)
+        search.rank_clips(q, ["07_02.amc"], cache=mem, metric="sim")
     with pytest.raises(ShapeSigError, match="query"):
-        search.rank_clips("07_01", [clips["07_02"]], cache=mem)
-    assert search.rank_clips(q, []) == []
+        search.rank_clips("07_01", [clips["07_02"]], cache=mem, metric="sim")
+    assert search.rank_clips(q, [], metric="sim") == []
 
 
 # ------------------------------------------------------------------------------------------ cache
@@ -212,15 +212,15 @@ def test_exclude_and_bad_input(clips, mem):
 def test_cache_hits_across_instances_and_invalidation_after_an_edit(clips, tmp_path):
     q = clips["07_01"]
     lib = [clips[k] for k in ("07_02", "09_02", "16_15")]
-    first = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
+    first = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path), metric="sim")
     assert first.stats["misses"] == 4 and first.stats["hits"] == 0 and first.stats["writes"] == 4
-    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))  # a new process, same folder
+    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path), metric="sim")  # a new process, same folder
     assert again.stats["misses"] == 0 and again.stats["disk_hits"] == 4
     assert [(r.name, r.distance) for r in again] == [(r.name, r.distance) for r in first]
     # edit one keyframe of one library clip: its key changes, it alone is recomputed
     edited = _modified(clips["09_02"], frame=12)  # a frame the 30 fps time base keeps (every 4th at 120 fps)
     lib2 = [lib[0], edited, lib[2]]
-    third = search.rank_clips(q, lib2, cache=search.SignatureCache(tmp_path))
+    third = search.rank_clips(q, lib2, cache=search.SignatureCache(tmp_path), metric="sim")
     assert third.stats["misses"] == 1 and third.stats["disk_hits"] == 3
     d = {r.name: r.distance for r in third}
     assert d["09_02"] == pytest.approx(clip_distance(q, edited, "sim", 3), rel=1e-5)
@@ -230,13 +230,13 @@ def test_cache_hits_across_instances_and_invalidation_after_an_edit(clips, tmp_p
 def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     q, c = clips["07_01"], clips["07_02"]
     cache = search.SignatureCache(tmp_path)
-    truth = search.rank_clips(q, [c], cache=cache)[0].distance
+    truth = search.rank_clips(q, [c], cache=cache, metric="sim")[0].distance
     key = search.clip_key(c)
     fn = cache.file_for(key, search.DEFAULT_LEVEL)
     # 1) garbage bytes
     with open(fn, "wb") as f:
         f.write(b"not a zip file at all")
-    res = search.rank_clips(q, [c], cache=search.SignatureCache(tmp_path))
+    res = search.rank_clips(q, [c], cache=search.SignatureCache(tmp_path), metric="sim")
     assert res.stats["invalid"] == 1 and res.stats["misses"] == 1
     assert res[0].distance == pytest.approx(truth, rel=1e-12)
     assert np.load(fn)["meta"].size > 0  # rewritten, readable
@@ -244,7 +244,7 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     data = open(fn, "rb").read()
     with open(fn, "wb") as f:
         f.write(data[: len(data) // 2])
-    res = search.rank_clips(q, [c], cache=search.SignatureCache(tmp_path))
+    res = search.rank_clips(q, [c], cache=search.SignatureCache(tmp_path), metric="sim")
     assert res.stats["invalid"] == 1 and res[0].distance == pytest.approx(truth, rel=1e-12)
     # 3) an entry of another format version
     with np.load(fn) as z:
@@ -253,7 +253,7 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     meta["format"] = search.CACHE_FORMAT + 1
     arrays["meta"] = np.frombuffer(json.dumps(meta).encode(), np.uint8)
     np.savez(fn, **arrays)
-    res = search.rank_clips(q, [c], cache=search.SignatureCache(tmp_path))
+    res = search.rank_clips(q, [c], cache=search.SignatureCache(tmp_path), metric="sim")
     assert res.stats["invalid"] == 1 and res.stats["misses"] == 1
     # 4) spoiled after the light read (meta + sketch) and before the directions are needed: recomputed
     cache2 = search.SignatureCache(tmp_path)
@@ -261,7 +261,7 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
     assert search.item_entries(item, search.DEFAULT_LEVEL, cache2)[0].direction is None  # a light read
     with open(fn, "wb") as f:
         f.write(b"spoiled")
-    res = search.rank_clips(q, [item], cache=cache2)
+    res = search.rank_clips(q, [item], cache=cache2, metric="sim")
     assert res.stats["invalid"] == 1 and res.stats["misses"] == 1
     assert res[0].distance == pytest.approx(truth, rel=1e-12)
     # 5) a manifest of another version removes the cache's own entry files (in its own folder)
@@ -279,12 +279,12 @@ def test_corrupt_and_outdated_entries_are_rebuilt(clips, tmp_path):
 def test_memory_limit_drops_and_rereads(clips, tmp_path):
     q = clips["07_01"]
     lib = [clips[k] for k in ("07_02", "09_02", "09_03", "16_15")]
-    truth = [(r.name, r.distance) for r in search.rank_clips(q, lib, cache=search.SignatureCache())]
+    truth = [(r.name, r.distance) for r in search.rank_clips(q, lib, cache=search.SignatureCache(), metric="sim")]
     cache = search.SignatureCache(tmp_path, memory_limit=1)
-    search.rank_clips(q, lib, cache=cache)
+    search.rank_clips(q, lib, cache=cache, metric="sim")
     dropped = [e for (_k, _l), es in cache._mem.items() for e in es if e.direction is None]
     assert dropped  # the limit forced entries out of memory
-    res = search.rank_clips(q, lib, cache=cache)
+    res = search.rank_clips(q, lib, cache=cache, metric="sim")
     assert [(r.name, r.distance) for r in res] == truth
     assert res.stats["misses"] == 0
     loaded = [e for (_k, _l), es in cache._mem.items() for e in es if e.direction is not None]
@@ -303,10 +303,10 @@ def test_folder_library_keys_follow_file_contents(data_dir, tmp_path):
     assert [it.name for it in items] == ["07_01", "07_02"]
     # folder .amc clips are read through the front door (armature axes, the comparison space): so must the query be
     q = sources.read_one(sources.ClipSpec(str(src / "07_01.amc"), asf=str(src / "07-walk.asf")))
-    first = search.rank_clips(q, items, cache=search.SignatureCache(cache_dir))
+    first = search.rank_clips(q, items, cache=search.SignatureCache(cache_dir), metric="sim")
     assert first[0].name == "07_01" and first[0].distance == pytest.approx(0.0, abs=1e-6)
     again = search.rank_clips(q, search.folder_library(tmp_path, asf=str(tmp_path / "07-walk.asf")),
-                              cache=search.SignatureCache(cache_dir))
+                              cache=search.SignatureCache(cache_dir), metric="sim")
     assert again.stats["misses"] == 0
     # edit one value in 07_02.amc: only that file is read again
     text = (tmp_path / "07_02.amc").read_text().splitlines()
@@ -316,7 +316,7 @@ def test_folder_library_keys_follow_file_contents(data_dir, tmp_path):
     text[i] = " ".join(parts)
     (tmp_path / "07_02.amc").write_text("\n".join(text) + "\n")
     third = search.rank_clips(q, search.folder_library(tmp_path, asf=str(tmp_path / "07-walk.asf")),
-                              cache=search.SignatureCache(cache_dir))
+                              cache=search.SignatureCache(cache_dir), metric="sim")
     assert third.stats["misses"] == 1 and third.stats["disk_hits"] == 2
     with pytest.raises(ShapeSigError, match="does not exist"):
         search.folder_library(tmp_path / "nope")
@@ -329,7 +329,8 @@ def test_build_index_progress_and_cancel(clips, tmp_path):
                               progress=lambda i, n, name: seen.append((i, n)) or i < 2)
     assert info["clips"] == 2 and seen[:3] == [(0, 5), (1, 5), (2, 5)]
     info = search.build_index(items, cache=search.SignatureCache(tmp_path))
-    assert info["clips"] == 5 and info["stats"]["disk_hits"] == 2 and info["stats"]["misses"] == 3
+    # two items were indexed (signature and local entries: 4 files), three are computed (6 entries)
+    assert info["clips"] == 5 and info["stats"]["disk_hits"] == 4 and info["stats"]["misses"] == 6
 
 
 def test_default_cache_dir_honours_environment(monkeypatch, tmp_path):
@@ -340,22 +341,22 @@ def test_default_cache_dir_honours_environment(monkeypatch, tmp_path):
 def test_compact_index_ranks_by_sketch(clips, tmp_path):
     q = clips["07_01"]
     lib = [clips[k] for k in ("09_02", "07_02", "16_15", "09_03")]
-    exact = {r.name: r.distance for r in search.rank_clips(q, lib, cache=search.SignatureCache())}
+    exact = {r.name: r.distance for r in search.rank_clips(q, lib, cache=search.SignatureCache(), metric="sim")}
     compact = search.SignatureCache(tmp_path, max_direction=10_000)  # 31-bone level-3 directions are longer
-    res = search.rank_clips(q, lib, cache=compact, rerank=1)
+    res = search.rank_clips(q, lib, cache=compact, rerank=1, metric="sim")
     assert all(r.approximate for r in res)
     assert [r.name for r in res][:2] == sorted(exact, key=exact.get)[:2]
     for r in res:
         assert r.distance == pytest.approx(exact[r.name], rel=0.15)
     assert res[0].elastic is not None  # the elastic re-rank does not need the directions
     # on disk: no direction stored, read back the same, and much smaller than the exact entries
-    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path, max_direction=10_000))
+    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path, max_direction=10_000), metric="sim")
     assert again.stats["misses"] == 0 and [r.distance for r in again][1:] == [r.distance for r in res][1:]
     full = search.SignatureCache(tmp_path / "full")
-    search.rank_clips(q, lib, cache=full)
+    search.rank_clips(q, lib, cache=full, metric="sim")
     assert compact.disk_usage()[1] < 0.5 * full.disk_usage()[1]
     # the exact cache in the same folder does not reuse compact entries
-    mixed = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
+    mixed = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path), metric="sim")
     assert mixed.stats["misses"] == 5 and not any(r.approximate for r in mixed)
 
 
@@ -385,7 +386,7 @@ def test_file_items_for_command_line_specs(data_dir, tmp_path):
     bad = tmp_path / "bad.amc"
     bad.write_text("this is not an AMC file\n")
     q = load_acclaim(specs[0], asf)
-    res = search.rank_clips(q, search.folder_library([str(bad), specs[1]], asf=asf))
+    res = search.rank_clips(q, search.folder_library([str(bad), specs[1]], asf=asf), metric="sim")
     assert [r.name for r in res] == ["07_02"] and any("bad" in w for w in res.warnings)
 
 
@@ -399,7 +400,7 @@ def test_clips_sharing_few_moving_bones_rank_after_the_rest(data_dir):
     head_only = q.select(("head", "lowerneck"))
     head_only.name = "head_only"
     for rerank in (0, 3):
-        res = search.rank_clips(q, [head_only, run, walk], rerank=rerank)
+        res = search.rank_clips(q, [head_only, run, walk], rerank=rerank, metric="sim")
         assert [r.name for r in res] == ["07_02", "09_02", "head_only"], rerank
         assert [r.partial for r in res] == [False, False, True]
         assert res[2].distance < res[0].distance  # it would have been first on distance alone
@@ -445,7 +446,7 @@ def test_light_pack_answers_lookups_of_a_new_process_in_one_read(clips, tmp_path
 
     q = clips["07_01"]
     lib = [clips[k] for k in ("07_02", "09_02", "16_15")]
-    first = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
+    first = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path), metric="sim")
     assert (tmp_path / search.CACHE_SUBDIR / store_mod._PACK).exists()
     opened = []
     real_load = store_mod.np.load
@@ -460,7 +461,7 @@ def test_light_pack_answers_lookups_of_a_new_process_in_one_read(clips, tmp_path
     for it in items:
         assert cache.get(it.key, 3) is not None
     assert opened == [store_mod._PACK]  # one read for the four lookups
-    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path))
+    again = search.rank_clips(q, lib, cache=search.SignatureCache(tmp_path), metric="sim")
     assert [(r.name, r.distance) for r in again] == [(r.name, r.distance) for r in first]
     # an entry file rewritten since the pack was saved is read from its file
     target = cache.file_for(items[1].key, 3)

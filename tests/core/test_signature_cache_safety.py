@@ -28,7 +28,7 @@ def clips():
 @pytest.fixture(scope="module")
 def truth(clips):
     """The ranking with no disk cache at all."""
-    return _ranked(search.rank_clips(clips[0], clips[1:], cache=search.SignatureCache()))
+    return _ranked(search.rank_clips(clips[0], clips[1:], cache=search.SignatureCache(), metric="sim"))
 
 
 def _ranked(results):
@@ -58,7 +58,7 @@ def test_user_files_in_the_named_folder_survive_rank_outdated_format_and_clear(c
     files = _user_files(tmp_path)
     cache = search.SignatureCache(tmp_path)
     assert cache.path == os.path.join(tmp_path, search.CACHE_SUBDIR) and cache.warning is None
-    assert _ranked(search.rank_clips(clips[0], clips[1:], cache=cache)) == truth
+    assert _ranked(search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")) == truth
     assert cache.disk_usage()[0] == 4
     # a user's file inside the cache's own folder too: not a name the cache writes
     own = tmp_path / search.CACHE_SUBDIR
@@ -70,7 +70,7 @@ def test_user_files_in_the_named_folder_survive_rank_outdated_format_and_clear(c
     assert reopened.stats["invalid"] == 1 and reopened.disk_usage()[0] == 0
     assert (own / "keep.npz").read_bytes() == b"user data"
     assert (own / "ABCDEF0123456789ABCDEF0123456789ABCDEF01.npz").exists()
-    assert _ranked(search.rank_clips(clips[0], clips[1:], cache=reopened)) == truth
+    assert _ranked(search.rank_clips(clips[0], clips[1:], cache=reopened, metric="sim")) == truth
     reopened.clear()
     assert reopened.disk_usage()[0] == 0
     assert sorted(os.listdir(own)) == ["ABCDEF0123456789ABCDEF0123456789ABCDEF01.npz", "CACHEDIR.TAG", "keep.npz",
@@ -87,7 +87,7 @@ def test_a_folder_of_its_name_that_it_did_not_mark_is_refused_untouched(clips, t
     before = sorted(os.listdir(own))
     cache = search.SignatureCache(tmp_path)
     assert cache.path is None and "did not write" in cache.warning and "\n" not in cache.warning
-    ranked = search.rank_clips(clips[0], clips[1:], cache=cache)
+    ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth and ranked.warnings == [cache.warning]
     cache.clear()
     assert sorted(os.listdir(own)) == before
@@ -157,7 +157,7 @@ def test_fallback_folder_is_private(no_home, clips, truth):
     cache = search.SignatureCache(search.default_cache_dir())
     assert cache.warning is None and cache.path == os.path.join(no_home, search.CACHE_SUBDIR)
     assert os.stat(no_home).st_mode & 0o777 == 0o700
-    assert _ranked(search.rank_clips(clips[0], clips[1:], cache=cache)) == truth
+    assert _ranked(search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")) == truth
     assert cache.disk_usage()[0] == 4
 
 
@@ -167,7 +167,7 @@ def test_fallback_folder_planted_as_a_symlink_is_refused(no_home, clips, truth, 
     os.symlink(elsewhere, no_home)
     cache = search.SignatureCache(search.default_cache_dir())
     assert cache.path is None and "symbolic link" in cache.warning
-    ranked = search.rank_clips(clips[0], clips[1:], cache=cache)
+    ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth and ranked.warnings == [cache.warning]
     assert os.listdir(elsewhere) == []  # nothing written through the link
 
@@ -215,7 +215,7 @@ def test_unwritable_at_open_gives_the_memory_ranking_and_one_warning(clips, trut
     monkeypatch.setattr(store_mod.os, "replace", fail)
     cache = search.SignatureCache(tmp_path)
     assert cache.path is None and error.strerror in cache.warning
-    ranked = search.rank_clips(clips[0], clips[1:], cache=cache)
+    ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth and ranked.warnings == [cache.warning]
 
 
@@ -231,12 +231,12 @@ def test_unwritable_after_open_gives_the_memory_ranking_and_one_warning(clips, t
         raise error
 
     monkeypatch.setattr(store_mod.tempfile, "mkstemp", fail)
-    ranked = search.rank_clips(clips[0], clips[1:], cache=cache)
+    ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth
     assert len(calls) == 1  # one failed write, then memory only (not one attempt and warning per clip)
     assert ranked.warnings == [cache.warning] and error.strerror in cache.warning
     assert cache.disk_usage()[0] == 0
-    again = search.rank_clips(clips[0], clips[1:], cache=cache)  # the memory layer still answers
+    again = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")  # the memory layer still answers
     assert _ranked(again) == truth and again.stats["misses"] == 0
 
 
@@ -250,7 +250,7 @@ def test_pack_that_cannot_be_saved_gives_one_warning(clips, truth, tmp_path, mon
         return real(self, target, data)
 
     monkeypatch.setattr(search.SignatureCache, "_atomic_write", no_pack)
-    ranked = search.rank_clips(clips[0], clips[1:], cache=cache)
+    ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth and ranked.warnings == [cache.warning]
     assert "No space left" in cache.warning and cache.disk_usage()[0] == 4  # the entries were written before
     info = search.build_index(search.clip_items(clips), cache=cache)
@@ -260,7 +260,7 @@ def test_pack_that_cannot_be_saved_gives_one_warning(clips, truth, tmp_path, mon
 def test_read_only_cache_folder_still_reads_and_warns_once(clips, truth, tmp_path, monkeypatch):
     """A full index on a read-only folder (simulated: tests may run as root, where chmod does not stop writes):
     every lookup is a hit, nothing is written, one warning when the pack cannot be refreshed."""
-    search.rank_clips(clips[0], clips[1:], cache=search.SignatureCache(tmp_path))
+    search.rank_clips(clips[0], clips[1:], cache=search.SignatureCache(tmp_path), metric="sim")
     own = tmp_path / search.CACHE_SUBDIR
     (own / store_mod._PACK).unlink()  # the pack must be written again: the write fails
 
@@ -269,6 +269,6 @@ def test_read_only_cache_folder_still_reads_and_warns_once(clips, truth, tmp_pat
 
     monkeypatch.setattr(store_mod.tempfile, "mkstemp", read_only)
     cache = search.SignatureCache(tmp_path)
-    ranked = search.rank_clips(clips[0], clips[1:], cache=cache)
+    ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth and ranked.stats["misses"] == 0
     assert ranked.warnings == [cache.warning] and "Read-only" in cache.warning

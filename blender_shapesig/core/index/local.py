@@ -31,7 +31,7 @@ except ImportError:  # pragma: no cover - depends on the environment
     _numba = None
 
 __all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
-           "POINTS", "SEGMENTS", "Settings", "DEFAULT", "rig_positions", "body_positions", "features",
+           "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
            "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
            "first_stage", "dtw", "rerank", "path_distances", "combine", "search"]
 
@@ -82,6 +82,11 @@ class Settings:
 
 
 DEFAULT = Settings()
+
+
+def settings_key(settings: Settings = DEFAULT) -> str:
+    """The settings as text: part of a stored entry's key (``SignatureCache.put_local``)."""
+    return repr(settings.key())
 
 
 # ------------------------------------------------------------------------------------------------- positions

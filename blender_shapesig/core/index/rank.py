@@ -1,6 +1,7 @@
 """Ranking a library against a query and the one index generator: ``iter_entries`` (computes what the store lacks
-and stores it), ``build_index`` and ``rank_clips`` (-> ``RankList`` of ``RankResult``): sketches shortlist, exact
-word-code distances, other skeletons on their shared bones, an optional d_S* re-rank.
+and stores it), ``build_index`` and ``rank_clips`` (-> ``RankList`` of ``RankResult``): by default the local search
+(``local_rank``; clips it cannot read after the others by sim3), else sketches shortlist, exact word-code distances,
+other skeletons on their shared bones, an optional d_S* re-rank.
 See docs/search.md.
 """
 
@@ -14,11 +15,13 @@ import numpy as np
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
-from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, curve_distance, parse_metric
+from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, DEFAULT_METRIC, LOCAL, curve_distance, parse_metric
 from ..rigs import MIN_COVERAGE
 from ..io.sources import LibraryItem, as_items, clip_item, library
 from .entry import (IndexEntry, curve_from_increments, entry_distance, make_entry, pair_increments,
                     sim_from_increments, sketch_distance)
+from .local import SHORTLIST
+from .local_rank import item_local_entries, local_entries, query_local_entry, rank_local
 from .store import SignatureCache
 
 __all__ = ["EXACT_POOL", "FEW_SHARED", "RankResult", "RankList", "clip_items", "folder_library", "item_entries",
@@ -53,10 +56,15 @@ class RankResult:
     end: Optional[int] = None
     explain: Optional[dict] = None  # ``core.elastic.explain``: per-joint shares, cost over time
     trimmed: Tuple[int, ...] = ()  # (first kept, last kept, first read, last read) when trimming cut frames
+    metric: str = ""  # the measure of ``distance`` ("local", "sim3", ...: a local ranking ranks some clips by sim3)
+    first_stage: Optional[float] = None  # the local search: the first stage's distance of the clip
+    dtw: Optional[float] = None  # the local search: the second stage's DTW distance (the shortlist only)
 
     def as_dict(self):
         out = {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
                "source": self.source, "coverage": self.coverage}
+        if self.metric:
+            out.update(metric=self.metric, first_stage=self.first_stage, dtw=self.dtw)
         if self.start is not None:
             out.update(start=self.start, end=self.end)
         return out
@@ -106,9 +114,22 @@ def item_entries(item: LibraryItem, level, store: SignatureCache) -> List[IndexE
     return out
 
 
-def iter_entries(items, level=DEFAULT_LEVEL, store=None, errors=None, progress=None):
+def _read_once(item: LibraryItem) -> LibraryItem:
+    """The item with a loader that reads its clips at most once (both kinds of entries come from one read)."""
+    got = []
+
+    def load():
+        if not got:
+            got.append(item.clips())
+        return got[0]
+
+    return dataclasses.replace(item, load=load)
+
+
+def iter_entries(items, level=DEFAULT_LEVEL, store=None, errors=None, progress=None, local=False):
     """The index loop: yield (item, entries) for every item, in order, each computed only when the store does
-    not hold it. A ShapeSigError while loading an item is recorded in ``errors`` (a list of one-line messages;
+    not hold it; with ``local``, the item's local-search entries too (``local_rank.item_local_entries``: in the
+    store, not yielded), from the same read. A ShapeSigError while loading an item is recorded in ``errors`` (a list of one-line messages;
     the item then yields no entries) when given, else raised. ``progress(done, total, name)`` is called before
     each item and may return False to stop early; it is called once more with (total, total, "") at the end."""
     store = store if store is not None else SignatureCache()
@@ -117,7 +138,10 @@ def iter_entries(items, level=DEFAULT_LEVEL, store=None, errors=None, progress=N
         if progress is not None and progress(i, len(items), item.name) is False:
             break
         try:
-            got = item_entries(item, level, store)
+            once = _read_once(item) if local else item
+            if local:
+                item_local_entries(once, store)
+            got = item_entries(once, level, store)
         except ShapeSigError as exc:
             if errors is None:
                 raise
@@ -128,17 +152,17 @@ def iter_entries(items, level=DEFAULT_LEVEL, store=None, errors=None, progress=N
         progress(len(items), len(items), "")
 
 
-def compute_entries(items, level=DEFAULT_LEVEL, cache=None, progress=None, errors=None):
+def compute_entries(items, level=DEFAULT_LEVEL, cache=None, progress=None, errors=None, local=False):
     """[(item, entry)] for every clip of every item, through the store (``iter_entries``)."""
-    return [(item, e) for item, got in iter_entries(items, level, cache, errors, progress) for e in got]
+    return [(item, e) for item, got in iter_entries(items, level, cache, errors, progress, local) for e in got]
 
 
-def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None):
-    """Fill the store for every item; returns a dict with clips, errors, cache stats, seconds and warnings (the
+def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None, local=True):
+    """Fill the store for every item (with ``local``, the default, the local search's entries too); returns a dict with clips, errors, cache stats, seconds and warnings (the
     store's one line when it went on in memory only)."""
     t0 = time.perf_counter()
     errors = []
-    got = compute_entries(items, level, cache, progress, errors)
+    got = compute_entries(items, level, cache, progress, errors, local)
     if cache is not None:
         cache.save_pack()
     return {"clips": len(got), "errors": errors, "seconds": time.perf_counter() - t0,
@@ -269,13 +293,50 @@ def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
     results[:len(head)] = head
 
 
+def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partial, top=None):
+    """(results, warnings, skipped, compared) of the local search: the readable clips by ``local_rank.rank_local``;
+    the clips its features refuse after them, by sim3 on their shared bones, with one warning."""
+    q = query_local_entry(query, store)
+    warnings, skipped = [], []
+    got = local_entries(items, store, progress, warnings)
+    ok = [(item, e) for item, e in got if not e.get("refused")]
+    refused = [(item, e) for item, e in got if e.get("refused")]
+    results = []
+    ranked = rank_local(q, ok, store, shortlist or SHORTLIST)
+    for i, score, d1, d2 in ranked[:top]:  # rows only for what is kept
+        item, e = ok[i]
+        # the body is compared whole: every canonical joint the two clips have (coverage 1)
+        results.append(RankResult(name=e["name"], distance=score, frames=e.get("frames", 0), key=item.key,
+                                  source=item.source, trimmed=tuple(e.get("trimmed", ())), metric=LOCAL,
+                                  first_stage=d1, dtw=d2, shared=min(q.get("bones", 0), e.get("bones", 0))))
+    if refused:
+        warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1]['name']}: "
+                        f"{refused[0][1]['refused']}) are ranked after the others by sim{DEFAULT_LEVEL}")
+    if refused and (top is None or len(results) < top):  # their rows only when they can be kept
+        qs = _query_entry(query, DEFAULT_LEVEL, store)
+        names = {(item.key, e["name"]) for item, e in refused}
+        refused_items = list({item.key: item for item, _ in refused}.values())
+        pairs = [(item, e) for item, e in compute_entries(refused_items, DEFAULT_LEVEL, store, None, warnings)
+                 if (item.key, e.name) in names]
+        tail = _rank_on_shared_bones(qs, pairs, store, "sim", DEFAULT_LEVEL, DEFAULT_LEVEL, depth, warnings, skipped,
+                                     allow_partial)
+        tail.sort(key=lambda r: (r.partial, r.distance, r.name))
+        for r in tail:
+            r.metric = f"sim{DEFAULT_LEVEL}"
+        results += tail
+    return results, warnings, skipped, len(ranked) + len(refused)
+
+
 @one_blas_thread()
-def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cache=None, *,
+def rank_clips(query, library, metric=DEFAULT_METRIC, level=None, rerank=0, top=None, cache=None, *,
                depth=DEFAULT_DEPTH, progress=None, exclude=(), pool=None, allow_partial=True) -> RankList:
     """Rank ``library`` (Clips or LibraryItems) by their distance to ``query`` (a Clip), best first.
 
-    ``metric``: ``sim`` (sim^n, through the index) or any name of ``metrics.parse_metric`` (computed
-    pairwise from the cached increments). ``level``: the signature level (default DEFAULT_LEVEL, or the
+    ``metric``: ``local`` (the default: the local search, ``local_rank``; ``rerank=K`` sets its shortlist,
+    default ``local.SHORTLIST``; ``distance`` is the final score, ``first_stage``/``dtw`` its two stages; clips
+    the local features cannot read, e.g. without legs, come after the others by sim3 with a warning, and such a
+    query is refused in one line), ``sim`` (sim^n, through the index) or any name of ``metrics.parse_metric``
+    (computed pairwise from the cached increments). ``level``: the signature level (default DEFAULT_LEVEL, or the
     digits of e.g. ``sim2``). ``rerank=K``: the first K results are re-ordered by the elastic distance
     d_S* (depth ``depth``), which fills their ``elastic``. ``top``: keep the first ``top``. ``cache``: a
     SignatureCache (default: a fresh in-memory one). ``exclude``: item keys or names to leave out (e.g.
@@ -296,8 +357,18 @@ def rank_clips(query, library, metric="sim", level=None, rerank=0, top=None, cac
             raise ShapeSigError(f"top must be at least 1, got {top}")
     store = cache if cache is not None else SignatureCache()
     before = dict(store.stats)
-    q = _query_entry(query, sig_level, store)
     items = [it for it in as_items(library) if it.key not in exclude and it.name not in exclude]
+    if base == LOCAL:
+        results, warnings, skipped, compared = _rank_by_local(query, items, store, rerank or None, progress, depth,
+                                                              allow_partial, top)
+        store.save_pack()
+        if store.warning:
+            warnings.insert(0, store.warning)
+        stats = {k: store.stats[k] - before.get(k, 0) for k in store.stats}
+        stats.update(compared=compared, library=compared, seconds=time.perf_counter() - t0)
+        results = results[:top] if top is not None else results
+        return RankList(results, warnings, skipped, stats)
+    q = _query_entry(query, sig_level, store)
     warnings = []
     pairs = compute_entries(items, sig_level, store, progress, warnings)
     store.save_pack()  # the next process looks the library up in one read

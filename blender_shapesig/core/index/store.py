@@ -19,6 +19,7 @@ from typing import Optional
 import numpy as np
 
 from ..signatures import signatures
+from . import local
 from .entry import IndexEntry
 from .words import SKETCH_DIM
 
@@ -28,8 +29,9 @@ __all__ = ["SignatureCache", "default_cache_dir", "private_cache_dir", "CACHE_FO
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
 # 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
 # time base (entry.make_entry), as metrics.clip_distance prepares the curves; 4: entries record the clip's own frame
-# count (clip_frames) beside the prepared curve's
-CACHE_FORMAT = 4
+# count (clip_frames) beside the prepared curve's; 5: local-search entries (core.index.local) in files of their own
+# beside the signature entries
+CACHE_FORMAT = 5
 CACHE_ENV = "SHAPESIG_CACHE_DIR"
 # Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
 COMPACT_MAX_DIRECTION = 65_536
@@ -157,6 +159,8 @@ class SignatureCache:
         self._heavy = {}    # (key, level, name) -> bytes of loaded heavy arrays, insertion = recency order
         self._lock = threading.RLock()
         self._sketch_memo = None
+        self._local = {}    # (key, settings key) -> [local entry]: {"name", "windows", "sequence", "path"} or
+        self._local_memo = None  # {"name", "refused": one line}; the last library's ``local.stack``
         self._pack = None   # entry file name -> (size, mtime_ns, meta, sketches): the light pack (see save_pack)
         self._pack_dirty = False
         self.stats = {"hits": 0, "disk_hits": 0, "misses": 0, "invalid": 0, "writes": 0}
@@ -431,6 +435,98 @@ class SignatureCache:
                 return entry
         return None
 
+    # -- the local search's entries (``core.index.local.index_entry``, about 5 KB a clip): one file per item beside
+    # its signature entries, named by the item's key and the settings' key; clips the local features refuse are
+    # stored as their one-line reason (not computed again)
+    def local_file_for(self, key, settings_key):
+        name = hashlib.sha1(f"{key}|LOCAL|{settings_key}|F{CACHE_FORMAT}".encode()).hexdigest()
+        return os.path.join(self.path, name + ".npz")
+
+    def _read_local(self, key, settings_key):
+        fn = self.local_file_for(key, settings_key)
+        if not os.path.exists(fn):
+            return None
+        try:
+            with np.load(fn, allow_pickle=False) as z:
+                meta = json.loads(bytes(z["meta"]).decode("utf-8"))
+                if (meta.get("format") != CACHE_FORMAT or meta.get("key") != key
+                        or meta.get("settings") != settings_key):
+                    raise ValueError("outdated")
+                out = []
+                for i, m in enumerate(meta["clips"]):
+                    if m.get("refused"):
+                        out.append({"name": m["name"], "refused": str(m["refused"])})
+                        continue
+                    e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
+                         "trimmed": tuple(int(f) for f in m.get("trimmed", ())),
+                         "windows": np.asarray(z[f"w{i}"], np.float16),
+                         "sequence": np.asarray(z[f"q{i}"], np.float16), "path": np.asarray(z[f"p{i}"], np.float32)}
+                    if e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0:
+                        raise ValueError("bad shapes")
+                    out.append(e)
+                return out
+        except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
+            self.stats["invalid"] += 1
+            try:
+                os.remove(fn)
+            except OSError:
+                pass
+            return None
+
+    def _write_local(self, key, settings_key, entries):
+        meta = {"format": CACHE_FORMAT, "key": key, "settings": settings_key,
+                "clips": [{"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
+                           "bones": int(e.get("bones", 0)),
+                           "trimmed": list(e.get("trimmed", ()))} for e in entries]}
+        arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
+        for i, e in enumerate(entries):
+            if not e.get("refused"):
+                arrays[f"w{i}"], arrays[f"q{i}"], arrays[f"p{i}"] = e["windows"], e["sequence"], e["path"]
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        self._atomic_write(self.local_file_for(key, settings_key), buf.getvalue())
+        self.stats["writes"] += 1
+
+    def get_local(self, key, settings_key):
+        """The local-search entries stored for (key, settings key), or None (a miss)."""
+        with self._lock:
+            got = self._local.get((key, settings_key))
+            if got is None and self.path is not None:
+                got = self._read_local(key, settings_key)
+                if got is not None:
+                    self.stats["disk_hits"] += 1
+                    self._local[(key, settings_key)] = got
+            self.stats["hits" if got is not None else "misses"] += 1
+            return got
+
+    def put_local(self, key, settings_key, entries):
+        """Store the local-search entries of (key, settings key) (memory, and disk when the cache has a folder)."""
+        with self._lock:
+            if self.path is not None and self._writable:
+                try:
+                    self._write_local(key, settings_key, entries)
+                except OSError as exc:
+                    self._memory_only(exc)
+            self._local[(key, settings_key)] = list(entries)
+
+    def contains_local(self, key, settings_key=None):
+        """True when the local-search entries of (key, settings key; default ``local.DEFAULT``'s) are cached
+        (memory or disk), reading nothing."""
+        settings_key = settings_key or local.settings_key()
+        return (key, settings_key) in self._local or (
+            self.path is not None and os.path.exists(self.local_file_for(key, settings_key)))
+
+    def local_stack(self, entries):
+        """``local.stack`` of the entries (the library's windows in one block), memoized for the last list of
+        entries: a repeated query over the same library does not restack them."""
+        key = tuple(id(e) for e in entries)
+        memo = self._local_memo
+        if memo is not None and memo[0] == key:
+            return memo[2]
+        block = local.stack(entries)
+        self._local_memo = (key, list(entries), block)
+        return block
+
     def sketch_matrix(self, entries):
         """(S, squared norms) of the entries' sketches stacked, memoized for the last list of entries (a
         repeated query over the same library does not restack them)."""
@@ -448,7 +544,8 @@ class SignatureCache:
         with self._lock:
             self._mem.clear()
             self._heavy.clear()
-            self._sketch_memo = None
+            self._sketch_memo = self._local_memo = None
+            self._local.clear()
             if self.path is not None:
                 self._remove_entry_files()
 

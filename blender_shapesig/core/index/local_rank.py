@@ -1,0 +1,98 @@
+"""The local search (``core.index.local``) over a library, through the signature cache: every item's local entries
+(computed from its comparison-space clips only when the store lacks them; clips the features refuse are kept as
+their one-line reason), the query's entry, and the ranking: the first stage over the library's stacked windows
+(memoized in the store), the first ``shortlist`` re-scored by ``local.combine`` of both stages. ``rank.rank_clips``
+turns it into rows (docs/search.md, "The default search").
+"""
+
+from typing import List, Tuple
+
+import numpy as np
+
+from ..clip.clip import Clip
+from ..clip.trim import trim_record
+from ..errors import ShapeSigError, error_line
+from ..io.sources import LibraryItem, as_items, clip_item
+from . import local
+from .store import SignatureCache
+
+__all__ = ["item_local_entries", "local_entries", "query_local_entry", "rank_local"]
+
+
+def _entry(clip: Clip, settings) -> dict:
+    try:
+        if clip.frames < 2:
+            raise ShapeSigError(f"clip {clip.name!r} has {clip.frames} frame; at least two are needed")
+        e = local.index_entry(clip, settings)
+    except ShapeSigError as exc:
+        return {"name": clip.name, "refused": error_line(exc)}
+    e.update(name=clip.name, frames=int(clip.frames), trimmed=tuple(int(f) for f in trim_record(clip)),
+             bones=len(clip.bones))
+    return e
+
+
+def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.DEFAULT, skey=None) -> List[dict]:
+    """The item's local entries, one per clip: from the store, else computed from its clips (read only then).
+    ``skey``: ``local.settings_key(settings)`` when the caller has it (a library's loop)."""
+    skey = skey or local.settings_key(settings)
+    got = store.get_local(item.key, skey)
+    if got is None:
+        got = [_entry(c, settings) for c in item.clips()]
+        store.put_local(item.key, skey, got)
+    return got
+
+
+def local_entries(items, store: SignatureCache, progress=None, errors=None, settings=local.DEFAULT):
+    """[(item, entry)] for every clip of every item (``rank.iter_entries``' contract for ``progress`` and
+    ``errors``: an item that cannot be read is one line in ``errors`` and yields nothing)."""
+    items, skey = as_items(items), local.settings_key(settings)
+    out = []
+    for i, item in enumerate(items):
+        if progress is not None and progress(i, len(items), item.name) is False:
+            break
+        try:
+            out += [(item, e) for e in item_local_entries(item, store, settings, skey)]
+        except ShapeSigError as exc:
+            if errors is None:
+                raise
+            errors.append(f"{item.name}: {exc}")
+    if progress is not None:
+        progress(len(items), len(items), "")
+    return out
+
+
+def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> dict:
+    """The query's local entry (a Clip or a LibraryItem of one clip); a query the local features refuse is refused
+    in one line that names the signature search instead."""
+    item = clip_item(query) if isinstance(query, Clip) else query
+    if not isinstance(item, LibraryItem):
+        raise ShapeSigError(f"the query must be a Clip, got {type(query).__name__}")
+    got = item_local_entries(item, store, settings)
+    if len(got) != 1:
+        raise ShapeSigError(f"query {item.name!r} holds {len(got)} clips; choose one")
+    if got[0].get("refused"):
+        raise ShapeSigError(f"the local search cannot read the query ({got[0]['refused']}); "
+                            f"rank it by signatures instead (metric sim3; in the panel, Similarity: Motion only)")
+    return got[0]
+
+
+def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST, mix=local.MIX
+               ) -> List[Tuple[int, float, float, object]]:
+    """[(index into ``pairs``, score, first-stage distance, DTW distance or None)], best first, for every pair
+    (item, entry) of readable entries. The shortlist's score is ``local.combine`` (d2 / mean d2 + mix d1 / mean
+    d1 over the shortlist); a clip after it scores max(the shortlist's worst, (1 + mix) d1 / mean d1): its first
+    stage stands for both terms, and the order stays the first stage's."""
+    if not pairs:
+        return []
+    entries = [e for _, e in pairs]
+    d1 = local.first_stage(q, store.local_stack(entries))
+    order = np.argsort(d1, kind="stable")
+    head = order[:max(int(shortlist), 1)]
+    d2 = local.rerank(q, [entries[i] for i in head])
+    score = local.combine(d1[head], d2, mix)
+    m1 = max(float(np.mean(d1[head])), 1e-12)
+    by = np.argsort(score, kind="stable")
+    out = [(int(head[k]), float(score[k]), float(d1[head[k]]), float(d2[k])) for k in by]
+    worst = float(score.max())
+    out += [(int(i), max(worst, (1.0 + mix) * float(d1[i]) / m1), float(d1[i]), None) for i in order[len(head):]]
+    return out
