@@ -3,15 +3,14 @@
 warning, not a failure. Real CMU clips from tests/data renamed into that layout."""
 
 import json
+import pathlib
 import shutil
 
 import pytest
 
 from blender_shapesig import cli
 
-from conftest import DATA
-
-ACC = DATA / "acclaim"
+ACC = pathlib.Path(__file__).resolve().parent / "data" / "acclaim"
 
 
 @pytest.fixture
