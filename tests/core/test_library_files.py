@@ -113,7 +113,7 @@ def test_the_peak_memory_of_refusing_a_500_mb_bvh_is_small(tmp_path):
     path.write_text(_bvh_header(5_000_000))
     os.truncate(path, 500 * 2 ** 20)
     # the peak of this process image: /proc's VmHWM (ru_maxrss would count the forking pytest's size too)
-    code = ("import sys\nfrom blender_shapesig.core import sources\n"
+    code = ("import sys\nfrom blender_shapesig.core.io import sources\n"
             "try:\n    sources.read(sys.argv[1])\nexcept Exception as exc:\n    print(type(exc).__name__)\n"
             "print(next(ln.split()[1] for ln in open('/proc/self/status') if ln.startswith('VmHWM')))\n")
     out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, cwd=ROOT,
