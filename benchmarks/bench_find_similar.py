@@ -72,12 +72,16 @@ def build_file(path, n_actions):
     return build_s
 
 
+SIMILARITY = ["local"]  # --similarity
+
+
 def settings_for(context):
     s = library.settings_of(context)
     s.use_file_actions = True
     s.use_folders = False
     s.rerank = 0
     s.top = 10
+    s.similarity = SIMILARITY[0]
     return s
 
 
@@ -86,7 +90,8 @@ def click(context, settings, cache):
     obj, action, q = library.query_item(context, settings)
     items = [it for it in library.library_items(context, settings, obj) if it.key != q.key]
     t1 = time.perf_counter()
-    res = index.rank_clips(q, items, metric="sim", level=settings.level, rerank=0, top=10, cache=cache)
+    metric = "local" if settings.similarity == "local" else "sim"  # the panel's Similarity
+    res = index.rank_clips(q, items, metric=metric, level=settings.level, rerank=0, top=10, cache=cache)
     t2, c2 = time.perf_counter(), time.process_time()
     return {"wall_ms": (t2 - t0) * 1e3, "cpu_ms": (c2 - c0) * 1e3, "items_ms": (t1 - t0) * 1e3,
             "rank_ms": (t2 - t1) * 1e3, "results": len(res)}
@@ -143,7 +148,10 @@ def main(argv=None):
                     default=pathlib.Path(tempfile.gettempdir()) / "shapesig_bench_actions.blend")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--json", type=pathlib.Path)
+    ap.add_argument("--similarity", choices=("local", "sim"), default="local",
+                    help="the panel's Similarity: local (Motion and pose, the default) or sim (Motion only)")
     args = ap.parse_args(argv)
+    SIMILARITY[0] = args.similarity
     out = {"actions": args.actions, "load_average_1min": os.getloadavg()[0]}
     blender_shapesig.register()
     if not args.blend.exists():

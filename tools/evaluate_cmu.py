@@ -2,6 +2,7 @@
 """Reproduce (and extend) the thesis' experiments on the shared CMU clips (docs/evaluation.md).
 
   .venv/bin/python tools/evaluate_cmu.py --data ../shared/data/cmu --out out/eval [--docs docs/img]
+      [--hdm05 ../shared/data/hdm05] [--crops]
 
 1. ``evaluate`` on the 27-clip set (tools/eval_sets/cmu27.csv: 12 walks, 12 runs, 3 forward jumps)
    and on the larger set (tools/eval_sets/cmu_large.csv: + 17 walks, 5 other jumps), optionally on
@@ -10,7 +11,9 @@
    baseline in the same run, the signature variants and the two-stage search;
 2. the interpolation experiment (thesis Figs 9.1, 9.2, 9.6): every measure between the SRVT
    geodesic blend c(s) of a walk and a run and the run, for s in [0, 1];
-3. with ``--docs DIR``: copies the figures used by docs/evaluation.md to DIR/eval_*.png.
+3. with ``--docs DIR``: copies the figures used by docs/evaluation.md to DIR/eval_*.png;
+4. with ``--hdm05 DIR``: the HDM05 set (tools/eval_sets/hdm05.csv) leave-one-actor-out (``evaluate --group actor``);
+   with ``--crops``: every metric's crop probes (a clip cut by 10 % at either end must find its source first).
 
 Everything goes through the library (``blender_shapesig.evaluation``, ``core.pairwise``) and reads clips
 through the one clip front door (``core.io.sources``), as ``python -m blender_shapesig evaluate`` does, so the
@@ -47,7 +50,11 @@ SETS = {
     "cmu_mixed_format": os.path.join(ROOT, "tools", "eval_sets", "cmu_mixed_format.csv"),
     # The 27 clips with every class at 120, 60 and 30 fps (column step: every step-th frame).
     "cmu27_mixed_rate": os.path.join(ROOT, "tools", "eval_sets", "cmu27_mixed_rate.csv"),
+    # HDM05 (188 clips, 11 classes, actors bd/bk/dg; paths relative to the hdm05 folder, --hdm05): each clip is
+    # ranked among the other actors' clips (leave-one-actor-out)
+    "hdm05": os.path.join(ROOT, "tools", "eval_sets", "hdm05.csv"),
 }
+GROUPS = {"hdm05": "actor"}  # the CSV column of leave-one-group-out, per set
 _NORMS = ("l2", "elastic", "l2_group", "elastic_group")  # both SRVT norms (curves.srvt(norm=...))
 _SIGNATURE = (
     "group3", "concat3", "linear3", "sim2", "sim3",
@@ -59,14 +66,15 @@ _TWO_STAGE = (
     "sim3_levelnorm+elastic5", "sim3_levelnorm+elastic10",
     "group3+elastic5", "group3+elastic10",
 )
-METRICS = {
-    "cmu27": _NORMS + ("elastic_numpy",) + _SIGNATURE + _TWO_STAGE,
-    "cmu_large": _NORMS + ("elastic_numpy",) + _SIGNATURE + _TWO_STAGE,
-    "cmu_amc": _NORMS + _SIGNATURE + _TWO_STAGE,
-    "cmu27_start2": _NORMS + _SIGNATURE + ("sim3+elastic10",),
-    "cmu_mixed_format": _NORMS + _SIGNATURE + _TWO_STAGE,
-    "cmu27_mixed_rate": _NORMS + _SIGNATURE + _TWO_STAGE,
-    "cmu27_mixed": _NORMS + _SIGNATURE + ("sim3+elastic10",),
+METRICS = {  # "local" first: the default search (docs/model.md)
+    "cmu27": ("local",) + _NORMS + ("elastic_numpy",) + _SIGNATURE + _TWO_STAGE,
+    "cmu_large": ("local",) + _NORMS + ("elastic_numpy",) + _SIGNATURE + _TWO_STAGE,
+    "cmu_amc": ("local",) + _NORMS + _SIGNATURE + _TWO_STAGE,
+    "cmu27_start2": ("local",) + _NORMS + _SIGNATURE + ("sim3+elastic10",),
+    "cmu_mixed_format": ("local",) + _NORMS + _SIGNATURE + _TWO_STAGE,
+    "cmu27_mixed_rate": ("local",) + _NORMS + _SIGNATURE + _TWO_STAGE,
+    "cmu27_mixed": ("local",) + _NORMS + _SIGNATURE + ("sim3+elastic10",),
+    "hdm05": ("local", "sim3", "elastic", "sim3+elastic10"),
 }
 ALL_SETS = "cmu27,cmu_large,cmu_amc,cmu27_start2,cmu_mixed_format,cmu27_mixed_rate,cmu27_mixed"
 
@@ -77,13 +85,17 @@ def make_loader(data):
     return ev.entry_loader(data, cache=_CACHE)
 
 
-def run_set(name, data, out, metrics, depth, workers, repeat=1, time_base=True, smooth=None):
+def run_set(name, data, out, metrics, depth, workers, repeat=1, time_base=True, smooth=None, crops=False):
+    """``evaluate`` of one set (leave-one-group-out by ``GROUPS[name]`` when it has one); ``crops``: the crop
+    probes (10 % cut at either end) of every metric."""
     entries = ev.read_index(SETS[name])
     out_dir = os.path.join(out, name)
+    groups = [e.column(GROUPS[name]) for e in entries] if name in GROUPS else None
+    probes = {side: ev.entry_loader(data, cut=(side, ev.CROP_FRACTION)) for side in ("start", "end")} if crops else None
     t0 = time.perf_counter()
     summary = ev.evaluate(entries, make_loader(data), metrics, out_dir, depth=depth, workers=workers,
                           figures=True, progress="tqdm", log=lambda m: print(f"[{name}] {m}", file=sys.stderr),
-                          repeat=repeat, time_base=time_base,
+                          repeat=repeat, time_base=time_base, groups=groups, crops=probes,
                           **({} if smooth is None else {"smooth": smooth}))
     print(f"[{name}] done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return summary
@@ -275,13 +287,18 @@ def main(argv=None):
     p.add_argument("--repeat", type=int, default=3, help="time every matrix N times, keep the shortest (default 3)")
     p.add_argument("--no-interpolation", action="store_true")
     p.add_argument("--docs", help="copy the documentation figures to this folder as eval_*.png")
+    p.add_argument("--hdm05", help="the shared HDM05 folder (e.g. ../shared/data/hdm05): adds the set hdm05, "
+                   "leave-one-actor-out")
+    p.add_argument("--crops", action="store_true", help="crop probes of every metric (10%% cut at either end)")
     args = p.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
     results = {}
-    for name in [s.strip() for s in args.sets.split(",") if s.strip()]:
+    names = [s.strip() for s in args.sets.split(",") if s.strip()] + (["hdm05"] if args.hdm05 else [])
+    for name in dict.fromkeys(names):
         metrics = tuple(args.metrics.split(",")) if args.metrics else METRICS[name]
-        results[name] = run_set(name, args.data, args.out, metrics, args.depth, args.workers, args.repeat,
-                                time_base=not args.raw, smooth=args.smooth)
+        results[name] = run_set(name, args.hdm05 if name == "hdm05" else args.data, args.out, metrics, args.depth,
+                                args.workers, args.repeat, time_base=not args.raw, smooth=args.smooth,
+                                crops=args.crops)
         if name == "cmu_large":
             merged = relabelled(results[name], os.path.join(args.out, name), {"forward jump": "jump"},
                                 os.path.join(args.out, name, "merged_jumps.json"))
@@ -307,6 +324,8 @@ def main(argv=None):
         print(f"== {name}: {summary['clips']} clips")
         for metric, row in summary["metrics"].items():
             extra = "".join(f"  {k} {row[k]:.3f}" for k in ("map", "silhouette") if k in row)
+            if "crops" in row:
+                extra += f"  crops {row['crops']['start']}+{row['crops']['end']}/{row['crops']['of']}"
             print(f"  {metric:26s} {row['accuracy']:.3f} ({row['correct']}/{summary['clips']})  "
                   f"{row['seconds']:8.2f} s{extra}")
     return 0

@@ -70,11 +70,23 @@ def test_local_entries_live_in_the_signature_cache(clips, tmp_path):
     assert again.stats["misses"] == 0 and again.stats["disk_hits"] == 4
     assert [(r.name, r.distance) for r in again] == [(r.name, r.distance) for r in first]
     own = os.listdir(tmp_path / index.CACHE_SUBDIR)
-    assert sum(n.endswith(".npz") and len(n) == 44 for n in own) == 4
+    assert sum(n.endswith(".npz") and len(n) == 44 for n in own) == 4 and "local_pack.bin" in own
+    # the pack answers a new process; a damaged pack is ignored (the files answer), a damaged file is rebuilt
+    folder = tmp_path / index.CACHE_SUBDIR
+    (folder / "local_pack.bin").write_bytes(b"garbage")
+    third = index.rank_clips(q, lib, cache=index.SignatureCache(tmp_path))
+    assert third.stats["misses"] == 0 and [(r.name, r.distance) for r in third] == [(r.name, r.distance) for r in first]
+    cache = index.SignatureCache(tmp_path)
+    victim = cache.local_file_for(sources.clip_item(lib[0]).key, ls.settings_key())
+    with open(victim, "wb") as fh:
+        fh.write(b"not a zip")
+    fourth = index.rank_clips(q, lib, cache=cache)
+    assert fourth.stats["invalid"] == 1 and fourth.stats["misses"] == 1
+    assert [(r.name, r.distance) for r in fourth] == [(r.name, r.distance) for r in first]
     # another setting is another entry; clearing deletes only the cache's own files
     (tmp_path / index.CACHE_SUBDIR / "notes.txt").write_text("mine")
     index.SignatureCache(tmp_path).clear()
-    assert sorted(os.listdir(tmp_path / index.CACHE_SUBDIR)) == ["CACHEDIR.TAG", "manifest.json", "notes.txt"]
+    assert sorted(os.listdir(folder)) == ["CACHEDIR.TAG", "manifest.json", "notes.txt"]
 
 
 def test_unreadable_library_clips_come_last_by_sim3_and_a_query_is_refused(clips):

@@ -41,6 +41,10 @@ def test_dtw_matches_the_textbook_recursion(n, m, free_a, free_b):
     want = _reference_dtw(a, b, free_a, free_b)
     assert ls.dtw(a, b, None, free_a, free_b) == pytest.approx(want, rel=1e-12)
     assert ls._dtw_numpy(a, b, -1, free_a, free_b) == pytest.approx(want, rel=1e-12)
+    assert ls._dtw_loops(a, b, -1, free_a, free_b) == pytest.approx(want, rel=1e-12)  # the compiled kernel's code
+    band = ls._band(n, m)
+    assert ls._dtw_loops(a, b, band, free_a, free_b) == pytest.approx(ls._dtw_numpy(a, b, band, free_a, free_b),
+                                                                        rel=1e-12)
 
 
 def test_dtw_band_only_removes_paths():

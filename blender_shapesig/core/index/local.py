@@ -12,11 +12,12 @@ signed square root), normalized to unit length part by part (eq. 9.1 of the thes
 fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
 their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
 matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
-(Sakoe-Chiba band, open ends, numba when available, else numpy); ``combine`` scores the shortlist by both stages.
+(Sakoe-Chiba band, open ends; compiled when numba is loaded, else by numpy anti-diagonals); ``combine`` scores the shortlist by both stages.
 ``search`` runs it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
 """
 
 import math
+import sys
 from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
@@ -25,10 +26,7 @@ from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
 
-try:  # numba is optional: Blender's Python does not ship it
-    import numba as _numba
-except ImportError:  # pragma: no cover - depends on the environment
-    _numba = None
+_COMPILED = []  # the compiled DTW kernel, once numba is loaded (``_kernel``)
 
 __all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
            "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
@@ -374,63 +372,72 @@ def first_stage(query, library, block: int = 65536) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------- stage two
 
 def _dtw_numpy(a, b, band, free_a, free_b):
+    """The DTW recursion by anti-diagonals (every cell of one depends on the two before): numpy, no compiler."""
     n, m = len(a), len(b)
-    C = _sq_dist(a, b)
+    C = ((a[:, None, :] - b[None, :, :]) ** 2).sum(-1)
     D = np.full((n + 1, m + 1), np.inf)
     D[0, 0] = 0.0
     D[0, 1:free_b + 1] = 0.0  # open begin: the path may start after skipping up to free_b samples of b
     D[1:free_a + 1, 0] = 0.0
-    for i in range(1, n + 1):
-        lo, hi = _row_span(i, n, m, band)
-        for j in range(lo, hi + 1):
-            D[i, j] = C[i - 1, j - 1] + min(D[i - 1, j], D[i, j - 1], D[i - 1, j - 1])
+    rows = np.arange(1, n + 1)
+    if band < 0:
+        lo, hi = np.ones(n, dtype=int), np.full(n, m)
+    else:
+        lo = np.maximum(1, np.ceil((rows - 1) * m / n).astype(int) - band)
+        hi = np.minimum(m, np.floor((rows - 1) * m / n).astype(int) + band + 1)
+    for diag in range(2, n + m + 1):
+        i = np.arange(max(1, diag - m), min(n, diag - 1) + 1)
+        j = diag - i
+        keep = (j >= lo[i - 1]) & (j <= hi[i - 1])
+        i, j = i[keep], j[keep]
+        D[i, j] = C[i - 1, j - 1] + np.minimum(np.minimum(D[i - 1, j], D[i, j - 1]), D[i - 1, j - 1])
     return math.sqrt(min(D[n, m - free_b:].min(), D[n - free_a:, m].min()))
 
 
-def _row_span(i, n, m, band):
-    if band < 0:
-        return 1, m
-    return max(1, int(math.ceil((i - 1) * m / n)) - band), min(m, int(math.floor((i - 1) * m / n)) + band + 1)
+def _dtw_loops(a, b, band, free_a, free_b):  # pragma: no cover - run compiled by numba (``_kernel``)
+    n, m, d = a.shape[0], b.shape[0], a.shape[1]
+    prev = np.full(m + 1, np.inf)
+    cur = np.full(m + 1, np.inf)
+    prev[0] = 0.0
+    for j in range(1, free_b + 1):
+        prev[j] = 0.0
+    best_end = np.inf
+    for i in range(1, n + 1):
+        for j in range(m + 1):
+            cur[j] = np.inf
+        cur[0] = 0.0 if i <= free_a else np.inf
+        if band >= 0:
+            lo = max(1, int(math.ceil((i - 1) * m / n)) - band)
+            hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1)
+        else:
+            lo, hi = 1, m
+        for j in range(lo, hi + 1):
+            c = 0.0
+            for k in range(d):
+                t = a[i - 1, k] - b[j - 1, k]
+                c += t * t
+            best = prev[j - 1]
+            if prev[j] < best:
+                best = prev[j]
+            if cur[j - 1] < best:
+                best = cur[j - 1]
+            cur[j] = c + best
+        if i >= n - free_a and cur[m] < best_end:
+            best_end = cur[m]
+        if i == n:
+            for j in range(m - free_b, m + 1):
+                if cur[j] < best_end:
+                    best_end = cur[j]
+        prev, cur = cur, prev
+    return math.sqrt(best_end)
 
 
-if _numba is not None:
-    @_numba.njit(cache=True, nogil=True)
-    def _dtw_numba(a, b, band, free_a, free_b):  # pragma: no cover - compiled
-        n, m, d = a.shape[0], b.shape[0], a.shape[1]
-        prev = np.full(m + 1, np.inf)
-        cur = np.full(m + 1, np.inf)
-        prev[0] = 0.0
-        for j in range(1, free_b + 1):
-            prev[j] = 0.0
-        best_end = np.inf
-        for i in range(1, n + 1):
-            for j in range(m + 1):
-                cur[j] = np.inf
-            cur[0] = 0.0 if i <= free_a else np.inf
-            if band >= 0:
-                lo = max(1, int(math.ceil((i - 1) * m / n)) - band)
-                hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1)
-            else:
-                lo, hi = 1, m
-            for j in range(lo, hi + 1):
-                c = 0.0
-                for k in range(d):
-                    t = a[i - 1, k] - b[j - 1, k]
-                    c += t * t
-                best = prev[j - 1]
-                if prev[j] < best:
-                    best = prev[j]
-                if cur[j - 1] < best:
-                    best = cur[j - 1]
-                cur[j] = c + best
-            if i >= n - free_a and cur[m] < best_end:
-                best_end = cur[m]
-            if i == n:
-                for j in range(m - free_b, m + 1):
-                    if cur[j] < best_end:
-                        best_end = cur[j]
-            prev, cur = cur, prev
-        return math.sqrt(best_end)
+def _kernel():
+    """The compiled DTW when numba is loaded already (the elastic DP loads it; importing it for a few DTWs would
+    cost a command-line query more than they take), else None: ``_dtw_numpy`` (equal to 1e-12)."""
+    if not _COMPILED and "numba" in sys.modules:
+        _COMPILED.append(sys.modules["numba"].njit(cache=True, nogil=True)(_dtw_loops))
+    return _COMPILED[0] if _COMPILED else None
 
 
 def dtw(a, b, band: Optional[int] = None, free_a: int = 0, free_b: int = 0) -> float:
@@ -442,9 +449,8 @@ def dtw(a, b, band: Optional[int] = None, free_a: int = 0, free_b: int = 0) -> f
     b = np.ascontiguousarray(b, dtype=np.float64)
     bw = -1 if band is None else max(int(band), 1)
     fa, fb = max(0, min(int(free_a), len(a) - 1)), max(0, min(int(free_b), len(b) - 1))
-    if _numba is not None:
-        return float(_dtw_numba(a, b, bw, fa, fb))
-    return _dtw_numpy(a, b, bw, fa, fb)
+    kernel = _kernel()
+    return float(kernel(a, b, bw, fa, fb)) if kernel is not None else _dtw_numpy(a, b, bw, fa, fb)
 
 
 def _band(n, m, band=BAND):

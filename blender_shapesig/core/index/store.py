@@ -19,8 +19,8 @@ from typing import Optional
 import numpy as np
 
 from ..signatures import signatures
-from . import local
 from .entry import IndexEntry
+from .local_store import LOCAL_PACK, LocalEntries
 from .words import SKETCH_DIM
 
 __all__ = ["SignatureCache", "default_cache_dir", "private_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "CACHE_SUBDIR",
@@ -45,7 +45,8 @@ _TAG_TEXT = ("Signature: 8a477f597d28d172789f06886806bc55\n"
              "# This file is a cache directory tag created by blender_shapesig.\n"
              "# Every file here was written by it and is rebuilt when needed.\n")
 _TMP_PREFIX, _TMP_SUFFIX = ".shapesig-", ".tmp"
-_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.npz|" + re.escape(_PACK) + "|" + re.escape(_TMP_PREFIX) + r"\w+"
+_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.npz|" + re.escape(_PACK) + "|" + re.escape(LOCAL_PACK) + "|"
+                       + re.escape(_TMP_PREFIX) + r"\w+"
                        + re.escape(_TMP_SUFFIX) + ")")
 _ENTRY_FILE = re.compile(r"[0-9a-f]{40}\.npz")
 _ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact",
@@ -131,7 +132,7 @@ def _load_heavy(e: IndexEntry, z, i):
             raise ValueError("bad shapes")
 
 
-class SignatureCache:
+class SignatureCache(LocalEntries):
     """Index entries keyed by (content key, level), kept in memory and, with a ``path``, on disk.
 
     ``path``: the folder named by the user; the files live in its subfolder ``CACHE_SUBDIR`` (``self.path``
@@ -148,6 +149,8 @@ class SignatureCache:
     re-rank stays exact). None (default): every direction is stored and every returned distance is exact.
     """
 
+    FORMAT = CACHE_FORMAT
+
     def __init__(self, path=None, memory_limit=512 * 2 ** 20, max_direction=None):
         self.root = None if path is None else os.fspath(path)
         self.path = None      # the cache's own folder, once opened
@@ -159,8 +162,7 @@ class SignatureCache:
         self._heavy = {}    # (key, level, name) -> bytes of loaded heavy arrays, insertion = recency order
         self._lock = threading.RLock()
         self._sketch_memo = None
-        self._local = {}    # (key, settings key) -> [local entry]: {"name", "windows", "sequence", "path"} or
-        self._local_memo = None  # {"name", "refused": one line}; the last library's ``local.stack``
+        self._local_init()  # the local search's entries (local_store.LocalEntries)
         self._pack = None   # entry file name -> (size, mtime_ns, meta, sketches): the light pack (see save_pack)
         self._pack_dirty = False
         self.stats = {"hits": 0, "disk_hits": 0, "misses": 0, "invalid": 0, "writes": 0}
@@ -220,6 +222,7 @@ class SignatureCache:
         """Delete what this cache writes in its own folder (entry files, the pack, its temporary files), and
         nothing else."""
         self._pack, self._pack_dirty = {}, False
+        self._lpack, self._lpack_dirty = {}, False
         for n in os.listdir(self.path):
             if _OWN_FILE.fullmatch(n):
                 try:
@@ -332,7 +335,9 @@ class SignatureCache:
 
     def save_pack(self):
         """Write the light pack when entries were read or written since it was loaded (``rank_clips`` and
-        ``build_index`` call it at the end). Entries whose files are gone are left out."""
+        ``build_index`` call it at the end), and the local entries' pack (``save_local_pack``). Entries whose
+        files are gone are left out."""
+        self.save_local_pack()
         if self.path is None or not self._pack_dirty:
             return
         if not self._writable:
@@ -435,98 +440,6 @@ class SignatureCache:
                 return entry
         return None
 
-    # -- the local search's entries (``core.index.local.index_entry``, about 5 KB a clip): one file per item beside
-    # its signature entries, named by the item's key and the settings' key; clips the local features refuse are
-    # stored as their one-line reason (not computed again)
-    def local_file_for(self, key, settings_key):
-        name = hashlib.sha1(f"{key}|LOCAL|{settings_key}|F{CACHE_FORMAT}".encode()).hexdigest()
-        return os.path.join(self.path, name + ".npz")
-
-    def _read_local(self, key, settings_key):
-        fn = self.local_file_for(key, settings_key)
-        if not os.path.exists(fn):
-            return None
-        try:
-            with np.load(fn, allow_pickle=False) as z:
-                meta = json.loads(bytes(z["meta"]).decode("utf-8"))
-                if (meta.get("format") != CACHE_FORMAT or meta.get("key") != key
-                        or meta.get("settings") != settings_key):
-                    raise ValueError("outdated")
-                out = []
-                for i, m in enumerate(meta["clips"]):
-                    if m.get("refused"):
-                        out.append({"name": m["name"], "refused": str(m["refused"])})
-                        continue
-                    e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
-                         "trimmed": tuple(int(f) for f in m.get("trimmed", ())),
-                         "windows": np.asarray(z[f"w{i}"], np.float16),
-                         "sequence": np.asarray(z[f"q{i}"], np.float16), "path": np.asarray(z[f"p{i}"], np.float32)}
-                    if e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0:
-                        raise ValueError("bad shapes")
-                    out.append(e)
-                return out
-        except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
-            self.stats["invalid"] += 1
-            try:
-                os.remove(fn)
-            except OSError:
-                pass
-            return None
-
-    def _write_local(self, key, settings_key, entries):
-        meta = {"format": CACHE_FORMAT, "key": key, "settings": settings_key,
-                "clips": [{"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
-                           "bones": int(e.get("bones", 0)),
-                           "trimmed": list(e.get("trimmed", ()))} for e in entries]}
-        arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
-        for i, e in enumerate(entries):
-            if not e.get("refused"):
-                arrays[f"w{i}"], arrays[f"q{i}"], arrays[f"p{i}"] = e["windows"], e["sequence"], e["path"]
-        buf = io.BytesIO()
-        np.savez(buf, **arrays)
-        self._atomic_write(self.local_file_for(key, settings_key), buf.getvalue())
-        self.stats["writes"] += 1
-
-    def get_local(self, key, settings_key):
-        """The local-search entries stored for (key, settings key), or None (a miss)."""
-        with self._lock:
-            got = self._local.get((key, settings_key))
-            if got is None and self.path is not None:
-                got = self._read_local(key, settings_key)
-                if got is not None:
-                    self.stats["disk_hits"] += 1
-                    self._local[(key, settings_key)] = got
-            self.stats["hits" if got is not None else "misses"] += 1
-            return got
-
-    def put_local(self, key, settings_key, entries):
-        """Store the local-search entries of (key, settings key) (memory, and disk when the cache has a folder)."""
-        with self._lock:
-            if self.path is not None and self._writable:
-                try:
-                    self._write_local(key, settings_key, entries)
-                except OSError as exc:
-                    self._memory_only(exc)
-            self._local[(key, settings_key)] = list(entries)
-
-    def contains_local(self, key, settings_key=None):
-        """True when the local-search entries of (key, settings key; default ``local.DEFAULT``'s) are cached
-        (memory or disk), reading nothing."""
-        settings_key = settings_key or local.settings_key()
-        return (key, settings_key) in self._local or (
-            self.path is not None and os.path.exists(self.local_file_for(key, settings_key)))
-
-    def local_stack(self, entries):
-        """``local.stack`` of the entries (the library's windows in one block), memoized for the last list of
-        entries: a repeated query over the same library does not restack them."""
-        key = tuple(id(e) for e in entries)
-        memo = self._local_memo
-        if memo is not None and memo[0] == key:
-            return memo[2]
-        block = local.stack(entries)
-        self._local_memo = (key, list(entries), block)
-        return block
-
     def sketch_matrix(self, entries):
         """(S, squared norms) of the entries' sketches stacked, memoized for the last list of entries (a
         repeated query over the same library does not restack them)."""
@@ -544,8 +457,8 @@ class SignatureCache:
         with self._lock:
             self._mem.clear()
             self._heavy.clear()
-            self._sketch_memo = self._local_memo = None
-            self._local.clear()
+            self._sketch_memo = None
+            self._local_init()
             if self.path is not None:
                 self._remove_entry_files()
 

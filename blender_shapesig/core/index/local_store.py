@@ -1,0 +1,194 @@
+"""The signature cache's part for the local search (``LocalEntries``, mixed into ``store.SignatureCache``): every
+item's local entries (``local.index_entry``, about 5 KB a clip, or a clip's one-line refusal) in a file of their own
+beside its signature entries, named by the item's key and the settings' key; all of them also in one pack
+(``LOCAL_PACK``), so that a new process (a command-line ``rank``) reads a library's entries in one read; and the
+library's windows stacked once per library (``local_stack``). The safety rules are the cache's: atomic writes in
+its own folder, an unreadable or outdated file deleted and computed again, a failed write turning the disk off.
+"""
+
+import hashlib
+import io
+import json
+import os
+
+import numpy as np
+
+from . import local
+
+__all__ = ["LOCAL_PACK", "LocalEntries"]
+
+LOCAL_PACK = "local_pack.bin"
+
+
+def _meta(e):
+    return {"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
+            "bones": int(e.get("bones", 0)), "trimmed": list(e.get("trimmed", ()))}
+
+
+def _entry(m, w, q, p):
+    if m.get("refused"):
+        return {"name": m["name"], "refused": str(m["refused"])}
+    e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
+         "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": np.asarray(w, np.float16),
+         "sequence": np.asarray(q, np.float16), "path": np.asarray(p, np.float32)}
+    if e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0:
+        raise ValueError("bad shapes")
+    return e
+
+
+class LocalEntries:
+    """Local-search entries keyed by (item key, settings key); needs the cache's ``path``, ``_lock``, ``stats``,
+    ``_writable``, ``_atomic_write``, ``_memory_only`` and ``FORMAT`` (``store.CACHE_FORMAT``)."""
+
+    def _local_init(self):
+        self._local = {}          # (key, settings key) -> [entry]
+        self._local_memo = None   # the last library's stack
+        self._lpack = None        # file name -> (size, mtime_ns, meta, entries): the pack, once loaded
+        self._lpack_dirty = False
+
+    def _format(self):
+        return self.FORMAT  # the cache's one version of its files (store.CACHE_FORMAT)
+
+    def local_file_for(self, key, settings_key):
+        name = hashlib.sha1(f"{key}|LOCAL|{settings_key}|F{self._format()}".encode()).hexdigest()
+        return os.path.join(self.path, name + ".npz")
+
+    # -- the pack: every local file's entries in one file, used while the file has the same size and mtime
+    def _load_local_pack(self):
+        self._lpack = {}
+        try:
+            with np.load(os.path.join(self.path, LOCAL_PACK), allow_pickle=False) as z:
+                index = json.loads(bytes(z["index"]).decode("utf-8"))
+                W, Q, P = z["windows"], z["sequences"], z["paths"]
+            if index.get("format") != self._format():
+                return
+            for name, size, mtime, meta, rows in index["files"]:
+                self._lpack[name] = (size, mtime, meta, [
+                    _entry(m, W[w0:w1], Q[q0:q1], P[k]) for m, (w0, w1, q0, q1, k) in zip(meta["clips"], rows)])
+        except Exception:  # noqa: BLE001 - no pack, or an unreadable one: the files are read one by one
+            self._lpack = {}
+
+    def _pack_local(self, fn, meta, entries):
+        if self._lpack is None:
+            self._load_local_pack()
+        st = os.stat(fn)
+        self._lpack[os.path.basename(fn)] = (st.st_size, st.st_mtime_ns, meta, entries)
+        self._lpack_dirty = True
+
+    def save_local_pack(self):
+        """Write the pack when local entries were read or written since it was loaded (files gone: left out)."""
+        if self.path is None or not self._lpack_dirty or not self._writable:
+            return
+        with self._lock:
+            files, W, Q, P = [], [], [], []
+            nw = nq = 0
+            for name, (size, mtime, meta, entries) in self._lpack.items():
+                if not os.path.exists(os.path.join(self.path, name)):
+                    continue
+                rows = []
+                for e in entries:
+                    if e.get("refused"):
+                        rows.append((0, 0, 0, 0, 0))
+                        continue
+                    w, q = e["windows"], e["sequence"]
+                    rows.append((nw, nw + len(w), nq, nq + len(q), len(P)))
+                    W.append(w), Q.append(q), P.append(e["path"])
+                    nw, nq = nw + len(w), nq + len(q)
+                files.append([name, size, mtime, meta, rows])
+            index = json.dumps({"format": self._format(), "files": files}).encode("utf-8")
+            buf = io.BytesIO()
+            np.savez(buf, index=np.frombuffer(index, dtype=np.uint8),
+                     windows=np.concatenate(W) if W else np.zeros((0, local.DIM), np.float16),
+                     sequences=np.concatenate(Q) if Q else np.zeros((0, 3 * len(local.POINTS)), np.float16),
+                     paths=np.stack(P) if P else np.zeros((0, 10), np.float32))
+            try:
+                self._atomic_write(os.path.join(self.path, LOCAL_PACK), buf.getvalue())
+            except OSError as exc:
+                self._memory_only(exc)
+                return
+            self._lpack_dirty = False
+
+    # -- files
+    def _read_local(self, key, settings_key):
+        fn = self.local_file_for(key, settings_key)
+        try:
+            st = os.stat(fn)
+        except OSError:
+            return None
+        if self._lpack is None:
+            self._load_local_pack()
+        got = self._lpack.get(os.path.basename(fn))
+        if got is not None and (got[0], got[1]) == (st.st_size, st.st_mtime_ns) and got[2].get("key") == key \
+                and got[2].get("settings") == settings_key:
+            return got[3]
+        try:
+            with np.load(fn, allow_pickle=False) as z:
+                meta = json.loads(bytes(z["meta"]).decode("utf-8"))
+                if (meta.get("format") != self._format() or meta.get("key") != key
+                        or meta.get("settings") != settings_key):
+                    raise ValueError("outdated")
+                out = [_entry(m, *((z[f"w{i}"], z[f"q{i}"], z[f"p{i}"]) if not m.get("refused") else (0, 0, 0)))
+                       for i, m in enumerate(meta["clips"])]
+            self._pack_local(fn, meta, out)
+            return out
+        except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
+            self.stats["invalid"] += 1
+            try:
+                os.remove(fn)
+            except OSError:
+                pass
+            return None
+
+    def _write_local(self, key, settings_key, entries):
+        meta = {"format": self._format(), "key": key, "settings": settings_key, "clips": [_meta(e) for e in entries]}
+        arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
+        for i, e in enumerate(entries):
+            if not e.get("refused"):
+                arrays[f"w{i}"], arrays[f"q{i}"], arrays[f"p{i}"] = e["windows"], e["sequence"], e["path"]
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        fn = self.local_file_for(key, settings_key)
+        self._atomic_write(fn, buf.getvalue())
+        self.stats["writes"] += 1
+        self._pack_local(fn, meta, list(entries))
+
+    # -- public
+    def get_local(self, key, settings_key):
+        """The local-search entries stored for (key, settings key), or None (a miss)."""
+        with self._lock:
+            got = self._local.get((key, settings_key))
+            if got is None and self.path is not None:
+                got = self._read_local(key, settings_key)
+                if got is not None:
+                    self.stats["disk_hits"] += 1
+                    self._local[(key, settings_key)] = got
+            self.stats["hits" if got is not None else "misses"] += 1
+            return got
+
+    def put_local(self, key, settings_key, entries):
+        """Store the local-search entries of (key, settings key) (memory, and disk when the cache has a folder)."""
+        with self._lock:
+            if self.path is not None and self._writable:
+                try:
+                    self._write_local(key, settings_key, entries)
+                except OSError as exc:
+                    self._memory_only(exc)
+            self._local[(key, settings_key)] = list(entries)
+
+    def contains_local(self, key, settings_key=None):
+        """True when the local-search entries of (key, settings key; default ``local.DEFAULT``'s) are cached
+        (memory or disk), reading nothing."""
+        settings_key = settings_key or local.settings_key()
+        return (key, settings_key) in self._local or (
+            self.path is not None and os.path.exists(self.local_file_for(key, settings_key)))
+
+    def local_stack(self, entries):
+        """``local.stack`` of the entries (the library's windows in one block), memoized for the last list of
+        entries: a repeated query over the same library does not restack them."""
+        key = tuple(id(e) for e in entries)
+        memo = self._local_memo
+        if memo is not None and memo[0] == key:
+            return memo[2]
+        block = local.stack(entries)
+        self._local_memo = (key, list(entries), block)
+        return block
