@@ -132,11 +132,7 @@ class LocalEntries:
             self._pack_local(fn, meta, out)
             return out
         except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
-            self.stats["invalid"] += 1
-            try:
-                os.remove(fn)
-            except OSError:
-                pass
+            self._discard(fn)
             return None
 
     def _write_local(self, key, settings_key, entries):

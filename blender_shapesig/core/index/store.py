@@ -218,6 +218,14 @@ class SignatureCache(LocalEntries):
             self._atomic_write(manifest, json.dumps({"format": CACHE_FORMAT, "program": "blender_shapesig",
                                                      "sketch_dim": SKETCH_DIM}).encode())
 
+    def _discard(self, fn):
+        """Count and delete an unreadable or outdated entry file of this cache (its item is computed again)."""
+        self.stats["invalid"] += 1
+        try:
+            os.remove(fn)
+        except OSError:
+            pass
+
     def _remove_entry_files(self):
         """Delete what this cache writes in its own folder (entry files, the pack, its temporary files), and
         nothing else."""
@@ -277,11 +285,7 @@ class SignatureCache(LocalEntries):
                 self._add_to_pack(fn, st, meta, [e.sketch for e in entries])
                 return entries
         except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
-            self.stats["invalid"] += 1
-            try:
-                os.remove(fn)
-            except OSError:
-                pass
+            self._discard(fn)
             return None
 
     def _write(self, key, level, entries):
