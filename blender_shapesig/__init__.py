@@ -12,6 +12,7 @@ _registry.register_reader(".blend", f"{__name__}.readers:read_blend")
 
 # Blender-layer modules with register()/unregister(), in registration order.
 _MODULE_NAMES = ("preferences", "properties", "operators", "panels")
+_WARM_UP = []  # the kernels' warm-up thread of this session (see _warm_up_kernels)
 
 
 def _modules():
@@ -32,6 +33,10 @@ def unregister():
     action_changes.stop_change_detection()
     for module in reversed(_modules()):
         module.unregister()
+    # numba writes its compiled kernels beside the package: an uninstall right after enabling must not have them
+    # written into a folder being removed, so a warm-up still compiling is waited for
+    while _WARM_UP:
+        _WARM_UP.pop().join()
 
 
 def _warm_up_kernels():
@@ -50,5 +55,6 @@ def _warm_up_kernels():
 
     thread = threading.Thread(target=run, name="shapesig-warm-up", daemon=True)
     thread.start()
+    _WARM_UP.append(thread)
     # never let the interpreter shut down under a compiling thread (it crashed Blender 4.2 at exit)
     atexit.register(thread.join)

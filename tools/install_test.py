@@ -461,7 +461,7 @@ def run_install(bpy, ck: Checks, zip_path: Path, user: Path) -> None:
     # The add-on sees exactly the optional modules that were bundled (else it uses its numpy fallbacks).
     import importlib
 
-    for module, flag, dist in (("core.signatures", "HAVE_IISIGNATURE", "iisignature"),
+    for module, flag, dist in (("core.signatures.signatures", "HAVE_IISIGNATURE", "iisignature"),
                                ("core.elastic._dp_kernels", "HAVE_NUMBA", "numba")):
         try:
             have = getattr(importlib.import_module(f"{ADDON_MODULE}.{module}"), flag)
@@ -582,10 +582,11 @@ def search_ops(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
         t0 = time.monotonic()
         result = bpy.ops.shapesig.build_index()
         ck.timings["build_index"] = time.monotonic() - t0
-        cache = Path(os.environ["SHAPESIG_CACHE_DIR"])
+        # the cache writes only in its own subfolder: per clip a signature entry and a local-search entry
+        cache = Path(os.environ["SHAPESIG_CACHE_DIR"]) / "blender_shapesig-cache"
         files = sorted(cache.glob("*.npz")) if cache.is_dir() else []
         ck.add("shapesig.build_index", result == {"FINISHED"} and f"{expected} computed" in bpy.context.window_manager.shapesig_results.message
-               and len(files) == expected and _under(str(cache), user),
+               and len(files) == 2 * expected and _under(str(cache), user),
                f"{result}, {bpy.context.window_manager.shapesig_results.message!r}, {len(files)} index files in {cache}, "
                f"in {ck.timings['build_index']:.1f}s")
     if "rank" in missing:
