@@ -54,11 +54,12 @@ def test_rank_orders_and_scores_as_the_local_search(clips):
     want = dict(zip((lib[i].name for i in head), score))
     rows = {r.name: r for r in got}
     for name, s in want.items():
-        assert rows[name].distance == pytest.approx(s, rel=1e-6) and rows[name].dtw is not None
+        assert rows[name].distance == pytest.approx(s, rel=1e-5) and rows[name].dtw is not None
     tail = [r for r in got if r.name not in want]
     assert all(r.dtw is None and r.distance >= max(want.values()) for r in tail)
     assert [r.distance for r in got] == sorted(r.distance for r in got)
-    assert all(r.first_stage == pytest.approx(d1[[c.name for c in lib].index(r.name)], rel=1e-6) for r in got)
+    # float32 window distances, summed in another order over the stacked library: equal to float32's precision
+    assert all(r.first_stage == pytest.approx(d1[[c.name for c in lib].index(r.name)], rel=1e-5) for r in got)
     assert got[0].name == "07_02" and {r.metric for r in got} == {"local"}  # the other walk of the same subject
 
 
