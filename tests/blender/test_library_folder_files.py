@@ -6,9 +6,7 @@ An alarm turns a hang on the FIFO into a failure; the assertions are on the outc
 
 import contextlib
 import io
-import os
 import pathlib
-import shutil
 import signal
 
 import pytest
@@ -18,6 +16,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import library  # noqa: E402
 from blender_shapesig.core import index as search
 from blender_shapesig.core.io import sources  # noqa: E402
+from tests.hostile import hostile_library  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
 REAL = ("07_02", "08_01", "09_02")
@@ -41,14 +40,7 @@ def folder_search(empty_file, monkeypatch, tmp_path, alarm):
     """A walk's armature (its action the query) and a folder library of three takes and four hostile files."""
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
     library.CACHES.clear()
-    lib = tmp_path / "lib"
-    lib.mkdir()
-    for name in REAL:
-        shutil.copy(BVH / f"{name}.bvh", lib / f"{name}.bvh")
-    os.mkfifo(lib / "x.bvh")
-    os.symlink("/dev/zero", lib / "z.bvh")
-    os.symlink(lib / "nowhere.bvh", lib / "d.bvh")
-    os.symlink("l.bvh", lib / "l.bvh")
+    lib = hostile_library(tmp_path / "lib", REAL)
     try:
         bpy.ops.import_anim.bvh.get_rna_type()
     except (AttributeError, KeyError):

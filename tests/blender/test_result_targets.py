@@ -50,7 +50,8 @@ def test_an_unchanged_action_row_still_assigns_and_blends(rig):
     assert bpy.ops.shapesig.assign_result() == {"FINISHED"} and rig.animation_data.action.name == "walk2"
 
 
-def test_a_replaced_file_is_refused(empty_file, cache_env, tmp_path):  # noqa: F811
+def _folder_result(tmp_path):
+    """The walk's armature, a folder library holding the take 07_02, Find Similar run and its row selected."""
     arm = _import_bvh("07_01.bvh", "walk")
     lib = tmp_path / "lib"
     lib.mkdir()
@@ -59,7 +60,11 @@ def test_a_replaced_file_is_refused(empty_file, cache_env, tmp_path):  # noqa: F
     s.use_file_actions, s.use_folders, s.folders, s.rerank, s.crop_start = False, True, str(lib), 0, 2
     bpy.context.view_layer.objects.active = arm
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    row = _select("07_02")
+    return arm, lib, _select("07_02")
+
+
+def test_a_replaced_file_is_refused(empty_file, cache_env, tmp_path):  # noqa: F811
+    arm, lib, row = _folder_result(tmp_path)
     assert row.target.endswith(f"|{(lib / '07_02.bvh').stat().st_size}|{(lib / '07_02.bvh').stat().st_mtime_ns}")
     shutil.copy(BVH / "09_02.bvh", lib / "07_02.bvh")  # another take put in its place
     actions = sorted(a.name for a in bpy.data.actions)
@@ -69,15 +74,7 @@ def test_a_replaced_file_is_refused(empty_file, cache_env, tmp_path):  # noqa: F
 
 
 def test_a_written_result_edited_since_is_refused(empty_file, cache_env, tmp_path):  # noqa: F811
-    arm = _import_bvh("07_01.bvh", "walk")
-    lib = tmp_path / "lib"
-    lib.mkdir()
-    shutil.copy(BVH / "07_02.bvh", lib / "07_02.bvh")
-    s = bpy.context.scene.shapesig
-    s.use_file_actions, s.use_folders, s.folders, s.rerank, s.crop_start = False, True, str(lib), 0, 2
-    bpy.context.view_layer.objects.active = arm
-    assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    row = _select("07_02")
+    arm, _lib, row = _folder_result(tmp_path)
     assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
     written = arm.animation_data.action
     assert row.is_action and row.source == written.name and results.expected_hash(row, written.name)

@@ -18,6 +18,7 @@ import pytest
 
 from blender_shapesig.core.io import files, sources
 from blender_shapesig.core.errors import ParseError, ShapeSigError, UnreadableFileError
+from tests.hostile import hostile_library
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 BVH = ROOT / "tests" / "data" / "bvh"
@@ -44,15 +45,7 @@ def alarm():
 @pytest.fixture
 def library(tmp_path):
     """Three real CMU takes, a FIFO x.bvh, a link to /dev/zero z.bvh, a dangling link d.bvh, a looping l.bvh."""
-    lib = tmp_path / "lib"
-    lib.mkdir()
-    for name in REAL:
-        shutil.copy(BVH / f"{name}.bvh", lib / f"{name}.bvh")
-    os.mkfifo(lib / "x.bvh")
-    os.symlink("/dev/zero", lib / "z.bvh")
-    os.symlink(lib / "nowhere.bvh", lib / "d.bvh")
-    os.symlink("l.bvh", lib / "l.bvh")
-    return lib
+    return hostile_library(tmp_path / "lib", REAL)
 
 
 def _one_line(exc):

@@ -92,13 +92,18 @@ def _stat(path):
     return st, None
 
 
+def _checked(path, cap):
+    """(stat result, None) of a regular file within the size cap (``cap``), or (None, the one-line reason)."""
+    st, problem = _stat(path)
+    if problem is None and cap:
+        problem = _size_problem(st.st_size, path)
+    return (None, problem) if problem else (st, None)
+
+
 def file_problem(path, cap=True) -> Optional[str]:
     """Why ``path`` would not be opened (one line, without the path), or None: not a regular file (following
     links), cannot be stat'ed, or (``cap``) larger than the size cap."""
-    st, problem = _stat(os.fspath(path))
-    if problem is None and cap:
-        problem = _size_problem(st.st_size, path)
-    return problem
+    return _checked(os.fspath(path), cap)[1]
 
 
 def _size_problem(size, path) -> Optional[str]:
@@ -118,9 +123,7 @@ def _mb(nbytes) -> str:
 def check_file(path, cap=True) -> os.stat_result:
     """The stat of a regular file within the size cap (``cap``); UnreadableFileError naming it otherwise."""
     path = os.fspath(path)
-    st, problem = _stat(path)
-    if problem is None and cap:
-        problem = _size_problem(st.st_size, path)
+    st, problem = _checked(path, cap)
     if problem is not None:
         raise UnreadableFileError(problem, path)
     return st
@@ -138,10 +141,10 @@ def open_regular(path, cap=True):
         raise UnreadableFileError(f"cannot be read ({exc.strerror or exc})", path) from None
     try:
         st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise UnreadableFileError(f"is {_kind_of(st.st_mode)}, not a regular file", path)
-        if cap and _size_problem(st.st_size, path):
-            raise UnreadableFileError(_size_problem(st.st_size, path), path)
+        problem = (None if stat.S_ISREG(st.st_mode) else f"is {_kind_of(st.st_mode)}, not a regular file") or \
+            (_size_problem(st.st_size, path) if cap else None)
+        if problem:
+            raise UnreadableFileError(problem, path)
         if hasattr(os, "set_blocking"):
             os.set_blocking(fd, True)
         return os.fdopen(fd, "rb")
