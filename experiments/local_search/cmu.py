@@ -17,7 +17,7 @@ sys.path.insert(0, HERE)
 import common as cm  # noqa: E402
 import variants as vs  # noqa: E402
 
-sys.path.insert(0, os.path.join(cm.ROOT, "tools"))
+sys.path.insert(0, os.path.join(cm.ROOT, "experiments"))
 SETS = ("cmu27", "cmu27_mixed", "cmu_large", "cmu_mixed_format")
 
 
