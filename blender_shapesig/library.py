@@ -16,7 +16,7 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_io, compat, rigmap
+from . import action_changes, action_io, compat, frame_rates, rigmap
 from .core import index
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
@@ -118,6 +118,7 @@ def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=No
     (``sources.trim_ends``; a ``frame_range``'s start is explicit and kept: pass "none" for an exact range);
     ``fps``: the rate to read at (None: the action's own)."""
     arm = owner_armature(action, obj)
+    fps = fps or (None if frame_rates.stored_rate(action) else frame_rates.rate_of(action)[0])  # found or assumed
     digests = {} if digests is None else digests
     digest = digests.get(arm.as_pointer())
     if digest is None:
@@ -647,7 +648,8 @@ class RankJob:
         if self.not_listed:
             msg += f"; {self.not_listed} more not listed (raise {'Re-rank' if self.rerank else 'Show'})"
         # Auto-Pick: saved maps of the maps folder that could not be read were skipped (one line each)
-        self.warnings = self.warnings + rigmap.skipped_maps(rigmap.maps_folder(auto_only=True))
+        self.warnings = (self.warnings + rigmap.skipped_maps(rigmap.maps_folder(auto_only=True))
+                         + frame_rates.library_notes(self.lib))
         if self.warnings:
             msg += f"; {len(self.warnings)} warning(s): {self.warnings[0]}"
         out.message = msg

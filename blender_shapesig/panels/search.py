@@ -95,12 +95,28 @@ def _draw_query(layout, s, obj):
     current = getattr(getattr(obj, "animation_data", None), "action", None)
     if not s.query_action and current is not None and obj.type == "ARMATURE":
         col.label(text=f"Active action: {current.name}")
+    query = bpy.data.actions.get(s.query_action) if s.query_action else current
+    if query is not None:
+        _draw_rate(col, query)
     row = col.row(align=True)
     row.prop(s, "use_frame_range")
     sub = row.row(align=True)
     sub.active = s.use_frame_range
     sub.prop(s, "frame_start", text="")
     sub.prop(s, "frame_end", text="")
+
+
+def _draw_rate(col, action):
+    """The action's frame rate (assumed ones say so, in the warning colour) and the button to set it."""
+    from ..frame_rates import rate_of, rate_text
+
+    fps, known, how = rate_of(action)
+    row = col.row(align=True)
+    row.alert = not known
+    text = f"Frame rate: {rate_text(fps)}" + ("" if known else " (assumed: the scene's)")
+    row.label(text=text, icon="TIME")
+    op = row.operator("shapesig.set_frame_rate", text="", icon="PREFERENCES")
+    op.action = action.name
 
 
 def _draw_library(layout, s):
