@@ -60,6 +60,10 @@ class ShapeSigResult(bpy.types.PropertyGroup):
     # moments and explanations
     window_action: StringProperty(name="Window Action", description="The action written for the matched window "
                                   "(Assign / Preview of a moment); Blend uses it")
+    on_armature: StringProperty(name="On Armature", description="The action written for this row on the active "
+                                "armature when the result is another rig's motion (retargeted through the bone maps)")
+    kept: StringProperty(name="Kept At Rest", description="Bones of the armature with no counterpart in the "
+                         "result's rig: they keep their rest pose")
     explain: StringProperty(name="Explanation", description="Why different (JSON, core.elastic.explain): per-joint "
                             "shares of the elastic distance and the alignment cost over time")
     # the frames read before trimming, when trimming cut some (0..0: nothing trimmed)
