@@ -24,6 +24,7 @@ from .core.metrics import LOCAL
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
 from .core.io.files import skipped_line
 from .owners import find_owner
+from .rig_library import library_actions
 from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, uses_local
 
@@ -263,10 +264,10 @@ def _folders(context, settings):
 
 
 def _file_actions(settings, obj):
-    """The file's actions that animate ``obj``'s bones, filtered by name pattern and asset catalog."""
+    """The file's actions ``obj``'s search compares (``rig_library``), filtered by name pattern and catalog."""
     pattern = settings.name_filter.strip()
     catalog = settings.catalog.strip()
-    for action in action_io.armature_actions(obj):
+    for action in library_actions(obj):
         if pattern and not fnmatch.fnmatchcase(action.name, pattern):
             continue
         if settings.assets_only:
@@ -349,8 +350,7 @@ def search_library(context, settings) -> SearchLibrary:
 
 
 def library_items(context, settings, obj=None) -> List[sources.LibraryItem]:
-    """The library as LibraryItems: the file's actions (filtered, without the query's), then the folders' clip
-    files, all keyed now (files that cannot be are left out). ``obj``: unused (the query's armature is used)."""
+    """The library's LibraryItems (file actions, then folder files keyed now; ``obj`` unused: the query's rig)."""
     return [it for it in search_library(context, settings).members() if it is not None][1:]
 
 

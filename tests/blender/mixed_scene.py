@@ -29,12 +29,13 @@ def import_bvh_default(rel):
     return bpy.context.view_layer.objects.active
 
 
-def build(names=("07_01.001", "09_02", "16_15", "02_03", "002_03"), amc=True):
-    """The file: {action name: armature}. The scene stays at 24 fps."""
+def build(names=("07_01.001", "09_02", "16_15", "02_03", "002_03"), amc=(("07_01", "07-walk"),)):
+    """The file: {action name: armature}; ``amc``: (take, skeleton) pairs imported by the add-on first. The scene
+    stays at 24 fps."""
     out = {}
-    if amc:
-        bpy.ops.shapesig.import_acclaim("EXEC_DEFAULT", filepath=str(DATA / "acclaim" / "07_01.amc"),
-                                        asf_path=str(DATA / "acclaim" / "07-walk.asf"))
+    for take, asf in amc:
+        bpy.ops.shapesig.import_acclaim("EXEC_DEFAULT", filepath=str(DATA / "acclaim" / f"{take}.amc"),
+                                        asf_path=str(DATA / "acclaim" / f"{asf}.asf"))
         arm = bpy.context.view_layer.objects.active
         out[arm.animation_data.action.name] = arm
     bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = 24, 1.0
@@ -43,6 +44,19 @@ def build(names=("07_01.001", "09_02", "16_15", "02_03", "002_03"), amc=True):
         out[arm.animation_data.action.name] = arm
     assert set(names) <= set(out), sorted(out)
     return out
+
+
+def one_frame_pose(arm, name="pose"):
+    """A one-frame action keying every pose bone's rotation of ``arm`` (a pose-library pose), with a fake user."""
+    act = bpy.data.actions.new(name)
+    act.use_fake_user = True
+    prev = arm.animation_data.action
+    arm.animation_data.action = act
+    for pb in arm.pose.bones:
+        prop = "rotation_quaternion" if pb.rotation_mode == "QUATERNION" else "rotation_euler"
+        pb.keyframe_insert(prop, frame=1)
+    arm.animation_data.action = prev
+    return act
 
 
 def save_reopen(path):
