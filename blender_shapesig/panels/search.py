@@ -55,9 +55,15 @@ def _header(layout, results):
     split = row.split(factor=0.45)
     split.label(text="Clip")
     nums = split.row(align=True)
-    nums.label(text=f"{results.order_by} \u25b2")
-    nums.label(text={library.ELASTIC_COLUMN: "sim", library.LOCAL_COLUMN: ""}.get(results.order_by, "d_S*"))
+    nums.label(text=f"{_short(results.order_by)} \u25b2")
+    nums.label(text={library.ELASTIC_COLUMN: "Similarity", library.LOCAL_COLUMN: ""}.get(results.order_by,
+                                                                                        "Timing-aligned"))
     nums.label(text="Frames")
+
+
+def _short(column):
+    """A column's header in an animator's words (the thesis' names are in the tooltips and the message)."""
+    return {library.ELASTIC_COLUMN: "Timing-aligned", library.LOCAL_COLUMN: "Score"}.get(column, "Similarity")
 
 
 def _progress(row, what, factor):
