@@ -81,7 +81,8 @@ def _read_all(armature, actions, bones, rates=None):
 
 def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DEFAULT_DEPTH, frames=None,
                   bones: Optional[Sequence[str]] = None, root="blend", progress=None, extra=(), ranges=None,
-                  loop=False, feet="none", mask=None, groups=None, timing="bake", rates=None) -> BlendResult:
+                  loop=False, feet="none", mask=None, groups=None, timing="bake", rates=None,
+                  allow_long=False) -> BlendResult:
     """Blend ``action_a`` towards ``action_b`` at each weight into new actions on ``armature``.
 
     ``weights``: B's weight per blend (two actions); with ``extra`` (pairs (action, weight)) one blend whose
@@ -92,7 +93,8 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
     (the blended timing in the keys) or "nla" (editable, see the module docstring). ``progress(done, total)``:
     called after each blend and each written action (2 per blend). ``rates``: per action (A, B, the extras) the
     frame rate to read it at, or None for its own (``frame_rates.rate_of``); ``info["rates"]`` holds (name, fps,
-    known) per action and ``info["rate_note"]`` the one line when an assumed rate meets known ones."""
+    known) per action and ``info["rate_note"]`` the one line when an assumed rate meets known ones. ``allow_long``:
+    blend sources lasting more than ``core.blend.make.MAX_DURATION_RATIO`` times as long as each other."""
     if action_a == action_b:
         raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
     actions = [action_a, action_b] + [act for act, _w in extra]
@@ -119,7 +121,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
     clips, info = make_blends(
         own, vectors, mapped=mapped, back=rigmap.back_onto_armature if across else None, ranges=ranges,
         loop=loop, feet=feet, feet_required=False, mask=mask, groups=groups, align=align, depth=depth,
-        frames=frames, bones=bones, root=root,
+        frames=frames, bones=bones, root=root, allow_long=allow_long,
         up_axis=None if across else action_io.up_in_bone_frame(armature, own[0].root_bone),
         progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
     created, names, strips = [], [], []

@@ -49,7 +49,7 @@ def _error(message, debug):
 # the command line's options for the neutral advice of core's messages (the panel words them for animators)
 _FLAG_HINTS = (("give its skeleton file", " (--asf)"), ("choose its skeleton file", " (--asf)"),
                ("give a bone map", " (--bone-map FILE.json)"), ("map the bones", " (--bone-map FILE.json)"),
-               ("allow partial matches", " (--allow-partial)"))
+               ("allow partial matches", " (--allow-partial)"), ("allow long blends", " (--allow-long)"))
 
 
 def _with_flags(line):

@@ -122,6 +122,9 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
     fps_b: FloatProperty(
         name="B Frame Rate", description="Frames per second B was captured at (0: its own rate: recorded, found "
         "in its source file, else the scene's, shown as assumed)", default=0.0, soft_min=0.0, soft_max=240.0)
+    allow_long: BoolProperty(
+        name="Allow Long", description="Blend actions lasting more than 8 times as long as each other (refused "
+        "otherwise: choose a frame range of the longer one)", default=False)
     expect_b: StringProperty(
         name="Expected B", description="The read hash B had when a search result named it (the panel's Blend): "
         "a B changed since is refused", options={"HIDDEN", "SKIP_SAVE"})
@@ -174,6 +177,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         layout.prop(self, "root")
         layout.prop(self, "range_a")
         layout.prop(self, "range_b")
+        layout.prop(self, "allow_long")
         layout.prop(self, "extra")
         layout.prop(self, "mask")
         if self.mask:
@@ -252,6 +256,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                 raise changed_error(self.action_b)
             weights = self._weights()
             options = self._options()
+            options["allow_long"] = self.allow_long
             options["rates"] = [check_fps(f, label) if f else None
                                 for f, label in ((self.fps_a, "A Frame Rate"), (self.fps_b, "B Frame Rate"))]
             show = wm is not None and len(weights) > 1
