@@ -57,10 +57,11 @@ def _restricted_rest(armature, bones):
 
 
 def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
-    """``clip`` (armature space of its own rig, ``meta`` parents and rest skeleton) on ``armature``'s bones through
+    """``clip`` (armature space of its own rig with ``meta`` parents and rest skeleton, or already in the
+    comparison space) on ``armature``'s bones through
     ``source_map`` (the source rig's bone map: "auto" or a dict) and the armature's (``rigmap.bone_map_of``).
     ShapeSigError (one line) when either rig maps no joint or they share too few."""
-    if clip.meta.get("rotation_space") != "armature":
+    if clip.meta.get("rotation_space") not in ("armature", "comparison"):  # files come mapped (sources.read)
         raise ShapeSigError(f"clip {clip.name!r}: another rig's motion is retargeted from its armature's axes")
     mb = rigs.apply_bone_map(clip, source_map)
     rest = rest_clip(armature, clip.frames, clip.fps, name or clip.name)
