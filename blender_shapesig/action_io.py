@@ -261,12 +261,12 @@ def _root_bone(armature, names, channels):
 
 
 def _action_fps(action, fps):
-    """``fps``, else the rate ``write_action`` recorded, else the scene's (24 without a scene)."""
-    if fps is None and isinstance(action.get("shapesig_fps"), (int, float)) and action["shapesig_fps"] > 0:
-        fps = action["shapesig_fps"]
+    """``fps``, else the action's known rate (recorded, or its source file's: ``frame_rates.rate_of``), else the
+    scene's (24 without a scene)."""
     if fps is None:
-        scene = getattr(bpy.context, "scene", None)
-        fps = scene.render.fps / scene.render.fps_base if scene is not None else 24.0
+        from .frame_rates import rate_of
+
+        fps = rate_of(action)[0]
     return float(fps)
 
 

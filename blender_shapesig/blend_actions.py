@@ -10,7 +10,7 @@ from typing import List, Optional, Sequence
 import bpy
 import numpy as np
 
-from . import action_io, compat, rigmap
+from . import action_io, compat, frame_rates, rigmap
 from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
@@ -50,17 +50,20 @@ def selected_bone_names(armature):
     return [pb.name for pb in armature.pose.bones if compat.pose_bone_selected(pb)]
 
 
-def _read_all(armature, actions, bones):
+def _read_all(armature, actions, bones, rates=None):
     """(clips on their own rigs, clips in the comparison space or None, bones, across): every action read with the
-    armature that plays it; through the bone maps when one is of another rig (``rigmap``)."""
+    armature that plays it (at ``rates[i]`` when given, else its own rate); through the bone maps when one is of
+    another rig (``rigmap``)."""
     from .core.rigs import apply_bone_map
     from .library import owner_armature
 
     owners = [armature] + [owner_armature(act, armature) for act in actions[1:]]
     across = any(rigmap.across_rigs(armature, o) for o in owners[1:])
     space = "armature" if across else "pose"
-    own = [action_io.read_action(act, armature=o if across else armature, exclude_unkeyed=True, space=space)
-           for act, o in zip(actions, owners)]
+    rates = list(rates or ()) + [None] * (len(actions) - len(rates or ()))
+    own = [action_io.read_action(act, armature=o if across else armature, exclude_unkeyed=True, space=space,
+                                 fps=float(r) if r else None)
+           for act, o, r in zip(actions, owners, rates)]
     mapped = None
     if across:
         ma, mb, bones = rigmap.onto_comparison(own[0], armature, own[1], owners[1], bones)
@@ -78,7 +81,8 @@ def _read_all(armature, actions, bones):
 
 def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DEFAULT_DEPTH, frames=None,
                   bones: Optional[Sequence[str]] = None, root="blend", progress=None, extra=(), ranges=None,
-                  loop=False, feet="none", mask=None, groups=None, timing="bake") -> BlendResult:
+                  loop=False, feet="none", mask=None, groups=None, timing="bake", rates=None,
+                  allow_long=False) -> BlendResult:
     """Blend ``action_a`` towards ``action_b`` at each weight into new actions on ``armature``.
 
     ``weights``: B's weight per blend (two actions); with ``extra`` (pairs (action, weight)) one blend whose
@@ -87,7 +91,10 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
     ranges ((S, E) or None, the actions' own frames). ``loop``, ``feet`` ("lock"/"none"; a rig without legs is
     kept unplanted, said in ``info``), ``mask``/``groups``: see ``core.blend.make_blends``. ``timing``: "bake"
     (the blended timing in the keys) or "nla" (editable, see the module docstring). ``progress(done, total)``:
-    called after each blend and each written action (2 per blend)."""
+    called after each blend and each written action (2 per blend). ``rates``: per action (A, B, the extras) the
+    frame rate to read it at, or None for its own (``frame_rates.rate_of``); ``info["rates"]`` holds (name, fps,
+    known) per action and ``info["rate_note"]`` the one line when an assumed rate meets known ones. ``allow_long``:
+    blend sources lasting more than ``core.blend.make.MAX_DURATION_RATIO`` times as long as each other."""
     if action_a == action_b:
         raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
     actions = [action_a, action_b] + [act for act, _w in extra]
@@ -109,12 +116,12 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
         raise ShapeSigError(f"timing: expected 'bake' or 'nla', got {timing!r}")
     if timing == "nla" and loop:
         raise ShapeSigError("a loop is written baked: choose Bake timing or switch Loop off")
-    own, mapped, bones, across = _read_all(armature, actions, bones)
+    own, mapped, bones, across = _read_all(armature, actions, bones, rates)
     n = len(vectors)
     clips, info = make_blends(
         own, vectors, mapped=mapped, back=rigmap.back_onto_armature if across else None, ranges=ranges,
         loop=loop, feet=feet, feet_required=False, mask=mask, groups=groups, align=align, depth=depth,
-        frames=frames, bones=bones, root=root,
+        frames=frames, bones=bones, root=root, allow_long=allow_long,
         up_axis=None if across else action_io.up_in_bone_frame(armature, own[0].root_bone),
         progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
     created, names, strips = [], [], []
@@ -136,6 +143,9 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
             compat.remove_action(act)
         raise
     unmatched = tuple(clips[0].meta.get("kept_bones" if across else "unmatched_a", ()))
+    info["rates"] = [(act.name, float(r), True) if r else (act.name, *frame_rates.rate_of(act)[:2])
+                     for act, r in zip(actions, list(rates or ()) + [None] * len(actions))]
+    info["rate_note"] = frame_rates.mixed_note(info["rates"])
     return BlendResult(created, clips, unmatched, info, strips)
 
 

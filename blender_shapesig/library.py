@@ -16,7 +16,7 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_io, compat, rigmap
+from . import action_changes, action_io, compat, frame_rates, rigmap
 from .core import index
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
@@ -24,8 +24,9 @@ from .core.metrics import LOCAL
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
 from .core.io.files import skipped_line
 from .owners import find_owner
+from .rig_library import library_actions
 from .preferences import ADDON_ID, get_preferences
-from .properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, uses_local
+from .properties import PANEL_MAX_LEVEL, column_word, index_level, results_of, settings_of, uses_local
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "file_identity", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
@@ -118,6 +119,7 @@ def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=No
     (``sources.trim_ends``; a ``frame_range``'s start is explicit and kept: pass "none" for an exact range);
     ``fps``: the rate to read at (None: the action's own)."""
     arm = owner_armature(action, obj)
+    fps = fps or (None if frame_rates.stored_rate(action) else frame_rates.rate_of(action)[0])  # found or assumed
     digests = {} if digests is None else digests
     digest = digests.get(arm.as_pointer())
     if digest is None:
@@ -262,10 +264,10 @@ def _folders(context, settings):
 
 
 def _file_actions(settings, obj):
-    """The file's actions that animate ``obj``'s bones, filtered by name pattern and asset catalog."""
+    """The file's actions ``obj``'s search compares (``rig_library``), filtered by name pattern and catalog."""
     pattern = settings.name_filter.strip()
     catalog = settings.catalog.strip()
-    for action in action_io.armature_actions(obj):
+    for action in library_actions(obj):
         if pattern and not fnmatch.fnmatchcase(action.name, pattern):
             continue
         if settings.assets_only:
@@ -348,8 +350,7 @@ def search_library(context, settings) -> SearchLibrary:
 
 
 def library_items(context, settings, obj=None) -> List[sources.LibraryItem]:
-    """The library as LibraryItems: the file's actions (filtered, without the query's), then the folders' clip
-    files, all keyed now (files that cannot be are left out). ``obj``: unused (the query's armature is used)."""
+    """The library's LibraryItems (file actions, then folder files keyed now; ``obj`` unused: the query's rig)."""
     return [it for it in search_library(context, settings).members() if it is not None][1:]
 
 
@@ -464,8 +465,7 @@ def _row_sources(results, items):
     return out
 
 
-ELASTIC_COLUMN = "d_S*"
-LOCAL_COLUMN = "score"  # the local search's final score (core.index.local.combine)
+ELASTIC_COLUMN, LOCAL_COLUMN = "d_S*", "score"  # score: the local search's (core.index.local.combine)
 
 
 def store_results(settings, results, items, query_name, order_by="sim^3", query_bones=0, seconds=0.0):
@@ -511,8 +511,8 @@ class RankJob:
     3. sim^n with Re-rank K, the d_S* of the first K rows, one per step (``rank_clips`` with the elastic metric on
        the one clip: the same pair increments and DP as its re-rank).
 
-    The rows are then in the order of ONE column: sim^n, or d_S* when re-ranking (only the K re-ranked rows
-    are listed then; the message says how many more were ranked). Whole-body matches come before partial ones
+    The rows are then in the order of ONE column: sim^n, or d_S* when re-ranking (the K re-ranked rows, then
+    the next by sim^n up to Show; the message says how many more were ranked). Whole-body matches come before partial ones
     (few shared bones), each tier ascending in that column. ``seconds`` is the whole click, from the start."""
 
     def __init__(self, context, settings, started=None):
@@ -600,8 +600,8 @@ class RankJob:
             self.ranked = index.rank_clips(self.query, items, metric=LOCAL, top=self.top or None, cache=self.cache)
         else:
             cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
-            self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=cut,
-                                           cache=self.cache, pool=max(index.EXACT_POOL, 4 * (cut or 0)))
+            self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=self.top or None,
+                                           cache=self.cache, pool=max(index.EXACT_POOL, 4 * max(cut or 0, self.top)))
         self.warnings = self.errors + self.ranked.warnings
         # clips (a .blend item may hold several)
         self.compared = self.ranked.stats.get("compared" if windows else "library", len(items))
@@ -612,7 +612,7 @@ class RankJob:
             self._order()
 
     def _elastic(self, r):
-        """d_S* of one row: rank_clips' elastic metric on that one clip (its shared bones, the same depth)."""
+        """d_S* of one row: rank_clips' elastic metric on that one clip (shared bones, the same depth)."""
         one = index.rank_clips(self.query, [self.by_key[r.key]], metric="elastic", cache=self.cache,
                                depth=self.settings.depth)
         r.elastic = next((x.distance for x in one if x.name == r.name), float("nan"))
@@ -620,7 +620,8 @@ class RankJob:
     def _order(self):
         if self.rerank:
             head = [r for r in self.ranked if r.elastic is not None]
-            self.rows = sorted(head, key=lambda r: (r.partial, r.elastic, r.distance, r.name))
+            rest = [r for r in self.ranked if r.elastic is None][:max((self.top or len(self.ranked)) - len(head), 0)]
+            self.rows = sorted(head, key=lambda r: (r.partial, r.elastic, r.distance, r.name)) + rest  # then by sim
             self.order_by = "elastic"
         else:
             self.rows, self.order_by = list(self.ranked), ("local" if self.local else "sim")
@@ -636,18 +637,19 @@ class RankJob:
         store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)
         out = results_of()
-        msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column}; "
+        msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column_word(column)}; "
                f"{self.indexed} newly indexed")
         if self.failed:
             msg += f", {len(self.failed)} could not be read"
         msg += self.lib.skipped_text()
         msg += f"; {out.seconds:.2f} s"
         if self.rerank:
-            msg += f"; the best {len(self.rows)} by sim^{level} re-ranked"
+            msg += f"; the best {sum(r.elastic is not None for r in self.rows)} by sim^{level} re-ranked"
         if self.not_listed:
-            msg += f"; {self.not_listed} more not listed (raise {'Re-rank' if self.rerank else 'Show'})"
+            msg += f"; {self.not_listed} more not listed (raise Show)"
         # Auto-Pick: saved maps of the maps folder that could not be read were skipped (one line each)
-        self.warnings = self.warnings + rigmap.skipped_maps(rigmap.maps_folder(auto_only=True))
+        self.warnings = (self.warnings + rigmap.skipped_maps(rigmap.maps_folder(auto_only=True))
+                         + frame_rates.library_notes(self.lib))
         if self.warnings:
             msg += f"; {len(self.warnings)} warning(s): {self.warnings[0]}"
         out.message = msg

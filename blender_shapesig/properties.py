@@ -9,7 +9,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
 
 from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, LOCAL
 
-__all__ = ["ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of", "uses_local",
+__all__ = ["column_word", "ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of", "uses_local",
            "index_level"]
 
 
@@ -19,6 +19,15 @@ RERANK_DEFAULT = 10
 # limits only: a script's value out of range is refused by ``library.search_problem``, never clamped.
 PANEL_MAX_LEVEL = 4
 
+
+
+# the results' columns in an animator's words (the thesis' names follow in brackets and the tooltips)
+_COLUMN_WORDS = {"d_S*": "timing-aligned difference (d_S*)", "score": "score"}
+
+
+def column_word(column: str) -> str:
+    """'sim^3' -> 'similarity (sim^3)', 'd_S*' -> 'timing-aligned difference (d_S*)'."""
+    return _COLUMN_WORDS.get(column, f"similarity ({column})" if column.startswith("sim^") else column)
 
 
 def uses_local(settings) -> bool:
@@ -33,9 +42,11 @@ def index_level(settings) -> int:
 class ShapeSigResult(bpy.types.PropertyGroup):
     """One ranked clip. ``name`` (the item name) is the action's name or the file's base name."""
 
-    distance: FloatProperty(name="Distance", description="Normalized log-signature distance sim^n (eq. 9.1)",
+    distance: FloatProperty(name="Similarity", description="Difference of the motions (0: the same): the "
+                            "normalized log-signature distance sim^n (eq. 9.1)",
                             precision=4)
-    elastic: FloatProperty(name="Elastic", description="Elastic distance d_S* (when re-ranked)", precision=4)
+    elastic: FloatProperty(name="Timing-aligned", description="Difference after aligning the timing: the elastic "
+                           "distance d_S* (when checked)", precision=4)
     has_elastic: BoolProperty(name="Has Elastic", default=False)
     approximate: BoolProperty(name="Approximate", description="Distance estimated from the sketch (compact index)",
                               default=False)
@@ -60,6 +71,10 @@ class ShapeSigResult(bpy.types.PropertyGroup):
     # moments and explanations
     window_action: StringProperty(name="Window Action", description="The action written for the matched window "
                                   "(Assign / Preview of a moment); Blend uses it")
+    on_armature: StringProperty(name="On Armature", description="The action written for this row on the active "
+                                "armature when the result is another rig's motion (retargeted through the bone maps)")
+    kept: StringProperty(name="Kept At Rest", description="Bones of the armature with no counterpart in the "
+                         "result's rig: they keep their rest pose")
     explain: StringProperty(name="Explanation", description="Why different (JSON, core.elastic.explain): per-joint "
                             "shares of the elastic distance and the alignment cost over time")
     # the frames read before trimming, when trimming cut some (0..0: nothing trimmed)
@@ -143,14 +158,17 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                 "Level n, optionally re-ranked by the elastic distance d_S* (Re-rank); best for the same take in "
                 "another file format")),
         default=LOCAL)
-    level: IntProperty(name="Level", description="Log-signature level n of sim^n", default=DEFAULT_LEVEL,
+    level: IntProperty(name="Detail", description="How fine the motion description is: the log-signature level n "
+                       "of the similarity sim^n (eq. 9.1); higher sees finer detail, costs more", default=DEFAULT_LEVEL,
                        soft_min=1, soft_max=PANEL_MAX_LEVEL)
     # default 10: the evaluation's winner (docs/evaluation.md): a sim^3 shortlist re-ranked by d_S* over the top
     # 10 matched d_S*'s leave-one-out accuracy on every CMU set at a fraction of its cost
-    rerank: IntProperty(name="Re-rank", description="Re-order the best K by elastic distance (0: off)",
+    rerank: IntProperty(name="Timing Check", description="Re-order the best K by the timing-aligned difference "
+                        "(the elastic distance d_S*, 0: off)",
                         default=RERANK_DEFAULT, soft_min=0, soft_max=100)
     top: IntProperty(name="Show", description="Number of results kept (0: all)", default=25, soft_min=0)
-    depth: IntProperty(name="Depth", description="Elastic DP search depth", default=DEFAULT_DEPTH,
+    depth: IntProperty(name="Timing Freedom", description="How far the timing alignment may stretch in one step "
+                       "(the elastic DP search depth)", default=DEFAULT_DEPTH,
                        soft_min=1, soft_max=30)
     # index build / preview state (the preview's is what Stop restores exactly; saved with the file, so a file
     # saved while previewing still restores on Stop)

@@ -9,7 +9,7 @@ import json
 
 import bpy
 
-from . import action_io, compat, library
+from . import action_io, compat, library, retarget, rigmap
 from .action_hashes import read_hash
 from .core.io import sources
 from .core.errors import ShapeSigError
@@ -70,17 +70,50 @@ def result_action(settings, obj, row):
         action = bpy.data.actions.get(row.source)
         if action is not None:
             check_action(row, action)
-            return action
+            return _on_obj(row, obj, action)
         if not row.spec:
             raise ShapeSigError(f"the action {row.source!r} no longer exists")
         row.is_action, row.source = False, row.spec  # its written action was undone or removed: read it again
     _check_file(row)
     clip = _file_clip(settings, row)
-    action = action_io.write_action(clip, armature=obj, name=clip.name)
+    if retarget.needs_retarget(clip, obj):
+        action, kept = retarget.action_on_armature(clip, "auto", obj, _on_name(clip.name, obj))
+        row.kept = ", ".join(kept)
+    else:
+        action = action_io.write_action(clip, armature=obj, name=clip.name)
     row.is_action = True
     row.source = action.name
     _remember(row, action)
     return action
+
+
+def _on_name(source, obj):
+    from .blend_actions import unique_action_name
+
+    return unique_action_name(f"{source} on {obj.name}")
+
+
+def _on_obj(row, obj, action, frame_range=None, name=None):
+    """``action`` as ``obj`` plays it: itself when it is of ``obj``'s rig, else (another rig's) retargeted once
+    onto ``obj`` (``retarget``) as a new action remembered in ``row.on_armature``; the source is only read."""
+    owner = library.owner_armature(action, obj)
+    if not rigmap.across_rigs(obj, owner) and frame_range is None:
+        return action
+    got = bpy.data.actions.get(row.on_armature) if row.on_armature else None
+    if got is not None:
+        check_action(row, got)
+        return got
+    name = name or action.name
+    clip = action_io.read_action(action, armature=owner, frame_range=frame_range, exclude_unkeyed=True,
+                                 space="armature", name=name)
+    if rigmap.across_rigs(obj, owner):
+        written, kept = retarget.action_on_armature(clip, rigmap.bone_map_of(owner), obj, _on_name(name, obj))
+        row.kept = ", ".join(kept)
+    else:
+        written = action_io.write_action(clip, armature=obj, name=name)
+    row.on_armature = written.name
+    _remember(row, written)
+    return written
 
 
 def _file_clip(settings, row):
@@ -105,16 +138,20 @@ def window_action(settings, obj, row):
     source = bpy.data.actions.get(row.source) if row.is_action else None
     if source is not None:
         check_action(row, source)
-        name = f"{source.name}[{first}-{last}]"
-        clip = action_io.read_action(source, armature=obj, frame_range=(first, last), exclude_unkeyed=True,
-                                     name=name)
+        action = _on_obj(row, obj, source, frame_range=(first, last), name=f"{source.name}[{first}-{last}]")
+        row.window_action = action.name
+        return action
     elif row.is_action and not row.spec:
         raise ShapeSigError(f"the action {row.source!r} no longer exists")
     else:
         _check_file(row)
         clip = _file_clip(settings, row).crop(first, last)
         name = f"{clip.name}[{first}-{last}]"
-    action = action_io.write_action(clip, armature=obj, name=name)
+    if retarget.needs_retarget(clip, obj):
+        action, kept = retarget.action_on_armature(clip, "auto", obj, _on_name(name, obj))
+        row.kept = ", ".join(kept)
+    else:
+        action = action_io.write_action(clip, armature=obj, name=name)
     row.window_action = action.name
     _remember(row, action)
     return action
@@ -216,6 +253,8 @@ def _forget_written(name):
     for row in results_of().results:
         if row.window_action == name:
             row.window_action = ""
+        if row.on_armature == name:
+            row.on_armature = ""
         if row.is_action and row.source == name and row.spec:
             row.is_action, row.source = False, row.spec
 
@@ -223,13 +262,11 @@ def _forget_written(name):
 def preview_result(context, settings):
     """Start previewing the selected result (a folder clip is written as an action for the preview); returns
     the action."""
-    obj, row = library.active_armature(context), None
     library.check_problem(library.result_problem(context, settings))
-    row = results_of().results[results_of().results_index]
-    was_file = not row.is_action
-    fresh = bool(row.frame_last) and bpy.data.actions.get(row.window_action or "") is None  # a moment's window
+    before = set(bpy.data.actions.keys())
     obj, action = selected_action(context, settings)
-    start_preview(context, settings, obj, action, written=action.name if (was_file or fresh) else "")
+    # written for the preview (a folder clip, a moment's window, another rig's motion): removed at Stop
+    start_preview(context, settings, obj, action, written="" if action.name in before else action.name)
     return action
 
 
@@ -240,7 +277,7 @@ def assign_result(context, settings):
     library.check_problem(library.result_problem(context, settings))
     if settings.preview_object:
         row = results_of().results[results_of().results_index]
-        keep = row.window_action if row.frame_last else (row.source if row.is_action else "")
+        keep = row.window_action if row.frame_last else (row.on_armature or (row.source if row.is_action else ""))
         stop_preview(context, settings, keep=keep)
     obj, action = selected_action(context, settings)
     action_io.assign_action(obj, action)

@@ -46,6 +46,20 @@ def _error(message, debug):
     return EXIT_ERROR
 
 
+# the command line's options for the neutral advice of core's messages (the panel words them for animators)
+_FLAG_HINTS = (("give its skeleton file", " (--asf)"), ("choose its skeleton file", " (--asf)"),
+               ("give a bone map", " (--bone-map FILE.json)"), ("map the bones", " (--bone-map FILE.json)"),
+               ("allow partial matches", " (--allow-partial)"), ("allow long blends", " (--allow-long)"))
+
+
+def _with_flags(line):
+    """A core error line with the option that acts on each piece of advice it gives."""
+    for advice, flag in _FLAG_HINTS:
+        if advice in line and flag not in line:
+            line = line.replace(advice, advice + flag, 1)
+    return line
+
+
 def main(argv=None):
     """Run the command line; returns the exit code (0, or 2 on errors)."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -69,6 +83,6 @@ def main(argv=None):
     except Exception as exc:  # every failure: one line (and the traceback with --debug)
         from ..core.errors import error_line
 
-        return _error(exc if isinstance(exc, CommandError) else error_line(exc), debug)
+        return _error(exc if isinstance(exc, CommandError) else _with_flags(error_line(exc)), debug)
     _emit(args, out, text)
     return 0

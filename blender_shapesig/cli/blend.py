@@ -104,7 +104,7 @@ def run(args):
             own, weights, mapped=mapped, back=onto_rig if mapped is not None else None, ranges=ranges,
             loop=args.loop, feet=args.feet or "lock", feet_required=args.feet is not None, mask=mask, groups=groups,
             align=args.align or args.loop, depth=args.depth, frames=args.frames,
-            progress=lambda i, n: bar.update())
+            progress=lambda i, n: bar.update(), allow_long=args.allow_long)
     finally:
         bar.close()
     ref = mapped[0] if mapped is not None else own[0]
@@ -185,6 +185,8 @@ def add_parser(sub):
     p.add_argument("--feet", choices=("lock", "none"), default=None,
                    help="lock (default): feet planted in the sources stay planted in the blend (two-bone IK on "
                         "the legs; skipped with a note when a rig has no legs); none: as blended")
+    p.add_argument("--allow-long", action="store_true",
+                   help="blend clips lasting more than 8 times as long as each other (refused by default)")
     p.add_argument("--loop", action="store_true",
                    help="a seamless cycle: one stride of each clip (cycle detection), aligned, closed")
     p.add_argument("--mask", metavar="GROUP=w,...",

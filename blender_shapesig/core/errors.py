@@ -75,8 +75,8 @@ def check_number(value, name, low=0.0, high=float("inf")):
         x = float(value)
     except (TypeError, ValueError):
         raise ShapeSigError(f"{name}: expected a finite number {span}, got {value!r}") from None
-    if not math.isfinite(x) or x < low or x > high:
-        raise ShapeSigError(f"{name}: expected a finite number {span}, got {value!r}")
+    if not math.isfinite(x) or x < low or x > high:  # rounded: a 32-bit -0.2 reads -0.20000000298023224
+        raise ShapeSigError(f"{name}: expected a finite number {span}, got {x:.6g}")
     return x
 
 

@@ -180,7 +180,7 @@ def check_coverage(a: Clip, b: Clip, allow_partial=False):
     if cov < MIN_COVERAGE and not allow_partial:
         raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share {bones} moving joints, coverage {cov:.2f} "
                             f"< {MIN_COVERAGE} of the smaller clip's moving joints; map the bones "
-                            f"(--bone-map FILE.json) or allow it (--allow-partial)")
+                            f"or allow partial matches")
     return bones, cov
 
 

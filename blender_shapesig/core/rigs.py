@@ -538,7 +538,7 @@ def check_comparable(*clips: Clip) -> None:
         if c.meta.get("rotation_space") != "comparison" and not set(c.bones) & set(mapped[0].bones):
             raise ShapeSigError(f"clips {mapped[0].name!r} and {c.name!r} share no bones: no bone of {c.name!r} "
                                 f"maps to a canonical joint (unmapped bones: {_names(list(c.bones))}); give a bone "
-                                f"map (--bone-map FILE.json)")
+                                f"map")
 
 
 def moving_count(clip: Clip) -> int:

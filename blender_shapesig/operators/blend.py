@@ -8,6 +8,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, IntVectorProperty, StringProperty
 
 from ..core.blend import blend_weights
+from ..core.clip.prepare import check_fps
 from ..core.errors import MAX_INBETWEENS, ShapeSigError, check_integer, check_weight
 from ..core.metrics import DEFAULT_DEPTH
 
@@ -115,6 +116,15 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                ("NLA", "Editable (NLA)", "The pose curve on A's time, played by an NLA strip whose animated Strip "
                 "Time is the blended clock: nudge it in the Graph Editor, then Bake Blend Timing")),
         default="BAKE")
+    fps_a: FloatProperty(
+        name="A Frame Rate", description="Frames per second A was captured at (0: its own rate: recorded, found "
+        "in its source file, else the scene's, shown as assumed)", default=0.0, soft_min=0.0, soft_max=240.0)
+    fps_b: FloatProperty(
+        name="B Frame Rate", description="Frames per second B was captured at (0: its own rate: recorded, found "
+        "in its source file, else the scene's, shown as assumed)", default=0.0, soft_min=0.0, soft_max=240.0)
+    allow_long: BoolProperty(
+        name="Allow Long", description="Blend actions lasting more than 8 times as long as each other (refused "
+        "otherwise: choose a frame range of the longer one)", default=False)
     expect_b: StringProperty(
         name="Expected B", description="The read hash B had when a search result named it (the panel's Blend): "
         "a B changed since is refused", options={"HIDDEN", "SKIP_SAVE"})
@@ -150,6 +160,8 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         layout.use_property_split = True
         layout.prop_search(self, "action_a", bpy.data, "actions")
         layout.prop_search(self, "action_b", bpy.data, "actions")
+        for name, prop in ((self.action_a, "fps_a"), (self.action_b, "fps_b")):
+            _draw_rate(layout, self, name, prop)
         row = layout.row()
         row.enabled = self.inbetweens == 1
         row.prop(self, "weight", slider=True)
@@ -165,6 +177,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         layout.prop(self, "root")
         layout.prop(self, "range_a")
         layout.prop(self, "range_b")
+        layout.prop(self, "allow_long")
         layout.prop(self, "extra")
         layout.prop(self, "mask")
         if self.mask:
@@ -243,6 +256,9 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                 raise changed_error(self.action_b)
             weights = self._weights()
             options = self._options()
+            options["allow_long"] = self.allow_long
+            options["rates"] = [check_fps(f, label) if f else None
+                                for f, label in ((self.fps_a, "A Frame Rate"), (self.fps_b, "B Frame Rate"))]
             show = wm is not None and len(weights) > 1
             if show:
                 wm.progress_begin(0, 2 * len(weights))
@@ -259,6 +275,8 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         if self.assign:
             self._assign(obj, result)
         self.report({"INFO"}, f"Blend Actions: {_summary(result)}")
+        if result.info.get("rate_note"):
+            self.report({"WARNING"}, f"Blend Actions: {result.info['rate_note']}")
         return {"FINISHED"}
 
     def _assign(self, obj, result):
@@ -273,10 +291,28 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         compat.assign_action(obj, None)  # the strip plays
 
 
+def _draw_rate(layout, op, name, prop):
+    """A row: the action's frame rate as read (assumed ones say so) and the override field."""
+    from ..frame_rates import rate_of, rate_text
+
+    act = bpy.data.actions.get(name) if name else None
+    row = layout.row()
+    row.prop(op, prop)
+    if act is not None and not getattr(op, prop):
+        fps, known, _how = rate_of(act)
+        row.label(text=rate_text(fps) if known else f"{rate_text(fps)} (assumed)",
+                  icon="NONE" if known else "ERROR")
+
+
 def _summary(result):
     """The report line: the new actions, bones that kept A's motion, planted feet and loops."""
     names = ", ".join(act.name for act in result.actions)
     text = f"created {len(result.actions)} action(s): {names}"
+    if result.clips:
+        from ..frame_rates import rate_text
+
+        clip = result.clips[0]
+        text += f" ({clip.frames} frames, {(clip.frames - 1) / clip.fps:.2f} s at {rate_text(clip.fps)})"
     if result.strips:
         from ..blend_actions import TIMING_TRACK
 

@@ -293,6 +293,20 @@ class SHAPESIG_OT_rank(_ModalSteps, bpy.types.Operator):
         return {"RUNNING_MODAL"}
 
 
+def _kept_text(action):
+    """'; retargeted from another rig, 3 bones without a counterpart keep their rest: a, b, c' or ''."""
+    rows = library.results_of().results
+    row = next((r for r in rows if action.name in (r.on_armature, r.window_action, r.source)), None)
+    if row is None or not row.kept and row.on_armature != action.name and "shapesig_retargeted_from" not in action:
+        return ""
+    kept = [b for b in row.kept.split(", ") if b]
+    text = "; retargeted from another rig through the bone maps"
+    if kept:
+        text += (f", {len(kept)} bone(s) without a counterpart keep their rest: {', '.join(kept[:6])}"
+                 + (", ..." if len(kept) > 6 else ""))
+    return text
+
+
 class SHAPESIG_OT_assign_result(bpy.types.Operator):
     """Make the selected result the active armature's action (the replaced one is kept in the NLA)"""
 
@@ -308,7 +322,7 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Assign Result: {exc}")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"{obj.name}: action {action.name!r}")
+        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}")
         return {"FINISHED"}
 
 
@@ -336,7 +350,8 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
             self.report({"ERROR"}, f"Preview: {exc}")
             return {"CANCELLED"}
         start, end = (int(v) for v in action.frame_range)
-        self.report({"INFO"}, f"previewing {action.name!r} (frames {start}-{end}); run again to stop")
+        self.report({"INFO"}, f"previewing {action.name!r} (frames {start}-{end}){_kept_text(action)}; run again "
+                              f"to stop")
         return {"FINISHED"}
 
 

@@ -55,9 +55,15 @@ def _header(layout, results):
     split = row.split(factor=0.45)
     split.label(text="Clip")
     nums = split.row(align=True)
-    nums.label(text=f"{results.order_by} \u25b2")
-    nums.label(text={library.ELASTIC_COLUMN: "sim", library.LOCAL_COLUMN: ""}.get(results.order_by, "d_S*"))
+    nums.label(text=f"{_short(results.order_by)} \u25b2")
+    nums.label(text={library.ELASTIC_COLUMN: "Similarity", library.LOCAL_COLUMN: ""}.get(results.order_by,
+                                                                                        "Timing-aligned"))
     nums.label(text="Frames")
+
+
+def _short(column):
+    """A column's header in an animator's words (the thesis' names are in the tooltips and the message)."""
+    return {library.ELASTIC_COLUMN: "Timing-aligned", library.LOCAL_COLUMN: "Score"}.get(column, "Similarity")
 
 
 def _progress(row, what, factor):
@@ -95,12 +101,28 @@ def _draw_query(layout, s, obj):
     current = getattr(getattr(obj, "animation_data", None), "action", None)
     if not s.query_action and current is not None and obj.type == "ARMATURE":
         col.label(text=f"Active action: {current.name}")
+    query = bpy.data.actions.get(s.query_action) if s.query_action else current
+    if query is not None:
+        _draw_rate(col, query)
     row = col.row(align=True)
     row.prop(s, "use_frame_range")
     sub = row.row(align=True)
     sub.active = s.use_frame_range
     sub.prop(s, "frame_start", text="")
     sub.prop(s, "frame_end", text="")
+
+
+def _draw_rate(col, action):
+    """The action's frame rate (assumed ones say so, in the warning colour) and the button to set it."""
+    from ..frame_rates import rate_of, rate_text
+
+    fps, known, how = rate_of(action)
+    row = col.row(align=True)
+    row.alert = not known
+    text = f"Frame rate: {rate_text(fps)}" + ("" if known else " (assumed: the scene's)")
+    row.label(text=text, icon="TIME")
+    op = row.operator("shapesig.set_frame_rate", text="", icon="PREFERENCES")
+    op.action = action.name
 
 
 def _draw_library(layout, s):

@@ -218,15 +218,20 @@ def test_rows_follow_one_named_sort_column(rig):
     assert bpy.ops.shapesig.rank() == {"FINISHED"}  # the default, Similarity: Motion and pose
     scores = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
     assert res.order_by == "score" and scores == sorted(scores) and "sorted by score" in res.message
-    assert "score \u25b2" in _draw().labels()
+    assert "Score \u25b2" in _draw().labels()
     s.similarity = "sim"
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     sims = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
-    assert res.order_by == "sim^3" and sims == sorted(sims) and "sorted by sim^3" in res.message
+    assert res.order_by == "sim^3" and sims == sorted(sims) and "sorted by similarity (sim^3)" in res.message
+    # Show lists as many as it says: the re-ranked first, then the next by sim^3
     s.rerank, s.top = 2, 0
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert res.order_by == "d_S*" and "sorted by d_S*" in res.message
-    assert "the best 2 by sim^3 re-ranked; 1 more not listed (raise Re-rank)" in res.message
+    rows = bpy.context.window_manager.shapesig_results.results
+    assert len(rows) == 3 and [r.has_elastic for r in rows] == [True, True, False]
+    s.rerank, s.top = 2, 2
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    assert res.order_by == "d_S*" and "sorted by timing-aligned difference (d_S*)" in res.message
+    assert "the best 2 by sim^3 re-ranked; 1 more not listed (raise Show)" in res.message
     el = [r.elastic for r in bpy.context.window_manager.shapesig_results.results]
     assert len(el) == 2 and all(r.has_elastic for r in bpy.context.window_manager.shapesig_results.results) and el == sorted(el)
     # the same d_S* and order as the core's own re-rank of the best two
@@ -236,7 +241,7 @@ def test_rows_follow_one_named_sort_column(rig):
     # (the rows keep float32)
     assert [(r.name, pytest.approx(r.elastic, rel=1e-6)) for r in core] == [(r.name, r.elastic) for r in bpy.context.window_manager.shapesig_results.results]
     lay = _draw()
-    assert "d_S* \u25b2" in lay.labels() and "sorted by d_S*" in lay.labels()
+    assert "Timing-aligned \u25b2" in lay.labels() and "sorted by timing-aligned" in lay.labels()
 
 
 def test_labels_are_unique_and_counts_honest(empty_file, cache_env, tmp_path):

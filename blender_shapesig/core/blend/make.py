@@ -74,9 +74,26 @@ def _blend(work, weights, kw, progress):
     return out
 
 
+# sources lasting more than this many times as long as each other are refused unless asked (a 20,000-frame take
+# blended with a 144-frame stride is a mistake more often than not)
+MAX_DURATION_RATIO = 8.0
+
+
+def check_durations(clips, allow_long=False):
+    """ShapeSigError (one line) when the longest clip lasts more than ``MAX_DURATION_RATIO`` times the shortest."""
+    seconds = [(c.frames - 1) / float(c.fps) for c in clips]
+    long, short = int(np.argmax(seconds)), int(np.argmin(seconds))
+    if allow_long or seconds[short] <= 0 or seconds[long] <= MAX_DURATION_RATIO * seconds[short]:
+        return
+    a, b = clips[long], clips[short]
+    raise ShapeSigError(f"{a.name!r} ({seconds[long]:.1f} s) lasts {seconds[long] / seconds[short]:.0f} times as long "
+                        f"as {b.name!r} ({seconds[short]:.1f} s), more than {MAX_DURATION_RATIO:g}: choose a frame "
+                        f"range of the longer one or allow long blends")
+
+
 def make_blends(clips, weights, *, mapped=None, back=None, ranges=None, loop=False, feet="lock",
                 feet_required=True, mask=None, groups=None, align=True, depth=DEFAULT_DEPTH, frames=None,
-                bones=None, root="blend", up_axis=None, progress=None):
+                bones=None, root="blend", up_axis=None, progress=None, allow_long=False):
     """(blends, info): the module docstring's steps for ``clips`` (each on its own rig) and ``weights`` (a list of
     weight vectors, one weight per clip each, summing to 1; one blend per vector).
 
@@ -93,6 +110,7 @@ def make_blends(clips, weights, *, mapped=None, back=None, ranges=None, loop=Fal
     if not weights:
         raise ShapeSigError("weights: at least one weight vector is needed")
     own, mapped, notes = _select(clips, mapped, ranges, loop)
+    check_durations(own, allow_long)
     work = own
     if mapped is not None:  # several rigs: the others' rotations relative to A's rest pose (rigs.rest_retarget)
         from ..rigs import rest_retarget

@@ -122,7 +122,7 @@ def _step_table(mi, mj, prune=True):
     if size > MAX_TABLE_ENTRIES:
         raise CurveError(
             f"the DP would need steps of up to {mi} x {mj} frames ({size} weights): the frame counts "
-            f"are too different; resample the longer curve or lower the depth"
+            f"are too different; shorten the longer clip (a frame range or a lower frame rate) or lower the depth"
         )
     di_l, dj_l, start, parts = [], [], [0], []
     for di in range(1, mi + 1):

@@ -15,7 +15,7 @@ from ..clip.clip import Clip, restrict_to_shared
 from ..errors import CurveError, ShapeSigError
 from ..metrics import DEFAULT_DEPTH
 from ..clip.prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
-from ..rigs import MIN_COVERAGE, coverage
+from ..rigs import MIN_COVERAGE, coverage, moving_count
 from ..signatures.signatures import normalized_difference
 from ..io.sources import LibraryItem, as_items
 from .rank import FEW_SHARED, RankList, RankResult
@@ -168,8 +168,10 @@ def _moment(query, item, clip, level, scales, stride, allow_partial, warnings, s
         warnings.append(f"{clip.name}: {exc}; skipped")
         return None
     d, s, e = scored[0]
+    # partial as in rank_clips: few of the query's moving joints compared (a clip moving one bone covers itself)
+    few = shared < FEW_SHARED * moving_count(query.clip)
     r = RankResult(name=clip.name, distance=float(d), frames=clip.frames, key=item.key,
-                   source=clip.source or item.source, shared=shared, coverage=cov, partial=cov < FEW_SHARED,
+                   source=clip.source or item.source, shared=shared, coverage=cov, partial=cov < FEW_SHARED or few,
                    start=_to_clip_frame(clip, bsig.frames, s), end=_to_clip_frame(clip, bsig.frames, e))
     return r, (clip, scored, bsig.frames)
 

@@ -47,7 +47,7 @@ def find_asf(amc_path, asf=None) -> str:
     except OSError:
         raise ParseError("cannot list the folder to find its .asf skeleton", amc_path) from None
     if not found:
-        raise ParseError("no .asf skeleton beside the .amc; give one (--asf)", amc_path)
+        raise ParseError("no .asf skeleton beside the .amc; give its skeleton file", amc_path)
     if len(found) > 1:
         name = os.path.basename(amc_path).lower()
         owners = [f for f in found if _owns(f[:-4].lower(), name)]
@@ -55,7 +55,7 @@ def find_asf(amc_path, asf=None) -> str:
         owners = [f for f in owners if len(f) == longest]
         if len(owners) != 1:
             raise ParseError(f"{len(found)} .asf files beside the .amc ({', '.join(found[:4])}"
-                             f"{', ...' if len(found) > 4 else ''}) and none is named as its start; choose one (--asf)",
+                             f"{', ...' if len(found) > 4 else ''}) and none is named as its start; choose its skeleton file",
                              amc_path)
         found = owners
     return os.path.join(folder, found[0])

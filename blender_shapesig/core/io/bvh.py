@@ -16,7 +16,7 @@ from ..errors import ParseError
 from .files import check_frames, max_frames, read_bytes
 from .text import decode_text, finite_float
 
-__all__ = ["bvh_text", "check_bvh", "load_bvh", "parse_bvh", "BvhJoint", "BVH_TO_BLENDER"]
+__all__ = ["bvh_text", "check_bvh", "motion_header", "rate_of_frame_time", "load_bvh", "parse_bvh", "BvhJoint", "BVH_TO_BLENDER"]
 
 # The axis conversion of Blender's importer (axis_forward '-Z', axis_up 'Y' -> Blender's Y forward, Z up).
 BVH_TO_BLENDER = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -114,6 +114,30 @@ def check_bvh(path):
         for v in values:
             finite_float(v, path, i, limit=_FLOAT32_MAX)
     return frame_time
+
+
+_FRAME_TIME = re.compile(r"(?i)\bFrame\s+Time\s*:\s*([0-9.eE+-]{1,40})")
+
+
+def rate_of_frame_time(frame_time: float) -> float:
+    """The frame rate of a ``Frame Time``, rounded to a whole rate when within 0.1 % of one ("0.00833333": 120;
+    "0.016667", 59.9988: 60)."""
+    fps = 1.0 / frame_time
+    return float(round(fps)) if abs(fps - round(fps)) <= 1e-3 * fps else fps
+
+
+def motion_header(path):
+    """(frames, fps) of a BVH file's MOTION header, without parsing its hierarchy or data; ParseError when the
+    header is missing or not positive."""
+    text = bvh_text(path)[0]
+    frames, time = _FRAMES_HEADER.search(text), _FRAME_TIME.search(text)
+    try:
+        frame_time = float(time.group(1)) if time else 0.0
+    except ValueError:
+        frame_time = 0.0
+    if frames is None or not 0.0 < frame_time < float("inf"):
+        raise ParseError("no MOTION header with Frames and a positive Frame Time", path)
+    return int(frames.group(1)), rate_of_frame_time(frame_time)
 
 
 def _bvh_lines(path):
