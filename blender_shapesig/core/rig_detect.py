@@ -52,6 +52,14 @@ class _NotHumanoid(Exception):
     pass
 
 
+def _role(side, words):
+    """``word_role``, where a "hip" without a side is the hips (with one it is a thigh)."""
+    kind, role = word_role(words)
+    if kind == "leg" and not role and side is None and "hip" in words:
+        return "body", "hips"
+    return kind, role
+
+
 def _names_only(bones, prior) -> Dict[str, str]:
     """The tables' map filled with bones whose words name a joint and a side (no hierarchy to confirm)."""
     out = dict(prior)
@@ -60,7 +68,7 @@ def _names_only(bones, prior) -> Dict[str, str]:
         if b in out:
             continue
         side, words = tokens(b)
-        kind, role = word_role(words)
+        kind, role = _role(side, words)
         if not role or kind in ("skip", "twist"):
             continue
         joint = role if kind == "body" else (f"{role}.{side}" if side else None)
@@ -104,7 +112,7 @@ def _classify(tree, prior):
     out = {}
     for b in tree.bones:
         side, words = tokens(b)
-        kind, role = word_role(words)
+        kind, role = _role(side, words)
         joint = prior.get(b)
         if joint is not None:
             base, _, s = joint.partition(".")
@@ -159,14 +167,13 @@ def _place_limb(chain, roles, info, prior, heads, tails):
                if b in prior and prior[b].partition(".")[0] in roles]
     if len(anchors) >= 2 and all(a[0] < b[0] and a[1] < b[1] for a, b in zip(anchors, anchors[1:])):
         out = {chain[i]: roles[r] for i, r in anchors}
-        placed = dict(anchors)
-        for i, r in anchors:  # fill the neighbours the tables did not name
-            for step in (-1, 1):
-                j, rr = i + step, r + step
-                if 0 <= j < len(chain) and 0 <= rr < len(roles) and j not in placed and roles[rr] not in out.values():
-                    if all(abs(j - k) > 0 for k in placed):
-                        out[chain[j]] = roles[rr]
-                        placed[j] = rr
+        for j in range(len(chain)):  # the bones the tables did not name: by their distance to the nearest one
+            if chain[j] in out:
+                continue
+            i, r = min(anchors, key=lambda a: abs(a[0] - j))
+            rr = r + j - i
+            if 0 <= rr < len(roles) and roles[rr] not in out.values():
+                out[chain[j]] = roles[rr]
         return out
     seg = _segments(chain, heads, tails)
     start = None
