@@ -126,9 +126,11 @@ def _classify(tree, prior):
 
 
 def _limb_groups(tree, info, kind):
-    """The limbs of one kind: groups of tips (bones of that kind without one below them) joined when their
-    common ancestor is of that kind too (a heel and a toe of one foot)."""
-    members = {b for b, (k, _r, _s) in info.items() if k == kind}
+    """The limbs of one kind in the body's tree (the one holding most named bones): groups of tips (bones of that
+    kind without one below them) joined when their common ancestor is of that kind too (a heel and a toe)."""
+    roots = [tree.ancestors(b)[-1] for b, (k, _r, _s) in info.items() if k in ("arm", "leg", "body")]
+    main = max(set(roots), key=roots.count) if roots else None  # bones outside the body's tree are helpers
+    members = {b for b, (k, _r, _s) in info.items() if k == kind and tree.ancestors(b)[-1] == main}
     below = set()
     for b in members:
         below.update(a for a in tree.ancestors(b)[1:] if a in members)
