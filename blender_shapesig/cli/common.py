@@ -11,7 +11,7 @@ from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
 PROG = "blender_shapesig"
 EXIT_ERROR = 2
-CLIP_HELP = "a .bvh, .amc, .blend (every armature action) or FILE.blend#ACTION"
+CLIP_HELP = "a .bvh, .amc, SMPL/AMASS .npz, .blend (every armature action) or FILE.blend#ACTION"
 
 
 class CommandError(Exception):

@@ -14,7 +14,7 @@ def run(args):
     d = got["distance"]
     label = metric_label(base, level)
     out = {"distance": c.finite(d), "metric": label, "a": c.display_name(a), "b": c.display_name(b),
-           "bones": got["bones"], "coverage": got["coverage"]}
+           "bones": got["bones"], "coverage": got["coverage"], "unmapped": got["unmapped"]}
     if base == "elastic":
         out["depth"] = args.depth
     # the frames compared (scene numbers, inclusive) and what trimming cut (core.clip.trim)

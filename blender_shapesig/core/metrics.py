@@ -169,26 +169,35 @@ def curve_distance(R0, R1, metric, level=None, depth=DEFAULT_DEPTH):
     return fn(R0, R1, lvl)
 
 
-def check_coverage(a: Clip, b: Clip, allow_partial=False):
-    """(joints compared, coverage) of two clips (``rigs.coverage``: compared / moving joints of the smaller
-    clip). ShapeSigError (one line) when a clip's bones could not be mapped while the other's were
-    (``rigs.check_comparable``), or when the coverage is below ``rigs.MIN_COVERAGE`` and not ``allow_partial``."""
-    from .rigs import MIN_COVERAGE, check_comparable, coverage
+def check_coverage(a: Clip, b: Clip, allow_partial=False, report=False):
+    """(joints compared, coverage) of two clips (``rigs.coverage``: compared / canonical joints both rigs have,
+    or / moving joints of the smaller clip for clips of one rig read by name); with ``report`` the dict of
+    ``rigs.coverage_report`` (``unmapped`` joints, limb ``chains``). ShapeSigError (one line) when a clip's bones
+    could not be mapped while the other's were (``rigs.check_comparable``), or when the coverage or the share of
+    the limb chains both rigs have that are compared is below ``rigs.MIN_COVERAGE``, unless ``allow_partial``."""
+    from .rigs import MIN_COVERAGE, check_comparable, coverage_report
 
     check_comparable(a, b)
-    bones, cov = coverage(a, b)
+    got = coverage_report(a, b)
+    bones, cov = got["bones"], got["coverage"]
+    missing = (", ".join(got["unmapped"][:8]) + (", ..." if len(got["unmapped"]) > 8 else "")) or "none"
     if cov < MIN_COVERAGE and not allow_partial:
         raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share {bones} moving joints, coverage {cov:.2f} "
-                            f"< {MIN_COVERAGE} of the smaller clip's moving joints; map the bones "
+                            f"< {MIN_COVERAGE} (unmapped: {missing}); map the bones "
                             f"or allow partial matches")
-    return bones, cov
+    if got["chains_total"] and got["chains"] < MIN_COVERAGE * got["chains_total"] and not allow_partial:
+        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} compare {got['chains']} of the {got['chains_total']} "
+                            f"arms and legs both rigs have (unmapped: {missing}); map the bones "
+                            f"or allow partial matches")
+    return got if report else (bones, cov)
 
 
 def compare_clips(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, allow_partial=False,
                   time_base=True) -> dict:
-    """``{"distance", "bones", "coverage"}`` of two clips: ``clip_distance`` after ``check_coverage``."""
-    bones, cov = check_coverage(a, b, allow_partial)
-    return {"distance": clip_distance(a, b, metric, level, depth, time_base), "bones": bones, "coverage": cov}
+    """``{"distance", "bones", "coverage", "unmapped"}`` of two clips: ``clip_distance`` after ``check_coverage``."""
+    got = check_coverage(a, b, allow_partial, report=True)
+    return {"distance": clip_distance(a, b, metric, level, depth, time_base), "bones": got["bones"],
+            "coverage": got["coverage"], "unmapped": got["unmapped"]}
 
 
 def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPTH, time_base=True):

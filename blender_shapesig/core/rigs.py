@@ -7,7 +7,6 @@ docs/model.md, "Comparison space across rigs".
 
 import json
 import os
-import re
 from dataclasses import replace
 from typing import Dict, Iterable, List, Mapping, Optional, Tuple
 
@@ -17,174 +16,25 @@ from .clip import skeleton
 from .geometry import so3
 from .clip.clip import Clip
 from .errors import ParseError, ShapeSigError
+from .rig_detect import LIMB_CHAINS, RigReport, analyse_rig, detect_map
+from .rig_names import BODY, CANONICAL_PARENTS, FAMILIES, JOINTS, LIMBS, SIDES, detect_family, strip_prefix
 
 __all__ = [
-    "JOINTS", "BODY", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
+    "JOINTS", "BODY", "LIMBS", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
+    "analyse_rig", "analyse_clip", "RigReport", "LIMB_CHAINS", "chains_covered", "joint_coverage", "coverage_report",
     "check_map", "parse_map", "load_map", "save_map", "map_json", "MAX_MAP_BYTES", "resolve_map", "world_rotations", "heading",
     "to_comparison_space", "rest_retarget", "rests_differ", "other_rigs", "REST_DEGREES", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
     "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
 ]
 
-BODY = ("hips", "spine", "spine_mid", "chest", "neck", "head")
-LIMBS = ("clavicle", "upper_arm", "forearm", "hand", "thigh", "shin", "foot", "toe")
-SIDES = ("L", "R")
-JOINTS = BODY + tuple(f"{j}.{s}" for s in SIDES for j in LIMBS)
-# the canonical parent of each joint (skeleton drawing, documentation)
-CANONICAL_PARENTS = {
-    "hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine_mid", "neck": "chest", "head": "neck",
-    **{f"clavicle.{s}": "chest" for s in SIDES}, **{f"upper_arm.{s}": f"clavicle.{s}" for s in SIDES},
-    **{f"forearm.{s}": f"upper_arm.{s}" for s in SIDES}, **{f"hand.{s}": f"forearm.{s}" for s in SIDES},
-    **{f"thigh.{s}": "hips" for s in SIDES}, **{f"shin.{s}": f"thigh.{s}" for s in SIDES},
-    **{f"foot.{s}": f"shin.{s}" for s in SIDES}, **{f"toe.{s}": f"foot.{s}" for s in SIDES},
-}
 BONE_MAP_MODES = ("auto", "none")
 # bump when the tables or the comparison space change (it is part of every clip's cache key)
-TABLES_VERSION = 2
-# below this coverage (compared / moving joints of the smaller clip) comparisons and blends refuse
+TABLES_VERSION = 3
+# below this coverage (joints compared / canonical joints both rigs have; limb chains compared / limb chains both
+# rigs have) comparisons and blends refuse
 MIN_COVERAGE = 0.5
 # A saved bone map is a small JSON object (a few KB for any rig); larger files are refused unread.
 MAX_MAP_BYTES = 1 << 20
-
-# Family tables: joint -> bone name after strip_prefix, compared case-insensitively. "{s}" is the side as the
-# family writes it ("sides": the left and right spelling; "alt_sides": a second spelling), "{h}" the lower-case
-# side letter. A list tries names in order.
-FAMILIES = {
-    "cmu_asf": {  # CMU ASF/AMC and BVH conversions that keep its names (MotionBuilder 16_15)
-        "sides": ("l", "r"),
-        "joints": {"hips": "root", "spine": "lowerback", "spine_mid": "upperback", "chest": "thorax",
-                   "neck": "lowerneck", "head": "head", "clavicle": "{s}clavicle", "upper_arm": "{s}humerus",
-                   "forearm": "{s}radius", "hand": "{s}hand", "thigh": "{s}femur", "shin": "{s}tibia",
-                   "foot": "{s}foot", "toe": "{s}toes"}},
-    "daz": {  # cgspeed "Daz-friendly" CMU BVH (hip, abdomen, chest, rCollar, rShldr, ...)
-        "sides": ("l", "r"),
-        "joints": {"hips": "hip", "spine": "abdomen", "chest": "chest", "neck": "neck", "head": "head",
-                   "clavicle": "{s}Collar", "upper_arm": "{s}Shldr", "forearm": "{s}ForeArm", "hand": "{s}Hand",
-                   "thigh": "{s}Thigh", "shin": "{s}Shin", "foot": "{s}Foot", "toe": "{s}Toe"}},
-    "cmu_max": {  # cgspeed "3ds Max-friendly" CMU BVH (Hips, LHipJoint, LeftHip, LeftKnee, ..., Chest, Chest2)
-        "sides": ("Left", "Right"),
-        "joints": {"hips": "Hips", "spine": "lowerback", "spine_mid": "Chest", "chest": "Chest2",
-                   "neck": "lowerneck", "head": "Head", "clavicle": "{s}Collar", "upper_arm": "{s}Shoulder",
-                   "forearm": "{s}Elbow", "hand": ["{h}hand"], "thigh": "{s}Hip", "shin": "{s}Knee",
-                   "foot": "{s}Ankle", "toe": "{s}Toe"}},
-    "humanik": {  # MotionBuilder / HumanIK and Mixamo (after the mixamorig: prefix)
-        "sides": ("Left", "Right"),
-        "joints": {"hips": "Hips", "spine": "Spine", "spine_mid": "Spine1", "chest": ["Spine2", "Spine1"],
-                   "neck": "Neck", "head": "Head", "clavicle": "{s}Shoulder", "upper_arm": "{s}Arm",
-                   "forearm": "{s}ForeArm", "hand": "{s}Hand", "thigh": "{s}UpLeg", "shin": "{s}Leg",
-                   "foot": "{s}Foot", "toe": "{s}ToeBase"}},
-    "cc": {  # iClone / Character Creator (after the CC_Base_ prefix)
-        "sides": ("L_", "R_"),
-        "joints": {"hips": "Hip", "spine": "Waist", "spine_mid": "Spine01", "chest": "Spine02",
-                   "neck": "NeckTwist01", "head": "Head", "clavicle": "{s}Clavicle", "upper_arm": "{s}Upperarm",
-                   "forearm": "{s}Forearm", "hand": "{s}Hand", "thigh": "{s}Thigh", "shin": "{s}Calf",
-                   "foot": "{s}Foot", "toe": "{s}ToeBase"}},
-    "rigify": {  # Rigify deform / metarig bones (after DEF- / ORG-)
-        "sides": (".L", ".R"),
-        "joints": {"hips": "spine", "spine": "spine.001", "spine_mid": "spine.002", "chest": "spine.003",
-                   "neck": "spine.004", "head": "spine.006", "clavicle": "shoulder{s}", "upper_arm": "upper_arm{s}",
-                   "forearm": "forearm{s}", "hand": "hand{s}", "thigh": "thigh{s}", "shin": "shin{s}",
-                   "foot": "foot{s}", "toe": "toe{s}"}},
-    "smpl": {  # SMPL / SMPL-H / AMASS joint names (left_hip, ... or L_Hip, ...)
-        "sides": ("left_", "right_"), "alt_sides": ("L_", "R_"),
-        "joints": {"hips": "pelvis", "spine": "spine1", "spine_mid": "spine2", "chest": "spine3", "neck": "neck",
-                   "head": "head", "clavicle": "{s}collar", "upper_arm": "{s}shoulder", "forearm": "{s}elbow",
-                   "hand": "{s}wrist", "thigh": "{s}hip", "shin": "{s}knee", "foot": "{s}ankle", "toe": "{s}foot"}},
-}
-
-_PREFIX_RE = re.compile(r"^(?:.*[:|]|mixamorig\d*_|CC_Base_|(?:DEF|ORG)-|Bip0?1[ _])", re.IGNORECASE)
-
-
-def strip_prefix(name: str) -> str:
-    """The bone name without rig prefixes: namespaces (``mixamorig:``, ``mixamorig1:``, ``Armature|``),
-    ``mixamorig_``, ``CC_Base_``, ``DEF-`` / ``ORG-``, ``Bip01 ``."""
-    return _PREFIX_RE.sub("", name, count=1)
-
-
-def _family_names(family: dict) -> Dict[str, List[str]]:
-    """joint -> candidate bone names (lower case, after strip_prefix) of a family table."""
-    out = {}
-    for joint, names in family["joints"].items():
-        names = names if isinstance(names, list) else [names]
-        if joint in BODY:
-            out[joint] = [n.lower() for n in names]
-            continue
-        for side, word in zip(SIDES, family["sides"]):
-            spellings = [word] + ([family["alt_sides"][SIDES.index(side)]] if "alt_sides" in family else [])
-            out[f"{joint}.{side}"] = [n.replace("{s}", w).replace("{h}", side[0].lower()).lower()
-                                      for n in names for w in spellings]
-    return out
-
-
-_TABLES = {name: _family_names(f) for name, f in FAMILIES.items()}
-
-
-def _match(bones: Iterable[str], table: Dict[str, List[str]]) -> Dict[str, str]:
-    """{bone: joint} by one family table; each joint takes the first candidate name present."""
-    lookup = {}
-    for b in bones:
-        lookup.setdefault(strip_prefix(b).lower(), b)
-    out = {}
-    for joint, names in table.items():
-        for n in names:
-            b = lookup.get(n)
-            if b is not None and b not in out:
-                out[b] = joint
-                break
-    return out
-
-
-def _spine_chain(bones, parents, found):
-    """Generic spine chains: bones named ``spine``/``spine1``..``spineN``/``spine.00N`` between the hips and the
-    neck that no table named; first -> spine, last -> chest, the middle one -> spine_mid."""
-    pat = re.compile(r"^spine[._]?0*\d*$", re.IGNORECASE)
-    chain = [b for b in bones if b not in found and pat.match(strip_prefix(b))]
-    if parents:
-        chain = _hierarchy_order(chain, parents)
-    taken = set(found.values())
-    out = {}
-    if len(chain) >= 2:
-        picks = [("spine", chain[0]), ("chest", chain[-1])]
-        if len(chain) >= 3:
-            picks.append(("spine_mid", chain[len(chain) // 2]))
-        for joint, b in picks:
-            if joint not in taken:
-                out[b] = joint
-    return out
-
-
-def _hierarchy_order(names, parents):
-    def depth(b):
-        d, seen = 0, set()
-        while parents.get(b) and b not in seen:
-            seen.add(b)
-            b, d = parents[b], d + 1
-        return d
-    return sorted(names, key=depth)
-
-
-def detect_family(bones: Iterable[str]) -> Tuple[Optional[str], Dict[str, str]]:
-    """(family name, {bone: joint}) of the table that maps most bones; (None, {}) when the best maps fewer than
-    three bones, unless it maps every bone (a clip of one or two bones, e.g. only ``root``)."""
-    bones = list(bones)
-    best, best_map = None, {}
-    for name, table in _TABLES.items():
-        m = _match(bones, table)
-        if len(m) > len(best_map):
-            best, best_map = name, m
-    if len(best_map) < min(3, len(bones)):
-        return None, {}
-    return best, best_map
-
-
-def detect_map(bones: Iterable[str], parents: Optional[Mapping[str, Optional[str]]] = None) -> Dict[str, str]:
-    """The automatic bone map ``{bone: joint}`` of a rig from its bone names (and hierarchy, when given, for
-    spine chains of other lengths). Empty when no family is recognised."""
-    bones = list(bones)
-    family, found = detect_family(bones)
-    if family is None:
-        return {}
-    found.update(_spine_chain(bones, parents or {}, found))
-    return {b: found[b] for b in bones if b in found}
 
 
 def check_map(mapping: Mapping[str, str], where: str = "bone map") -> Dict[str, str]:
@@ -262,11 +112,17 @@ def load_map(path) -> Dict[str, str]:
     return parse_map(data, path)
 
 
-def resolve_map(bone_map, clip: Clip) -> Optional[Dict[str, str]]:
+def analyse_clip(clip: Clip) -> RigReport:
+    """``analyse_rig`` of a clip's rig: its bones, hierarchy and rest skeleton (``meta``)."""
+    m = clip.meta
+    return analyse_rig(clip.bones, m.get("parents"), m.get(skeleton.REST_HEADS), m.get(skeleton.REST_TAILS))
+
+
+def resolve_map(bone_map, clip: Clip, report: Optional[RigReport] = None) -> Optional[Dict[str, str]]:
     """The map to apply to ``clip`` for a ``bone_map`` option: "none" -> None (names as they are); a saved map
     (a path) or a dict -> its entries for the clip's bones, when it names any (a saved map is for the rig it
-    names: clips of other rigs fall back to "auto"); "auto" -> ``detect_map`` (None when no family is
-    recognised)."""
+    names: clips of other rigs fall back to "auto"); "auto" -> the detected map (``analyse_clip``, or
+    ``report`` when given; None when nothing maps)."""
     if bone_map is None or bone_map == "none":
         return None
     if bone_map != "auto":
@@ -274,10 +130,8 @@ def resolve_map(bone_map, clip: Clip) -> Optional[Dict[str, str]]:
         present = {b: mapping[b] for b in clip.bones if b in mapping}
         if present:
             return present
-    return detect_map(clip.bones, clip.meta.get("parents")) or None
+    return (report or analyse_clip(clip)).mapping or None
 
-
-# ----------------------------------------------------------------------------------------- the space
 
 def world_rotations(clip: Clip) -> np.ndarray:
     """(frames, joints, 3, 3): each bone's rotation relative to its rest pose in the armature's axes,
@@ -514,14 +368,25 @@ def other_rigs(a: Clip, b: Clip) -> bool:
 
 def apply_bone_map(clip: Clip, bone_map="auto") -> Clip:
     """The front door's comparison-space step (``sources.read``): the clip mapped by ``resolve_map`` and moved
-    to the comparison space; a clip "auto" cannot map is returned as it is, marked ``meta["unmapped"]``
-    (comparing it with a mapped clip is refused by ``check_comparable``, naming its bones)."""
+    to the comparison space, with ``meta["rig_joints"]`` (the canonical joints its rig has, ``analyse_clip``)
+    and ``meta["unmapped_joints"]`` (those of them no bone is mapped to); a clip "auto" cannot map is returned as
+    it is, marked ``meta["unmapped"]`` and, for a rig that is not a humanoid, ``meta["not_humanoid"]`` (one line;
+    comparing it with a mapped clip is refused by ``check_comparable``)."""
     if clip.meta.get("rotation_space") == "comparison":
         return clip
-    mapping = resolve_map(bone_map, clip)
+    if bone_map in (None, "none"):
+        return clip
+    report = analyse_clip(clip)
+    mapping = resolve_map(bone_map, clip, report)
     if mapping is None:
-        return clip if bone_map in (None, "none") else replace(clip, meta=dict(clip.meta, unmapped=True))
-    return to_comparison_space(clip, mapping)
+        meta = dict(clip.meta, unmapped=True)
+        if report.refusal:
+            meta["not_humanoid"] = report.refusal
+        return replace(clip, meta=meta)
+    out = to_comparison_space(clip, mapping)
+    has = [j for j in JOINTS if j in set(report.joints) | set(out.bones)] if report.joints else list(out.bones)
+    out.meta.update(rig_joints=tuple(has), unmapped_joints=tuple(j for j in has if j not in out.bones))
+    return out
 
 
 def _names(bones, limit=12):
@@ -529,13 +394,17 @@ def _names(bones, limit=12):
 
 
 def check_comparable(*clips: Clip) -> None:
-    """ShapeSigError (one line, naming the unmapped bones) when some clips are in the comparison space and
-    another's bones could not be mapped to the canonical joints."""
+    """ShapeSigError (one line, naming the unmapped bones, or why the rig is not a humanoid) when some clips are
+    in the comparison space and another's bones could not be mapped to the canonical joints."""
     mapped = [c for c in clips if c.meta.get("rotation_space") == "comparison"]
     if not mapped:
         return
     for c in clips:
         if c.meta.get("rotation_space") != "comparison" and not set(c.bones) & set(mapped[0].bones):
+            why = c.meta.get("not_humanoid")
+            if why:
+                raise ShapeSigError(f"clip {c.name!r} is {why}; it is compared only with clips of its own rig "
+                                    f"(or give a bone map: --bone-map FILE.json)")
             raise ShapeSigError(f"clips {mapped[0].name!r} and {c.name!r} share no bones: no bone of {c.name!r} "
                                 f"maps to a canonical joint (unmapped bones: {_names(list(c.bones))}); give a bone "
                                 f"map")
@@ -546,15 +415,53 @@ def moving_count(clip: Clip) -> int:
     return len(clip.bones) - len(clip.still_bones())
 
 
+def joint_coverage(shared: Iterable[str], still_both: Iterable[str], has_a: Iterable[str],
+                   has_b: Iterable[str]) -> Tuple[float, List[str]]:
+    """(coverage, unmapped) from the joints compared (``shared``: in both clips, moving in either), the joints
+    still in both clips and the canonical joints each rig has: compared / the joints both rigs have (those still
+    in both left out), and the joints both rigs have that are not compared, in ``JOINTS`` order."""
+    shared, still = set(shared), set(still_both)
+    both = (set(has_a) & set(has_b) | shared) - still
+    unmapped = [j for j in JOINTS if j in both and j not in shared]
+    return (1.0 if not both else len(shared & both) / len(both)), unmapped
+
+
+def chains_covered(present_a: Iterable[str], present_b: Iterable[str], has_a: Iterable[str],
+                   has_b: Iterable[str]) -> Tuple[int, int]:
+    """(limb chains compared, limb chains both rigs have) (``LIMB_CHAINS``: an arm is its upper arm and forearm,
+    a leg its thigh and shin; compared when both clips hold both joints)."""
+    pa, pb, ha, hb = set(present_a), set(present_b), set(has_a), set(has_b)
+    both = [c for c, js in LIMB_CHAINS.items() if all(j in ha and j in hb for j in js)]
+    return sum(all(j in pa and j in pb for j in LIMB_CHAINS[c]) for c in both), len(both)
+
+
 def coverage(a: Clip, b: Clip) -> Tuple[int, float]:
-    """(joints compared, coverage): the shared bones that move in either clip, over the moving joints of the
-    smaller clip (the one with fewer moving joints), 0..1 (1 when nothing moves)."""
+    """(joints compared, coverage): the shared bones that move in either clip, over the canonical joints both
+    rigs have (``meta["rig_joints"]``, ``joint_coverage``) for mapped clips, else over the moving joints of the
+    smaller clip (the one with fewer moving joints); 0..1 (1 when nothing moves)."""
     still_a, still_b = set(a.still_bones()), set(b.still_bones())
     shared = [x for x in a.bones if x in set(b.bones) and not (x in still_a and x in still_b)]
+    has_a, has_b = a.meta.get("rig_joints"), b.meta.get("rig_joints")
+    if has_a and has_b:
+        return len(shared), joint_coverage(shared, still_a & still_b, has_a, has_b)[0]
     smaller = min(moving_count(a), moving_count(b))
     if smaller == 0:
         return len(shared), 1.0
     return len(shared), min(1.0, len(shared) / smaller)
+
+
+def coverage_report(a: Clip, b: Clip) -> dict:
+    """``{"bones", "coverage", "chains", "chains_total", "unmapped"}`` of two clips: ``coverage``, the limb chains
+    compared (``chains_covered``) and the canonical joints both rigs have that are not compared."""
+    bones, cov = coverage(a, b)
+    has_a, has_b = a.meta.get("rig_joints"), b.meta.get("rig_joints")
+    if not (has_a and has_b):
+        return {"bones": bones, "coverage": cov, "chains": 0, "chains_total": 0, "unmapped": []}
+    still = set(a.still_bones()) & set(b.still_bones())
+    shared = [x for x in a.bones if x in set(b.bones) and x not in still]
+    _, unmapped = joint_coverage(shared, still, has_a, has_b)
+    chains, total = chains_covered(a.bones, b.bones, has_a, has_b)
+    return {"bones": bones, "coverage": cov, "chains": chains, "chains_total": total, "unmapped": unmapped}
 
 
 def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:

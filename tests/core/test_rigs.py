@@ -71,12 +71,18 @@ def test_families_and_prefixes(names, expect):
 
 
 def test_longer_spine_chain_spreads_over_spine_mid_and_chest():
-    names = ["Hips", "Spine", "Spine1", "Spine2", "Spine3", "Spine4", "Neck", "Head", "LeftUpLeg", "LeftArm"]
+    """The hierarchy places the spine: the bone the arms branch from is the chest (whatever the table says),
+    the first above the hips the spine, the middle one spine_mid; extra spine bones stay unmapped."""
+    names = ["Hips", "Spine", "Spine1", "Spine2", "Spine3", "Spine4", "Neck", "Head", "LeftUpLeg", "LeftLeg",
+             "RightUpLeg", "RightLeg", "LeftArm", "LeftForeArm", "RightArm", "RightForeArm"]
     parents = {"Hips": None, "Spine": "Hips", "Spine1": "Spine", "Spine2": "Spine1", "Spine3": "Spine2",
-               "Spine4": "Spine3", "Neck": "Spine4", "Head": "Neck", "LeftUpLeg": "Hips", "LeftArm": "Spine4"}
+               "Spine4": "Spine3", "Neck": "Spine4", "Head": "Neck", "LeftUpLeg": "Hips", "LeftLeg": "LeftUpLeg",
+               "RightUpLeg": "Hips", "RightLeg": "RightUpLeg", "LeftArm": "Spine4", "LeftForeArm": "LeftArm",
+               "RightArm": "Spine4", "RightForeArm": "RightArm"}
     m = rigs.detect_map(names, parents)
-    assert m["Spine"] == "spine" and m["Spine1"] == "spine_mid" and m["Spine2"] == "chest"
-    assert "Spine4" not in m  # the table's chest wins; the extra bones stay unmapped
+    assert m["Spine"] == "spine" and m["Spine2"] == "spine_mid" and m["Spine4"] == "chest"
+    assert "Spine1" not in m and "Spine3" not in m
+    assert m["LeftArm"] == "upper_arm.L" and m["RightForeArm"] == "forearm.R" and m["LeftLeg"] == "shin.L"
     assert rigs.detect_map(["a", "b", "c"]) == {} and rigs.detect_map(["Hips", "b", "c"]) == {}
     assert rigs.detect_map(["root"]) == {"root": "hips"}  # every bone of a one-bone clip maps
 
@@ -162,8 +168,16 @@ def test_coverage_and_refusal(walk):
     mapped, raw = walk
     bones, cov = check_coverage(mapped, mapped)
     assert cov == 1.0 and bones == len(mapped.bones) - len(mapped.still_bones())
+    # four joints of a rig that has 22: coverage 4/22, the others named; without the rigs' joints (clips read by
+    # name) the old rule: the smaller clip's moving joints
     legs = mapped.select(["thigh.L", "shin.L", "foot.L", "thigh.R"])
-    got = compare_clips(mapped, legs, "sim3")
+    got = compare_clips(mapped, legs, "sim3", allow_partial=True)
+    assert got["bones"] == 4 and got["coverage"] == pytest.approx(4 / 22)
+    assert got["unmapped"] == [j for j in rigs.JOINTS if j not in legs.bones]
+    with pytest.raises(ShapeSigError, match=r"coverage 0\.18 < 0\.5 \(unmapped: hips, spine, "):
+        compare_clips(mapped, legs, "sim3")
+    plain = dataclasses.replace(legs, meta={k: v for k, v in legs.meta.items() if k != "rig_joints"})
+    got = compare_clips(mapped, plain, "sim3")
     assert got["bones"] == 4 and got["coverage"] == 1.0  # the smaller clip is covered
     # 2 shared of the smaller clip's 6 moving joints: refused, one line naming the coverage
     six = mapped.select(["hips", "thigh.L", "shin.L", "foot.L", "thigh.R", "shin.R"])

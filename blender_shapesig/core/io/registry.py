@@ -1,5 +1,5 @@
 """The clip reader registry: one reader per file extension, ``reader(spec: ClipSpec) -> [Clip]``. ``sources``
-registers the pure readers (``.amc``, ``.bvh``); the package's ``__init__`` registers the Blender layer's
+registers the pure readers (``.amc``, ``.bvh``, SMPL/AMASS ``.npz``); the package's ``__init__`` registers the Blender layer's
 (``.blend``) by module path, imported on first use, so core never imports it and stays usable without bpy."""
 
 import importlib
@@ -9,7 +9,7 @@ from ..errors import ShapeSigError
 
 __all__ = ["EXTENSIONS", "register_reader", "reader_for"]
 
-EXTENSIONS = (".bvh", ".amc", ".blend")
+EXTENSIONS = (".bvh", ".amc", ".blend", ".npz")
 _READERS = {}
 
 

@@ -86,9 +86,9 @@ class ClipSpec:
         if not os.path.lexists(self.path):
             raise ParseError("file not found", self.path)
         if os.path.isdir(self.path):
-            raise ParseError("is a folder, expected a .bvh, .amc or .blend file", self.path)
+            raise ParseError("is a folder, expected a .bvh, .amc, .npz or .blend file", self.path)
         if self.ext not in EXTENSIONS:
-            raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected .bvh, .amc, .blend or "
+            raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected .bvh, .amc, .npz, .blend or "
                              f"FILE.blend#ACTION", self.path)
         files.check_file(self.path)  # UnreadableFileError: a FIFO, a device, a broken link, over the size cap
         return self
@@ -142,7 +142,10 @@ def discover(paths, recursive=True, skipped=None) -> List[str]:
         if os.path.isdir(p):
             walker = os.walk(p) if recursive else [(p, [], os.listdir(p))]
             found = []
-            for root, _dirs, names in walker:
+            for root, dirs, names in walker:
+                if _cache_folder(root, names):
+                    dirs[:] = []  # a signature cache (its entries are .npz files too) or any tagged cache
+                    continue
                 found += [os.path.join(root, n) for n in names if n.lower().endswith(EXTENSIONS)]
             specs = sorted(found)
         elif os.path.lexists(path):
@@ -161,6 +164,12 @@ def discover(paths, recursive=True, skipped=None) -> List[str]:
     return out
 
 
+def _cache_folder(folder, names) -> bool:
+    """True for a cache folder a library scan skips: the signature cache's own (``blender_shapesig-cache``) and
+    any folder marked by a ``CACHEDIR.TAG`` (the Cache Directory Tagging convention)."""
+    return os.path.basename(os.path.normpath(folder)) == "blender_shapesig-cache" or "CACHEDIR.TAG" in names
+
+
 # ---------------------------------------------------------------------------------------------- readers
 
 def _read_bvh(spec: ClipSpec) -> List[Clip]:
@@ -177,8 +186,15 @@ def _read_amc(spec: ClipSpec) -> List[Clip]:
     return [load_acclaim(spec.path, spec.skeleton(), axes="blender")]
 
 
+def _read_npz(spec: ClipSpec) -> List[Clip]:
+    from .smpl import load_smpl
+
+    return [load_smpl(spec.path)]
+
+
 register_reader(".amc", _read_amc)
 register_reader(".bvh", _read_bvh)
+register_reader(".npz", _read_npz)
 
 
 def read(spec, **options) -> List[Clip]:

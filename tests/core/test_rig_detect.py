@@ -1,0 +1,140 @@
+"""Bone maps by names and topology (core.rig_detect): rigs the tables do not know, built as BVH text by the test
+(tests/rig_skeletons.py), read by the package's BVH reader; joints placed by the hierarchy and the rest pose,
+left/right from the rest feet, non-humanoids refused in one line; coverage over the joints both rigs have."""
+
+import json
+
+import numpy as np
+import pytest
+
+from blender_shapesig.core import rigs
+from blender_shapesig.core.errors import ShapeSigError
+from blender_shapesig.core.io import sources
+from blender_shapesig.core.metrics import compare_clips
+from blender_shapesig.core.rig_names import tokens, word_role
+from tests.rig_skeletons import side_names, write_bvh
+
+UNITY = side_names({"hips": "Hips", "spine": "Spine", "chest": "Chest", "neck": "Neck", "head": "Head"},
+                   {"clavicle": ("Shoulder_{s}", "LR"), "upper_arm": ("UpperArm_{s}", "LR"),
+                    "forearm": ("LowerArm_{s}", "LR"), "hand": ("Hand_{s}", "LR"), "thigh": ("UpperLeg_{s}", "LR"),
+                    "shin": ("LowerLeg_{s}", "LR"), "foot": ("Foot_{s}", "LR"), "toe": ("Toes_{s}", "LR")})
+BIOVISION = side_names({"hips": "Hips", "spine": "Ab", "chest": "Chest", "neck": "Neck", "head": "Head"},
+                       {"clavicle": ("{s}Collar", ("Left", "Right")), "upper_arm": ("{s}Shoulder", ("Left", "Right")),
+                        "forearm": ("{s}Elbow", ("Left", "Right")), "hand": ("{s}Wrist", ("Left", "Right")),
+                        "thigh": ("{s}Hip", ("Left", "Right")), "shin": ("{s}Knee", ("Left", "Right")),
+                        "foot": ("{s}Ankle", ("Left", "Right"))})
+BLENDER_LR = side_names({"hips": "Hips", "spine": "Abdomen", "chest": "Torso", "neck": "Neck", "head": "Head"},
+                        {"upper_arm": ("UpperArm.{s}", "LR"), "forearm": ("LowerArm.{s}", "LR"),
+                         "hand": ("Hand.{s}", "LR"), "thigh": ("UpperLeg.{s}", "LR"), "shin": ("LowerLeg.{s}", "LR"),
+                         "foot": ("Foot.{s}", "LR"), "toe": ("Toe.{s}", "LR")})
+# names that lie about anatomy (a stylised rig): the arm is hand, hand.001, hand.002
+LYING = side_names({"hips": "root", "spine": "body.001", "chest": "body.002", "head": "head"},
+                   {"upper_arm": ("hand.{s}", "LR"), "forearm": ("hand.{s}.001", "LR"), "hand": ("hand.{s}.002", "LR"),
+                    "thigh": ("foot.{s}", "LR"), "shin": ("foot.{s}.001", "LR"), "foot": ("foot.{s}.002", "LR")})
+
+
+def _read(path, **kw):
+    return sources.read_one(sources.ClipSpec(str(path), trim="none", **kw))
+
+
+@pytest.mark.parametrize("names, root, absent", [
+    (UNITY, "joint_Root", {"spine_mid"}),
+    (BIOVISION, None, {"spine_mid", "toe.L", "toe.R"}),
+    (BLENDER_LR, None, {"spine_mid", "clavicle.L", "clavicle.R"}),
+    (LYING, None, {"spine_mid", "neck", "clavicle.L", "clavicle.R", "toe.L", "toe.R"}),
+])
+def test_rigs_from_the_issue_map_every_joint_they_have(tmp_path, names, root, absent):
+    """Every joint the rig has is mapped to the bone the layout gave it; the joints it lacks are not claimed."""
+    path = write_bvh(tmp_path / "rig.bvh", names, root=root)
+    raw = _read(path, bone_map="none")
+    report = rigs.analyse_clip(raw)
+    assert report.mapping == {b: j for j, b in names.items()}
+    assert set(report.joints) == set(rigs.JOINTS) - absent and report.unmapped == []
+    assert report.sides == "rest"
+    mapped = _read(path)
+    assert mapped.meta["rig_joints"] == tuple(j for j in rigs.JOINTS if j not in absent)
+    assert mapped.meta["unmapped_joints"] == ()
+
+
+def test_unity_rig_against_cmu_is_fully_covered_and_a_partial_map_says_so(tmp_path, data_dir):
+    """The Unity-style rig of the issue (mapped 4 of 22 with "coverage 1.0" before): 21 joints against the CMU
+    rig's 22, coverage 1.0; a saved map naming only its torso compares 4 of the 21 joints both have: coverage
+    0.19, refused naming the unmapped joints, and no arm or leg chain is compared."""
+    path = write_bvh(tmp_path / "unity.bvh", UNITY, root="joint_Root")
+    amc = sources.read_one(sources.ClipSpec(str(data_dir / "acclaim" / "07_01.amc"),
+                                            asf=str(data_dir / "acclaim" / "07-walk.asf")))
+    got = compare_clips(amc, _read(path), "sim3")
+    assert got["bones"] == 21 and got["coverage"] == 1.0 and got["unmapped"] == []
+    torso = tmp_path / "torso.json"
+    torso.write_text(json.dumps({"Hips": "hips", "Spine": "spine", "Neck": "neck", "Head": "head"}))
+    partial = _read(path, bone_map=str(torso))
+    assert partial.meta["unmapped_joints"][:3] == ("chest", "clavicle.L", "upper_arm.L")
+    got = compare_clips(amc, partial, "sim3", allow_partial=True)
+    assert got["bones"] == 4 and got["coverage"] == pytest.approx(4 / 21)
+    assert got["unmapped"] == [j for j in rigs.JOINTS if j not in ("hips", "spine", "neck", "head", "spine_mid")]
+    with pytest.raises(ShapeSigError, match=r"coverage 0\.19 < 0\.5 \(unmapped: chest, clavicle\.L, "):
+        compare_clips(amc, partial, "sim3")
+    assert rigs.chains_covered(amc.bones, partial.bones, amc.meta["rig_joints"], partial.meta["rig_joints"]) == (0, 4)
+
+
+def test_the_rest_pose_tells_left_from_right_not_the_names(tmp_path):
+    """Names that call the +X limbs "Right" on a rig facing +Z (its left is +X): the rest pose wins."""
+    swapped = {j: (b.replace("_L", "_x").replace("_R", "_L").replace("_x", "_R")) for j, b in UNITY.items()}
+    raw = _read(write_bvh(tmp_path / "mirror.bvh", swapped), bone_map="none")
+    report = rigs.analyse_clip(raw)
+    assert report.sides == "rest"
+    assert report.mapping["UpperLeg_R"] == "thigh.L" and report.mapping["Hand_L"] == "hand.R"
+
+
+def test_twist_and_helper_bones_are_ignored(tmp_path):
+    extras = [("UpperArm_L_Twist", "UpperArm_L", (10.0, 0.0, 0.0)), ("HandIK_L", "joint_Root", (40.0, 100.0, 0.0)),
+              ("IndexFinger_L", "HandIK_L", (5.0, 0.0, 0.0)), ("FootPole_R", "joint_Root", (-9.0, 40.0, 30.0))]
+    raw = _read(write_bvh(tmp_path / "helpers.bvh", UNITY, root="joint_Root", extras=extras), bone_map="none")
+    m = rigs.analyse_clip(raw).mapping
+    assert m == {b: j for j, b in UNITY.items()}
+
+
+def test_non_humanoids_are_refused_in_one_line():
+    """A four-legged rig named like a person (front legs called arms) is refused by its rest pose; six legs by
+    the names; the refusal reaches a comparison as one line."""
+    parents = {"b_Hip": None, "b_Spine01": "b_Hip", "b_Spine02": "b_Spine01", "b_Neck": "b_Spine02",
+               "b_Head": "b_Neck"}
+    heads = {"b_Hip": (0, 0, 100), "b_Spine01": (0, -30, 100), "b_Spine02": (0, -60, 100), "b_Neck": (0, -80, 110),
+             "b_Head": (0, -90, 120)}
+    for side, x in (("Left", 10), ("Right", -10)):
+        for k, (name, z) in enumerate((("UpperArm", 95), ("ForeArm", 60), ("Hand", 20))):
+            parents[f"b_{side}{name}"] = "b_Spine02" if k == 0 else f"b_{side}{('UpperArm', 'ForeArm')[k - 1]}"
+            heads[f"b_{side}{name}"] = (x, -60, z)
+        for k, (name, z) in enumerate((("Leg01", 95), ("Leg02", 60), ("Foot01", 20))):
+            parents[f"b_{side}{name}"] = "b_Hip" if k == 0 else f"b_{side}{('Leg01', 'Leg02')[k - 1]}"
+            heads[f"b_{side}{name}"] = (x, 0, z)
+    report = rigs.analyse_rig(list(parents), parents, heads)
+    assert report.mapping == {} and report.joints == ()
+    assert report.refusal.startswith("not a humanoid rig: its spine leaves the hips 90 degrees from its legs")
+    # the same bones standing up (spine above the legs) are a humanoid
+    legs = {b for b in heads if "Leg" in b or "Foot" in b}  # they stay; the rest turns up about the hips
+    up = {b: (h if b in legs else (h[0], 0, 100 - h[1] + (h[2] - 100))) for b, h in heads.items()}
+    assert rigs.analyse_rig(list(parents), parents, up).refusal == ""
+    crab = {"Body": None, **{f"Leg_{s}_{k}{i}": ("Body" if i == 0 else f"Leg_{s}_{k}{i - 1}")
+                             for s in "LR" for k in "abc" for i in range(3)},
+            **{f"Arm_{s}_{i}": ("Body" if i == 0 else f"Arm_{s}_{i - 1}") for s in "LR" for i in range(3)}}
+    assert rigs.analyse_rig(list(crab), crab).refusal == "not a humanoid rig: 6 legs found by the bone names " \
+                                                         "(a humanoid has two)"
+
+
+@pytest.mark.parametrize("name, side, words, role", [
+    ("mixamorig7:LeftUpLeg", "L", ("upleg",), ("leg", "thigh")),
+    ("lhumerus", "L", ("humerus",), ("arm", "upper_arm")),
+    ("DEF-upper_arm.L.001", "L", ("upperarm",), ("arm", "upper_arm")),
+    ("CC_Base_R_Calf", "R", ("calf",), ("leg", "shin")),
+    ("Character1_LeftHandThumb1", "L", ("hand", "thumb"), ("skip", "")),
+    ("leftUpperArm", "L", ("upperarm",), ("arm", "upper_arm")),
+    ("Bip01_R_Clavicle", "R", ("clavicle",), ("arm", "clavicle")),
+    ("thigh.l", "L", ("thigh",), ("leg", "thigh")),
+    ("handIK.L", "L", ("hand", "ik"), ("skip", "")),
+    ("CC_Base_NeckTwist01", None, ("neck", "twist"), ("twist", "")),
+    ("LeftShoulder", "L", ("shoulder",), ("arm", "")),
+])
+def test_name_words(name, side, words, role):
+    assert tokens(name) == (side, words)
+    assert word_role(words) == role
