@@ -1,8 +1,8 @@
 """A small numpy rasterizer for pictures made without a GPU or a render engine (pose thumbnails, docs figures):
 ``Canvas`` holds an RGBA uint8 image and draws anti-aliased thick lines (capsules: ``line``, ``polyline``), discs
 (``disc``) and rectangles (``rect``) composited "over" it, each pixel's coverage the clipped signed distance of its
-centre to the shape's edge (a one-pixel ramp: a disc of radius r covers pi r^2 pixels, a capsule of length L and
-half-width r covers 2 r L + pi r^2); ``png_bytes`` / ``write_png`` / ``read_png`` encode and decode 8-bit RGBA PNG
+centre to the shape's edge (a one-pixel ramp: a disc of radius r covers pi (r^2 + 1/12) pixels, a capsule of length L
+and half-width r 2 r L + pi (r^2 + 1/12)); ``png_bytes`` / ``write_png`` / ``read_png`` encode and decode 8-bit RGBA PNG
 files with zlib and struct only (no Pillow; Blender's own Python and the command line's both have them).
 """
 
