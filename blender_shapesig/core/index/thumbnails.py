@@ -20,7 +20,8 @@ from . import local
 from .local_rank import item_local_entries
 
 __all__ = ["POSES", "SCALE", "HEIGHT", "SLOT", "THUMB_VERSION", "key_times", "poses_of", "draw_strip",
-           "entry_strip", "figure_mask", "thumbnail_file", "thumbnail", "local_entry_of", "warped_times"]
+           "entry_strip", "figure_mask", "thumbnail_file", "thumbnail", "local_entry_of", "warped_times", "picture_bytes",
+           "frame_window"]
 
 POSES = 4            # key poses per strip (3 to 5 read well at icon sizes)
 SCALE = 36.0         # pixels per leg length (hip joint to ankle)
@@ -203,3 +204,24 @@ def thumbnail(item, store, name: Optional[str] = None, window=None, count: int =
     except OSError as exc:
         raise ShapeSigError(f"cannot write the picture ({exc.strerror or exc}: {store.path})") from None
     return path, True
+
+
+def picture_bytes(item, store, name: Optional[str] = None, window=None, count: int = POSES) -> bytes:
+    """The PNG bytes of a clip's picture: through the cache's folder (``thumbnail``) when it has one, else drawn
+    now (a memory-only store)."""
+    if store is not None and store.path is not None:
+        path, _made = thumbnail(item, store, name, window, count)
+        with open(path, "rb") as f:
+            return f.read()
+    name = name if name is not None else item.name
+    return png_bytes(entry_strip(local_entry_of(item, store, name), count, window))
+
+
+def frame_window(start, end, frames: int, trimmed=(), first: int = 1):
+    """A window of frames ``start``..``end`` (the clip's own numbers) as fractions of a clip of ``frames`` frames
+    whose first frame is the first kept by trimming (``trimmed``' first number), else ``first``; None without a
+    window."""
+    if start is None or end is None or frames < 2:
+        return None
+    base = trimmed[0] if trimmed else first
+    return tuple(min(max((f - base) / (frames - 1), 0.0), 1.0) for f in (start, end))
