@@ -28,9 +28,10 @@ def register():
 
 
 def unregister():
-    from . import action_changes
+    from . import action_changes, thumbnails
 
     action_changes.stop_change_detection()
+    thumbnails.free_previews()
     for module in reversed(_modules()):
         module.unregister()
     # numba writes its compiled kernels beside the package: an uninstall right after enabling must not have them

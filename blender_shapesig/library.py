@@ -16,7 +16,7 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_io, compat, frame_rates, rigmap
+from . import action_changes, action_io, compat, frame_rates, rigmap, thumbnails
 from .core import index
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
@@ -636,6 +636,7 @@ class RankJob:
         column = {"sim": f"sim^{level}", "elastic": ELASTIC_COLUMN, "local": LOCAL_COLUMN}[self.order_by]
         store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)
+        thumbnails.start_job(self.cache, self.rows, self.by_key, self.query, self.query_name)  # in the background
         out = results_of()
         msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column_word(column)}; "
                f"{self.indexed} newly indexed")

@@ -87,6 +87,14 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                            "path, size and modification time")
     written: StringProperty(name="Written", description="Actions written for this row and their read hashes "
                             "(JSON)")
+    # the row's picture (thumbnails.py): made after the click, in the background
+    preview_icon: IntProperty(name="Preview Icon", description="Icon id of the row's picture of key poses (0 while "
+                              "it is being made, and in background mode)", default=0)
+    preview_path: StringProperty(name="Preview File", description="The row's picture of key poses (PNG in the "
+                                 "index folder; empty while it is being made)", default="")
+    why_query_path: StringProperty(name="Why Query Picture", description="Why Different: the query's key poses")
+    why_result_path: StringProperty(name="Why Result Picture", description="Why Different: the result's poses at "
+                                    "the times the alignment matches to the query's")
 
 
 class ShapeSigResults(bpy.types.PropertyGroup):
@@ -99,6 +107,8 @@ class ShapeSigResults(bpy.types.PropertyGroup):
     order_by: StringProperty(name="Sorted By", description="The one column the rows are sorted by (ascending)")
     seconds: FloatProperty(name="Seconds", description="Measured time of the last click, start to results")
     query_bones: IntProperty(name="Query Bones", description="Bones of the query")
+    query_preview_icon: IntProperty(name="Query Preview Icon", description="Icon id of the query's picture", default=0)
+    query_preview_path: StringProperty(name="Query Preview File", description="The query's picture of key poses")
     running: BoolProperty(default=False, description="A Find Similar click is running (Esc cancels)")
     progress: FloatProperty(default=0.0, min=0.0, max=1.0, subtype="FACTOR")
 

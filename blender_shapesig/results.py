@@ -180,7 +180,22 @@ def explain_result(context, settings):
     window = (row.frame_first, row.frame_last) if row.frame_last else None
     out = explain_clips(q.clips()[0], clip, window, depth=settings.depth)
     row.explain = json.dumps(out)
+    _why_pictures(context, row, q, item, out.get("warp"))
     return out
+
+
+def _why_pictures(context, row, query_item, item, warp):
+    """Both clips' strips aligned by the warp for the Why Different box (none for clips without key points)."""
+    from . import thumbnails
+
+    row.why_query_path = row.why_result_path = ""
+    if not warp:
+        return
+    try:
+        row.why_query_path, row.why_result_path = thumbnails.why_pictures(
+            library.get_cache(context), query_item, item, row.clip_name, warp, thumbnails.window_fraction(row))
+    except (ShapeSigError, OSError):
+        pass  # the explanation stands without pictures
 
 
 def start_preview(context, settings, obj, action, written=""):

@@ -447,3 +447,24 @@ def test_subprocess_rank_blend_results_name_their_action(amc, tmp_path):
     got = sorted((r["path"], r["action"]) for r in rows)
     assert got == sorted([(str(out), actions[0]), (str(out), actions[1]), (str(out), actions[1]),
                           (amc["w1"], None)])
+
+
+def test_rank_thumbnails_writes_a_picture_per_row_and_the_query(capsys, tmp_path):
+    """``rank --thumbnails DIR``: one PNG per result and the query's, named in the JSON, the same bytes as the
+    pictures kept in the cache folder; a walk's differs from the jump's."""
+    from blender_shapesig.core.index import thumbnails
+    from blender_shapesig.core.raster import read_png
+
+    bvh = ROOT / "tests" / "data" / "bvh"
+    out_dir, cache = tmp_path / "pics", tmp_path / "cache"
+    args = ["rank", str(bvh / "07_01.bvh"), str(bvh / "07_02.bvh"), str(bvh / "13_32.bvh"), "--thumbnails",
+            str(out_dir), "--cache", str(cache)]
+    out, _ = run_json(capsys, args)
+    files = [r["thumbnail"] for r in out["results"]] + [out["query_thumbnail"]]
+    assert all(os.path.dirname(f) == str(out_dir) for f in files) and sorted(os.listdir(out_dir)) == sorted(
+        os.path.basename(f) for f in files)
+    kept = {p.read_bytes() for p in (cache / "blender_shapesig-cache").glob("*.png")}
+    assert {pathlib.Path(f).read_bytes() for f in files} == kept
+    pics = {r["clip"]: read_png(r["thumbnail"]) for r in out["results"]}
+    walk, jump = thumbnails.figure_mask(pics["07_02"]), thumbnails.figure_mask(pics["13_32"])
+    assert (walk & jump).sum() < 0.5 * (walk | jump).sum()

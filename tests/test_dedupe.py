@@ -68,7 +68,8 @@ def test_planted_copies_join_their_originals(capsys, library, tmp_path):
     check_planted(out, library)
     assert out["report"] == str(tmp_path / "report" / "report.html")
     page = (tmp_path / "report" / "report.html").read_text(encoding="utf-8")
-    assert page.count("data:image/png;base64,") == len(out["clusters"])  # self-contained: the plots inline
+    # self-contained: the plots and each clip's strip of key poses inline
+    assert page.count("data:image/png;base64,") == len(out["clusters"]) + sum(map(len, out["clusters"]))
     saved = json.loads((tmp_path / "report" / "report.json").read_text(encoding="utf-8"))
     assert saved["clusters"] == out["clusters"]
     for pairs in saved["cluster_pairs"]:  # complete linkage: every pair inside a cluster passed both gates
@@ -190,3 +191,38 @@ def test_report_paths_relative_to_the_shared_folder_never_to_the_filesystem_root
     assert root == "/d" and short("/d/a/x.bvh") == "a/x.bvh" and short("/d/b/y.bvh#3") == "b/y.bvh#3"
     root, short = _shortener(["/srv/x.bvh", "/home/y.bvh"])  # only "/" in common: full paths
     assert root == "" and short("/srv/x.bvh") == "/srv/x.bvh"
+
+
+def test_report_says_which_copy_to_keep_and_shows_each_clip(capsys, library, tmp_path):
+    """The half-rate run's cluster keeps the 120 fps original (same length, higher rate), the renamed walk's is a
+    tie on every rule (the first is kept, said so), the trimmed jump's keeps the longer original; each member's
+    length, rate and strip of key poses are in the HTML."""
+    base, copies = library
+    out = run_json(capsys, ["dedupe", str(base), "--out", str(tmp_path), "--no-plots"])
+    keep = {frozenset(map(os.path.abspath, c)): k for c, k in zip(out["clusters"], out["keep"])}
+    by_copy = {copy: next(k for c, k in keep.items() if copy in c) for copy in copies}
+    half = next(c for c in copies if c.endswith("planted_half_rate.bvh"))
+    assert os.path.abspath(by_copy[half]["clip"]) == copies[half]
+    assert by_copy[half]["reasons"][0].startswith("same length") and "highest frame rate: 120 fps (others 60 fps)" \
+        in by_copy[half]["reasons"][1]
+    renamed = next(c for c in copies if c.endswith("planted_renamed.bvh"))
+    assert by_copy[renamed]["reasons"][-1] == "otherwise alike: the first in the library"
+    jump = next(c for c in copies if c.endswith("planted_trimmed_retimed.bvh"))
+    assert os.path.abspath(by_copy[jump]["clip"]) == copies[jump] and by_copy[jump]["reasons"][0].startswith("longest")
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert page.count("alt='key poses of") == sum(map(len, out["clusters"])) and page.count("(keep)") == len(keep)
+
+
+def test_choose_keeper_rules_in_order():
+    from types import SimpleNamespace as E
+
+    def entry(seconds, fps, cut=0):
+        frames = int(round(seconds * fps)) + 1
+        return E(frames=int(round(seconds * 30)) + 1, fps=30.0, clip_frames=frames,
+                 trimmed=(1 + cut, frames + cut, 1, frames + cut) if cut else ())
+
+    assert dedupe.choose_keeper([entry(2.0, 120), entry(3.0, 60)])[0] == 1  # longest first
+    i, why = dedupe.choose_keeper([entry(3.0, 60), entry(3.0, 120)])
+    assert i == 1 and why == ["same length (3.00 s)", "highest frame rate: 120 fps (others 60 fps)"]
+    i, why = dedupe.choose_keeper([entry(3.0, 120, cut=8), entry(3.0, 120)])
+    assert i == 1 and why[-1] == "least trimmed: 0 frames cut (others 8 frames cut)"

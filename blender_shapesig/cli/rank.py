@@ -61,6 +61,36 @@ def _explanation(query, item, result, args):
     return None if clip is None else explain_clips(query, clip, window, depth=args.depth)
 
 
+def _thumbnails(folder, query_item, by_key, results, rows, cache):
+    """``--thumbnails DIR``: the query's and every row's picture of key poses (``core.index.thumbnails``, made once
+    in the cache folder) written into DIR as ``query.png``, ``01_<clip>.png``, ...; each row's ``"thumbnail"`` is
+    its file (null with a warning when the clip has no key points, e.g. no legs). Returns the query's file."""
+    import os
+    import re
+
+    from ..core.errors import ShapeSigError
+    from ..core.index.thumbnails import frame_window, picture_bytes
+
+    os.makedirs(folder, exist_ok=True)
+
+    def write(item, name, window, file_name):
+        try:
+            data = picture_bytes(item, cache, name, window)
+        except ShapeSigError as exc:
+            sys.stderr.write(f"{c.PROG}: warning: {exc}\n")
+            return None
+        path = os.path.join(folder, re.sub(r"[^\w.+-]+", "_", file_name) + ".png")
+        with open(path, "wb") as f:
+            f.write(data)
+        return path
+
+    for i, (r, row) in enumerate(zip(results, rows), 1):
+        item = (by_key.get(r.key) or [None])[0]
+        window = frame_window(r.start, r.end, r.frames, r.trimmed)
+        row["thumbnail"] = None if item is None else write(item, r.name, window, f"{i:02d}_{r.name}")
+    return write(query_item, query_item.name, None, "query")
+
+
 def run(args):
     from ..core import index
     from ..core.metrics import DEFAULT_METRIC, metric_label, parse_metric
@@ -129,12 +159,16 @@ def run(args):
             rows[-1].update(metric=r.metric, first_stage=c.finite(r.first_stage), dtw=c.finite(r.dtw))
         if args.explain and len(rows) <= args.explain:
             rows[-1]["explain"] = _explanation(query, item, r, args)
+    if args.thumbnails:
+        out_thumbs = _thumbnails(args.thumbnails, query_item, by_key, results, rows, cache)
     label = "sim2 windows" if args.windows else metric_label(base, level)
     stats = dict(getattr(results, "stats", {}) or {})
     notes = [trim_note(query)] + [trim_note(r.name, r.trimmed) for r in results]
     out = {"query": query.name, "metric": label, "results": rows, "query_trim": trimmed_range(query)["frames"],
            "query_trimmed": trimmed_range(query)["cut"],
            "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}, "skipped": skipped}
+    if args.thumbnails:
+        out["query_thumbnail"] = out_thumbs
     lines = [f"query: {query.name}  metric: {label}"]
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
@@ -179,5 +213,8 @@ def add_parser(sub):
     p.add_argument("--cache", metavar="DIR",
                    help="signature cache folder (default $SHAPESIG_CACHE_DIR, else the per-user cache folder)")
     p.add_argument("--no-cache", action="store_true", help="do not read or write a signature cache")
+    p.add_argument("--thumbnails", metavar="DIR",
+                   help="write a picture of each result's key poses (and the query's) into DIR as PNG files; each "
+                   "JSON row adds \"thumbnail\" (its file)")
     c.add_common(p)
     p.set_defaults(func=run)

@@ -404,7 +404,7 @@ def check_comparable(*clips: Clip) -> None:
             why = c.meta.get("not_humanoid")
             if why:
                 raise ShapeSigError(f"clip {c.name!r} is {why}; it is compared only with clips of its own rig "
-                                    f"(or give a bone map: --bone-map FILE.json)")
+                                    f"(or give a bone map)")
             raise ShapeSigError(f"clips {mapped[0].name!r} and {c.name!r} share no bones: no bone of {c.name!r} "
                                 f"maps to a canonical joint (unmapped bones: {_names(list(c.bones))}); give a bone "
                                 f"map")

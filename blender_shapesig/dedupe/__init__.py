@@ -102,4 +102,4 @@ def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_ded
             "k": k, "signed": signed, "skipped": skipped + errors, "seconds": timings}
     if store.warning:  # the signature cache went on in memory only
         info["warnings"] = [store.warning]
-    return write_report(out_dir, pairs, entries, result, info, plots=plots)
+    return write_report(out_dir, pairs, entries, result, info, plots=plots, store=store)

@@ -10,6 +10,8 @@ import os
 
 import numpy as np
 
+from ..core.index.dedupe import choose_keeper, copy_facts
+
 __all__ = ["write_report", "clip_label", "speed_trace"]
 
 NEAR_MISSES = 20
@@ -76,16 +78,32 @@ def _fmt(x):
     return "-" if x is None else f"{x:.4g}"
 
 
-def write_report(out_dir, pairs, entries, result, info, plots=True):
-    """Write ``report.json`` and ``report.html`` into ``out_dir``; returns the JSON dict (with the paths)."""
+def _strip_uri(item, name, store):
+    """The clip's picture of key poses (``core.index.thumbnails``) as base64 PNG, or its one-line reason."""
+    from ..core.errors import ShapeSigError
+    from ..core.index.thumbnails import picture_bytes
+
+    try:
+        return base64.b64encode(picture_bytes(item, store, name)).decode("ascii"), ""
+    except ShapeSigError as exc:
+        return None, str(exc)
+
+
+def write_report(out_dir, pairs, entries, result, info, plots=True, store=None):
+    """Write ``report.json`` and ``report.html`` into ``out_dir``; returns the JSON dict (with the paths). Each
+    cluster names the copy to keep (``choose_keeper``) and shows each clip's strip of key poses (made through
+    ``store``, the signature cache, when given)."""
     labels = [clip_label(item, e) for item, e in pairs]
     pair_of = {(e.i, e.j): e for e in list(result.edges) + list(result.extra) if e.relative is not None}
     html_path = os.path.join(out_dir, "report.html")
     clusters = []
     for members in result.clusters:
         inside = [pair_of[(a, b)] for x, a in enumerate(members) for b in members[x + 1:] if (a, b) in pair_of]
+        keeper, reasons = choose_keeper([entries[n] for n in members])
         clusters.append({"members": [labels[n] for n in members],
-                         "pairs": [_pair_row(e, labels, result) for e in inside]})
+                         "pairs": [_pair_row(e, labels, result) for e in inside],
+                         "keep": {"clip": labels[members[keeper]], "reasons": reasons},
+                         "facts": [copy_facts(entries[n]) for n in members]})
     checked = sorted(pair_of.values(), key=lambda e: (e.relative, e.sim))
     misses = [_pair_row(e, labels, result) for e in checked if not result.confirmed(e)][:NEAR_MISSES]
     biggest = max((len(c) for c in result.clusters), default=0)
@@ -95,10 +113,13 @@ def write_report(out_dir, pairs, entries, result, info, plots=True):
            "sim_threshold": result.sim_threshold, "threshold": result.threshold, "rule": result.rule,
            "checked_pairs": len(pair_of), "graph_edges": len(result.edges), "linkage_checks": len(result.extra),
            "chain_components": [[labels[n] for n in c] for c in result.components],
-           "cluster_pairs": [c["pairs"] for c in clusters], "near_misses": misses, **info}
+           "cluster_pairs": [c["pairs"] for c in clusters], "keep": [c["keep"] for c in clusters],
+           "near_misses": misses, **info}
     with open(out["json"], "w", encoding="utf-8") as f:
         json.dump(out, f, indent=1)
     images = [_cluster_png(m, entries, labels) if plots else None for m in result.clusters]
+    for c, members in zip(clusters, result.clusters):  # a strip of key poses per clip (data URIs)
+        c["strips"] = [_strip_uri(pairs[n][0], entries[n].name, store) for n in members]
     with open(html_path, "w", encoding="utf-8") as f:
         f.write(_html(out, clusters, images, labels))
     return out
@@ -132,6 +153,20 @@ def _table(rows, short):
     return f"<table>{head}{body}</table>"
 
 
+def _members(c, short):
+    """The cluster's clips: name, length, rate, trim and the strip of key poses of each."""
+    e = html.escape
+    rows = []
+    for m, f, (uri, why) in zip(c["members"], c["facts"], c.get("strips") or [(None, "")] * len(c["members"])):
+        pic = (f"<img alt='key poses of {e(short(m))}' src='data:image/png;base64,{uri}'>" if uri
+               else e(why or "no picture"))
+        keep = " (keep)" if m == c["keep"]["clip"] else ""
+        rows.append(f"<tr><td>{e(short(m))}{keep}</td><td>{f['seconds']:.2f} s</td><td>{f['fps']:.0f}</td>"
+                    f"<td>{f['trimmed']}</td><td>{pic}</td></tr>")
+    return ("<table><tr><th>clip</th><th>length</th><th>fps</th><th>frames trimmed</th><th>key poses</th></tr>"
+            + "".join(rows) + "</table>")
+
+
 def _html(out, clusters, images, labels):
     e = html.escape
     root, short = _shortener(labels)
@@ -151,8 +186,9 @@ def _html(out, clusters, images, labels):
         "elastic alignment: a straight line for a copy, a curve for a re-timed one).</p>",
     ]
     for n, (c, img) in enumerate(zip(clusters, images), 1):
-        parts.append(f"<h2>Cluster {n} ({len(c['members'])} clips)</h2><ul>"
-                     + "".join(f"<li>{e(short(m))}</li>" for m in c["members"]) + "</ul>")
+        parts.append(f"<h2>Cluster {n} ({len(c['members'])} clips)</h2>")
+        parts.append(f"<p><b>Keep {e(short(c['keep']['clip']))}</b>: {e('; '.join(c['keep']['reasons']))}.</p>")
+        parts.append(_members(c, short))
         if img:
             parts.append(f"<img alt='joint speed and time map of each member' src='data:image/png;base64,{img}'>")
         parts.append(_table(c["pairs"], short))

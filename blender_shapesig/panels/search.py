@@ -16,6 +16,7 @@ from ..results import expected_hash
 # the "Why different" box: bars of the largest shares, and the cost over time in this many cells
 EXPLAIN_BARS = 5
 STRIP_CELLS = 24
+PICTURE_SCALE = 6.0  # the active row's picture and the Why Different strips, in icon sizes
 
 __all__ = ["classes", "SHAPESIG_UL_results", "draw_search"]
 
@@ -33,8 +34,11 @@ class SHAPESIG_UL_results(bpy.types.UIList):
             split = row.split(factor=0.45)
             # a partial match (few shared bones) is greyed out, with the number of bones it was compared on
             split.active = not item.partial
-            split.label(text=(item.label or item.name) + (f" ({item.shared} bones)" if item.partial else ""),
-                        icon=icon)
+            text = (item.label or item.name) + (f" ({item.shared} bones)" if item.partial else "")
+            if item.preview_icon:  # the row's picture of key poses, once made (thumbnails.py)
+                split.label(text=text, icon_value=item.preview_icon)
+            else:
+                split.label(text=text, icon=icon)
             nums = split.row(align=True)
             sim = ("~" if item.approximate else "") + f"{item.distance:.4f}"
             if library.results_of(context).order_by == library.ELASTIC_COLUMN and item.has_elastic:
@@ -211,6 +215,8 @@ def _draw_results(layout, s, res):
                    f"{item.read_first}-{item.read_last} read", icon="INFO")
     if item.spec:
         info.label(text=item.spec, icon="FILE")
+    if item.preview_icon:  # the larger picture of the active row
+        layout.template_icon(icon_value=item.preview_icon, scale=PICTURE_SCALE)
     _draw_explanation(layout, item)
     row = layout.row(align=True)
     row.operator("shapesig.assign_result", icon="CHECKMARK", text="Assign")
@@ -269,6 +275,14 @@ def _draw_explanation(layout, item):
         split.progress(factor=float(share), type="BAR", text=f"{share:.0%}")
     if key == "groups":
         col.label(text="Joints: " + ", ".join(f"{n} {v:.0%}" for n, v in top_joints(ex, 3)))
+    if item.why_query_path and item.why_result_path:  # both clips' key poses, matched by the alignment
+        from ..thumbnails import icon_of
+
+        for text, path in (("Query", item.why_query_path), ("This result, at the matched times", item.why_result_path)):
+            icon = icon_of(path)
+            if icon:
+                box.label(text=text)
+                box.template_icon(icon_value=icon, scale=PICTURE_SCALE)
     cells = _strip(ex.get("cost_over_time", []), STRIP_CELLS)
     if cells:
         box.label(text="Cost along the query (start to end)")

@@ -65,7 +65,8 @@ def explain_path(R0, R1, nodes, bones, *, same_spacing, fps=COMPARE_FPS):
 def explain_clips(query: Clip, clip: Clip, window=None, depth=DEFAULT_DEPTH):
     """``explain_path`` for two clips on their shared bones, on the comparison time base (the SRVT low-pass of
     ``core.clip.prepare``): the pinned elastic alignment of the query with ``clip``, or with its frames
-    ``window = (start, end)`` (the clip's own numbers, inclusive) for a moment."""
+    ``window = (start, end)`` (the clip's own numbers, inclusive) for a moment; adds ``warp``, the alignment's
+    matching times [[t_query, t_clip], ...] from (0, 0) to (1, 1) (t_clip of the window for a moment)."""
     if window is not None:
         clip = clip.crop(int(window[0]), int(window[1]))
     a, b = restrict_to_shared(query, clip)
@@ -73,8 +74,10 @@ def explain_clips(query: Clip, clip: Clip, window=None, depth=DEFAULT_DEPTH):
     for c in (a, b):
         if c.frames < 2:
             raise CurveError(f"clip {c.name!r} is too short to explain a distance")
-    _, _, info = elastic_align(a.rotations, b.rotations, depth=depth, return_info=True)
-    return explain_path(a.rotations, b.rotations, info["nodes"], a.bones, same_spacing=False, fps=a.fps)
+    warp, _, info = elastic_align(a.rotations, b.rotations, depth=depth, return_info=True)
+    out = explain_path(a.rotations, b.rotations, info["nodes"], a.bones, same_spacing=False, fps=a.fps)
+    out["warp"] = [[float(t0), float(t1)] for t0, t1 in warp]  # matching times (query, clip or window), 0..1
+    return out
 
 
 def top_joints(explanation, count=5, key="joints"):

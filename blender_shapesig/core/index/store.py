@@ -30,7 +30,7 @@ __all__ = ["SignatureCache", "default_cache_dir", "private_cache_dir", "CACHE_FO
 # 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
 # time base (entry.make_entry), as metrics.clip_distance prepares the curves; 4: entries record the clip's own frame
 # count (clip_frames) beside the prepared curve's; 5: local-search entries (core.index.local) in files of their own
-# beside the signature entries
+# beside the signature entries (the pose pictures of core.index.thumbnails, <sha1>.png, beside them too)
 CACHE_FORMAT = 5
 CACHE_ENV = "SHAPESIG_CACHE_DIR"
 # Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
@@ -45,7 +45,7 @@ _TAG_TEXT = ("Signature: 8a477f597d28d172789f06886806bc55\n"
              "# This file is a cache directory tag created by blender_shapesig.\n"
              "# Every file here was written by it and is rebuilt when needed.\n")
 _TMP_PREFIX, _TMP_SUFFIX = ".shapesig-", ".tmp"
-_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.npz|" + re.escape(_PACK) + "|" + re.escape(LOCAL_PACK) + "|"
+_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.(?:npz|png)|" + re.escape(_PACK) + "|" + re.escape(LOCAL_PACK) + "|"
                        + re.escape(_TMP_PREFIX) + r"\w+"
                        + re.escape(_TMP_SUFFIX) + ")")
 _ENTRY_FILE = re.compile(r"[0-9a-f]{40}\.npz")
