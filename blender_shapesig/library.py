@@ -29,9 +29,9 @@ from .preferences import ADDON_ID, get_preferences
 from .properties import PANEL_MAX_LEVEL, column_word, index_level, results_of, settings_of, uses_local
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
-           "owner_armature", "file_identity", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
+           "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
            "library_items", "index_items", "missing_count", "rank_into_settings", "store_results",
-           "active_armature", "check_problem", "RankJob", "unique_labels", "index_cost", "cost_text", "COSTLY_LEVEL"]
+           "active_armature", "check_problem", "RankJob", "index_cost", "cost_text", "COSTLY_LEVEL"]
 
 # The session's stores: (absolute index folder, compact limit) -> SignatureCache (their memory layer survives
 # operators; clearing this dict makes the next operator read the folder afresh).
@@ -420,37 +420,10 @@ def cost_text(clips, seconds, nbytes):
 
 # ------------------------------------------------------------------------------------------ results
 
-def unique_labels(specs):
-    """Display labels of clip files that tell any two apart: the file name (with ``#ACTION`` for a .blend
-    action), with as many parent folders as needed when two files share a name (two ``16_15.bvh``)."""
-    parts = [os.path.normpath(sources.ClipSpec.parse(t).path).split(os.sep) for t in specs]
-    tails = [sources.ClipSpec.parse(t).action for t in specs]
-    depth = [1] * len(specs)
-    while True:
-        labels = ["/".join(p[-d:]) + (f"#{a}" if a else "") for p, d, a in zip(parts, depth, tails)]
-        clash = {lb for lb in labels if labels.count(lb) > 1}
-        grow = [i for i, lb in enumerate(labels) if lb in clash and depth[i] < len(parts[i])]
-        if not grow:
-            return labels
-        for i in grow:
-            depth[i] += 1
-
-
-def file_identity(spec) -> str:
-    """What tells a clip file apart from one put in its place: its path, size and modification time ("" when it
-    cannot be read)."""
-    path = os.path.abspath(sources.ClipSpec.parse(spec).path)
-    try:
-        st = os.stat(path)
-    except (OSError, ValueError):
-        return ""
-    return f"{path}|{st.st_size}|{st.st_mtime_ns}"
-
-
 def _row_sources(results, items):
     """(is_action, clip file spec, target identity, name) per result, through the library item each came from (by
     key): an action's read hash at the search and its name now (a cached entry keeps the name it was indexed
-    under: an action renamed since is named as it is now), a file's ``file_identity``."""
+    under: an action renamed since is named as it is now), a file's ``sources.file_identity``."""
     by_key = {it.key: it for it in items}
     out = []
     for r in results:
@@ -461,7 +434,7 @@ def _row_sources(results, items):
         spec = item.source if item is not None else r.source
         if spec.lower().endswith(".blend") and r.name:
             spec = f"{spec}#{r.name}"  # a whole .blend holds several actions: the clip's name is its action
-        out.append((False, spec, file_identity(spec), r.name))
+        out.append((False, spec, sources.file_identity(spec), r.name))
     return out
 
 
@@ -474,7 +447,7 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
     matches, then partial ones)."""
     out = results_of()
     kinds = _row_sources(results, items)
-    labels = unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
+    labels = sources.unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
     out.results.clear()
     for r, (is_action, spec, target, name) in zip(results, kinds):
         row = out.results.add()

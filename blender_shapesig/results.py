@@ -43,7 +43,7 @@ def _check_file(row):
     """Refuse a file row whose file was replaced or changed since the search."""
     if row.is_action and not row.spec:
         return  # an action of this file: check_action
-    if row.target and library.file_identity(row.spec or row.source) != row.target:
+    if row.target and sources.file_identity(row.spec or row.source) != row.target:
         raise changed_error(row.label or row.name)
 
 

@@ -140,17 +140,22 @@ def test_one_frame_signature_distance_is_a_number(capsys, clips):
 
 
 def test_no_shared_bones(capsys, clips):
-    """A CMU BVH (hip, abdomen, ..., head) and the renamed Acclaim take (root, x_lfemur, ..., x_head) share no
-    bone."""
+    """Read by bone names (``--bone-map none``), a CMU BVH (hip, abdomen, ..., head) and the renamed Acclaim take
+    (root, x_lfemur, ..., x_head) share no bone; the automatic map finds the renamed joints by their words and
+    the hierarchy and compares them."""
     pytest.importorskip("bpy")
     bvh = str(ROOT / "tests" / "data" / "bvh" / "09_02.bvh")
+    by_names = ["--bone-map", "none"]
     for metric in ("sim", "elastic", "l2"):
-        line = error_line(capsys, ["distance", clips["renamed"], bvh, "--metric", metric])
+        line = error_line(capsys, ["distance", clips["renamed"], bvh, "--metric", metric] + by_names)
         assert "share no bones" in line
+    assert cli.main(["distance", clips["renamed"], bvh, "--json"]) == 0
+    assert json.loads(capsys.readouterr()[0])["coverage"] >= 0.9
     out = clips["base"] / "x.blend"
-    line = error_line(capsys, ["blend", clips["renamed"], bvh, "--weight", "0.5", "--out", str(out)])
+    line = error_line(capsys, ["blend", clips["renamed"], bvh, "--weight", "0.5", "--out", str(out)] + by_names)
     assert "share no bones" in line and not out.exists()
-    line = error_line(capsys, ["matrix", clips["renamed"], bvh, "--out", str(clips["base"] / "m"), "--no-figures"])
+    line = error_line(capsys, ["matrix", clips["renamed"], bvh, "--out", str(clips["base"] / "m"), "--no-figures"]
+                      + by_names)
     assert "share no bones" in line and not (clips["base"] / "m").exists()  # not even the folder
     # rank skips a library clip that shares no bones, with a one-line warning naming it (bones by name:
     # --bone-map none; with the default map, "run" is mapped onto canonical joints and shares none either)
@@ -376,7 +381,9 @@ def test_degenerate_actions_in_a_blend_file(capsys, degenerate_blend, tmp_path):
     for metric in ("sim", "elastic", "l2"):
         d = ok_json(capsys, ["distance", f"{b}#const", f"{b}#run", "--metric", metric])["distance"]
         assert d is not None and math.isfinite(d) and d > 0
-    d = ok_json(capsys, ["distance", f"{b}#loc", f"{b}#run", "--metric", "sim"])["distance"]
+    # an action that only moves the root: one joint of the rigs' canonical joints, refused unless asked
+    assert "coverage 0.05" in error_line(capsys, ["distance", f"{b}#loc", f"{b}#run", "--metric", "sim"])
+    d = ok_json(capsys, ["distance", f"{b}#loc", f"{b}#run", "--metric", "sim", "--allow-partial"])["distance"]
     assert d is not None and math.isfinite(d)
     got = ok_json(capsys, ["blend", f"{b}#run", f"{b}#const", "--weight", "0.5", "--out", str(out)])
     assert out.exists() and len(got["actions"]) == 1

@@ -37,8 +37,8 @@ class UnreadableFileError(ParseError):
 
 def error_line(exc) -> str:
     """Any exception as one line for a user (the operators' reports, the command line's stderr): a ShapeSigError's
-    message, an OSError's file and reason, "out of memory", a removed Blender data-block said so, else the type
-    and the message; whitespace collapsed (the traceback goes to the console or ``--debug``)."""
+    message, an OSError's file and reason, "out of memory", a removed Blender data-block said so, else "internal error" and the message (no
+    Python type name); whitespace collapsed (the traceback goes to the console or ``--debug``)."""
     if isinstance(exc, ShapeSigError):
         text = str(exc)
     elif isinstance(exc, OSError):
@@ -48,8 +48,9 @@ def error_line(exc) -> str:
     elif isinstance(exc, ReferenceError):
         text = f"data it was using was removed meanwhile ({exc})"
     else:
-        text = f"{type(exc).__name__}: {exc}"
-    return " ".join(text.split()) or type(exc).__name__
+        text = f"internal error ({exc}); the console has the details" if str(exc).strip() else \
+            "internal error; the console has the details"
+    return " ".join(text.split()) or "internal error"
 
 
 def check_integer(value, name, minimum=1, allow_none=False, maximum=None):

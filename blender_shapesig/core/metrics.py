@@ -181,6 +181,8 @@ def check_coverage(a: Clip, b: Clip, allow_partial=False, report=False):
     got = coverage_report(a, b)
     bones, cov = got["bones"], got["coverage"]
     missing = (", ".join(got["unmapped"][:8]) + (", ..." if len(got["unmapped"]) > 8 else "")) or "none"
+    if not set(a.bones) & set(b.bones):
+        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share no bones; map the bones")
     if cov < MIN_COVERAGE and not allow_partial:
         raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share {bones} moving joints, coverage {cov:.2f} "
                             f"< {MIN_COVERAGE} (unmapped: {missing}); map the bones "

@@ -271,7 +271,7 @@ def test_labels_are_unique_and_counts_honest(empty_file, cache_env, tmp_path):
     shutil.rmtree(cache_env)
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
     assert "index: 5 of 5 clips, 4 computed, 0 already indexed; 1 could not be read" in bpy.context.window_manager.shapesig_results.message
-    assert library.unique_labels(["/x/a/w.blend#run", "/x/b/w.blend#run", "/x/c.bvh"]) == \
+    assert sources.unique_labels(["/x/a/w.blend#run", "/x/b/w.blend#run", "/x/c.bvh"]) == \
         ["a/w.blend#run", "b/w.blend#run", "c.bvh"]
 
 

@@ -23,6 +23,7 @@ from .registry import EXTENSIONS, reader_for, register_reader
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "discover",
     "read", "read_one", "after_read", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
+    "unique_labels", "file_identity",
 ]
 
 
@@ -339,3 +340,30 @@ def as_items(members: Sequence) -> List[LibraryItem]:
         else:
             raise ShapeSigError(f"library members must be Clips or LibraryItems, got {type(x).__name__}")
     return items
+
+
+def unique_labels(specs):
+    """Display labels of clip files that tell any two apart: the file name (with ``#ACTION`` for a .blend
+    action), with as many parent folders as needed when two files share a name (two ``16_15.bvh``)."""
+    parts = [os.path.normpath(ClipSpec.parse(t).path).split(os.sep) for t in specs]
+    tails = [ClipSpec.parse(t).action for t in specs]
+    depth = [1] * len(specs)
+    while True:
+        labels = ["/".join(p[-d:]) + (f"#{a}" if a else "") for p, d, a in zip(parts, depth, tails)]
+        clash = {lb for lb in labels if labels.count(lb) > 1}
+        grow = [i for i, lb in enumerate(labels) if lb in clash and depth[i] < len(parts[i])]
+        if not grow:
+            return labels
+        for i in grow:
+            depth[i] += 1
+
+
+def file_identity(spec) -> str:
+    """What tells a clip file apart from one put in its place: its path, size and modification time ("" when it
+    cannot be read)."""
+    path = os.path.abspath(ClipSpec.parse(spec).path)
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return ""
+    return f"{path}|{st.st_size}|{st.st_mtime_ns}"
