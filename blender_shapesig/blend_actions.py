@@ -14,6 +14,7 @@ from . import action_io, compat, rigmap
 from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
+from .core.progress import check as check_progress
 
 __all__ = ["BlendResult", "blend_actions", "unique_action_name", "selected_bone_names",
            "bake_strip", "timed_strips", "TIMING_TRACK"]
@@ -86,8 +87,9 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
     each must be animated in every action. ``root``: "blend" or "a" (A's root path). ``ranges``: (A's, B's) frame
     ranges ((S, E) or None, the actions' own frames). ``loop``, ``feet`` ("lock"/"none"; a rig without legs is
     kept unplanted, said in ``info``), ``mask``/``groups``: see ``core.blend.make_blends``. ``timing``: "bake"
-    (the blended timing in the keys) or "nla" (editable, see the module docstring). ``progress(done, total)``:
-    called after each blend and each written action (2 per blend)."""
+    (the blended timing in the keys) or "nla" (editable, see the module docstring). ``progress(done, total)``
+    (``core.progress``): called after each blend and each written action (2 per blend); returning True raises
+    Cancelled and creates nothing."""
     if action_a == action_b:
         raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
     actions = [action_a, action_b] + [act for act, _w in extra]
@@ -127,8 +129,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
                 strips.append(strip)
             else:
                 created.append(action_io.write_action(clip, armature=armature, name=names[-1], fake_user=True))
-            if progress:
-                progress(n + i + 1, 2 * n)
+            check_progress(progress, n + i + 1, 2 * n)
     except BaseException:
         for strip in strips:
             _remove_strip(armature, strip)

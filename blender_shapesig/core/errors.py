@@ -35,6 +35,13 @@ class UnreadableFileError(ParseError):
     or looping link), unreadable, or over a size cap. Libraries skip such files and report them once."""
 
 
+class Cancelled(ShapeSigError):
+    """The caller cancelled a computation through its ``progress`` callback (``core.progress``)."""
+
+    def __init__(self, message="cancelled"):
+        super().__init__(message)
+
+
 def error_line(exc) -> str:
     """Any exception as one line for a user (the operators' reports, the command line's stderr): a ShapeSigError's
     message, an OSError's file and reason, "out of memory", a removed Blender data-block said so, else the type

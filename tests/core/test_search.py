@@ -326,8 +326,8 @@ def test_build_index_progress_and_cancel(clips, tmp_path):
     items = search.clip_items(list(clips.values()))
     seen = []
     info = search.build_index(items, cache=search.SignatureCache(tmp_path),
-                              progress=lambda i, n, name: seen.append((i, n)) or i < 2)
-    assert info["clips"] == 2 and seen[:3] == [(0, 5), (1, 5), (2, 5)]
+                              progress=lambda i, n: seen.append((i, n)) or i >= 2)
+    assert info["clips"] == 2 and seen == [(0, 5), (1, 5), (2, 5)]  # cancelled before the third: no final call
     info = search.build_index(items, cache=search.SignatureCache(tmp_path))
     # two items were indexed (signature and local entries: 4 files), three are computed (6 entries)
     assert info["clips"] == 5 and info["stats"]["disk_hits"] == 4 and info["stats"]["misses"] == 6
