@@ -86,12 +86,13 @@ class _Matrices:
 
 
 def load_entries(entries, loader):
-    """Every entry's clip: ``loader(entry)``, cropped to ``entry.start``..``entry.end``."""
+    """Every entry's clip: ``loader(entry)``, cropped to ``entry.start``..``entry.end`` (clamped to the clip, as
+    ``sources.after_read`` crops)."""
     clips = []
     for e in entries:
         clip = loader(e)
         if e.start is not None or e.end is not None:
-            clip = clip.crop(e.start, e.end)
+            clip = clip.crop(e.start, e.end, clamp=True)
         clips.append(clip)
     return clips
 

@@ -148,8 +148,8 @@ def test_still_clip_is_at_distance_one(clips, mem):
 
 def test_rerank_orders_head_by_elastic_distance(clips):
     # clips at the comparison rate (30 fps): the entries' low-pass then equals clip_distance's exactly
-    q = decimate_clip(clips["07_01"].crop(end=clips["07_01"].frame_start + 239), 4)
-    lib = [decimate_clip(c.crop(end=c.frame_start + 239), 4) for k, c in clips.items() if k != "07_01"]
+    q = decimate_clip(clips["07_01"].crop(end=clips["07_01"].frame_start + 239, clamp=True), 4)
+    lib = [decimate_clip(c.crop(end=c.frame_start + 239, clamp=True), 4) for k, c in clips.items() if k != "07_01"]
     plain = search.rank_clips(q, lib, metric="sim")
     res = search.rank_clips(q, lib, rerank=3, metric="sim")
     head, tail = res[:3], res[3:]
