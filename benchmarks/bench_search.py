@@ -164,7 +164,7 @@ def bench_real(files, level):
         cache = index.SignatureCache(tmp)
         per = []
 
-        def progress(i, n, name, last=[time.perf_counter()]):
+        def progress(i, n, last=[time.perf_counter()]):
             now = time.perf_counter()
             if i:
                 per.append(now - last[0])

@@ -15,7 +15,7 @@ from . import compat
 from .action_hashes import action_hash, read_hash
 from .bone_channels import PROPS as _PROPS, bone_channels
 from .core.clip.clip import Clip
-from .core.errors import ShapeSigError
+from .core.errors import ShapeSigError, check_frame_range
 from .core.clip.skeleton import rest_meta
 from .core.io.files import check_frames
 # the rotation maths is core.geometry.so3's; the channel conversions are re-exported here, where callers know them
@@ -189,10 +189,7 @@ def _read_bones(action, armature, bones, channels, exclude_unkeyed):
 def _read_range(action, channels, names, frame_range):
     """(first, last) frame to sample: ``frame_range``, else the action's (manual or keyed) range."""
     if frame_range is not None:
-        start, end = int(frame_range[0]), int(frame_range[1])
-        if end < start:
-            raise ShapeSigError(f"empty frame range {start}..{end}")
-        return start, end
+        return check_frame_range(int(frame_range[0]), int(frame_range[1]), what=f"action {action.name!r}", frames=1)
     rng = _action_frame_range(action, channels, names)
     if rng is None:
         rng = _action_frame_range(action, channels, list(channels))

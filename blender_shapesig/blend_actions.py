@@ -14,6 +14,7 @@ from . import action_io, compat, frame_rates, rigmap
 from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
+from .core.progress import check as check_progress
 
 __all__ = ["BlendResult", "blend_actions", "unique_action_name", "selected_bone_names",
            "bake_strip", "timed_strips", "TIMING_TRACK"]
@@ -90,11 +91,12 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
     each must be animated in every action. ``root``: "blend" or "a" (A's root path). ``ranges``: (A's, B's) frame
     ranges ((S, E) or None, the actions' own frames). ``loop``, ``feet`` ("lock"/"none"; a rig without legs is
     kept unplanted, said in ``info``), ``mask``/``groups``: see ``core.blend.make_blends``. ``timing``: "bake"
-    (the blended timing in the keys) or "nla" (editable, see the module docstring). ``progress(done, total)``:
-    called after each blend and each written action (2 per blend). ``rates``: per action (A, B, the extras) the
-    frame rate to read it at, or None for its own (``frame_rates.rate_of``); ``info["rates"]`` holds (name, fps,
-    known) per action and ``info["rate_note"]`` the one line when an assumed rate meets known ones. ``allow_long``:
-    blend sources lasting more than ``core.blend.make.MAX_DURATION_RATIO`` times as long as each other."""
+    (the blended timing in the keys) or "nla" (editable, see the module docstring). ``progress(done, total)``
+    (``core.progress``): called after each blend and each written action (2 per blend); returning True raises
+    Cancelled and creates nothing. ``rates``: per action (A, B, the extras) the frame rate to read it at, or None
+    for its own (``frame_rates.rate_of``); ``info["rates"]`` holds (name, fps, known) per action and
+    ``info["rate_note"]`` the one line when an assumed rate meets known ones. ``allow_long``: blend sources lasting
+    more than ``core.blend.make.MAX_DURATION_RATIO`` times as long as each other."""
     if action_a == action_b:
         raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
     actions = [action_a, action_b] + [act for act, _w in extra]
@@ -134,8 +136,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
                 strips.append(strip)
             else:
                 created.append(action_io.write_action(clip, armature=armature, name=names[-1], fake_user=True))
-            if progress:
-                progress(n + i + 1, 2 * n)
+            check_progress(progress, n + i + 1, 2 * n)
     except BaseException:
         for strip in strips:
             _remove_strip(armature, strip)

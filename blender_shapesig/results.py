@@ -122,7 +122,7 @@ def _file_clip(settings, row):
     loaded = sources.read(sources.ClipSpec.parse(row.spec or row.source, asf=asf))
     clip = next((c for c in loaded if c.name == row.clip_name), loaded[0])
     if settings.crop_start and clip.frame_end >= settings.crop_start:
-        clip = clip.crop(start=settings.crop_start)
+        clip = clip.crop(start=settings.crop_start, clamp=True)  # the library's crop start, as the search read it
     return clip
 
 

@@ -319,7 +319,7 @@ def test_rank_rerank_and_top(capsys, amc):
     first = out["results"][0]
     a, b = _compared(_clip(amc["r1"]), _clip(names[first["clip"]]), "elastic")
     # The index keeps float32 increments on the 30 fps time base and low-passes them there; `distance` low-passes
-    # the 120 fps curve before resampling: close, not equal (equal at 30 fps: tests/core/test_search.py).
+    # the 120 fps curve before resampling: close, not equal (equal at 30 fps: tests/core/index/test_rank.py).
     assert first["elastic"] == pytest.approx(elastic_distance(a.rotations, b.rotations), rel=1e-2)
 
 

@@ -98,15 +98,12 @@ def run(args):
     groups = parse_groups(args.group) if args.group else None
     own, mapped = _read(args, paths, ranges)
 
-    bar = c.progress(args, len(weights), "blending")
-    try:
+    with c.progress_bar(args, "blending") as bar:
         blended, info = make_blends(
             own, weights, mapped=mapped, back=onto_rig if mapped is not None else None, ranges=ranges,
             loop=args.loop, feet=args.feet or "lock", feet_required=args.feet is not None, mask=mask, groups=groups,
-            align=args.align or args.loop, depth=args.depth, frames=args.frames,
-            progress=lambda i, n: bar.update(), allow_long=args.allow_long)
-    finally:
-        bar.close()
+            align=args.align or args.loop, depth=args.depth, frames=args.frames, progress=bar,
+            allow_long=args.allow_long)
     ref = mapped[0] if mapped is not None else own[0]
     kept = blended[0].meta.get("kept_bones", ()) if mapped is not None else ()
     if kept:

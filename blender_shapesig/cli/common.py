@@ -71,29 +71,12 @@ def finite(x):
     return x if math.isfinite(x) else None
 
 
-def progress(args, total, desc):
-    """A tqdm progress bar on stderr (a no-op object when tqdm is missing or --no-progress)."""
-    if getattr(args, "no_progress", False) or total is None or total < 2:
-        return NoBar()
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover - tqdm is a dev requirement
-        return NoBar()
-    return tqdm(total=total, desc=desc, file=sys.stderr, leave=False, dynamic_ncols=True)
+def progress_bar(args, desc, total=None):
+    """A ``progress(done, total)`` drawing a bar on stderr (``core.progress.Bar``; silent with --no-progress or
+    without ``args``); a context manager."""
+    from ..core.progress import Bar
 
-
-class NoBar:
-    def update(self, n=1):
-        pass
-
-    def close(self):
-        pass
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
+    return Bar(desc, enabled=args is not None and not getattr(args, "no_progress", False), total=total)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -139,18 +122,15 @@ def load_many(specs, asf=None, args=None, skipped=None):
     from ..core.io.sources import read
 
     out = []
-    bar = progress(args, len(specs), "loading") if args is not None else NoBar()
-    try:
-        for spec in specs:
+    with progress_bar(args, "loading") as bar:
+        for i, spec in enumerate(specs):
             try:
                 out.extend(read(clip_spec(spec, asf, crop_of(args), bone_map_of(args))))
             except UnreadableFileError as exc:
                 if skipped is None:
                     raise
                 skipped.append(exc)
-            bar.update()
-    finally:
-        bar.close()
+            bar(i + 1, len(specs))
     return out
 
 

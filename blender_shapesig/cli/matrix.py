@@ -20,11 +20,8 @@ def run(args):
     labels = None
     if args.labels:
         labels = evaluation.labels_from_csv(args.labels, names)
-    bar = c.progress(args, len(clips) * (len(clips) - 1) // 2, f"{label} matrix")
-    try:
-        D, seconds = clip_distance_matrix(clips, label, depth=args.depth, workers=args.workers, progress=bar.update)
-    finally:
-        bar.close()
+    with c.progress_bar(args, f"{label} matrix") as bar:
+        D, seconds = clip_distance_matrix(clips, label, depth=args.depth, workers=args.workers, progress=bar)
     # the output folder is made only once there is something to write into it
     os.makedirs(args.out, exist_ok=True)
     paths = evaluation.write_matrix(D, names, args.out)

@@ -115,23 +115,13 @@ def run(args):
     if not items:
         raise c.CommandError("no clips to rank" + (f" ({skipped[0]})" if skipped else ""))
     cache = index.SignatureCache(c.cache_dir(args, index))
-    bar = c.progress(args, len(items), "signatures")
-    done = [0]
-
-    def progress(i, total, name):
-        if i > done[0]:
-            bar.update(i - done[0])
-            done[0] = i
-
-    try:
+    with c.progress_bar(args, "signatures") as bar:
         if args.windows:
-            results = _rank_windows(query, items, args, progress)
+            results = _rank_windows(query, items, args, bar)
         else:
             results = index.rank_clips(query_item, items, metric=base, level=level, rerank=args.rerank or 0,
-                                        top=args.top, cache=cache, depth=args.depth, progress=progress,
+                                        top=args.top, cache=cache, depth=args.depth, progress=bar,
                                         allow_partial=args.allow_partial)
-    finally:
-        bar.close()
     warnings = list(getattr(results, "warnings", []))
     if cache.warning and cache.warning not in warnings:  # --windows reads no signature cache, but says so
         warnings.insert(0, cache.warning)

@@ -35,6 +35,13 @@ class UnreadableFileError(ParseError):
     or looping link), unreadable, or over a size cap. Libraries skip such files and report them once."""
 
 
+class Cancelled(ShapeSigError):
+    """The caller cancelled a computation through its ``progress`` callback (``core.progress``)."""
+
+    def __init__(self, message="cancelled"):
+        super().__init__(message)
+
+
 def error_line(exc) -> str:
     """Any exception as one line for a user (the operators' reports, the command line's stderr): a ShapeSigError's
     message, an OSError's file and reason, "out of memory", a removed Blender data-block said so, else "internal error" and the message (no
@@ -114,14 +121,27 @@ def check_inbetweens(value, name="in-betweens"):
     return check_integer(value, name, minimum=1, maximum=MAX_INBETWEENS)
 
 
-def check_frame_range(start, end, first, last, what="the clip"):
-    """(start, end) as ints when start < end both lie in ``what``'s frames first..last (inclusive);
-    ShapeSigError naming the range otherwise (frames outside a clip would compare held poses, not motion)."""
-    s, e = check_integer(start, "frame start", minimum=-(2 ** 31)), check_integer(end, "frame end",
-                                                                                   minimum=-(2 ** 31))
-    first, last = int(round(first)), int(round(last))
-    if e <= s:
-        raise ShapeSigError(f"the frame range {s}..{e} needs two frames (end after start)")
-    if s < first or e > last:
-        raise ShapeSigError(f"the frame range {s}..{e} is outside {what}'s frames {first}..{last}")
+def check_frame_range(start, end, first=None, last=None, what="the clip", *, frames=2, clamp=False):
+    """The one frame-range rule: ``(start, end)`` as ints, frames start..end (inclusive) of ``what``, whose frames
+    are first..last (None: no bound; a None start or end is that bound). A range reaching outside those frames is
+    refused (frames outside a clip would compare held poses, not motion) unless ``clamp`` — asked for on purpose
+    where one crop applies to clips of any length (the command line's --start/--end, a library's crop start) —
+    cuts it to them (a range missing them entirely is still refused); a range of fewer than ``frames`` frames is
+    refused. ShapeSigError, one line naming the range."""
+    lo, hi = (None if v is None else int(round(v)) for v in (first, last))
+    s = lo if start is None else check_integer(start, "frame start", minimum=-(2 ** 31))
+    e = hi if end is None else check_integer(end, "frame end", minimum=-(2 ** 31))
+    if s is None or e is None:
+        raise ShapeSigError(f"the frame range of {what} needs a start and an end")
+    short = (f"must end {'after' if frames > 1 else 'at or after'} it starts "
+             f"(at least {frames} frame{'s' * (frames > 1)})")
+    if start is not None and end is not None and e - s + 1 < frames:
+        raise ShapeSigError(f"the frame range {s}..{e} of {what} {short}")
+    outside = any((lo is not None and x < lo) or (hi is not None and x > hi) for x in (s, e))
+    if outside and clamp and (hi is None or s <= hi) and (lo is None or e >= lo):
+        s, e, outside = max(s, lo) if lo is not None else s, min(e, hi) if hi is not None else e, False
+    if outside:
+        raise ShapeSigError(f"the frame range {s}..{e} is outside {what}'s frames {lo}..{hi}")
+    if e - s + 1 < frames:  # what clamping left
+        raise ShapeSigError(f"the frame range {s}..{e} of {what} {short}")
     return s, e

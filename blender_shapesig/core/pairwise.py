@@ -1,8 +1,10 @@
 """Distance matrices of many clips by metric name (the grammar of ``metrics``): every measure is computed once per
 clip where the maths allows (SRVTs, signatures, log-signatures) and then per pair, the tensor products of
-rho^n and sigma_*^n in forked worker processes. Pure numpy, no plotting. See docs/dev/metrics.md.
+rho^n and sigma_*^n in forked worker processes. ``progress(done, total)`` (``core.progress``) counts pairs; a
+cancel raises ``errors.Cancelled``. Pure numpy, no plotting. See docs/dev/metrics.md.
 """
 
+import contextlib
 import math
 import multiprocessing
 import time
@@ -16,6 +18,7 @@ from .clip.clip import restrict_to_shared
 from .geometry import curves as curves_mod
 from .geometry.curves import srvt, srvt_l2_squared, uniform_times, use_srvt_norm
 from .errors import ShapeSigError
+from .progress import Counter
 from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec, time_base_smoothing
 
 __all__ = [
@@ -49,15 +52,18 @@ def _call_shared(job):
 
 def _shared_map(fn, jobs, shared, workers):
     """``[fn(shared, *args) for args in jobs]``, in ``workers`` forked processes when there is more than
-    one job and more than one worker (children inherit ``shared``); results arrive in order."""
+    one job and more than one worker (children inherit ``shared``); results arrive in order. Closing the
+    generator early (a cancel) drops the jobs not started."""
     global _SHARED
     jobs = list(jobs)
     _SHARED = shared
     try:
         if workers and workers > 1 and len(jobs) > 1:
-            ctx = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as ex:
+            ex = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("fork"))
+            try:
                 yield from ex.map(_call_shared, [(fn, args) for args in jobs])
+            finally:
+                ex.shutdown(wait=True, cancel_futures=True)
         else:
             for args in jobs:
                 yield fn(shared, *args)
@@ -100,15 +106,16 @@ def _feature_job(curves, i, level, basis, levelnorm):
 
 
 def signature_features(curves, level, basis="lyndon", levelnorm=False, workers=1, progress=None):
-    """``(n, k)`` array of every curve's ``log_signature_feature``. ``progress(m)`` counts pairs: clip i
-    reports the n - 1 - i pairs it starts."""
+    """``(n, k)`` array of every curve's ``log_signature_feature``. ``progress(done, total)`` counts pairs: clip i
+    adds the n - 1 - i pairs it starts."""
     n = len(curves)
     feats = []
     jobs = [(i, level, basis, levelnorm) for i in range(n)]
-    for i, f in enumerate(_shared_map(_feature_job, jobs, curves, workers)):
-        feats.append(f)
-        if progress:
-            progress(n - 1 - i)
+    count = Counter(progress, n * (n - 1) // 2)
+    with contextlib.closing(_shared_map(_feature_job, jobs, curves, workers)) as results:
+        for i, f in enumerate(results):
+            feats.append(f)
+            count.add(n - 1 - i)
     return np.stack(feats)
 
 
@@ -136,11 +143,11 @@ def srvt_matrix(curves, progress=None):
     ts = [uniform_times(R.shape[0]) for R in curves]
     n = len(curves)
     D = np.zeros((n, n))
+    count = Counter(progress, n * (n - 1) // 2)
     for i in range(n):
         for j in range(i + 1, n):
             D[i, j] = D[j, i] = math.sqrt(max(srvt_l2_squared(qs[i], ts[i], qs[j], ts[j]), 0.0))
-            if progress:
-                progress(1)
+            count.add()
     return D
 
 
@@ -176,18 +183,19 @@ def tensor_pair_matrix(curves, base, level, workers=2, progress=None):
     chunk = max(1, len(pairs) // (8 * max(1, workers or 1)))
     jobs = [(pairs[k:k + chunk], base, level, dim) for k in range(0, len(pairs), chunk)]
     D = np.zeros((n, n))
-    for res in _shared_map(_pair_job, jobs, sigs, workers):
-        for i, j, d in res:
-            D[i, j] = D[j, i] = d
-        if progress:
-            progress(len(res))
+    count = Counter(progress, len(pairs))
+    with contextlib.closing(_shared_map(_pair_job, jobs, sigs, workers)) as results:
+        for res in results:
+            for i, j, d in res:
+                D[i, j] = D[j, i] = d
+            count.add(len(res))
     return D
 
 
 def distance_matrix(curves, metric, depth=DEFAULT_DEPTH, workers=2, progress=None):
     """Symmetric matrix of distances between curves (same joints) by metric name or MetricSpec.
 
-    ``progress(n)`` is called with the number of pairs done. Two-stage names are refused here.
+    ``progress(done, total)`` counts the pairs done (a cancel raises Cancelled). Two-stage names are refused here.
     """
     spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
     if spec.rerank or spec.base == "local":
@@ -219,18 +227,19 @@ def cross_distance_matrix(curves_a, curves_b, metric, depth=DEFAULT_DEPTH, progr
     A = [np.asarray(R, dtype=np.float64) for R in curves_a]
     B = [np.asarray(R, dtype=np.float64) for R in curves_b]
     D = np.zeros((len(A), len(B)))
+    count = Counter(progress, len(A) * len(B))
     if spec.base in ("linear", "sim"):
         FA, FB = (np.stack([log_signature_feature(R, spec.level, spec.basis, spec.levelnorm) for R in X]) for X in (A, B))
         for i in range(len(A)):
             D[i] = ([signatures.normalized_difference(FA[i], f) for f in FB] if spec.base == "sim"
                     else np.linalg.norm(FB - FA[i], axis=1))
+            count.add(len(B))
         return D
     with use_srvt_norm(spec.srvt_norm or curves_mod.DEFAULT_SRVT_NORM):
         for i in range(len(A)):
             for j in range(len(B)):
                 D[i, j] = curve_distance(A[i], B[j], spec.base, spec.level, depth=depth)
-            if progress:
-                progress(len(B))
+            count.add(len(B))
     return D
 
 

@@ -9,7 +9,6 @@ search) ranks by its first stage's matrix, each query's shortlist re-scored by b
 """
 
 import os
-import sys
 import time
 
 import numpy as np
@@ -19,6 +18,7 @@ from ..core.elastic.elastic import elastic_distance
 from ..core.index import local
 from ..core.metrics import DEFAULT_DEPTH, LOCAL, SMOOTHED_METRICS, parse_metric_spec
 from ..core.pairwise import cross_distance_matrix, distance_matrix
+from ..core.progress import Bar
 from ..core.clip.prepare import COMPARE_FPS, SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
 from .index import unique_names
 from .plots import plot_dendrogram, plot_mds
@@ -37,51 +37,44 @@ EXTRA_METRICS = (
 )
 
 
-class _CountBar:
-    def __init__(self, progress=None):
-        self.progress = progress if callable(progress) else None
-
-    def update(self, n=1):
-        if self.progress:
-            self.progress(n)
-
-    def close(self):
-        pass
-
-
-def _make_bar(progress, total, desc):
-    """A tqdm bar on stderr for ``progress="tqdm"``; else an object passing counts to ``progress(n)``."""
-    if progress == "tqdm":
-        try:
-            from tqdm import tqdm
-
-            return tqdm(total=total, desc=desc, file=sys.stderr, leave=False, dynamic_ncols=True)
-        except ImportError:  # pragma: no cover - tqdm is a dev requirement
-            pass
-    return _CountBar(progress)
+def _matrix_names(specs):
+    """The matrices an evaluation of ``specs`` computes (``_Matrices.get``), in order."""
+    names = [s.first_stage.name if s.rerank else s.name for s in specs if s.base != LOCAL]
+    return list(dict.fromkeys(names))
 
 
 class _Matrices:
     """Every metric's matrix once, timed as the shortest of ``repeat`` runs. ``curves``: the curves of the
-    signature measures; ``srvt_curves``: those of the SRVT measures (and d_S* of the two-stage searches)."""
+    signature measures; ``srvt_curves``: those of the SRVT measures (and d_S* of the two-stage searches).
+    ``progress``: "tqdm" (a bar per matrix) or ``progress(done, total)`` over the pairs of all ``planned``
+    matrices and runs."""
 
-    def __init__(self, curves, srvt_curves, depth, workers, repeat, progress, say):
+    def __init__(self, curves, srvt_curves, depth, workers, repeat, progress, say, planned=()):
         self.curves, self.srvt_curves, self.depth, self.workers = curves, srvt_curves, depth, workers
         self.repeat, self.progress, self.say = max(1, int(repeat)), progress, say
         self.matrices, self.seconds = {}, {}
         self.pairs = len(curves) * (len(curves) - 1) // 2
+        self.bars = isinstance(progress, str) and progress == "tqdm"
+        self.total, self.runs = self.pairs * self.repeat * max(len(planned), 1), 0
+
+    def _progress(self, bar):
+        """The progress of one run: a bar, or the caller's callback offset by the runs before it."""
+        if self.bars:
+            return bar
+        if not callable(self.progress):
+            return None
+        offset = self.runs * self.pairs
+        return lambda done, _total: self.progress(offset + done, max(self.total, offset + self.pairs))
 
     def get(self, spec):
         if spec.name not in self.matrices:
             best = None
             for _ in range(self.repeat):
-                bar = _make_bar(self.progress, self.pairs, spec.name)
-                t0 = time.perf_counter()
-                try:
+                with Bar(spec.name, enabled=self.bars) as bar:
+                    t0 = time.perf_counter()
                     D = distance_matrix(self.curves_for(spec), spec, depth=self.depth, workers=self.workers,
-                                        progress=bar.update)
-                finally:
-                    bar.close()
+                                        progress=self._progress(bar))
+                self.runs += 1
                 took = time.perf_counter() - t0
                 best = took if best is None else min(best, took)
             self.matrices[spec.name], self.seconds[spec.name] = D, best
@@ -93,12 +86,13 @@ class _Matrices:
 
 
 def load_entries(entries, loader):
-    """Every entry's clip: ``loader(entry)``, cropped to ``entry.start``..``entry.end``."""
+    """Every entry's clip: ``loader(entry)``, cropped to ``entry.start``..``entry.end`` (clamped to the clip, as
+    ``sources.after_read`` crops)."""
     clips = []
     for e in entries:
         clip = loader(e)
         if e.start is not None or e.end is not None:
-            clip = clip.crop(e.start, e.end)
+            clip = clip.crop(e.start, e.end, clamp=True)
         clips.append(clip)
     return clips
 
@@ -218,7 +212,9 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
     the summary dict.
 
     ``repeat``: compute every matrix that many times and report the shortest wall time (the machine
-    may be shared; the matrices are identical). ``progress``: "tqdm" or a callable counting pairs.
+    may be shared; the matrices are identical). ``progress``: "tqdm" (a bar on stderr per matrix) or
+    ``progress(done, total)`` counting the pairs of every matrix computed (``core.progress``; a cancel raises
+    Cancelled).
     ``time_base``: compare the clips on the time base of ``core.clip.prepare`` (the default, as the command line
     does: every clip at ``COMPARE_FPS``; the SRVT measures ``metrics.SMOOTHED_METRICS`` after a low-pass of
     ``smooth`` seconds, the signature measures without); False compares the curves as read (the thesis'
@@ -242,7 +238,7 @@ def evaluate(entries, loader, metrics=DEFAULT_METRICS, out_dir="eval", depth=DEF
     say(f"{len(curves)} clips, {len(bones)} moving shared bones, frames {min(len(c) for c in curves)}.."
         f"{max(len(c) for c in curves)} ({min(len(c) for c in srvt_curves)}..{max(len(c) for c in srvt_curves)}"
         f" on the SRVT measures' time base)")
-    mats = _Matrices(curves, srvt_curves, depth, workers, repeat, progress, say)
+    mats = _Matrices(curves, srvt_curves, depth, workers, repeat, progress, say, _matrix_names(specs))
     cands = retrieval.candidates(len(clips), groups)
     local_entries = [local.index_entry(c) for c in clips] if any(s.base == LOCAL for s in specs) else None
     crop_clips = {side: load_entries(entries, load) for side, load in crops.items()} if crops else None

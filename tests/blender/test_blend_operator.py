@@ -142,6 +142,27 @@ def test_weight_zero_and_one_reproduce_the_sources(rig):
     assert np.abs(w1.root_translation - run.root_translation).max() < 1e-3
 
 
+def test_blend_actions_progress_counts_blends_and_writes_and_a_cancel_creates_nothing(rig):
+    """``progress(done, total)``: one call per blend, then one per written action; True cancels (Cancelled) and
+    removes what was written."""
+    from blender_shapesig.blend_actions import blend_actions
+    from blender_shapesig.core.errors import Cancelled
+
+    arm, walk, run = rig, bpy.data.actions["walk"], bpy.data.actions["run"]
+    calls = []
+    result = blend_actions(arm, walk, run, [0.25, 0.75], frames=40, progress=lambda d, t: calls.append((d, t)))
+    assert calls == [(1, 4), (2, 4), (3, 4), (4, 4)] and len(result.actions) == 2
+    names = {a.name for a in bpy.data.actions}
+    for stop in (1, 3):  # while blending, after the first action is written
+        calls = []
+        with pytest.raises(Cancelled):
+            blend_actions(arm, walk, run, [0.25, 0.75], frames=40,
+                          progress=lambda d, t: calls.append((d, t)) or d >= stop)
+        assert calls[-1] == (stop, 4) and len(calls) == stop
+        assert {a.name for a in bpy.data.actions} == names
+    assert arm.animation_data.action == walk
+
+
 def test_inbetweens_length_and_names(rig):
     arm = rig
     result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", inbetweens=3, frames=120,

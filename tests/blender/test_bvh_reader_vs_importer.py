@@ -37,7 +37,7 @@ def test_equals_blender_importer(empty_file, name):
 def test_equals_blender_importer_on_naming_rules(empty_file, tmp_path):
     import sys
 
-    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "core"))
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "core" / "io"))
     try:
         from test_bvh_reader import SYNTHETIC
     finally:

@@ -18,7 +18,8 @@ __all__ = ["parse_range", "crop_range", "find_cycle", "one_cycle", "close_loop",
 
 
 def parse_range(text, label="range"):
-    """``"S:E"`` -> (S, E) integers, S <= E (frames, inclusive); None for None/empty."""
+    """``"S:E"`` -> (S, E) integers, E after S (frames, inclusive; ``errors.check_frame_range``); None for
+    None/empty."""
     if text is None or (isinstance(text, str) and not text.strip()):
         return None
     if isinstance(text, (tuple, list)):
@@ -31,9 +32,7 @@ def parse_range(text, label="range"):
         s, e = (int(str(x).strip()) for x in parts)
     except ValueError:
         raise ShapeSigError(f"{label}: expected START:END frame numbers, got {text!r}") from None
-    if e <= s:
-        raise ShapeSigError(f"{label}: {s}:{e} must end after it starts (two frames at least)")
-    return s, e
+    return check_frame_range(s, e, what=label)
 
 
 def crop_range(clip: Clip, rng, label="range") -> Clip:

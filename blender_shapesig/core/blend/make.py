@@ -14,6 +14,7 @@ from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH
 from ..errors import check_weights
 from .cycle import close_loop, crop_range, one_cycle
+from ..progress import check as check_progress
 from .mix import blend_clip_series, blend_many
 
 __all__ = ["make_blends", "FEET_MODES", "sample_at", "editable_timing"]
@@ -69,8 +70,7 @@ def _blend(work, weights, kw, progress):
         if out[0].meta["aligned"] and i:
             out[-1].meta["elastic_distances"] = out[0].meta["elastic_distances"]
             out[-1].meta["elastic_distance"] = out[0].meta["elastic_distance"]
-        if progress is not None:
-            progress(i + 1, len(weights))
+        check_progress(progress, i + 1, len(weights))
     return out
 
 
@@ -101,6 +101,7 @@ def make_blends(clips, weights, *, mapped=None, back=None, ranges=None, loop=Fal
     blend back onto the first clip's rig. ``ranges``: per clip None or ``"S:E"``/(S, E). ``feet``: "lock" or
     "none"; with ``feet_required=False`` a blend whose rig has no legs (or no rest skeleton) is kept unplanted and
     its report says why (``{"skipped": reason}``). ``mask``/``groups``: per-bone-group weights of B (two clips).
+    ``progress(done, total)`` (``core.progress``): after each blend; returning True raises Cancelled.
     ``info``: ``{"sources": [{"name", "range", "cycle"}], "feet": [report per blend] or None, "loop": [meta loop]
     or None}``."""
     if feet not in FEET_MODES:

@@ -16,6 +16,7 @@ from ..clip.prepare import prepare_rotations
 from ..errors import check_weights
 from .combine import _Plan, blend_name, compute_warp, default_frames_many, mean_start
 from ..clip.skeleton import root_up
+from ..progress import check as check_progress
 from .move_root import blend_root_path, interp_rows
 
 __all__ = ["blend_clips", "blend_many", "blend_clip_series", "blend_fps"]
@@ -254,16 +255,15 @@ def _blend_translation(plan, clips, idx, blended, Bg, start, root, up_axis):
 
 def blend_clip_series(a, b, weights, align=True, depth=DEFAULT_DEPTH, frames=None, bones=None, root="blend", *,
                       up_axis=None, penalty=0.0, progress=None, time_base=True, mask=None, groups=None):
-    """``blend_clips`` at several weights with one warp (computed once). ``progress(i, n)`` is called
-    after each blend. Returns a list of Clips."""
+    """``blend_clips`` at several weights with one warp (computed once). ``progress(done, total)``
+    (``core.progress``) is called after each blend; returning True raises Cancelled. Returns a list of Clips."""
     weights = [check_number(x, "weight", 0.0, 1.0) for x in weights]
     if not weights:
         raise ShapeSigError("weights: at least one weight is needed")
     kw = dict(up_axis=up_axis, penalty=penalty, mask=mask, groups=groups)
     first = blend_clips(a, b, weights[0], align, depth, frames, bones, root, time_base=time_base, **kw)
     out = [first]
-    if progress is not None:
-        progress(1, len(weights))
+    check_progress(progress, 1, len(weights))
     warp = first.meta["warp"]
     for i, x in enumerate(weights[1:], start=2):
         c = blend_clips(a, b, x, align, depth, frames, bones, root, warp=warp, **kw)
@@ -271,6 +271,5 @@ def blend_clip_series(a, b, weights, align=True, depth=DEFAULT_DEPTH, frames=Non
         c.meta["elastic_distances"] = first.meta["elastic_distances"]
         c.meta["aligned"] = first.meta["aligned"]
         out.append(c)
-        if progress is not None:
-            progress(i, len(weights))
+        check_progress(progress, i, len(weights))
     return out

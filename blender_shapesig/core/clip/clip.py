@@ -10,7 +10,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 
 from ..geometry.curves import as_curve
-from ..errors import CurveError
+from ..errors import CurveError, check_frame_range
 from ..geometry.so3 import STILL_TOLERANCE, still_joints  # the one stillness rule (re-exported: callers import it here)
 
 __all__ = ["Clip", "shared_bones", "still_joints", "restrict_to_shared", "STILL_TOLERANCE"]
@@ -75,17 +75,11 @@ class Clip:
         modes = tuple(self.rotation_modes[i] for i in idx) if self.rotation_modes else ()
         return replace(self, bones=tuple(bones), rotations=self.rotations[:, idx], rotation_modes=modes)
 
-    def crop(self, start: Optional[int] = None, end: Optional[int] = None) -> "Clip":
-        """Keep scene frames start..end inclusive (None: from the first / to the last frame)."""
-        first = self.frame_start if start is None else int(start)
-        last = self.frame_end if end is None else int(end)
-        first = max(first, self.frame_start)
-        last = min(last, self.frame_end)
-        if last < first:
-            raise CurveError(
-                f"clip {self.name!r}: frame range {start}..{end} is empty "
-                f"(the clip has frames {self.frame_start}..{self.frame_end})"
-            )
+    def crop(self, start: Optional[int] = None, end: Optional[int] = None, *, clamp: bool = False) -> "Clip":
+        """Keep scene frames start..end inclusive (None: from the first / to the last frame). A range reaching
+        outside the clip is refused, or with ``clamp`` cut to it (``errors.check_frame_range``)."""
+        first, last = check_frame_range(start, end, self.frame_start, self.frame_end, f"clip {self.name!r}",
+                                         frames=1, clamp=clamp)
         a, b = first - self.frame_start, last - self.frame_start + 1
         rt = None if self.root_translation is None else self.root_translation[a:b]
         return replace(self, rotations=self.rotations[a:b], root_translation=rt, frame_start=first)

@@ -39,22 +39,23 @@ def step_ratios(R):
     a = np.linalg.norm(relative_rotvecs(np.asarray(R, dtype=np.float64)), axis=-1)
     if a.shape[0] == 0:
         return np.zeros(0)
-    med = np.median(a, axis=0)
-    moving = med > 1e-9
-    if not moving.any():
-        return np.zeros(a.shape[0])
-    return np.median(a[:, moving] / med[moving], axis=1)
+    return _median_ratios(a, 1e-9, 0.0)
 
 
 def rest_ratios(R):
     """Per frame: the median over moving joints of each joint's angle from the rest orientation (the identity)
     divided by that joint's median angle over the clip (about 1 for a typical frame, near 0 at the rest pose)."""
-    A = so3.angle(np.asarray(R, dtype=np.float64))
-    med = np.median(A, axis=0)
-    moving = med > 1e-6
+    return _median_ratios(so3.angle(np.asarray(R, dtype=np.float64)), 1e-6, 1.0)
+
+
+def _median_ratios(a, moving_above, still_value):
+    """Per frame of ``a`` (frames, joints): the median over the joints whose median exceeds ``moving_above`` of
+    each one's value divided by its median; ``still_value`` for every frame when no joint moves."""
+    med = np.median(a, axis=0)
+    moving = med > moving_above
     if not moving.any():
-        return np.ones(A.shape[0])
-    return np.median(A[:, moving] / med[moving], axis=1)
+        return np.full(a.shape[0], float(still_value))
+    return np.median(a[:, moving] / med[moving], axis=1)
 
 
 def _leading(mask, limit):

@@ -17,6 +17,7 @@ from ..geometry import curves
 from ._workspace import memo as _memo
 from ..geometry.curves import as_curve, as_times, geodesic_interpolate, srvt
 from ..errors import CurveError, ShapeSigError, check_integer, check_number
+from ..progress import Counter
 from . import DEFAULT_DEPTH
 
 __all__ = [
@@ -310,8 +311,9 @@ def elastic_distance_matrix(curves, depth=DEFAULT_DEPTH, penalty=0.0, workers=2,
     Entry [a, b] for a < b is ``elastic_distance(curves[a], curves[b])`` and is mirrored to
     [b, a] (d_S* is symmetric for penalty 0; with a penalty the a < b order is the one used).
     The SRVTs are computed once per curve. ``workers`` threads share the pairs; the numba kernel
-    releases the GIL, so they run in parallel (the numpy kernel mostly does too). ``progress``, if
-    given, is called as ``progress(1)`` (in the calling thread) each time a pair is done.
+    releases the GIL, so they run in parallel (the numpy kernel mostly does too). ``progress(done, total)``
+    (``core.progress``) is called in the calling thread each time a pair is done; when it returns True the pairs
+    not started are dropped and Cancelled is raised.
     """
     depth = _check_depth(depth)
     penalty = _check_penalty(penalty)
@@ -342,6 +344,7 @@ def elastic_distance_matrix(curves, depth=DEFAULT_DEPTH, penalty=0.0, workers=2,
         value, _ = _Problem(qs[a], qs[b], depth, penalty).solve(method, want_path=False)
         return a, b, float(np.sqrt(max(value, 0.0)))
 
+    count = Counter(progress, len(pairs))
     if workers == 1 or len(pairs) < 2:
         results = map(run, pairs)
     else:
@@ -350,11 +353,10 @@ def elastic_distance_matrix(curves, depth=DEFAULT_DEPTH, penalty=0.0, workers=2,
     try:
         for a, b, d in results:
             out[a, b] = out[b, a] = d
-            if progress is not None:
-                progress(1)
+            count.add()
     finally:
         if workers > 1 and len(pairs) >= 2:
-            pool.shutdown()
+            pool.shutdown(wait=True, cancel_futures=True)
     return out
 
 

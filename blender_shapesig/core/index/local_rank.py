@@ -13,6 +13,7 @@ from ..clip.clip import Clip
 from ..clip.trim import trim_record
 from ..errors import ShapeSigError, error_line
 from ..io.sources import LibraryItem, as_items, clip_item
+from ..progress import wants_cancel
 from . import local
 from .store import SignatureCache
 
@@ -48,16 +49,15 @@ def local_entries(items, store: SignatureCache, progress=None, errors=None, sett
     items, skey = as_items(items), local.settings_key(settings)
     out = []
     for i, item in enumerate(items):
-        if progress is not None and progress(i, len(items), item.name) is False:
-            break
+        if wants_cancel(progress, i, len(items)):
+            return out
         try:
             out += [(item, e) for e in item_local_entries(item, store, settings, skey)]
         except ShapeSigError as exc:
             if errors is None:
                 raise
             errors.append(f"{item.name}: {exc}")
-    if progress is not None:
-        progress(len(items), len(items), "")
+    wants_cancel(progress, len(items), len(items))
     return out
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
+from ..progress import wants_cancel
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, DEFAULT_METRIC, LOCAL, curve_distance, parse_metric
 from ..rigs import MIN_COVERAGE
 from ..io.sources import LibraryItem, as_items, clip_item, library
@@ -130,13 +131,14 @@ def iter_entries(items, level=DEFAULT_LEVEL, store=None, errors=None, progress=N
     """The index loop: yield (item, entries) for every item, in order, each computed only when the store does
     not hold it; with ``local``, the item's local-search entries too (``local_rank.item_local_entries``: in the
     store, not yielded), from the same read. A ShapeSigError while loading an item is recorded in ``errors`` (a list of one-line messages;
-    the item then yields no entries) when given, else raised. ``progress(done, total, name)`` is called before
-    each item and may return False to stop early; it is called once more with (total, total, "") at the end."""
+    the item then yields no entries) when given, else raised. ``progress(done, total)`` (``core.progress``) is
+    called before each item (done = items done) and once more with (total, total) at the end; returning True
+    stops the loop there: what was done is yielded (and stored), the rest is not."""
     store = store if store is not None else SignatureCache()
     items = as_items(items)
     for i, item in enumerate(items):
-        if progress is not None and progress(i, len(items), item.name) is False:
-            break
+        if wants_cancel(progress, i, len(items)):
+            return
         try:
             once = _read_once(item) if local else item
             if local:
@@ -148,8 +150,7 @@ def iter_entries(items, level=DEFAULT_LEVEL, store=None, errors=None, progress=N
             errors.append(f"{item.name}: {exc}")
             got = []
         yield item, got
-    if progress is not None:
-        progress(len(items), len(items), "")
+    wants_cancel(progress, len(items), len(items))
 
 
 def compute_entries(items, level=DEFAULT_LEVEL, cache=None, progress=None, errors=None, local=False):
@@ -159,7 +160,8 @@ def compute_entries(items, level=DEFAULT_LEVEL, cache=None, progress=None, error
 
 def build_index(items, level=DEFAULT_LEVEL, cache=None, progress=None, local=True):
     """Fill the store for every item (with ``local``, the default, the local search's entries too); returns a dict with clips, errors, cache stats, seconds and warnings (the
-    store's one line when it went on in memory only)."""
+    store's one line when it went on in memory only). ``progress``: ``iter_entries``' (a cancel keeps what was
+    indexed)."""
     t0 = time.perf_counter()
     errors = []
     got = compute_entries(items, level, cache, progress, errors, local)
@@ -346,6 +348,8 @@ def rank_clips(query, library, metric=DEFAULT_METRIC, level=None, rerank=0, top=
     distances cover a different, smaller part of the body), and never re-ranked above them; clips sharing
     none are skipped with a warning in ``result.warnings``. ``allow_partial=False``: clips whose coverage
     (``RankResult.coverage``) is below ``rigs.MIN_COVERAGE`` are skipped with a warning instead.
+    ``progress(done, total)``: over the library's items while their entries are read (``iter_entries``); a
+    cancel ranks the items read so far.
     """
     t0 = time.perf_counter()
     base, lvl = parse_metric(metric, level)

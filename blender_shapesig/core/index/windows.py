@@ -18,6 +18,7 @@ from ..clip.prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_cli
 from ..rigs import MIN_COVERAGE, coverage, moving_count
 from ..signatures.signatures import normalized_difference
 from ..io.sources import LibraryItem, as_items
+from ..progress import wants_cancel
 from .rank import FEW_SHARED, RankList, RankResult
 
 __all__ = ["WINDOW_LEVEL", "SCALES", "STRIDE", "REFINE", "prefix_signatures", "window_log_signatures",
@@ -186,7 +187,8 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
     come first, ordered by it. ``explain``: refined results get ``explain`` (``core.elastic.explain.explain_path`` of
     their DP path). ``top``: keep the first ``top``. ``exclude``: item keys or names to leave out. Clips sharing
     few of the query's moving joints are ``partial`` and ranked after the others; with ``allow_partial=False``
-    clips below ``rigs.MIN_COVERAGE`` are skipped with a warning."""
+    clips below ``rigs.MIN_COVERAGE`` are skipped with a warning. ``progress(done, total)``: over the library's
+    items (``rank.iter_entries``' contract; a cancel ranks the moments of the items read so far)."""
     query = query_clip(query)
     if query.frames < 2:
         raise ShapeSigError(f"the query {query.name!r} has {query.frames} frame; a moment needs at least two")
@@ -196,7 +198,7 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
     q = _Query(query, int(level))
     warnings, skipped, found = [], [], []
     for i, item in enumerate(items):
-        if progress is not None and progress(i, len(items), item.name) is False:
+        if wants_cancel(progress, i, len(items)):
             break
         try:
             clips = item.clips()
@@ -209,8 +211,8 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
             got = _moment(q, item, clip, int(level), scales, stride, allow_partial, warnings, skipped)
             if got is not None:
                 found.append(got)
-    if progress is not None:
-        progress(len(items), len(items), "")
+    else:
+        wants_cancel(progress, len(items), len(items))
     found.sort(key=lambda rc: (rc[0].partial, rc[0].distance, rc[0].name))
     head = found[:rerank]
     for r, (clip, scored, compared) in head:

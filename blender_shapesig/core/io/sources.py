@@ -214,13 +214,15 @@ def read(spec, **options) -> List[Clip]:
 def after_read(clips, fps=None, trim="none", start=None, end=None, bone_map="none") -> List[Clip]:
     """The steps after a reader, in order, for files and the Blender layer's actions alike: the frame rate
     (``fps`` overrides), the trim rule ("auto": ``trim_ends``, keeping an explicit end), the crop (scene frames
-    ``start``..``end``, inclusive) and the bone map into the comparison space (``rigs.apply_bone_map``)."""
+    ``start``..``end``, inclusive, clamped to each clip: one crop applies to clips of any length, e.g. the command
+    line's --start/--end; a clip it misses entirely is refused) and the bone map into the comparison space
+    (``rigs.apply_bone_map``)."""
     if fps is not None:
         clips = [dataclasses.replace(c, fps=float(fps)) for c in clips]
     if trim == "auto" and (start is None or end is None):
         clips = [trim_ends(c, start, end) for c in clips]
     if start is not None or end is not None:
-        clips = [c.crop(start, end) for c in clips]
+        clips = [c.crop(start, end, clamp=True) for c in clips]
     if bone_map not in (None, "none"):
         from ..rigs import apply_bone_map
 

@@ -319,20 +319,21 @@ def path_concat_distance(x, y, level, *, basis="lyndon", method="auto"):
 
 def path_linear_distance(x, y, level, *, basis="lyndon", method="auto"):
     """sigma_L^n(x, y) = |log S(x) - log S(y)| (eq. 8.6) for paths given as points."""
-    x, y = _as_path(x, "x"), _as_path(y, "y")
-    _check_pair(x, y)
-    a = path_log_signature(x, level, basis=basis, method=method)
-    b = path_log_signature(y, level, basis=basis, method=method)
+    a, b = _path_log_signatures(x, y, level, basis, method)
     return float(np.linalg.norm(a - b))
 
 
 def path_normalized_distance(x, y, level, *, basis="lyndon", method="auto"):
     """sim^n(x, y) (eq. 9.1) for paths given as points; see ``normalized_difference`` for zero."""
+    return normalized_difference(*_path_log_signatures(x, y, level, basis, method))
+
+
+def _path_log_signatures(x, y, level, basis, method):
+    """Both paths' log-signatures (points of the same dimension)."""
     x, y = _as_path(x, "x"), _as_path(y, "y")
     _check_pair(x, y)
-    a = path_log_signature(x, level, basis=basis, method=method)
-    b = path_log_signature(y, level, basis=basis, method=method)
-    return normalized_difference(a, b)
+    return (path_log_signature(x, level, basis=basis, method=method),
+            path_log_signature(y, level, basis=basis, method=method))
 
 
 # --- curve level -------------------------------------------------------------------------------------

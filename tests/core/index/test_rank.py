@@ -148,8 +148,8 @@ def test_still_clip_is_at_distance_one(clips, mem):
 
 def test_rerank_orders_head_by_elastic_distance(clips):
     # clips at the comparison rate (30 fps): the entries' low-pass then equals clip_distance's exactly
-    q = decimate_clip(clips["07_01"].crop(end=clips["07_01"].frame_start + 239), 4)
-    lib = [decimate_clip(c.crop(end=c.frame_start + 239), 4) for k, c in clips.items() if k != "07_01"]
+    q = decimate_clip(clips["07_01"].crop(end=clips["07_01"].frame_start + 239, clamp=True), 4)
+    lib = [decimate_clip(c.crop(end=c.frame_start + 239, clamp=True), 4) for k, c in clips.items() if k != "07_01"]
     plain = search.rank_clips(q, lib, metric="sim")
     res = search.rank_clips(q, lib, rerank=3, metric="sim")
     head, tail = res[:3], res[3:]
@@ -326,8 +326,8 @@ def test_build_index_progress_and_cancel(clips, tmp_path):
     items = search.clip_items(list(clips.values()))
     seen = []
     info = search.build_index(items, cache=search.SignatureCache(tmp_path),
-                              progress=lambda i, n, name: seen.append((i, n)) or i < 2)
-    assert info["clips"] == 2 and seen[:3] == [(0, 5), (1, 5), (2, 5)]
+                              progress=lambda i, n: seen.append((i, n)) or i >= 2)
+    assert info["clips"] == 2 and seen == [(0, 5), (1, 5), (2, 5)]  # cancelled before the third: no final call
     info = search.build_index(items, cache=search.SignatureCache(tmp_path))
     # two items were indexed (signature and local entries: 4 files), three are computed (6 entries)
     assert info["clips"] == 5 and info["stats"]["disk_hits"] == 4 and info["stats"]["misses"] == 6

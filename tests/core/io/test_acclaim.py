@@ -14,7 +14,7 @@ from blender_shapesig.core.geometry.so3 import matrix_from_euler as euler_matric
 from blender_shapesig.core.io.acclaim import find_asf
 from blender_shapesig.core.errors import ParseError
 
-DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data" / "acclaim"
 ASF16 = DATA / "16.asf"
 AMC16 = DATA / "16_15.amc"
 

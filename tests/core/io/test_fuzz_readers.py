@@ -24,7 +24,7 @@ from blender_shapesig.core.clip.clip import Clip, restrict_to_shared
 from blender_shapesig.core.errors import CurveError, ParseError, ShapeSigError
 from blender_shapesig.core.metrics import METRICS, clip_distance
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 ACC = ROOT / "tests" / "data" / "acclaim"
 
 _spec = importlib.util.spec_from_file_location("fuzz_readers", ROOT / "tools" / "fuzz_readers.py")

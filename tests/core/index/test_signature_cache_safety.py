@@ -14,7 +14,7 @@ from blender_shapesig.core import index as search
 from blender_shapesig.core.io.acclaim import load_acclaim
 from blender_shapesig.core.index import store as store_mod
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 ACC = os.path.join(ROOT, "tests", "data", "acclaim")
 TAKES = ("07_01", "07_02", "09_02", "09_03")
 

@@ -426,8 +426,8 @@ def test_distance_matrix():
     with pytest.raises(CurveError):
         elastic_distance_matrix([curves[0], random_curve(20, joints=2)])
     calls = []
-    elastic_distance_matrix(curves, progress=calls.append)
-    assert calls == [1] * 6
+    elastic_distance_matrix(curves, progress=lambda done, total: calls.append((done, total)))
+    assert calls == [(k, 6) for k in range(1, 7)]
 
 
 # ---------------------------------------------------------------------------------------------

@@ -19,7 +19,7 @@ from blender_shapesig.core.geometry import curves
 from blender_shapesig.core.signatures import signatures as sg, tensor
 from blender_shapesig.core.errors import CurveError, ShapeSigError
 
-DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 
 try:
     import iisignature

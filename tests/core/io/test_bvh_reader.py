@@ -12,7 +12,7 @@ from blender_shapesig.core.errors import ParseError
 from blender_shapesig.core.io.bvh import BVH_TO_BLENDER, load_bvh
 from blender_shapesig.core.io.sources import read
 
-DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data" / "bvh"
 A = BVH_TO_BLENDER
 
 # spaces in a name, a repeated name, a joint without channels, an End Site, X-Y-Z and Y-X-Z orders, a root with

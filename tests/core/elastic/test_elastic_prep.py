@@ -13,7 +13,7 @@ from blender_shapesig.core.geometry import curves, so3
 from blender_shapesig.core.io.acclaim import load_acclaim
 
 needs_numba = pytest.mark.skipif(not _srvt_kernel.HAVE_NUMBA, reason="numba not installed")
-DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data" / "acclaim"
 
 
 def numpy_route(R, norm="joint"):

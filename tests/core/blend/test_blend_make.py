@@ -14,8 +14,8 @@ from blender_shapesig.core.io.acclaim import load_acclaim
 from blender_shapesig.core.io.bvh import load_bvh
 from blender_shapesig.core.rigs import apply_bone_map, onto_rig
 
-ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
-BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
+ACC = pathlib.Path(__file__).resolve().parents[2] / "data" / "acclaim"
+BVH = pathlib.Path(__file__).resolve().parents[2] / "data" / "bvh"
 
 
 @functools.lru_cache(maxsize=None)

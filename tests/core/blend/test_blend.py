@@ -22,7 +22,7 @@ from blender_shapesig.core.clip.skeleton import estimate_up_axis
 from blender_shapesig.core.geometry.curves import geodesic_interpolate, l2_distance, uniform_times
 from blender_shapesig.core.elastic.elastic import elastic_align
 
-ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
+ACC = pathlib.Path(__file__).resolve().parents[2] / "data" / "acclaim"
 
 
 @functools.lru_cache(maxsize=None)

@@ -20,7 +20,7 @@ from blender_shapesig.core.io import files, sources
 from blender_shapesig.core.errors import ParseError, ShapeSigError, UnreadableFileError
 from tests.hostile import hostile_library
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 BVH = ROOT / "tests" / "data" / "bvh"
 ACC = ROOT / "tests" / "data" / "acclaim"
 REAL = ("07_01", "07_02", "09_02")

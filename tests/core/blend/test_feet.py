@@ -14,8 +14,8 @@ from blender_shapesig.core.io.asf import parse_asf
 from blender_shapesig.core.io.bvh import load_bvh
 from blender_shapesig.core.clip.skeleton import forward_kinematics, unit_meters
 
-ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
-BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
+ACC = pathlib.Path(__file__).resolve().parents[2] / "data" / "acclaim"
+BVH = pathlib.Path(__file__).resolve().parents[2] / "data" / "bvh"
 
 
 def walk():  # one stride of 07_01, right heel strike to right heel strike

@@ -22,7 +22,7 @@ from blender_shapesig.core.elastic.subsequence import (path_costs, subsequence_a
 from blender_shapesig.core.elastic import _dp_kernels, subsequence
 from blender_shapesig.core.signatures import tensor
 
-ACC = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"
+ACC = pathlib.Path(__file__).resolve().parents[2] / "data" / "acclaim"
 ASF = {"07": "07-walk.asf", "09": "09-run.asf", "16": "16.asf"}
 
 
