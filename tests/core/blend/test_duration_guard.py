@@ -12,7 +12,7 @@ from blender_shapesig.core.blend.make import MAX_DURATION_RATIO, check_durations
 from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.io.bvh import load_bvh
 
-DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 
 
 def test_long_against_short_is_refused_unless_asked():

@@ -16,7 +16,7 @@ from blender_shapesig.core.index import thumbnails as T
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.raster import Canvas, png_bytes, read_png, write_png
 
-DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
+DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 
 
 def _alpha(canvas):
