@@ -106,12 +106,19 @@ def _on_obj(row, obj, action, frame_range=None, name=None):
     name = name or action.name
     clip = action_io.read_action(action, armature=owner, frame_range=frame_range, exclude_unkeyed=True,
                                  space="armature", name=name)
-    if rigmap.across_rigs(obj, owner):
-        written, kept = retarget.action_on_armature(clip, rigmap.bone_map_of(owner), obj, _on_name(name, obj))
+    written = _write_on(row, obj, clip, name, rigmap.bone_map_of(owner) if rigmap.across_rigs(obj, owner) else None)
+    row.on_armature = written.name
+    return written
+
+
+def _write_on(row, obj, clip, name, bone_map=None):
+    """A new action of ``clip`` on ``obj`` (through ``bone_map`` onto another rig, the bones without a
+    counterpart listed in ``row.kept``), remembered on the row."""
+    if bone_map is not None:
+        written, kept = retarget.action_on_armature(clip, bone_map, obj, _on_name(name, obj))
         row.kept = ", ".join(kept)
     else:
         written = action_io.write_action(clip, armature=obj, name=name)
-    row.on_armature = written.name
     _remember(row, written)
     return written
 
@@ -147,13 +154,8 @@ def window_action(settings, obj, row):
         _check_file(row)
         clip = _file_clip(settings, row).crop(first, last)
         name = f"{clip.name}[{first}-{last}]"
-    if retarget.needs_retarget(clip, obj):
-        action, kept = retarget.action_on_armature(clip, "auto", obj, _on_name(name, obj))
-        row.kept = ", ".join(kept)
-    else:
-        action = action_io.write_action(clip, armature=obj, name=name)
+    action = _write_on(row, obj, clip, name, "auto" if retarget.needs_retarget(clip, obj) else None)
     row.window_action = action.name
-    _remember(row, action)
     return action
 
 
