@@ -8,7 +8,7 @@ import contextlib
 import os
 
 __all__ = ["LOCAL_SCHEDULERS", "DEFAULT_SCHEDULER", "require_dask", "scheduler", "dask_mapper", "thread_mapper",
-           "mapper_for", "sign_item"]
+           "mapper_for", "sign_item", "local_item", "index_items"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "sync")
 DEFAULT_SCHEDULER = "threads"  # the label of the run without --scheduler (a thread pool, no Dask)
@@ -98,3 +98,49 @@ def sign_item(task):
         return item_entries(item, level, SignatureCache()), None
     except (ShapeSigError, OSError) as exc:
         return [], f"{item.name}: {exc}"
+
+
+def local_item(item):
+    """One indexing task of the local search: ``item`` -> ``(entries, None)`` or ``([], one-line error)``,
+    computed by ``local_rank.item_local_entries`` on a memory-only store; the caller stores them (once)."""
+    from ..core.errors import ShapeSigError
+    from ..core.index import SignatureCache
+    from ..core.index.local_rank import item_local_entries
+
+    try:
+        return item_local_entries(item, SignatureCache()), None
+    except (ShapeSigError, OSError) as exc:
+        return [], f"{item.name}: {exc}"
+
+
+def index_items(items, store, sched=None, progress=None, batch=64):
+    """Fill ``store`` with the local entries of the ``items`` it lacks, computed by ``mapper_for(sched)`` in
+    batches of ``batch`` items, each batch stored (by this process: once per clip, however many workers run) as
+    soon as it is done, so a run stopped midway keeps what it finished. ``progress(done, total)`` after each
+    batch. Returns (clips, computed items, [one-line errors])."""
+    from ..core.index import local
+
+    skey = local.settings_key()
+    todo = [it for it in items if not store.contains_local(it.key, skey)]
+    mapper = mapper_for(sched)
+    errors, computed = [], 0
+    done = len(items) - len(todo)
+    if progress:
+        progress(done, len(items))
+    for b0 in range(0, len(todo), batch):
+        chunk = todo[b0:b0 + batch]
+        for it, (entries, err) in zip(chunk, mapper(local_item, chunk)):
+            if err:
+                errors.append(err)
+                continue
+            store.put_local(it.key, skey, entries)
+            computed += 1
+        done += len(chunk)
+        if progress:
+            progress(done, len(items))
+    clips = 0
+    for it in items:
+        got = store.get_local(it.key, skey)
+        clips += sum(1 for e in got or () if not e.get("refused"))
+    store.save_pack()
+    return clips, computed, errors

@@ -31,7 +31,7 @@ _COMPILED = []  # the compiled DTW kernel, once numba is loaded (``_kernel``)
 __all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
            "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
            "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
-           "first_stage", "dtw", "rerank", "path_distances", "combine", "search"]
+           "PREFILTER", "coarse_windows", "coarse_distances", "first_stage", "dtw", "rerank", "path_distances", "combine", "search"]
 
 RATE = 30.0  # samples per second of the features
 WINDOWS = (0.5, 1.0)  # seconds per window, two scales (clips shorter than a window have one window of that scale)
@@ -342,31 +342,81 @@ def _sq_dist(A, B):
 
 def stack(entries: Sequence) -> Dict[str, np.ndarray]:
     """The library's windows in one block for ``first_stage`` (build it once per library): ``windows`` (all, DIM)
-    float32, their squared norms and ``bounds`` (each entry's first row, and the end)."""
+    float32, their squared norms, ``bounds`` (each entry's first row, and the end) and each entry's rows
+    (``starts``, ``ends``). A library file (``local_library.LibraryFile.stack``) gives the same keys but the
+    ``bounds``, memory-mapped, its entries' rows in any order."""
     wins = [np.asarray(e["windows"], dtype=np.float32) for e in entries]
     W = np.concatenate(wins) if wins else np.zeros((0, 1), np.float32)
     bounds = np.concatenate([[0], np.cumsum([len(w) for w in wins])]).astype(np.int64)
-    return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds}
+    return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds, "starts": bounds[:-1], "ends": bounds[1:]}
 
 
-def first_stage(query, library, block: int = 65536) -> np.ndarray:
+PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first_stage(keep=)``)
+
+
+def _groups(starts, ends, idx, block):
+    """Runs of ``idx`` (sorted by start) whose rows are contiguous, at most ``block`` rows each (or one entry)."""
+    run = [idx[0]]
+    for i in idx[1:]:
+        if starts[i] == ends[run[-1]] and ends[i] - starts[run[0]] <= block:
+            run.append(i)
+        else:
+            yield run
+            run = [i]
+    yield run
+
+
+def coarse_windows(windows, k) -> np.ndarray:
+    """(k, DIM) float32: ``k`` of a clip's windows evenly spaced over them (repeated when it has fewer)."""
+    w = np.asarray(windows)
+    return np.asarray(w[np.linspace(0, len(w) - 1, k).round().astype(int)], np.float32)
+
+
+def coarse_distances(query, coarse) -> np.ndarray:
+    """(entries,) the prefilter: the Chamfer distance of the query's windows subsampled like the entries'
+    (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k."""
+    k = coarse.shape[1]
+    q = coarse_windows(query["windows"], 4 * k)
+    C = np.asarray(coarse, np.float32).reshape(-1, coarse.shape[2])
+    D = np.sqrt(np.maximum(_sq_dist(q, C), 0.0)).reshape(len(q), -1, k)  # (q, entries, k)
+    return 0.5 * (D.min(axis=2).mean(axis=0) + D.min(axis=0).mean(axis=1))
+
+
+def first_stage(query, library, block: int = 65536, keep: Optional[int] = None) -> np.ndarray:
     """(entries,) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's distance + the
-    same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries or the entries.
-    All the library's windows at once, ``block`` rows at a time, with one BLAS thread (small products)."""
-    lib = library if isinstance(library, dict) and "bounds" in library else stack(library)
+    same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries (or a library
+    file's), or the entries. Streamed over the library's windows, at most ``block`` rows at a time (a memory-mapped
+    library is read block by block), with one BLAS thread (small products). ``keep``: with a library that has
+    ``coarse`` windows and more entries than ``keep``, only the ``keep`` nearest by ``coarse_distances`` are
+    computed exactly; the others come after them in the prefilter's order (the largest exact distance plus their
+    coarse distance)."""
+    lib = library if isinstance(library, dict) and "starts" in library else stack(library)
     q = np.asarray(query["windows"], dtype=np.float32)
     qn = (q * q).sum(1)[:, None]
-    W, norms, bounds = lib["windows"], lib["norms"], lib["bounds"]
-    D = np.empty((len(q), len(W)), dtype=np.float32)
+    W, norms, starts, ends = lib["windows"], lib["norms"], lib["starts"], lib["ends"]
+    n = len(starts)
+    out = np.full(n, np.inf)
+    if n == 0:
+        return out
+    idx = np.arange(n)
+    coarse = None
+    if keep is not None and lib.get("coarse") is not None and n > keep:
+        coarse = coarse_distances(query, lib["coarse"])
+        idx = np.argpartition(coarse, keep)[:keep]
+    idx = idx[np.argsort(starts[idx], kind="stable")]
     with one_blas_thread():
-        for r0 in range(0, len(W), block):
-            r1 = min(len(W), r0 + block)
-            D[:, r0:r1] = qn + norms[None, r0:r1] - 2.0 * (q @ W[r0:r1].T)
-    np.sqrt(np.maximum(D, 0.0, out=D), out=D)
-    lens = np.diff(bounds)
-    q_side = np.minimum.reduceat(D, bounds[:-1], axis=1).mean(axis=0)
-    e_side = np.add.reduceat(D.min(axis=0), bounds[:-1]) / lens
-    return 0.5 * (q_side + e_side).astype(np.float64)
+        for run in _groups(starts, ends, idx, block):
+            r0, r1 = int(starts[run[0]]), int(ends[run[-1]])
+            D = qn + np.asarray(norms[r0:r1], np.float32)[None] - 2.0 * (q @ np.asarray(W[r0:r1], np.float32).T)
+            np.sqrt(np.maximum(D, 0.0, out=D), out=D)
+            rel = starts[run] - r0
+            q_side = np.minimum.reduceat(D, rel, axis=1).mean(axis=0)
+            e_side = np.add.reduceat(D.min(axis=0), rel) / (ends[run] - starts[run])
+            out[run] = 0.5 * (q_side + e_side)
+    if coarse is not None:
+        rest = np.isinf(out)
+        out[rest] = out[~rest].max() + coarse[rest]
+    return out
 
 
 # ------------------------------------------------------------------------------------------------- stage two

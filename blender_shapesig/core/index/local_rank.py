@@ -85,7 +85,7 @@ def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST,
     if not pairs:
         return []
     entries = [e for _, e in pairs]
-    d1 = local.first_stage(q, store.local_stack(entries))
+    d1 = local.first_stage(q, store.local_stack(entries), keep=local.PREFILTER)
     order = np.argsort(d1, kind="stable")
     head = order[:max(int(shortlist), 1)]
     d2 = local.rerank(q, [entries[i] for i in head])

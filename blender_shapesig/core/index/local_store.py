@@ -14,6 +14,7 @@ import os
 import numpy as np
 
 from . import local
+from .local_library import open_library, write_library
 
 __all__ = ["LOCAL_PACK", "LocalEntries"]
 
@@ -45,6 +46,8 @@ class LocalEntries:
         self._local_memo = None   # the last library's stack
         self._lpack = None        # file name -> (size, mtime_ns, meta, entries): the pack, once loaded
         self._lpack_dirty = False
+        self._lib = None          # the opened library file (local_library.LibraryFile)
+        self.pack_warning = None  # one line when the library file was damaged (it is rebuilt)
 
     def _format(self):
         return self.FORMAT  # the cache's one version of its files (store.CACHE_FORMAT)
@@ -53,20 +56,25 @@ class LocalEntries:
         name = hashlib.sha1(f"{key}|LOCAL|{settings_key}|F{self._format()}".encode()).hexdigest()
         return os.path.join(self.path, name + ".npz")
 
-    # -- the pack: every local file's entries in one file, used while the file has the same size and mtime
+    # -- the pack: every local file's entries in one memory-mapped file (``local_library``), used while the file
+    # has the same size and mtime; a damaged pack is deleted (one line in ``pack_warning``) and written again
     def _load_local_pack(self):
-        self._lpack = {}
+        self._lpack, self._lib = {}, None
+        fn = os.path.join(self.path, LOCAL_PACK)
         try:
-            with np.load(os.path.join(self.path, LOCAL_PACK), allow_pickle=False) as z:
-                index = json.loads(bytes(z["index"]).decode("utf-8"))
-                W, Q, P = z["windows"], z["sequences"], z["paths"]
-            if index.get("format") != self._format():
-                return
-            for name, size, mtime, meta, rows in index["files"]:
-                self._lpack[name] = (size, mtime, meta, [
-                    _entry(m, W[w0:w1], Q[q0:q1], P[k]) for m, (w0, w1, q0, q1, k) in zip(meta["clips"], rows)])
-        except Exception:  # noqa: BLE001 - no pack, or an unreadable one: the files are read one by one
-            self._lpack = {}
+            lib = open_library(fn)
+        except FileNotFoundError:
+            return
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            self.pack_warning = f"the library file was damaged and is rebuilt ({exc})"
+            self._discard(fn)
+            self._lpack_dirty = True
+            return
+        if lib.format != self._format():
+            return
+        self._lib = lib
+        for name, size, mtime, meta, rows in lib.files:
+            self._lpack[name] = (size, mtime, meta, [lib.entry(m, r) for m, r in zip(meta["clips"], rows)])
 
     def _pack_local(self, fn, meta, entries):
         if self._lpack is None:
@@ -80,29 +88,11 @@ class LocalEntries:
         if self.path is None or not self._lpack_dirty or not self._writable:
             return
         with self._lock:
-            files, W, Q, P = [], [], [], []
-            nw = nq = 0
-            for name, (size, mtime, meta, entries) in self._lpack.items():
-                if not os.path.exists(os.path.join(self.path, name)):
-                    continue
-                rows = []
-                for e in entries:
-                    if e.get("refused"):
-                        rows.append((0, 0, 0, 0, 0))
-                        continue
-                    w, q = e["windows"], e["sequence"]
-                    rows.append((nw, nw + len(w), nq, nq + len(q), len(P)))
-                    W.append(w), Q.append(q), P.append(e["path"])
-                    nw, nq = nw + len(w), nq + len(q)
-                files.append([name, size, mtime, meta, rows])
-            index = json.dumps({"format": self._format(), "files": files}).encode("utf-8")
-            buf = io.BytesIO()
-            np.savez(buf, index=np.frombuffer(index, dtype=np.uint8),
-                     windows=np.concatenate(W) if W else np.zeros((0, local.DIM), np.float16),
-                     sequences=np.concatenate(Q) if Q else np.zeros((0, 3 * len(local.POINTS)), np.float16),
-                     paths=np.stack(P) if P else np.zeros((0, 10), np.float32))
+            files = [(name, size, mtime, meta, entries) for name, (size, mtime, meta, entries) in self._lpack.items()
+                     if os.path.exists(os.path.join(self.path, name))]
             try:
-                self._atomic_write(os.path.join(self.path, LOCAL_PACK), buf.getvalue())
+                self._atomic_write(os.path.join(self.path, LOCAL_PACK),
+                                   lambda f: write_library(f, files, self._format()))
             except OSError as exc:
                 self._memory_only(exc)
                 return
@@ -180,11 +170,21 @@ class LocalEntries:
 
     def local_stack(self, entries):
         """``local.stack`` of the entries (the library's windows in one block), memoized for the last list of
-        entries: a repeated query over the same library does not restack them."""
+        entries: a repeated query over the same library does not restack them. Entries read from the library file
+        are not copied: the block is the file's memory map, with their rows and the prefilter's coarse windows."""
         key = tuple(id(e) for e in entries)
         memo = self._local_memo
         if memo is not None and memo[0] == key:
             return memo[2]
-        block = local.stack(entries)
+        lib = self._lib
+        rows = [e.get("_rows") for e in entries]
+        if entries and lib is not None and all(r is not None and r[0] == id(lib) for r in rows):
+            R = np.asarray([r[1:] for r in rows], np.int64)
+            k = R[:, 2]
+            whole = len(k) == len(lib.arrays["coarse"]) and np.array_equal(k, np.arange(len(k)))
+            block = {"windows": lib.arrays["windows"], "norms": lib.arrays["norms"], "starts": R[:, 0],
+                     "ends": R[:, 1], "coarse": lib.arrays["coarse"] if whole else np.asarray(lib.arrays["coarse"][k])}
+        else:
+            block = local.stack(entries)
         self._local_memo = (key, list(entries), block)
         return block

@@ -238,11 +238,12 @@ class SignatureCache(LocalEntries):
                 except OSError:
                     pass
 
-    def _atomic_write(self, target, data: bytes):
+    def _atomic_write(self, target, data):
+        """Write ``data`` (bytes, or a callable writing to the open file) to a temporary file, then rename it."""
         fd, tmp = tempfile.mkstemp(dir=self.path, prefix=_TMP_PREFIX, suffix=_TMP_SUFFIX)
         try:
             with os.fdopen(fd, "wb") as f:
-                f.write(data)
+                data(f) if callable(data) else f.write(data)
             os.replace(tmp, target)
         except BaseException:
             try:

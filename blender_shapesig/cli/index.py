@@ -1,0 +1,49 @@
+"""Fill the cache for a library: ``index CLIP_OR_FOLDER... [--cache DIR] [--scheduler ADDRESS]``."""
+
+import sys
+import time
+
+from . import common as c
+
+
+def run(args):
+    from ..core import index
+    from ..dedupe import parallel
+    from .rank import library_items
+
+    sched = args.scheduler
+    if sched and sched not in parallel.LOCAL_SCHEDULERS and "://" not in sched and ":" not in sched:
+        raise c.CommandError(f"--scheduler {sched!r}: give {', '.join(parallel.LOCAL_SCHEDULERS)} or an address "
+                             f"(tcp://host:8786)")
+    t0 = time.perf_counter()
+    skipped = []
+    items = library_items(args.paths, args, skipped)
+    skipped = c.report_skipped(skipped)
+    if not items:
+        raise c.CommandError("no clips to index" + (f" ({skipped[0]})" if skipped else ""))
+    cache = index.SignatureCache(args.cache or index.default_cache_dir())
+    with parallel.scheduler(sched) as s, c.progress_bar(args, "indexing") as bar:
+        clips, computed, errors = parallel.index_items(items, cache, s, bar)
+    warnings = ([cache.warning] if cache.warning else []) + errors
+    for w in warnings:
+        sys.stderr.write(f"{c.PROG}: warning: {w}\n")
+    out = {"clips": clips, "computed": computed, "seconds": time.perf_counter() - t0}
+    return out, f"{clips} clips indexed ({computed} files computed) in {out['seconds']:.1f} s"
+
+
+def add_parser(sub):
+    p = sub.add_parser(
+        "index",
+        help="fill the cache for a library (the default search's entries), nothing else",
+        description="Compute what the default search keeps per clip for every clip the cache lacks and store it "
+        "(one library file opened without reading every entry), so that the first rank over the library is fast.",
+    )
+    p.add_argument("paths", metavar="CLIP_OR_FOLDER", nargs="+", help=c.CLIP_HELP + ", or a folder of them")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on Dask (optional package): a cluster's scheduler address (tcp://host:8786) or a "
+                        "local Dask scheduler: threads, processes, sync (default: a thread pool, no Dask)")
+    p.add_argument("--cache", metavar="DIR",
+                   help="signature cache folder (default $SHAPESIG_CACHE_DIR, else the per-user cache folder)")
+    c.add_common(p, crop=False)
+    p.set_defaults(func=run)
+

@@ -1,0 +1,128 @@
+"""The local search's library file (``core.index.local_library``, ``local_pack.bin``): ranking from the memory-mapped
+file equals the per-file store and ``core.index.local`` called directly; a clip added, changed or removed is seen;
+a damaged file is refused in one line and rebuilt; the first stage streamed over row ranges and its prefilter; the
+``index`` command's JSON, also on a Dask LocalCluster."""
+
+import json
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from blender_shapesig import cli
+from blender_shapesig.core import index
+from blender_shapesig.core.index import local as ls
+from blender_shapesig.core.index.local_library import open_library
+from blender_shapesig.core.index.local_store import LOCAL_PACK
+from blender_shapesig.core.io import sources
+
+
+def _items(folder):
+    return [sources.spec_item(sources.ClipSpec(str(folder / f))) for f in sorted(os.listdir(folder))]
+
+
+@pytest.fixture
+def lib_dir(data_dir, tmp_path):
+    d = tmp_path / "lib"
+    d.mkdir()
+    for f in sorted((data_dir / "bvh").glob("*.bvh")):
+        shutil.copy(f, d / f.name)
+    shutil.copy(data_dir / "acclaim" / "16_15.bvh", d / "16_15.bvh")
+    return d
+
+
+def _names(results):
+    return [(r.name, round(r.distance, 5)) for r in results]
+
+
+def test_ranking_from_the_library_file_equals_the_per_file_store_and_the_search(lib_dir, tmp_path):
+    items = _items(lib_dir)
+    q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
+    cache = tmp_path / "cache"
+    first = index.rank_clips(q, items, cache=index.SignatureCache(cache))  # computes, writes files and the pack
+    pack = cache / index.CACHE_SUBDIR / LOCAL_PACK
+    assert open_library(str(pack)).arrays["windows"].shape[1] == ls.DIM
+    fresh = index.SignatureCache(cache)
+    again = index.rank_clips(q, items, cache=fresh)
+    assert fresh.stats["writes"] == 0 and isinstance(fresh._lib.arrays["windows"], np.memmap)
+    assert _names(again) == _names(first)
+    # the truth: core.index.local on entries computed here
+    entries = [ls.index_entry(c) for it in items for c in it.clips()]
+    order = ls.search(ls.index_entry(q), entries)
+    names = [c.name for it in items for c in it.clips()]
+    assert [r.name for r in again] == [names[i] for i in order]
+
+
+def test_added_changed_removed_clips_and_a_damaged_file(lib_dir, tmp_path, data_dir):
+    cache = tmp_path / "cache"
+    q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
+    index.rank_clips(q, _items(lib_dir), cache=index.SignatureCache(cache))
+    # added: a clip that was not there; changed: another file's bytes under a name; removed: one file gone
+    shutil.copy(data_dir / "bvh" / "13_32.bvh", lib_dir / "new.bvh")
+    shutil.copy(data_dir / "bvh" / "08_01.bvh", lib_dir / "16_15.bvh")
+    (lib_dir / "13_32.bvh").unlink()
+    items = _items(lib_dir)
+    got = index.rank_clips(q, items, cache=index.SignatureCache(cache))
+    want = index.rank_clips(q, items, cache=None)
+    assert _names(got) == _names(want) and {r.name for r in got} == {c.name for it in items for c in it.clips()}
+    # damaged: truncated -> refused in one line, deleted, the ranking unchanged, the file written again
+    pack = cache / index.CACHE_SUBDIR / LOCAL_PACK
+    data = pack.read_bytes()
+    pack.write_bytes(data[:len(data) // 2])
+    with pytest.raises(ValueError, match="damaged") as exc:
+        open_library(str(pack))
+    assert "\n" not in str(exc.value)
+    store = index.SignatureCache(cache)
+    again = index.rank_clips(q, items, cache=store)
+    assert _names(again) == _names(want)
+    assert store.pack_warning and "\n" not in store.pack_warning and store.stats["invalid"] >= 1
+    assert open_library(str(pack)).arrays["windows"].shape[0] > 0
+    # garbage in place of the header: refused too
+    pack.write_bytes(b"SHAPESIG-LPACK2\n" + b"\xff" * 64)
+    with pytest.raises(ValueError, match="damaged"):
+        open_library(str(pack))
+
+
+def test_first_stage_over_row_ranges_in_any_order_and_the_prefilter():
+    rng = np.random.default_rng(3)
+    entries = [{"windows": rng.standard_normal((rng.integers(2, 9), 8)).astype(np.float16)} for _ in range(40)]
+    q = {"windows": rng.standard_normal((5, 8)).astype(np.float16)}
+    block = ls.stack(entries)
+    want = ls.first_stage(q, entries)
+    # brute force, independent: the Chamfer by definition
+    for i in (0, 17, 39):
+        D = np.linalg.norm(np.asarray(q["windows"], float)[:, None] - np.asarray(entries[i]["windows"], float)[None],
+                           axis=2)
+        assert want[i] == pytest.approx(0.5 * (D.min(1).mean() + D.min(0).mean()), rel=1e-4)
+    perm = rng.permutation(40)  # the same rows, the entries in another order, and tiny blocks
+    shuffled = dict(block, starts=block["starts"][perm], ends=block["ends"][perm])
+    assert np.allclose(ls.first_stage(q, shuffled, block=7), want[perm], rtol=1e-6)
+    # the prefilter: exact for the kept, the others after them in the prefilter's order
+    coarse = np.stack([ls.coarse_windows(e["windows"], 4) for e in entries])
+    got = ls.first_stage(q, dict(block, coarse=coarse), keep=10)
+    exact = np.isclose(got, want, rtol=1e-6)
+    assert exact.sum() >= 10 and got[~exact].min() >= got[exact].max()
+
+
+def test_index_command_json_and_dask(capsys, lib_dir, tmp_path):
+    cache = tmp_path / "c"
+    assert cli.main(["index", str(lib_dir), "--cache", str(cache), "--json", "--no-progress"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    n = len(os.listdir(lib_dir))
+    assert out["clips"] == n and out["computed"] == n and out["seconds"] > 0
+    assert (cache / index.CACHE_SUBDIR / LOCAL_PACK).exists()
+    assert cli.main(["index", str(lib_dir), "--cache", str(cache), "--json", "--no-progress"]) == 0
+    assert json.loads(capsys.readouterr().out)["computed"] == 0  # nothing again
+    # a second cache filled on a Dask cluster holds the same entries
+    import distributed
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c:
+        cache2 = tmp_path / "d"
+        assert cli.main(["index", str(lib_dir), "--cache", str(cache2), "--json", "--no-progress",
+                         "--scheduler", c.scheduler_address]) == 0
+    assert json.loads(capsys.readouterr().out)["computed"] == n
+    a, b = index.SignatureCache(cache), index.SignatureCache(cache2)
+    for it in _items(lib_dir):
+        ea, eb = a.get_local(it.key, ls.settings_key()), b.get_local(it.key, ls.settings_key())
+        assert np.array_equal(np.asarray(ea[0]["windows"]), np.asarray(eb[0]["windows"]))
+    assert cli.main(["index", str(lib_dir), "--scheduler", "nonsense"]) == 2
