@@ -355,15 +355,15 @@ PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first
 
 
 def _groups(starts, ends, idx, block):
-    """Runs of ``idx`` (sorted by start) whose rows are contiguous, at most ``block`` rows each (or one entry)."""
-    run = [idx[0]]
-    for i in idx[1:]:
-        if starts[i] == ends[run[-1]] and ends[i] - starts[run[0]] <= block:
-            run.append(i)
-        else:
-            yield run
-            run = [i]
-    yield run
+    """Runs of ``idx`` (sorted by start) whose rows are contiguous, cut where a run passes ``block`` rows from its
+    first row (a run then ends at most one entry's rows past it); index arrays, found without a loop per entry."""
+    s, e = starts[idx], ends[idx]
+    cuts = np.flatnonzero(s[1:] != e[:-1]) + 1
+    for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(idx)]])):
+        part = (s[a:b] - s[a]) // block
+        inner = np.flatnonzero(np.diff(part)) + 1
+        for c, d in zip(np.concatenate([[0], inner]), np.concatenate([inner, [b - a]])):
+            yield idx[a + c:a + d]
 
 
 def coarse_windows(windows, k) -> np.ndarray:
