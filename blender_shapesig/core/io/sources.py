@@ -18,7 +18,7 @@ from ..errors import ParseError, ShapeSigError, UnreadableFileError
 from ..clip.prepare import check_fps
 from ..clip.trim import TRIM_MODES, trim_clip
 from . import files
-from .registry import EXTENSIONS, reader_for, register_reader
+from .registry import EXTENSIONS, NAMED_CLIPS, extensions_text, reader_for, register_reader
 
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "discover",
@@ -35,7 +35,8 @@ _TRIM_VERSION = ":1"
 
 @dataclass(frozen=True)
 class ClipSpec:
-    """One named source: ``path`` (a file), ``action`` (for ``FILE.blend#ACTION``), ``asf`` (skeleton of an
+    """One named source: ``path`` (a file), ``action`` (for ``FILE.blend#ACTION``, ``FILE.glb#ANIMATION``: the
+    types of ``registry.NAMED_CLIPS``), ``asf`` (skeleton of an
     ``.amc``; None: the only .asf beside it), ``start``/``end`` (crop, inclusive frame numbers), ``fps``
     (override of the file's frame rate), ``trim`` ("auto": drop detected rest-pose / ramp frames at both ends,
     ``core.clip.trim``; "none": keep every frame; an explicit ``start`` keeps the head, an explicit ``end`` the tail).
@@ -59,10 +60,11 @@ class ClipSpec:
 
     @classmethod
     def parse(cls, text, **options) -> "ClipSpec":
-        """``FILE.blend#ACTION`` -> path and action; any other text is a path. ``options``: the other fields."""
+        """``FILE.blend#ACTION`` (any type of ``NAMED_CLIPS``) -> path and action; any other text is a path.
+        ``options``: the other fields."""
         text = os.fspath(text)
         path, sep, action = text.rpartition("#")
-        if sep and path.lower().endswith(".blend"):
+        if sep and path.lower().endswith(NAMED_CLIPS):
             return cls(path, action or None, **options)
         return cls(text, None, **options)
 
@@ -72,7 +74,8 @@ class ClipSpec:
 
     @property
     def name(self) -> str:
-        """The display name: the action for ``FILE.blend#ACTION``, else the file name without extension."""
+        """The display name: the action for ``FILE.blend#ACTION`` (or ``FILE.glb#ANIMATION``), else the file name
+        without extension."""
         return self.action if self.action is not None else os.path.splitext(os.path.basename(self.path))[0]
 
     @property
@@ -86,10 +89,10 @@ class ClipSpec:
         if not os.path.lexists(self.path):
             raise ParseError("file not found", self.path)
         if os.path.isdir(self.path):
-            raise ParseError("is a folder, expected a .bvh, .amc or .blend file", self.path)
+            raise ParseError(f"is a folder, expected a {extensions_text()} file", self.path)
         if self.ext not in EXTENSIONS:
-            raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected .bvh, .amc, .blend or "
-                             f"FILE.blend#ACTION", self.path)
+            raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected {extensions_text()} "
+                             f"(FILE#ACTION picks one clip of a file that holds several)", self.path)
         files.check_file(self.path)  # UnreadableFileError: a FIFO, a device, a broken link, over the size cap
         return self
 
@@ -224,13 +227,13 @@ def trim_ends(clip, start=None, end=None):
 
 
 def read_one(spec, **options) -> Clip:
-    """The one clip a source names; ShapeSigError when it holds several (pick one with ``FILE.blend#ACTION``)."""
+    """The one clip a source names; ShapeSigError when it holds several (pick one with ``FILE#ACTION``)."""
     spec = spec if isinstance(spec, ClipSpec) else ClipSpec.parse(spec, **options)
     clips = read(spec)
     if len(clips) != 1:
         names = ", ".join(c.name for c in clips[:5])
         raise ShapeSigError(f"{spec.text} holds {len(clips)} actions ({names}{', ...' if len(clips) > 5 else ''}); "
-                            f"pick one with FILE.blend#ACTION")
+                            f"pick one with FILE#ACTION")
     return clips[0]
 
 
