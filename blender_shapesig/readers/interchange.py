@@ -7,6 +7,7 @@ imported at the key rate of the densest channel. See docs/formats.md and docs/de
 """
 
 import os
+import re
 
 import bpy
 
@@ -39,11 +40,15 @@ def _import(path, info):
         raise ParseError(f"Blender's {kind} importer did not finish", path)
 
 
-def animation_name(action, owner, fmt):
-    """The animation's name as the file stores it: the glTF animation (the action's name) or the FBX take
-    (Blender names the action ``OBJECT|TAKE|LAYER``, or ``OBJECT|TAKE`` when the layer is named like the take)."""
+def animation_name(action, owner, info):
+    """The animation's name as the file stores it: the glTF animation (the action's name, without the ``.001``
+    Blender adds when the name is taken) or the FBX take (Blender names the action ``OBJECT|TAKE|LAYER``, or
+    ``OBJECT|TAKE`` when the layer is named like the take)."""
     name = action.name
-    if fmt != "fbx" or owner is None or not name.startswith(owner.name + "|"):
+    if info["format"] != "fbx":
+        base = re.sub(r"\.\d{3}$", "", name)
+        return base if name not in info["animations"] and base in info["animations"] else name
+    if owner is None or not name.startswith(owner.name + "|"):
         return name
     rest = name[len(owner.name) + 1:]
     take, sep, _layer = rest.rpartition("|")
@@ -73,7 +78,7 @@ def read_interchange_here(path, animation=None, space="armature"):
                 continue
             owner = find_owner(action, armatures)
             if owner is not None:
-                found.append((animation_name(action, owner, fmt), action, owner))
+                found.append((animation_name(action, owner, info), action, owner))
         return _clips(path, found, animation, fps, fmt, space)
 
 

@@ -22,7 +22,7 @@ from .registry import EXTENSIONS, NAMED_CLIPS, extensions_text, reader_for, regi
 
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "discover",
-    "read", "read_one", "after_read", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
+    "read", "read_one", "after_read", "clip_address", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
 ]
 
 
@@ -128,6 +128,25 @@ def bone_map_key(bone_map) -> str:
     if bone_map == "auto":
         return f"auto{TABLES_VERSION}"
     return f"{TABLES_VERSION}:" + file_key(bone_map) if os.path.isfile(bone_map) else f"missing:{bone_map}"
+
+
+def clip_address(spec_text, name, source="") -> tuple:
+    """``(text, action)``: how a user names one clip read from the source ``spec_text``. A clip of a whole file
+    that holds several (``NAMED_CLIPS``) is ``FILE#ACTION``, its action taken from the reader's ``source``
+    (``FILE#ACTION``) when it says so, else from its ``name``: the FBX / glTF readers name the clip of a file of
+    one animation after the file, which is then named by itself (action None); any other spec is itself."""
+    spec = ClipSpec.parse(spec_text)
+    if spec.action is not None:
+        return spec.text, spec.action
+    if spec.ext not in NAMED_CLIPS:
+        return spec.text, None
+    for prefix in (spec.path, os.path.abspath(spec.path)):
+        if source.startswith(prefix + "#"):
+            action = source[len(prefix) + 1:]
+            return f"{spec.path}#{action}", action
+    if not name or (spec.ext != ".blend" and name == os.path.splitext(os.path.basename(spec.path))[0]):
+        return spec.path, None
+    return f"{spec.path}#{name}", name
 
 
 def discover(paths, recursive=True, skipped=None) -> List[str]:
