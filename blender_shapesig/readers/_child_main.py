@@ -2,8 +2,8 @@
 one start-up of Blender serves a whole folder, and a file that crashes an importer ends only this process. Run by
 this Python with the bpy module or by the Blender binary in background mode, with one JSON argument (where the
 package is); a request is one JSON line on stdin (``{"reader", "args", "out"}``), the clips (or the one-line error)
-go to the .npz ``out`` (``_blend_file_child.write_result``) and a line ``PREFIX done`` on the original stdout says
-so. Whatever the importers print goes to stderr. The protocol: docs/dev/blender_layer.md.
+go to the .npz ``out`` (``_blend_file_child.write_result``) and a line ``PREFIX done OUT`` on the original stdout
+says so. Whatever the importers print goes to stderr. The protocol: docs/dev/blender_layer.md.
 """
 
 import importlib
@@ -34,7 +34,7 @@ def serve(package, requests, reply):
         except Exception as exc:  # noqa: BLE001 - any failure of an importer is one line for this file
             write_result(req["out"], error=errors.ParseError(f"could not read the file ({errors.error_line(exc)})",
                                                              req["args"].get("path")))
-        reply(PREFIX + b"done\n")
+        reply(PREFIX + b"done " + req["out"].encode() + b"\n")
 
 
 def main(argv):

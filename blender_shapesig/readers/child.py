@@ -1,7 +1,7 @@
 """Reading clip files with Blender in a child process that serves many files: ``read_in_child(reader, args, path)``
 sends one request to the reading child (``_child_main``) and returns its clips, or raises its one-line error. A
 file that crashes Blender's importer ends only the child (a ParseError for that file; the next file starts a new
-child), a read that takes longer than ``CHILD_TIMEOUT`` kills it. One child serves every read of this process
+child), a read that takes longer than ``read_timeout`` (60 s plus 2 s per MB) or is interrupted kills it. One child serves every read of this process
 (one at a time; threads wait their turn): starting Blender costs about 0.7 s, so a folder of ten files costs one
 start-up, not ten. It ends ``IDLE_SECONDS`` after its last read, after ``MAX_FILES`` files (what importers leak
 stays bounded), at ``close()`` and at exit. Imports no bpy (the command line does not need it). The protocol:
@@ -23,7 +23,8 @@ from ..core.errors import ParseError
 from ._blend_file_child import read_result
 from ._child_main import PREFIX
 
-__all__ = ["read_in_child", "close", "child_command", "CHILD_TIMEOUT", "IDLE_SECONDS", "MAX_FILES", "starts"]
+__all__ = ["read_in_child", "read_timeout", "close", "child_command", "CHILD_TIMEOUT", "IDLE_SECONDS", "MAX_FILES",
+           "starts"]
 
 CHILD_TIMEOUT = 600.0
 IDLE_SECONDS = 20.0
@@ -66,14 +67,14 @@ class _Child:
 
     def _collect(self):
         for raw in iter(self.proc.stdout.readline, b""):
-            if raw.startswith(PREFIX) and raw[len(PREFIX):].strip() == b"done":
-                self.replies.put(True)
+            if raw.startswith(PREFIX + b"done "):
+                self.replies.put(raw[len(PREFIX) + 5:].rstrip(b"\r\n").decode("utf-8", "replace"))
         self.replies.put(None)  # the child ended
 
     def alive(self):
         return self.proc.poll() is None
 
-    def read(self, reader, args, path, kind):
+    def read(self, reader, args, path, kind, timeout):
         out = os.path.join(self.tmp.name, f"{self.files}.npz")
         self.files += 1
         try:
@@ -81,11 +82,17 @@ class _Child:
             self.proc.stdin.flush()
         except OSError:
             pass  # it ended: the reply queue says so
+        deadline = time.monotonic() + timeout
         try:
-            done = self.replies.get(timeout=CHILD_TIMEOUT)
+            done = self.replies.get(timeout=timeout)
+            while done is not None and done != out:  # an answer to an earlier request (never left unread)
+                done = self.replies.get(timeout=max(0.0, deadline - time.monotonic()))
         except queue.Empty:
             self.close(kill=True)
-            raise ParseError(f"reading the {kind} file took more than {CHILD_TIMEOUT:.0f} s", path) from None
+            raise ParseError(f"reading the {kind} file took more than {timeout:.0f} s", path) from None
+        except BaseException:
+            self.close(kill=True)  # interrupted (Esc, an alarm): the child's state is unknown
+            raise
         self.used = time.monotonic()
         if done is None or not os.path.isfile(out):
             raise ParseError(self._crash_text(kind), path)
@@ -119,9 +126,19 @@ class _Child:
         self.tmp.cleanup()
 
 
+def read_timeout(path) -> float:
+    """Seconds a read of ``path`` may take: 60 plus 2 per MB, at most ``CHILD_TIMEOUT``."""
+    try:
+        mb = os.path.getsize(path) / 2 ** 20
+    except OSError:
+        mb = 0.0
+    return min(CHILD_TIMEOUT, 60.0 + 2.0 * mb)
+
+
 def read_in_child(reader, args, path, kind):
     """The clips the child's ``reader`` ("interchange", "blend") reads with ``args`` (JSON values); ParseError
-    (one line naming ``path``, a ``kind`` of file such as "FBX") when it fails, crashes or takes too long."""
+    (one line naming ``path``, a ``kind`` of file such as "FBX") when it fails, crashes or takes longer than
+    ``read_timeout(path)``."""
     with _LOCK:
         child = _STATE["child"]
         if child is None or not child.alive():
@@ -129,7 +146,7 @@ def read_in_child(reader, args, path, kind):
                 child.close(kill=True)
             child = _STATE["child"] = _Child()
         try:
-            return child.read(reader, args, path, kind)
+            return child.read(reader, args, path, kind, read_timeout(path))
         finally:
             if not child.alive() or child.files >= MAX_FILES:
                 close()

@@ -189,6 +189,7 @@ def _huge_count(doc):
     ("magic.glb", "not a GLB file"),
     ("truncated.glb", "truncated GLB file"),
     ("count.glb", "reaches past its buffer"),
+    ("count.fbx", "damaged FBX file: a record's lengths do not fit"),
     ("json.gltf", "its JSON cannot be read"),
 ])
 def test_bad_files_are_one_line(files, tmp_path, case, expected):
@@ -201,6 +202,8 @@ def test_bad_files_are_one_line(files, tmp_path, case, expected):
         "magic.glb": lambda: path.write_bytes(b"gltf" + glb[4:]),
         "truncated.glb": lambda: path.write_bytes(glb[:len(glb) // 3]),
         "count.glb": lambda: _glb_with(path, files / "walk.glb", _huge_count),
+        # the first record's property count made huge: Blender's parser would allocate it before reading
+        "count.fbx": lambda: path.write_bytes(fbx[:31] + struct.pack("<I", 2 ** 31) + fbx[35:]),
         "json.gltf": lambda: path.write_text('{"asset": {"version": "2.0"}, "animations": ['),
     }
     makers[case]()
@@ -232,3 +235,32 @@ def test_reading_leaves_the_open_file_as_it_was(files):
     assert sorted(c.meta["animation"] for c in clips) == ["07_01", "walk_short"]
     assert ({o.name for o in bpy.data.objects}, {a.name for a in bpy.data.actions}, scene.render.fps) == before
     assert os.path.isfile(files / "walk.glb")
+
+
+def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, empty_file, tmp_path, monkeypatch):
+    """Find Similar with a clip folder of an FBX and a GLB (three clips): indexed step by step (the modal job's
+    progress), every clip ranked, one child start-up for the folder."""
+    from blender_shapesig import library
+    from blender_shapesig.core import index as search
+
+    monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
+    library.CACHES.clear()
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    shutil.copy(files / "walk.fbx", folder / "walk.fbx")
+    shutil.copy(files / "walk.glb", folder / "walk.glb")
+    bpy.ops.import_anim.bvh(filepath=str(BVH), rotate_mode="NATIVE", frame_start=1, use_fps_scale=False,
+                            update_scene_fps=False, update_scene_duration=False)
+    s = bpy.context.scene.shapesig
+    s.use_file_actions, s.use_folders, s.folders, s.fps = False, True, str(folder), 120.0
+    child.close()
+    before = child.starts()
+    job = library.RankJob(bpy.context, s)
+    steps = 0
+    while not job.step():
+        steps += 1
+    job.store()
+    assert steps >= 2 and child.starts() - before == 1
+    rows = bpy.context.window_manager.shapesig_results.results
+    assert sorted(r.name for r in rows) == ["07_01", "walk", "walk_short"]
+    library.CACHES.clear()

@@ -59,6 +59,8 @@ def _check_fbx(path, head, fh) -> dict:
         if version < FBX_MIN_VERSION:
             raise ParseError(f"FBX version {version / 1000:g} is too old: Blender's importer reads FBX 7.1 and later; "
                              f"re-save it as a newer binary FBX", path)
+        fh.seek(0)
+        _walk_fbx(fh.read(), version, path)
         return {"format": "fbx", "version": version}
     fh.seek(0)
     text = fh.read(4096)
@@ -70,6 +72,66 @@ def _check_fbx(path, head, fh) -> dict:
     if is_text and (b"FBX" in text or b"Kaydara" in text or text.lstrip()[:1] == b";"):
         raise ParseError(ASCII_FBX_MESSAGE, path)
     raise ParseError("not an FBX file (it does not start with the binary FBX header)", path)
+
+
+# FBX property types: fixed sizes, and the arrays' element sizes (an array: length, encoding, compressed length)
+_FBX_FIXED = {ord("Y"): 2, ord("C"): 1, ord("I"): 4, ord("F"): 4, ord("D"): 8, ord("L"): 8}
+_FBX_ARRAYS = {ord("f"): 4, ord("i"): 4, ord("d"): 8, ord("l"): 8, ord("b"): 1}
+_ZLIB_MAX_RATIO = 1032  # deflate expands at most ~1032:1
+
+
+def _walk_fbx(data, version, path):
+    """Check every node record of a binary FBX before Blender's parser trusts it: each record ends within its parent,
+    its property count fits its property bytes, each property fits, each array's stated length fits its (compressed)
+    bytes. Blender allocates a stated count before reading it: one damaged count is gigabytes (a hang, not an
+    error). ParseError naming the first bad record."""
+    wide = version >= 7500
+    head = struct.Struct("<QQQB" if wide else "<IIIB")
+    size, sentinel = len(data), head.size  # a nested list ends with an all-zero record header
+
+    def bad(what, at):
+        raise ParseError(f"damaged FBX file: {what} at byte {at:,}", path)
+
+    stack, pos = [size], 27
+    while stack:
+        end = stack[-1]
+        if pos + head.size > end:
+            if len(stack) == 1 and pos <= end:
+                return  # the file's footer follows the top-level records
+            bad("a record runs past its parent", pos)
+        rec_end, nprops, props_len, name_len = head.unpack_from(data, pos)
+        if rec_end == 0:  # an all-zero header ends the list it is in, at its record's end
+            pos += sentinel
+            if stack.pop() != pos and stack:
+                bad("a nested list does not end where its record does", pos)
+            if not stack:
+                return
+            continue
+        body = pos + head.size + name_len
+        if not body <= rec_end <= end or body + props_len > rec_end or nprops > props_len:
+            bad("a record's lengths do not fit", pos)
+        at, stop = body, body + props_len
+        for _ in range(nprops):
+            kind = data[at] if at < stop else None
+            at += 1
+            if kind in _FBX_FIXED:
+                at += _FBX_FIXED[kind]
+            elif kind in _FBX_ARRAYS and at + 12 <= stop:
+                length, encoding, packed = struct.unpack_from("<III", data, at)
+                raw = length * _FBX_ARRAYS[kind]
+                if (encoding == 0 and raw != packed) or (encoding == 1 and raw > packed * _ZLIB_MAX_RATIO + 64) \
+                        or encoding > 1:
+                    bad(f"an array of {length:,} values does not fit its {packed:,} bytes", at)
+                at += 12 + packed
+            elif kind in (ord("S"), ord("R")) and at + 4 <= stop:
+                at += 4 + struct.unpack_from("<I", data, at)[0]
+            else:
+                bad("an unknown or cut property", at - 1)
+            if at > stop:
+                bad("a property runs past its record", at)
+        if at < rec_end:  # nested records follow the properties
+            stack.append(rec_end)
+        pos = at if at < rec_end else rec_end
 
 
 def _glb(path, head, fh, size):
@@ -147,9 +209,8 @@ def _gltf_facts(path, doc, binary) -> dict:
 
 def key_rate(doc, binary, path) -> float:
     """The key rate of a glTF document: 1 / the key spacing of its densest channel (the smallest mean spacing of a
-    sampler input with two keys or more), rounded to an integer when within 1 % of one; ParseError when the
-    inputs are damaged or every channel has one key (then 30, the common rate, is no better than a guess: a
-    still pose has no rate, so 30 is returned)."""
+    sampler input with two keys or more), rounded to an integer when within 1 % of one; 30 when every channel has
+    a single key (a still pose has no rate). ParseError when the inputs are damaged or the rate is not 1 to 1000."""
     accessors = _list(doc, "accessors", path)
     spacing, longest = [], 0.0
     for anim in _list(doc, "animations", path):
@@ -165,8 +226,7 @@ def key_rate(doc, binary, path) -> float:
     if not spacing:
         return 30.0
     rate = 1.0 / min(spacing)
-    if abs(rate - round(rate)) <= 0.01 * rate:
-        rate = float(round(rate))
+    rate = float(round(rate)) if abs(rate - round(rate)) <= 0.01 * rate else round(rate, 6)
     if not 1.0 <= rate <= 1000.0:
         raise ParseError(f"animation keys {1000.0 / rate:.3g} ms apart are not a frame rate (1 to 1000 per second)", path)
     files.check_frames(int(longest * rate) + 1, path)
