@@ -1,7 +1,7 @@
 """blender_shapesig: shape analysis of motions (SRVT elastic distance, geodesic blends and
 signature search) as a Blender extension.
 
-This file only registers: the Blender layer's clip reader with core (at import) and the add-on's classes with
+This file only registers: the Blender layer's clip readers with core (at import) and the add-on's classes with
 Blender (``register``). It imports nothing from Blender at module level, so that ``blender_shapesig.core`` and the
 command line can be imported without bpy.
 """
@@ -9,6 +9,8 @@ command line can be imported without bpy.
 from .core.io import registry as _registry
 
 _registry.register_reader(".blend", f"{__name__}.readers:read_blend")
+for _ext in _registry.INTERCHANGE_EXTENSIONS:
+    _registry.register_reader(_ext, f"{__name__}.readers:read_interchange")
 
 # Blender-layer modules with register()/unregister(), in registration order.
 _MODULE_NAMES = ("preferences", "properties", "operators", "panels")

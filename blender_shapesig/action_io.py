@@ -147,7 +147,9 @@ def _action_frame_range(action, channels, bones):
                     lo, hi = min(lo, a), max(hi, z)
     if lo == math.inf:
         return None
-    return int(math.floor(lo + 1e-6)), int(math.ceil(hi - 1e-6))
+    # keys within a thousandth of a frame of an integer frame are on it (glTF keys are float32 seconds: 317/120 s
+    # is frame 317.00015 at 120 fps)
+    return int(math.floor(lo + 1e-3)), int(math.ceil(hi - 1e-3))
 
 
 _ROT_PROPS = ("rotation_quaternion", "rotation_euler", "rotation_axis_angle")

@@ -431,9 +431,8 @@ def _row_sources(results, items):
         if isinstance(item, ActionItem):
             out.append((True, "", item.action_key.read_hash if item.action_key is not None else "", item.action))
             continue
-        spec = item.source if item is not None else r.source
-        if spec.lower().endswith(".blend") and r.name:
-            spec = f"{spec}#{r.name}"  # a whole .blend holds several actions: the clip's name is its action
+        # a whole .blend or .glb holds several clips: FILE#ACTION names this one
+        spec = sources.clip_address(item.source if item is not None else r.source, r.name, r.source)[0]
         out.append((False, spec, sources.file_identity(spec), r.name))
     return out
 

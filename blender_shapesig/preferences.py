@@ -10,6 +10,8 @@ The preferences' ``bl_idname`` is the add-on's module name (``__package__`` of t
 import bpy
 from bpy.props import BoolProperty, StringProperty
 
+from .core.io.registry import extensions_text
+
 ADDON_ID = __package__
 
 __all__ = ["ShapeSigPreferences", "get_preferences", "ADDON_ID", "classes"]
@@ -28,8 +30,8 @@ class ShapeSigPreferences(bpy.types.AddonPreferences):
     )
     library_folders: StringProperty(
         name="Library Folders",
-        description="Default folders of clip files (.bvh, .amc, .blend) searched besides the file's actions; "
-                    "separate several with ';'",
+        description=f"Default folders of clip files ({extensions_text('and')}) searched besides the file's "
+                    "actions; separate several with ';'",
         default="",
     )
 

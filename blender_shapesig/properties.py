@@ -7,6 +7,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty,
                        PointerProperty, StringProperty)
 
+from .core.io.registry import extensions_text
 from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, LOCAL
 
 __all__ = ["column_word", "ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of", "uses_local",
@@ -133,8 +134,8 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     catalog: StringProperty(name="Catalog", description="With Assets Only: only assets whose catalog's simple name "
                             "matches this pattern (wildcards; empty: any catalog)", default="")
     use_folders: BoolProperty(name="Folders", description="Also search clip files in folders", default=False)
-    folders: StringProperty(name="Folders", description="Folders of .bvh/.amc/.blend clips, separated by ';' "
-                            "(empty: the add-on preferences' library folders)", default="")
+    folders: StringProperty(name="Folders", description=f"Folders of clip files ({extensions_text('and')}), "
+                            "separated by ';' (empty: the add-on preferences' library folders)", default="")
     asf: StringProperty(name="Skeleton", description="The .asf skeleton of the folders' AMC files (empty: the "
                         "only .asf beside each .amc)", default="", subtype="FILE_PATH")
     crop_start: IntProperty(name="Crop Start", description="Ignore the frames before this one in every clip "

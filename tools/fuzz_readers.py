@@ -3,6 +3,7 @@
 
     .venv/bin/python tools/fuzz_readers.py --cases 2000 --seed 1
     .venv/bin/python tools/fuzz_readers.py --cases 300 --seed 7 --targets bvh,blend --batch 50 --keep /tmp/fails
+    .venv/bin/python tools/fuzz_readers.py --cases 300 --targets fbx,glb --batch 75
 
 Each case takes a real CMU file from ``tests/data`` (ASF, AMC, BVH, or a .blend written from an AMC take),
 applies one mutation (``KINDS``: truncation, garbage bytes, dropped / repeated / swapped lines, wrong
@@ -12,7 +13,8 @@ CR or CRLF line ends, empty / whitespace / binary files, the wrong format) and r
 * ``acclaim``: ``core.io.acclaim.load_acclaim`` (mutated ASF with its real AMC, or mutated AMC with its real
   ASF), in this process, with a per-case alarm;
 * ``bvh``: ``readers.bvh.import_bvh`` (Blender's importer) and ``blend``: ``core.io.sources.read`` on a mutated
-  .blend, and ``import_op``: the ``shapesig.import_acclaim`` operator on a mutated ASF/AMC - each in worker
+  .blend (or ``fbx`` / ``glb``: an FBX or GLB written by Blender's exporters, read by its importers in the
+  reading child), and ``import_op``: the ``shapesig.import_acclaim`` operator on a mutated ASF/AMC - each in worker
   processes (``--batch`` cases each) so that a crash or a hang of Blender is detected and reported with the
   case that caused it (the worker is restarted after it).
 
@@ -67,9 +69,13 @@ KINDS = (
     "whitespace", "binary", "wrong_format",
 )
 PRESERVING = {"crlf", "cr", "tabs", "bom", "latin1_comment", "utf16", "utf16_be"}
-# .blend files are binary: their own kinds
+# .blend, FBX and GLB files are binary: their own kinds ("huge_count": a length or count field made huge)
 BLEND_KINDS = ("truncate", "garbage_bytes", "insert_garbage", "zero_block", "bit_flips", "drop_block",
                "repeat_block", "bad_magic", "empty", "binary", "wrong_format")
+BINARY_KINDS = {"blend": BLEND_KINDS, "fbx": BLEND_KINDS + ("huge_count",), "glb": BLEND_KINDS + ("huge_count",)}
+_MAGIC = {"blend": (b"BLENDER?", b"NOTBLEND"), "fbx": (b"Kaydara FBX Binary  \x01", b"; FBX 7.4.0 project f"),
+          "glb": (b"glTF\x01\x00\x00\x00", b"gltf")}
+INTERCHANGE_TARGETS = ("fbx", "glb")  # read through Blender's importers in the reading child
 
 _NUM = re.compile(rb"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\w.])")
 NONFINITE = (b"nan", b"NaN", b"inf", b"-inf", b"Infinity", b"1e999", b"-1e999", b"nan(0x1)")
@@ -161,9 +167,9 @@ def _blocks(lines, fmt):
 
 
 def mutate(data: bytes, kind: str, rng: random.Random, fmt: str) -> bytes:
-    """One mutation of ``data`` (a file of format ``fmt``: 'asf', 'amc', 'bvh' or 'blend')."""
-    if fmt == "blend":
-        return _mutate_blend(data, kind, rng)
+    """One mutation of ``data`` (a file of format ``fmt``: 'asf', 'amc', 'bvh', or the binary 'blend', 'fbx', 'glb')."""
+    if fmt in BINARY_KINDS:
+        return _mutate_binary(data, kind, rng, fmt)
     n = len(data)
     if kind == "truncate":
         return data[:rng.randrange(0, max(n, 1))]
@@ -287,9 +293,37 @@ def mutate(data: bytes, kind: str, rng: random.Random, fmt: str) -> bytes:
     raise ValueError(f"unknown mutation {kind!r}")
 
 
-def _mutate_blend(data, kind, rng):
+def _huge_count(data, rng, fmt):
+    """A count made huge: in a GLB an accessor's ``count`` or the header's length, in an FBX a random aligned
+    32-bit field (array lengths, property counts, end offsets are such fields)."""
+    import struct
+
+    if fmt == "glb" and data[:4] == b"glTF" and len(data) >= 20:
+        n = struct.unpack("<I", data[12:16])[0]
+        try:
+            doc = json.loads(data[20:20 + n])
+        except ValueError:
+            doc = None
+        if isinstance(doc, dict) and doc.get("accessors") and rng.random() < 0.7:
+            rng.choice(doc["accessors"])["count"] = rng.choice((2 ** 31 - 1, 2 ** 32 + 5, 10 ** 12))
+            body = json.dumps(doc).encode()
+            body += b" " * (-len(body) % 4)
+            rest = data[20 + n:]
+            return b"glTF" + struct.pack("<II", 2, 20 + len(body) + len(rest)) + \
+                struct.pack("<II", len(body), 0x4E4F534A) + body + rest
+        return data[:8] + struct.pack("<I", 0xFFFFFFF0) + data[12:]
+    buf = bytearray(data)
+    for _ in range(rng.randint(1, 4)):
+        i = rng.randrange(27, max(28, len(buf) - 4)) & ~3
+        buf[i:i + 4] = struct.pack("<I", rng.choice((0x7FFFFFFF, 0xFFFFFFFF, 0x10000000)))
+    return bytes(buf)
+
+
+def _mutate_binary(data, kind, rng, fmt="blend"):
     n = len(data)
     buf = bytearray(data)
+    if kind == "huge_count":
+        return _huge_count(data, rng, fmt)
     if kind == "truncate":
         return data[:rng.randrange(0, n)]
     if kind == "garbage_bytes":
@@ -317,7 +351,8 @@ def _mutate_blend(data, kind, rng):
         b = min(n, a + rng.choice((4, 100, 4096)))
         return data[:b] + data[a:b] + data[b:]
     if kind == "bad_magic":
-        return b"BLENDER?" + data[8:] if rng.random() < 0.5 else b"NOTBLEND" + data[8:]
+        magic = rng.choice(_MAGIC[fmt])
+        return magic + data[len(magic):]
     if kind == "empty":
         return b""
     if kind == "binary":
@@ -503,7 +538,7 @@ def _worker(target, cases_path, results_path):
         if target == "bvh":
             outcome, detail = differential_case(read_bvh_raw, case["original"], case["path"], case["kind"],
                                                 case["timeout"], originals)
-        elif target == "blend":
+        elif target == "blend" or target in INTERCHANGE_TARGETS:
             def read():
                 got = read_clips(case["path"])
                 for c in got[1:]:
@@ -611,6 +646,26 @@ def _make_blend(path):
                    stderr=subprocess.DEVNULL, cwd=str(ROOT))
 
 
+def _make_interchange(path, fmt):
+    """An FBX or GLB written by Blender's exporter: the 09_02 BVH run on its armature (60 frames), with a small
+    skinned cube (the FBX exporter then writes the bind pose)."""
+    code = (
+        "import bpy\n"
+        "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
+        "bpy.ops.import_anim.bvh(filepath=%r, update_scene_fps=True)\n"
+        "arm = bpy.context.object; sc = bpy.context.scene; sc.frame_start, sc.frame_end = 1, 60\n"
+        "bpy.ops.mesh.primitive_cube_add(size=1); cube = bpy.context.object; cube.parent = arm\n"
+        "cube.modifiers.new('rig', 'ARMATURE').object = arm\n"
+        "cube.vertex_groups.new(name=arm.data.bones[0].name).add(list(range(8)), 1.0, 'REPLACE')\n"
+        "if %r == 'fbx':\n"
+        "    bpy.ops.export_scene.fbx(filepath=%r, add_leaf_bones=False, bake_anim_use_all_actions=False)\n"
+        "else:\n"
+        "    bpy.ops.export_scene.gltf(filepath=%r, export_format='GLB')\n"
+    ) % (str(DATA / "bvh/09_02.bvh"), fmt, path, path)
+    subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL, cwd=str(ROOT))
+
+
 # ----------------------------------------------------------------------------------------------- main
 
 
@@ -619,10 +674,10 @@ def main(argv=None):
     p.add_argument("--cases", type=int, default=500, help="number of cases (split over the targets)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--targets", default="acclaim,bvh,blend,import_op",
-                   help="comma-separated: acclaim, bvh, blend, import_op (default all)")
+                   help="comma-separated: acclaim, bvh, blend, import_op, fbx, glb (default: the first four)")
     p.add_argument("--batch", type=int, default=40, help="cases per Blender worker process")
     p.add_argument("--timeout", type=int, default=30, help="seconds per case before it counts as a hang")
-    p.add_argument("--weights", default="acclaim=6,bvh=2,blend=1,import_op=1",
+    p.add_argument("--weights", default="acclaim=6,bvh=2,blend=1,import_op=1,fbx=1,glb=1",
                    help="share of the cases per target")
     p.add_argument("--worker", nargs=3, metavar=("TARGET", "CASES", "RESULTS"), help=argparse.SUPPRESS)
     p.add_argument("--json", action="store_true", help="also print the summary as one JSON object")
@@ -635,7 +690,7 @@ def main(argv=None):
     targets = [t.strip() for t in args.targets.split(",") if t.strip()]
     weights = dict(kv.split("=") for kv in args.weights.split(","))
     for t in targets:
-        if t not in ("acclaim", "bvh", "blend", "import_op"):
+        if t not in ("acclaim", "bvh", "blend", "import_op") + INTERCHANGE_TARGETS:
             p.error(f"unknown target {t!r}")
     import importlib.util
 
@@ -673,7 +728,7 @@ def main(argv=None):
                     log(f"  acclaim {kind} {src}: {detail}")
                     keep(os.path.join(folder, "skel.asf"), f"acclaim-{i}-{kind}.asf")
                     keep(os.path.join(folder, "take.amc"), f"acclaim-{i}-{kind}.amc")
-        for target in ("bvh", "blend", "import_op"):
+        for target in ("bvh", "blend", "import_op") + INTERCHANGE_TARGETS:
             n = counts.get(target, 0)
             if not n:
                 continue
@@ -686,6 +741,12 @@ def main(argv=None):
                     keep(base, "base.blend")
                 sources = [(base, "blend")]
                 kinds = BLEND_KINDS
+            elif target in INTERCHANGE_TARGETS:
+                base = os.path.join(tmp, f"base.{target}")
+                _make_interchange(base, target)
+                keep(base, f"base.{target}")
+                sources = [(base, target)]
+                kinds = BINARY_KINDS[target]
             elif target == "bvh":
                 sources = [(str(DATA / b), "bvh") for b in BVH_FILES]
                 kinds = KINDS
@@ -708,7 +769,7 @@ def main(argv=None):
                     case["path"] = amc if which == "asf" else path
                     case["source"] = f"{which}:{os.path.basename(fmt_path)}"
                 else:
-                    fmt = "blend" if target == "blend" else "bvh"
+                    fmt = target if target in BINARY_KINDS else "bvh"
                     mutated = mutate(pathlib.Path(src[0]).read_bytes(), kind, rng, fmt)
                     path = os.path.join(folder, f"{i}.{fmt}")
                     pathlib.Path(path).write_bytes(mutated)

@@ -11,7 +11,14 @@ from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
 PROG = "blender_shapesig"
 EXIT_ERROR = 2
-CLIP_HELP = "a .bvh, .amc, SMPL/AMASS .npz, .blend (every armature action) or FILE.blend#ACTION"
+def _clip_help():
+    from ..core.io.registry import NAMED_CLIPS, extensions_text
+
+    return (f"a {extensions_text()} file (every armature animation in it) or FILE#ACTION (one animation of a "
+            f"{', '.join(NAMED_CLIPS)} file)")
+
+
+CLIP_HELP = _clip_help()
 
 
 class CommandError(Exception):

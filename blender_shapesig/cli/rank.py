@@ -102,7 +102,7 @@ def run(args):
         raise c.CommandError("--top must be 1 or more")
     if args.explain < 0:
         raise c.CommandError("--explain must be 0 or more")
-    from ..core.io.sources import read_one, spec_item
+    from ..core.io.sources import clip_address, read_one, spec_item
     from ..core.clip.trim import trim_note, trimmed_range
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
@@ -127,8 +127,8 @@ def run(args):
         warnings.insert(0, cache.warning)
     for w in warnings:
         sys.stderr.write(f"{c.PROG}: warning: {w}\n")
-    # each result maps back to the argument it came from: "path" as given, "action" for a .blend (a whole
-    # .blend item holds several actions: the clip's name is the action's)
+    # each result maps back to the argument it came from: "path" as given, "action" for a clip of a file that holds
+    # several (a .blend, a .glb: sources.clip_address)
     by_key, seen = {}, {}
     for it in items:
         by_key.setdefault(it.key, []).append(it)  # byte-identical copies (same key) are told apart in order
@@ -138,7 +138,7 @@ def run(args):
         item = group[min(seen.get(r.key, 0), len(group) - 1)]
         seen[r.key] = seen.get(r.key, 0) + (len(group) > 1)
         path = item.path if item is not None else None
-        action = (item.action or r.name) if path and path.lower().endswith(".blend") else None
+        action = clip_address(item.source or path, r.name, r.source)[1] if path else None
         trim = trimmed_range(r.trimmed)  # trim: the frames compared (null: the whole clip); trimmed: [head, tail]
         rows.append({"clip": r.name, "distance": c.finite(r.distance), "elastic": c.finite(r.elastic),
                      "path": path, "action": action, "coverage": r.coverage,

@@ -11,6 +11,7 @@ import os
 import numpy as np
 
 from ..core.index.dedupe import choose_keeper, copy_facts
+from ..core.io.sources import clip_address
 
 __all__ = ["write_report", "clip_label", "speed_trace"]
 
@@ -18,10 +19,10 @@ NEAR_MISSES = 20
 
 
 def clip_label(item, entry):
-    """The path of a clip as given (``FILE.blend#ACTION`` for an action of a whole .blend)."""
+    """The path of a clip as given (``FILE#ACTION`` for a clip of a whole file that holds several)."""
     text = item.source or item.path or entry.name
-    if item.path and item.path.lower().endswith(".blend") and item.action is None:
-        return f"{item.path}#{entry.name}"
+    if item.path and item.action is None:
+        return clip_address(item.path, entry.name, entry.source)[0]
     return text
 
 

@@ -1,6 +1,7 @@
 """The Blender half of reading clips (needs bpy): ``bvh`` (Blender's BVH importer), ``blend`` (the actions of
-a .blend file, read in a child process), ``acclaim`` (the Acclaim armature builder) and ``scratch`` (removing
-what an import created). ``read_blend`` is the ``.blend`` reader the package registers with ``core.io.registry``
+a .blend file, read in a child process), ``interchange`` (FBX and glTF through Blender's importers, in the reading
+child of ``child``), ``acclaim`` (the Acclaim armature builder) and ``scratch`` (removing what an import created).
+``read_blend`` and ``read_interchange`` are the readers the package registers with ``core.io.registry``
 (``read_bvh`` reads through Blender's importer, for comparisons with it); the pure parsers are ``core.io``."""
 
 
@@ -18,4 +19,21 @@ def read_blend(spec):
     return read_blend_file(spec.path, spec.action)
 
 
-__all__ = ["read_bvh", "read_blend"]
+_KINDS = {".fbx": "FBX", ".glb": "glTF", ".gltf": "glTF", ".vrma": "VRM animation"}
+
+
+def read_interchange(spec):
+    """The clips of an ``.fbx`` / ``.glb`` / ``.gltf`` ClipSpec: every armature animation, or ``spec.action``,
+    read by Blender's importer in the reading child (``child.read_in_child``); the file is checked here first
+    (``core.io.interchange.check_interchange``), so a file no importer can read starts no Blender."""
+    import os
+
+    from ..core.io.interchange import check_interchange
+    from .child import read_in_child
+
+    check_interchange(spec.path)
+    return read_in_child("interchange", {"path": os.path.abspath(spec.path), "animation": spec.action}, spec.path,
+                         _KINDS.get(spec.ext, "clip"))
+
+
+__all__ = ["read_bvh", "read_blend", "read_interchange"]

@@ -14,7 +14,7 @@ import numpy as np
 # meta entries that travel back (JSON values; rest_rotations as an array); the rest skeleton for forward
 # kinematics (planted feet, the hips of a blend across rigs)
 _META_KEYS = ("rotation_space", "up_axis", "format", "action", "slot", "fcurve_hash", "still_bones",
-              "missing_rotation_bones", "parents", "rest_heads", "rest_tails", "rig")
+              "missing_rotation_bones", "parents", "rest_heads", "rest_tails", "rig", "animation")
 
 
 def write_result(out, clips=None, error=None):

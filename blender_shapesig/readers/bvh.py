@@ -14,7 +14,7 @@ from .. import action_io
 from ..core.errors import ParseError, ShapeSigError
 from ..core.io.files import check_file
 from ..core.io.bvh import bvh_text, check_bvh
-from .scratch import id_snapshot, quiet_fds, remove_new_ids
+from .scratch import quiet_fds, scratch_scene
 
 __all__ = ["import_bvh", "import_armature"]
 
@@ -74,33 +74,6 @@ def import_armature(path):
     return armatures[0], frame_time
 
 
-@contextlib.contextmanager
-def _scratch_scene():
-    """Import into a new scene (with a window), else into the current one with its selection and active
-    object restored; every data-block created meanwhile is removed at the end."""
-    before = id_snapshot()
-    window = getattr(bpy.context, "window", None)
-    old_scene = window.scene if window is not None else None
-    old_selected, old_active = None, None
-    if window is None:
-        old_selected = [o for o in bpy.context.scene.objects if o.select_get()]
-        old_active = bpy.context.view_layer.objects.active
-    try:
-        if window is not None:
-            window.scene = bpy.data.scenes.new("shapesig_bvh_import")
-        yield
-    finally:
-        if window is not None:
-            window.scene = old_scene
-        remove_new_ids(before)
-        if old_selected is not None:
-            for o in old_selected:
-                with contextlib.suppress(ReferenceError, RuntimeError):
-                    o.select_set(True)
-            with contextlib.suppress(ReferenceError, RuntimeError):
-                bpy.context.view_layer.objects.active = old_active
-
-
 def import_bvh(path, name=None, space="armature"):
     """One BVH file as a Clip through Blender's importer, leaving the file as it was.
 
@@ -112,7 +85,7 @@ def import_bvh(path, name=None, space="armature"):
     if not os.path.lexists(path):
         raise ParseError("no such file", path)
     check_file(path)  # a regular file within the size cap; check_bvh then reads it within the frame cap
-    with _scratch_scene():
+    with scratch_scene():
         arm, frame_time = import_armature(path)
         fps = 1.0 / frame_time
         if abs(fps - round(fps)) <= 1e-4 * fps:

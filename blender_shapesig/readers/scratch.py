@@ -15,7 +15,7 @@ import tempfile
 
 import bpy
 
-__all__ = ["id_snapshot", "remove_new_ids", "quiet_fds"]
+__all__ = ["id_snapshot", "remove_new_ids", "quiet_fds", "scratch_scene"]
 
 # bpy.data collections of the user interface: never scratch data
 _UI_COLLECTIONS = ("window_managers", "screens", "workspaces")
@@ -73,3 +73,35 @@ def quiet_fds():
             for fd, copy in saved:
                 os.dup2(copy, fd)
                 os.close(copy)
+
+
+@contextlib.contextmanager
+def scratch_scene(name="shapesig_import"):
+    """Import into a new scene (with a window), else into the current one with its selection, active object and
+    frame rate restored (importers set the scene's rate); every data-block created meanwhile is removed at the
+    end."""
+    before = id_snapshot()
+    window = getattr(bpy.context, "window", None)
+    old_scene = window.scene if window is not None else None
+    old_selected, old_active = None, None
+    if window is None:
+        old_selected = [o for o in bpy.context.scene.objects if o.select_get()]
+        old_active = bpy.context.view_layer.objects.active
+        render = bpy.context.scene.render
+        old_rate = (render.fps, render.fps_base)
+    try:
+        if window is not None:
+            window.scene = bpy.data.scenes.new(name)
+        yield
+    finally:
+        if window is not None:
+            window.scene = old_scene
+        remove_new_ids(before)
+        if old_selected is not None:
+            with contextlib.suppress(ReferenceError, RuntimeError):
+                render.fps, render.fps_base = old_rate
+            for o in old_selected:
+                with contextlib.suppress(ReferenceError, RuntimeError):
+                    o.select_set(True)
+            with contextlib.suppress(ReferenceError, RuntimeError):
+                bpy.context.view_layer.objects.active = old_active

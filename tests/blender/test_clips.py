@@ -135,8 +135,10 @@ def test_errors(empty_file, tmp_path):
         assert match in str(info.value) and "\n" not in str(info.value), str(info.value)
 
     err(tmp_path / "x.bvh", "file not found")
+    (tmp_path / "x.c3d").write_text("")
+    err(tmp_path / "x.c3d", "unsupported file type .c3d")
     (tmp_path / "x.fbx").write_text("")
-    err(tmp_path / "x.fbx", "unsupported file type .fbx")
+    err(tmp_path / "x.fbx", "not an FBX file")  # a reader for .fbx exists (tests/blender/test_interchange.py)
     (tmp_path / "x").write_text("")
     err(tmp_path / "x", "unsupported file type (none)")
     err(ACC / "07_01.amc", "3 .asf files beside the .amc")

@@ -14,7 +14,7 @@ from ..geometry import so3
 from .clip import Clip
 from ..errors import ShapeSigError
 
-__all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "rest_of",
+__all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "to_world_axes", "rest_of",
            "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",
            "forward_kinematics", "chain_offset", "up_vector", "root_up", "parse_up", "estimate_up_axis", "unit_meters", "LEG_METERS"]
 
@@ -42,6 +42,31 @@ def map_rest_meta(meta: dict, matrix, scale: float = 1.0) -> dict:
         if key in meta:
             out[key] = {n: tuple(float(v) for v in scale * (A @ np.asarray(p, float))) for n, p in meta[key].items()}
     return out
+
+
+def to_world_axes(clip: Clip, matrix) -> Clip:
+    """A clip in its armature's axes re-expressed in the world's through the armature object's ``matrix`` (4x4,
+    rotation times a uniform scale plus a translation: the nodes above an imported armature): rotations and rest
+    orientations turned by the rotation A (``A X A^T``, ``A B``), rest heads/tails and the root translation mapped
+    by the whole matrix (the file's units times its scales). ShapeSigError for a mirroring or degenerate matrix."""
+    M = np.asarray(matrix, dtype=np.float64)
+    det = float(np.linalg.det(M[:3, :3]))
+    if not det > 1e-30:
+        raise ShapeSigError(f"clip {clip.name!r}: its armature is {'mirrored' if det < 0 else 'scaled to nothing'} "
+                            f"in the scene (a negative or zero scale)")
+    s = det ** (1.0 / 3.0)
+    A = so3.nearest_rotation(M[:3, :3] / s)
+    meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
+    for key in (REST_HEADS, REST_TAILS):
+        if key in meta:
+            meta[key] = {n: tuple(float(v) for v in M[:3, :3] @ np.asarray(p, float) + M[:3, 3])
+                         for n, p in meta[key].items()}
+    if "rest_rotations" in meta:
+        meta["rest_rotations"] = A[None] @ np.asarray(meta["rest_rotations"], dtype=np.float64)
+    rt = clip.root_translation
+    rt = None if rt is None else rt @ M[:3, :3].T + M[:3, 3]
+    R = A[None, None] @ clip.rotations @ A.T[None, None]
+    return replace(clip, rotations=R, root_translation=rt, meta=meta)
 
 
 @dataclass

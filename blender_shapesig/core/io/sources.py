@@ -18,11 +18,11 @@ from ..errors import ParseError, ShapeSigError, UnreadableFileError
 from ..clip.prepare import check_fps
 from ..clip.trim import TRIM_MODES, trim_clip
 from . import files
-from .registry import EXTENSIONS, reader_for, register_reader
+from .registry import EXTENSIONS, NAMED_CLIPS, extensions_text, reader_for, register_reader
 
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "discover",
-    "read", "read_one", "after_read", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
+    "read", "read_one", "after_read", "clip_address", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
     "unique_labels", "file_identity",
 ]
 
@@ -36,7 +36,8 @@ _TRIM_VERSION = ":1"
 
 @dataclass(frozen=True)
 class ClipSpec:
-    """One named source: ``path`` (a file), ``action`` (for ``FILE.blend#ACTION``), ``asf`` (skeleton of an
+    """One named source: ``path`` (a file), ``action`` (for ``FILE.blend#ACTION``, ``FILE.glb#ANIMATION``: the
+    types of ``registry.NAMED_CLIPS``), ``asf`` (skeleton of an
     ``.amc``; None: the only .asf beside it), ``start``/``end`` (crop, inclusive frame numbers), ``fps``
     (override of the file's frame rate), ``trim`` ("auto": drop detected rest-pose / ramp frames at both ends,
     ``core.clip.trim``; "none": keep every frame; an explicit ``start`` keeps the head, an explicit ``end`` the tail).
@@ -60,10 +61,11 @@ class ClipSpec:
 
     @classmethod
     def parse(cls, text, **options) -> "ClipSpec":
-        """``FILE.blend#ACTION`` -> path and action; any other text is a path. ``options``: the other fields."""
+        """``FILE.blend#ACTION`` (any type of ``NAMED_CLIPS``) -> path and action; any other text is a path.
+        ``options``: the other fields."""
         text = os.fspath(text)
         path, sep, action = text.rpartition("#")
-        if sep and path.lower().endswith(".blend"):
+        if sep and path.lower().endswith(NAMED_CLIPS):
             return cls(path, action or None, **options)
         return cls(text, None, **options)
 
@@ -73,7 +75,8 @@ class ClipSpec:
 
     @property
     def name(self) -> str:
-        """The display name: the action for ``FILE.blend#ACTION``, else the file name without extension."""
+        """The display name: the action for ``FILE.blend#ACTION`` (or ``FILE.glb#ANIMATION``), else the file name
+        without extension."""
         return self.action if self.action is not None else os.path.splitext(os.path.basename(self.path))[0]
 
     @property
@@ -87,10 +90,10 @@ class ClipSpec:
         if not os.path.lexists(self.path):
             raise ParseError("file not found", self.path)
         if os.path.isdir(self.path):
-            raise ParseError("is a folder, expected a .bvh, .amc, .npz or .blend file", self.path)
+            raise ParseError(f"is a folder, expected a {extensions_text()} file", self.path)
         if self.ext not in EXTENSIONS:
-            raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected .bvh, .amc, .npz, .blend or "
-                             f"FILE.blend#ACTION", self.path)
+            raise ParseError(f"unsupported file type {self.ext or '(none)'}; expected {extensions_text()} "
+                             f"(FILE#ACTION picks one clip of a file that holds several)", self.path)
         files.check_file(self.path)  # UnreadableFileError: a FIFO, a device, a broken link, over the size cap
         return self
 
@@ -126,6 +129,25 @@ def bone_map_key(bone_map) -> str:
     if bone_map == "auto":
         return f"auto{TABLES_VERSION}"
     return f"{TABLES_VERSION}:" + file_key(bone_map) if os.path.isfile(bone_map) else f"missing:{bone_map}"
+
+
+def clip_address(spec_text, name, source="") -> tuple:
+    """``(text, action)``: how a user names one clip read from the source ``spec_text``. A clip of a whole file
+    that holds several (``NAMED_CLIPS``) is ``FILE#ACTION``, its action taken from the reader's ``source``
+    (``FILE#ACTION``) when it says so, else from its ``name``: the FBX / glTF readers name the clip of a file of
+    one animation after the file, which is then named by itself (action None); any other spec is itself."""
+    spec = ClipSpec.parse(spec_text)
+    if spec.action is not None:
+        return spec.text, spec.action
+    if spec.ext not in NAMED_CLIPS:
+        return spec.text, None
+    for prefix in (spec.path, os.path.abspath(spec.path)):
+        if source.startswith(prefix + "#"):
+            action = source[len(prefix) + 1:]
+            return f"{spec.path}#{action}", action
+    if not name or (spec.ext != ".blend" and name == os.path.splitext(os.path.basename(spec.path))[0]):
+        return spec.path, None
+    return f"{spec.path}#{name}", name
 
 
 def discover(paths, recursive=True, skipped=None) -> List[str]:
@@ -243,13 +265,13 @@ def trim_ends(clip, start=None, end=None):
 
 
 def read_one(spec, **options) -> Clip:
-    """The one clip a source names; ShapeSigError when it holds several (pick one with ``FILE.blend#ACTION``)."""
+    """The one clip a source names; ShapeSigError when it holds several (pick one with ``FILE#ACTION``)."""
     spec = spec if isinstance(spec, ClipSpec) else ClipSpec.parse(spec, **options)
     clips = read(spec)
     if len(clips) != 1:
         names = ", ".join(c.name for c in clips[:5])
         raise ShapeSigError(f"{spec.text} holds {len(clips)} actions ({names}{', ...' if len(clips) > 5 else ''}); "
-                            f"pick one with FILE.blend#ACTION")
+                            f"pick one with FILE#ACTION")
     return clips[0]
 
 

@@ -1,0 +1,266 @@
+"""FBX and glTF clips through Blender's importers in the reading child: files written here by Blender's own FBX
+and glTF exporters from a real CMU walk (tests/data/bvh/07_01.bvh imported with its BVH importer) read back as the
+BVH reads (the comparison space, rate, frames), every animation of a GLB a clip addressed ``FILE#ANIMATION``,
+nested scaled and turned nodes above the armature change nothing, bad files are one line, a folder costs one
+child start-up and a crashing importer is a ParseError."""
+
+import json
+import math
+import os
+import pathlib
+import shutil
+import struct
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import cli  # noqa: E402
+from blender_shapesig.core.errors import ParseError  # noqa: E402
+from blender_shapesig.core.io import sources  # noqa: E402
+from blender_shapesig.readers import child  # noqa: E402
+
+BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh" / "07_01.bvh"
+FRAMES = 90  # the first 90 frames (0.75 s at 120 fps) of the walk are exported
+
+
+def _skinned_walk():
+    """The BVH walk on its armature with a small cube skinned to it (so that the FBX exporter writes the bind
+    pose: without one, Blender's FBX importer takes the pose of the export's current frame as the rest)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_anim.bvh(filepath=str(BVH), rotate_mode="NATIVE", frame_start=1, use_fps_scale=False,
+                            update_scene_fps=True, update_scene_duration=True)
+    arm = bpy.context.object
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base = 120, 1.0
+    scene.frame_start, scene.frame_end = 1, FRAMES
+    scene.frame_set(1)
+    mesh = bpy.data.meshes.new("cube")
+    mesh.from_pydata([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], [],
+                     [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
+    cube = bpy.data.objects.new("cube", mesh)
+    scene.collection.objects.link(cube)
+    cube.parent = arm
+    cube.modifiers.new("rig", "ARMATURE").object = arm
+    cube.vertex_groups.new(name="hip").add(list(range(8)), 1.0, "REPLACE")
+    return arm
+
+
+def _export_glb(path, arm):
+    bpy.ops.object.select_all(action="DESELECT")
+    bpy.ops.export_scene.gltf(filepath=str(path), export_format="GLB", export_animation_mode="ACTIONS",
+                              export_force_sampling=True, export_optimize_animation_size=False,
+                              export_frame_range=True)
+
+
+@pytest.fixture(scope="module")
+def files(addon, tmp_path_factory):
+    """walk.fbx (one take), walk.glb (two animations: 07_01 and its copy cut to 40 frames, walk_short) and
+    tiny.glb (the walk under nested nodes: scales 0.01 x 0.1 and turns about X that cancel, Michelle's layout)."""
+    out = tmp_path_factory.mktemp("interchange")
+    arm = _skinned_walk()
+    bpy.ops.export_scene.fbx(filepath=str(out / "walk.fbx"), object_types={"ARMATURE", "MESH"},
+                             add_leaf_bones=False, bake_anim_use_all_actions=False, bake_anim_use_nla_strips=False,
+                             bake_anim_simplify_factor=0.0)
+    short = arm.animation_data.action.copy()
+    short.name = "walk_short"
+    short.use_frame_range, short.frame_start, short.frame_end = True, 1, 40
+    arm.animation_data.nla_tracks.new().strips.new("walk_short", 1, short)
+    _export_glb(out / "walk.glb", arm)
+    arm.animation_data.nla_tracks.remove(arm.animation_data.nla_tracks[0])
+    top = bpy.data.objects.new("Top", None)
+    bpy.context.scene.collection.objects.link(top)
+    top.rotation_euler, top.scale = (math.pi / 2, 0.0, 0.0), (0.01,) * 3
+    arm.parent = top
+    arm.rotation_euler, arm.scale = (-math.pi / 2, 0.0, 0.0), (0.1,) * 3
+    _export_glb(out / "tiny.glb", arm)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return out
+
+
+def _bvh_walk(frames=FRAMES):
+    return sources.read_one(sources.ClipSpec(str(BVH), end=frames, trim="none"))
+
+
+def _assert_same_poses(clip, ref, atol=1e-4):
+    assert clip.bones == ref.bones and clip.frames == ref.frames and clip.fps == ref.fps
+    np.testing.assert_allclose(clip.rotations, ref.rotations, atol=atol)
+    assert clip.meta.get("root_path") == ref.meta.get("root_path") == "hips_legs"  # in leg lengths
+    np.testing.assert_allclose(clip.root_translation - clip.root_translation[0],
+                               ref.root_translation - ref.root_translation[0], atol=atol)
+
+
+def test_fbx_and_glb_read_as_the_bvh_they_were_written_from(files):
+    ref = _bvh_walk()
+    (fbx,) = sources.read(sources.ClipSpec(str(files / "walk.fbx"), trim="none"))
+    assert fbx.name == "walk" and fbx.meta["format"] == "fbx" and fbx.fps == 120.0  # FBX TimeMode 120
+    _assert_same_poses(fbx, ref)
+    glb = sources.read_one(sources.ClipSpec(str(files / "walk.glb"), action="07_01", trim="none"))
+    assert glb.meta["format"] == "gltf" and glb.fps == 120.0  # glTF: the key spacing, 1/120 s
+    _assert_same_poses(glb, ref)
+
+
+def test_every_animation_of_a_glb_is_a_clip_addressed_by_its_name(files):
+    path = str(files / "walk.glb")
+    clips = sources.read(sources.ClipSpec(path, trim="none"))
+    assert sorted(c.name for c in clips) == ["07_01", "walk_short"]
+    short = sources.read_one(sources.ClipSpec.parse(f"{path}#walk_short", trim="none"))
+    assert short.frames == 40
+    _assert_same_poses(short, _bvh_walk(40))
+    assert sources.clip_address(path, "walk_short", short.source) == (f"{path}#walk_short", "walk_short")
+    assert sources.clip_address(str(files / "walk.fbx"), "walk", str(files / "walk.fbx"))[1] is None
+
+
+def test_a_wrong_animation_name_lists_the_ones_the_file_has(files):
+    with pytest.raises(ParseError) as info:
+        sources.read(sources.ClipSpec.parse(f"{files / 'walk.glb'}#Walking"))
+    text = str(info.value)
+    assert "no animation 'Walking'" in text and "07_01, walk_short" in text and "not found" not in text
+    assert "\n" not in text
+
+
+def test_nodes_above_the_armature_change_no_pose(files):
+    """A 0.001-scale walk under two nested nodes turned +90 and -90 degrees about X (Michelle's layout) compares
+    equal: the clip is in the world's axes, the comparison space in leg lengths."""
+    tiny = sources.read_one(sources.ClipSpec(str(files / "tiny.glb"), action="07_01", trim="none"))
+    raw = sources.read_one(sources.ClipSpec(str(files / "tiny.glb"), action="07_01", trim="none", bone_map="none"))
+    height = np.ptp(np.array(list(raw.meta["rest_heads"].values()))[:, 2])
+    full = sources.read_one(sources.ClipSpec(str(files / "walk.fbx"), trim="none", bone_map="none"))
+    full_height = np.ptp(np.array(list(full.meta["rest_heads"].values()))[:, 2])
+    assert height == pytest.approx(full_height * 0.001, rel=1e-3)
+    _assert_same_poses(tiny, _bvh_walk(), atol=2e-4)
+
+
+def test_a_folder_of_files_costs_one_child(files, tmp_path, capsys):
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    for i in range(3):
+        shutil.copy(files / "walk.fbx", folder / f"walk_{i}.fbx")
+    shutil.copy(files / "walk.glb", folder / "walk.glb")
+    child.close()
+    before = child.starts()
+    code = cli.main(["rank", str(files / "walk.fbx"), str(folder), "--json", "--no-cache", "--no-progress"])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    assert child.starts() - before == 1  # the query and 4 library files: one start-up
+    rows = json.loads(out.out)["results"]
+    assert len(rows) == 5 and {r["clip"] for r in rows[:4]} == {"walk_0", "walk_1", "walk_2", "07_01"}
+    by_clip = {r["clip"]: r for r in rows}
+    assert by_clip["walk_short"]["action"] == "walk_short" and by_clip["walk_0"]["action"] is None
+
+
+def _ascii_fbx(path):
+    path.write_text('; FBX 7.4.0 project file\n; ----------------------------------------------------\n\n'
+                    'FBXHeaderExtension:  {\n\tFBXHeaderVersion: 1003\n\tFBXVersion: 7400\n}\n')
+
+
+def _vrma(path):
+    doc = {"asset": {"version": "2.0"}, "extensionsUsed": ["VRMC_vrm_animation"], "nodes": [{"name": "hips"}]}
+    data = json.dumps(doc).encode()
+    data += b" " * (-len(data) % 4)
+    path.write_bytes(b"glTF" + struct.pack("<II", 2, 20 + len(data)) + struct.pack("<II", len(data), 0x4E4F534A)
+                     + data)
+
+
+def _glb_with(path, source, edit):
+    """A copy of the GLB ``source`` whose JSON is changed by ``edit(doc)`` (the binary chunk kept)."""
+    raw = source.read_bytes()
+    n = struct.unpack("<I", raw[12:16])[0]
+    doc = json.loads(raw[20:20 + n])
+    edit(doc)
+    data = json.dumps(doc).encode()
+    data += b" " * (-len(data) % 4)
+    rest = raw[20 + n:]
+    path.write_bytes(b"glTF" + struct.pack("<II", 2, 20 + len(data) + len(rest))
+                     + struct.pack("<II", len(data), 0x4E4F534A) + data + rest)
+
+
+def _huge_count(doc):
+    doc["accessors"][doc["animations"][0]["samplers"][0]["input"]].update(count=2 ** 31, min=None, max=None)
+
+
+@pytest.mark.parametrize("case, expected", [
+    ("ascii.fbx", "ASCII FBX file.*re-save it as binary FBX"),
+    ("test.vrma", "VRM animation"),
+    ("truncated.fbx", "FBX"),
+    ("magic.fbx", "not an FBX file"),
+    ("magic.glb", "not a GLB file"),
+    ("truncated.glb", "truncated GLB file"),
+    ("count.glb", "reaches past its buffer"),
+    ("count.fbx", "damaged FBX file: a record's lengths do not fit"),
+    ("json.gltf", "its JSON cannot be read"),
+])
+def test_bad_files_are_one_line(files, tmp_path, case, expected):
+    path = tmp_path / case
+    fbx, glb = (files / "walk.fbx").read_bytes(), (files / "walk.glb").read_bytes()
+    makers = {
+        "ascii.fbx": lambda: _ascii_fbx(path), "test.vrma": lambda: _vrma(path),
+        "truncated.fbx": lambda: path.write_bytes(fbx[:len(fbx) // 2]),
+        "magic.fbx": lambda: path.write_bytes(b"\x00\xffnot fbx" + fbx[9:]),
+        "magic.glb": lambda: path.write_bytes(b"gltf" + glb[4:]),
+        "truncated.glb": lambda: path.write_bytes(glb[:len(glb) // 3]),
+        "count.glb": lambda: _glb_with(path, files / "walk.glb", _huge_count),
+        # the first record's property count made huge: Blender's parser would allocate it before reading
+        "count.fbx": lambda: path.write_bytes(fbx[:31] + struct.pack("<I", 2 ** 31) + fbx[35:]),
+        "json.gltf": lambda: path.write_text('{"asset": {"version": "2.0"}, "animations": ['),
+    }
+    makers[case]()
+    with pytest.raises(ParseError, match=expected) as info:
+        sources.read(str(path))
+    assert "\n" not in str(info.value) and str(path) in str(info.value)
+
+
+def test_a_crashing_importer_is_one_line_and_the_next_file_reads(files, monkeypatch):
+    crash = "import os, signal; os.kill(os.getpid(), signal.SIGSEGV)"
+    child.close()
+    with monkeypatch.context() as m:
+        m.setattr(child, "child_command", lambda script, args: [sys.executable, "-c", crash])
+        with pytest.raises(ParseError, match="Blender crashed reading it") as info:
+            sources.read(str(files / "walk.fbx"))
+    assert "\n" not in str(info.value) and "walk.fbx" in str(info.value)
+    assert sources.read(str(files / "walk.fbx"))[0].name == "walk"  # a new child for the next file
+    child.close()
+
+
+def test_reading_leaves_the_open_file_as_it_was(files):
+    """In this process (what the child runs): the import's objects, actions and scene rate are gone after."""
+    from blender_shapesig.readers.interchange import read_interchange_here
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    before = ({o.name for o in bpy.data.objects}, {a.name for a in bpy.data.actions}, scene.render.fps)
+    clips = read_interchange_here(str(files / "walk.glb"))
+    assert sorted(c.meta["animation"] for c in clips) == ["07_01", "walk_short"]
+    assert ({o.name for o in bpy.data.objects}, {a.name for a in bpy.data.actions}, scene.render.fps) == before
+    assert os.path.isfile(files / "walk.glb")
+
+
+def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, empty_file, tmp_path, monkeypatch):
+    """Find Similar with a clip folder of an FBX and a GLB (three clips): indexed step by step (the modal job's
+    progress), every clip ranked, one child start-up for the folder."""
+    from blender_shapesig import library
+    from blender_shapesig.core import index as search
+
+    monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
+    library.CACHES.clear()
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    shutil.copy(files / "walk.fbx", folder / "walk.fbx")
+    shutil.copy(files / "walk.glb", folder / "walk.glb")
+    bpy.ops.import_anim.bvh(filepath=str(BVH), rotate_mode="NATIVE", frame_start=1, use_fps_scale=False,
+                            update_scene_fps=False, update_scene_duration=False)
+    s = bpy.context.scene.shapesig
+    s.use_file_actions, s.use_folders, s.folders, s.fps = False, True, str(folder), 120.0
+    child.close()
+    before = child.starts()
+    job = library.RankJob(bpy.context, s)
+    steps = 0
+    while not job.step():
+        steps += 1
+    job.store()
+    assert steps >= 2 and child.starts() - before == 1
+    rows = bpy.context.window_manager.shapesig_results.results
+    assert sorted(r.name for r in rows) == ["07_01", "walk", "walk_short"]
+    library.CACHES.clear()
