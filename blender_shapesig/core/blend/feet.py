@@ -167,38 +167,45 @@ def blend_contacts(blend, sources, contacts, times, pos=None, unit=1.0):
 
 # ------------------------------------------------------------------------------------------------ planting
 
+def _ease(x):
+    """Smoothstep of ``x`` clipped to [0, 1]: 0 and 1 with zero slope at both ends."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
 def _ramped(mask, fps):
-    """(weight, interval id) per frame: 1 on each run of ``mask``, ramping linearly to 0 over RAMP seconds outside
-    it; the id is the run with the largest weight (-1 where none)."""
+    """[(a, b, weight)] per run a..b of ``mask``: the weight (frames,) is 1 on the run and eases to 0 over RAMP
+    seconds outside it (smoothstep, so the correction starts and ends without a kink)."""
     n = len(mask)
     ramp = max(RAMP * fps, 1.0)
-    weight, owner = np.zeros(n), np.full(n, -1)
     frames = np.arange(n)
-    for k, (a, b) in enumerate(_runs(mask)):
+    out = []
+    for a, b in _runs(mask):
         dist = np.maximum(np.maximum(a - frames, frames - b), 0)
-        w = np.clip(1.0 - dist / ramp, 0.0, 1.0)
-        better = w > weight
-        weight[better], owner[better] = w[better], k
-    return weight, owner
+        out.append((a, b, _ease(1.0 - dist / ramp)))
+    return out
 
 
 def _ankle_offsets(mask_of, pos, fps, slide):
     """(offset (frames, 3), weight (frames,)): how far the ankle must move, from the heel's and the ball's pins
     (step 3). On a contact run a..b a point's goal is its pin (mean blended position over the run) plus
     ``slide(point, a, b)``, the sources' weighted slide there; its offset is goal - position (the foot's orientation
-    is kept, so the ball's offset moves the ankle as much). Outside the run the offset at its end fades out
-    linearly over RAMP seconds. The two points' offsets are averaged with their weights."""
+    is kept, so the ball's offset moves the ankle as much). Outside the run the offset at its end fades out over
+    RAMP seconds (``_ramped``). Where two runs' ramps overlap their offsets are averaged with their weights (a
+    continuous target: switching from one run's offset to the next would throw the leg), and so are the two
+    points'."""
     n = len(pos["heel"])
     frames = np.arange(n)
     weights, offsets = {}, {}
     for point in POINTS:
-        weights[point], owner = _ramped(mask_of[point], fps)
-        offsets[point] = np.zeros((n, 3))
-        for k, (a, b) in enumerate(_runs(mask_of[point])):
+        total, acc = np.zeros(n), np.zeros((n, 3))
+        for a, b, w in _ramped(mask_of[point], fps):
             inside = pos[point][a:b + 1]
             off = inside.mean(axis=0) + slide(point, a, b) - inside
-            here = owner == k
-            offsets[point][here] = off[np.clip(frames[here], a, b) - a]
+            acc += w[:, None] * off[np.clip(frames, a, b) - a]
+            total += w
+        offsets[point] = acc / np.maximum(total, 1e-12)[:, None]
+        weights[point] = np.minimum(total, 1.0)
     wb, wh = weights["ball"], weights["heel"]
     total = wh + wb
     offset = (wh[:, None] * offsets["heel"] + wb[:, None] * offsets["ball"]) / np.maximum(total, 1e-12)[:, None]
@@ -276,26 +283,34 @@ class _Source:
         return np.stack([np.interp(self.frame, x, flat[:, i]) for i in range(flat.shape[1])], axis=1)
 
     def slide(self, side, point, a, b, unit_to, up_to, yaw_to):
-        """This source's slide of a point over blended frames a..b: its held positions (``_held``) minus their
-        mean, turned into the blend's heading (``yaw_to``, mean over a..b) and units."""
-        p = self.at(_held(self.pos[side][point], self.contacts[side][point]))[a:b + 1]
+        """This source's slide of a point over blended frames a..b: its positions during the one contact of its own
+        that overlaps its frames there the most (held at that contact's ends outside it, ``_held``) minus their
+        mean, turned into the blend's heading (``yaw_to``, mean over a..b) and units; zero when none overlaps."""
+        frame = self.frame[a:b + 1]
+        p = _held(self.pos[side][point], self.contacts[side][point], frame)
+        if p is None:
+            return np.zeros((b - a + 1, 3))
         yaw = self.at(self.yaw)[a:b + 1, 0]
         r = (p - p.mean(axis=0)) * (self.unit / unit_to)
         delta = np.angle(np.mean(np.exp(1j * (yaw_to - yaw))))
         return so3.turn(r, up_to, delta)
 
 
-def _held(p, mask):
-    """Positions p (frames, 3) held at the nearest contact frame of ``mask`` where the point is not in contact (a
-    source whose foot is already lifted while the blend's is planted adds no slide); p without contacts."""
-    idx = np.flatnonzero(mask)
-    if not len(idx):
-        return p
-    k = np.arange(len(p))
-    j = np.clip(np.searchsorted(idx, k), 1, len(idx) - 1) if len(idx) > 1 else np.zeros(len(p), dtype=int)
-    if len(idx) > 1:
-        j = np.where(np.abs(idx[j - 1] - k) <= np.abs(idx[j] - k), j - 1, j)
-    return p[idx[j]]
+def _held(p, mask, frame):
+    """Positions p (frames, 3) at the fractional ``frame`` values, each clamped to the contact run of ``mask`` that
+    overlaps ``frame``'s span the most (a source whose foot is lifted while the blend's is planted adds no slide
+    there; one run only, so the positions never jump from one footprint to the next); None if no run overlaps."""
+    lo, hi = float(frame.min()), float(frame.max())
+    best, most = None, -1.0
+    for s, e in _runs(mask):
+        overlap = min(hi, e) - max(lo, s)
+        if overlap >= 0 and overlap > most:
+            best, most = (s, e), overlap
+    if best is None:
+        return None
+    f = np.clip(frame, *best)
+    x = np.arange(len(p))
+    return np.stack([np.interp(f, x, p[:, i]) for i in range(p.shape[1])], axis=1)
 
 
 def stance_drift(positions, mask):
