@@ -20,7 +20,7 @@ from ..clip.skeleton import (
 
 __all__ = ["FEET_MODES", "lock_feet", "find_contacts", "legs_of", "source_times", "blend_contacts", "intervals",
            "stance_drift", "source_drifts", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
-           "SOFT_REACH", "MAX_LOWER", "POINTS"]
+           "SOFT_REACH", "FADE_REACH", "MAX_LOWER", "POINTS"]
 
 FEET_MODES = ("lock", "none")
 POINTS = ("heel", "ball")
@@ -33,6 +33,8 @@ MIN_GAP = 0.05          # s: shorter gaps between contacts are filled
 RAMP = 0.1              # s: the IK correction fades in/out over this time outside each contact
 MAX_LOWER = 0.08        # the root goes down at most this fraction of the leg (beyond, the foot lets go)
 SOFT_REACH = 0.97       # a leg stretched beyond this fraction (and beyond its blended stretch) straightens softly
+FADE_REACH = 1.0        # a lock asking more of the leg than this fraction (and than its blended stretch) fades out
+FADE_SPAN = 0.08        # ... over this fraction of the leg
 
 
 # ------------------------------------------------------------------------------------------------ legs
@@ -353,6 +355,18 @@ def _working_clip(blend, sources):
     return replace(blend, meta=meta)
 
 
+def _reach_fade(hip, desired, current, length, fps):
+    """(frames,) the weight of a leg's correction: 1 while the target is within the larger of FADE_REACH of the
+    leg's ``length`` and the blended leg's own hip-ankle distance, easing to 0 as the target's distance nears
+    ``length`` (a foot the leg cannot reach lets go instead of throwing the leg straight), then eased in time: a
+    running minimum over RAMP, smoothed over RAMP, so the lock fades over a few frames before and after."""
+    reach = np.linalg.norm(desired - hip, axis=1)
+    start = np.maximum(FADE_REACH * length, np.linalg.norm(current - hip, axis=1))
+    fade = 1.0 - _ease((reach - start) / (FADE_SPAN * length))
+    k = max(1, int(round(RAMP * fps))) | 1
+    return uniform_filter1d(minimum_filter1d(fade, k, mode="nearest"), k, mode="nearest")
+
+
 def _lower_root(hips, desired, current, lengths, up):
     """(frames,) how far the root must go down (along ``up``) so every leg reaches its target: never asking a leg to
     stretch beyond SOFT_REACH of its length or beyond what it already is in the blend."""
@@ -415,7 +429,11 @@ def lock_feet(blend, sources):
             root = root - np.outer(lowered, up)
             heads = heads - np.outer(lowered, up)[:, None]
     for side in desired:
-        _ik_leg(X, W, heads, rest, legs[side], desired[side])
+        fade = _reach_fade(heads[:, legs[side][0]], desired[side], pos[side]["heel"] - np.outer(lowered, up),
+                           lengths[side], work.fps)
+        target = pos[side]["heel"] - np.outer(lowered, up)
+        target = target + fade[:, None] * (desired[side] - target)
+        _ik_leg(X, W, heads, rest, legs[side], target)
     rotations = from_aligned(work, X)
     rt = work.root_translation if root is None else root_translation_from_heads(work, rest, root)
     out = replace(blend, rotations=rotations, root_translation=rt)
