@@ -11,6 +11,7 @@ import numpy as np
 from scipy.ndimage import minimum_filter1d, uniform_filter1d
 
 from ..geometry import so3
+from ..geometry.curves import geodesic_interpolate, uniform_times
 from ..errors import ShapeSigError
 from ..rigs import resolve_map
 from ..clip.skeleton import (
@@ -19,7 +20,7 @@ from ..clip.skeleton import (
 )
 
 __all__ = ["FEET_MODES", "lock_feet", "find_contacts", "legs_of", "source_times", "blend_contacts", "intervals",
-           "stance_drift", "source_drifts", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
+           "stance_drift", "source_drifts", "rotation_steps", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
            "SOFT_REACH", "FADE_REACH", "MAX_LOWER", "POINTS"]
 
 FEET_MODES = ("lock", "none")
@@ -333,6 +334,20 @@ def source_drifts(clip):
     pos = feet_positions(clip, legs, fk)
     unit = unit_meters(clip, [(t, f) for t, _s, f in legs.values()])
     return [d * unit for side in contacts for p in POINTS for d in stance_drift(pos[side][p], contacts[side][p])]
+
+
+def rotation_steps(blend, sources):
+    """(blend, sources): the largest per-frame rotation angle (degrees) of any bone in the blend, and in the faster
+    of the sources, each sampled at its times in the blend (``source_times``: time-aligned; any rig). The no-pops
+    criterion: blend <= sources + 5."""
+    def largest(R):
+        return float(np.degrees(np.linalg.norm(so3.relative_rotvecs(R), axis=-1).max()))
+
+    src = 0.0
+    for clip, t in zip(sources, source_times(blend, sources)):
+        x = np.clip(np.asarray(t) * clip.fps / max(clip.frames - 1, 1), 0.0, 1.0)
+        src = max(src, largest(geodesic_interpolate(clip.rotations, uniform_times(clip.frames), x)))
+    return largest(blend.rotations), src
 
 
 def _working_clip(blend, sources):
