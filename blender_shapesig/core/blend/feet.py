@@ -11,6 +11,7 @@ import numpy as np
 from scipy.ndimage import minimum_filter1d, uniform_filter1d
 
 from ..geometry import so3
+from ..geometry.curves import geodesic_interpolate, uniform_times
 from ..errors import ShapeSigError
 from ..rigs import resolve_map
 from ..clip.skeleton import (
@@ -19,8 +20,8 @@ from ..clip.skeleton import (
 )
 
 __all__ = ["FEET_MODES", "lock_feet", "find_contacts", "legs_of", "source_times", "blend_contacts", "intervals",
-           "stance_drift", "source_drifts", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
-           "SOFT_REACH", "MAX_LOWER", "POINTS"]
+           "stance_drift", "source_drifts", "rotation_steps", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
+           "SOFT_REACH", "FADE_REACH", "MAX_LOWER", "POINTS"]
 
 FEET_MODES = ("lock", "none")
 POINTS = ("heel", "ball")
@@ -33,6 +34,8 @@ MIN_GAP = 0.05          # s: shorter gaps between contacts are filled
 RAMP = 0.1              # s: the IK correction fades in/out over this time outside each contact
 MAX_LOWER = 0.08        # the root goes down at most this fraction of the leg (beyond, the foot lets go)
 SOFT_REACH = 0.97       # a leg stretched beyond this fraction (and beyond its blended stretch) straightens softly
+FADE_REACH = 1.0        # a lock asking more of the leg than this fraction (and than its blended stretch) fades out
+FADE_SPAN = 0.08        # ... over this fraction of the leg
 
 
 # ------------------------------------------------------------------------------------------------ legs
@@ -167,38 +170,45 @@ def blend_contacts(blend, sources, contacts, times, pos=None, unit=1.0):
 
 # ------------------------------------------------------------------------------------------------ planting
 
+def _ease(x):
+    """Smoothstep of ``x`` clipped to [0, 1]: 0 and 1 with zero slope at both ends."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
 def _ramped(mask, fps):
-    """(weight, interval id) per frame: 1 on each run of ``mask``, ramping linearly to 0 over RAMP seconds outside
-    it; the id is the run with the largest weight (-1 where none)."""
+    """[(a, b, weight)] per run a..b of ``mask``: the weight (frames,) is 1 on the run and eases to 0 over RAMP
+    seconds outside it (smoothstep, so the correction starts and ends without a kink)."""
     n = len(mask)
     ramp = max(RAMP * fps, 1.0)
-    weight, owner = np.zeros(n), np.full(n, -1)
     frames = np.arange(n)
-    for k, (a, b) in enumerate(_runs(mask)):
+    out = []
+    for a, b in _runs(mask):
         dist = np.maximum(np.maximum(a - frames, frames - b), 0)
-        w = np.clip(1.0 - dist / ramp, 0.0, 1.0)
-        better = w > weight
-        weight[better], owner[better] = w[better], k
-    return weight, owner
+        out.append((a, b, _ease(1.0 - dist / ramp)))
+    return out
 
 
 def _ankle_offsets(mask_of, pos, fps, slide):
     """(offset (frames, 3), weight (frames,)): how far the ankle must move, from the heel's and the ball's pins
     (step 3). On a contact run a..b a point's goal is its pin (mean blended position over the run) plus
     ``slide(point, a, b)``, the sources' weighted slide there; its offset is goal - position (the foot's orientation
-    is kept, so the ball's offset moves the ankle as much). Outside the run the offset at its end fades out
-    linearly over RAMP seconds. The two points' offsets are averaged with their weights."""
+    is kept, so the ball's offset moves the ankle as much). Outside the run the offset at its end fades out over
+    RAMP seconds (``_ramped``). Where two runs' ramps overlap their offsets are averaged with their weights (a
+    continuous target: switching from one run's offset to the next would throw the leg), and so are the two
+    points'."""
     n = len(pos["heel"])
     frames = np.arange(n)
     weights, offsets = {}, {}
     for point in POINTS:
-        weights[point], owner = _ramped(mask_of[point], fps)
-        offsets[point] = np.zeros((n, 3))
-        for k, (a, b) in enumerate(_runs(mask_of[point])):
+        total, acc = np.zeros(n), np.zeros((n, 3))
+        for a, b, w in _ramped(mask_of[point], fps):
             inside = pos[point][a:b + 1]
             off = inside.mean(axis=0) + slide(point, a, b) - inside
-            here = owner == k
-            offsets[point][here] = off[np.clip(frames[here], a, b) - a]
+            acc += w[:, None] * off[np.clip(frames, a, b) - a]
+            total += w
+        offsets[point] = acc / np.maximum(total, 1e-12)[:, None]
+        weights[point] = np.minimum(total, 1.0)
     wb, wh = weights["ball"], weights["heel"]
     total = wh + wb
     offset = (wh[:, None] * offsets["heel"] + wb[:, None] * offsets["ball"]) / np.maximum(total, 1e-12)[:, None]
@@ -276,26 +286,34 @@ class _Source:
         return np.stack([np.interp(self.frame, x, flat[:, i]) for i in range(flat.shape[1])], axis=1)
 
     def slide(self, side, point, a, b, unit_to, up_to, yaw_to):
-        """This source's slide of a point over blended frames a..b: its held positions (``_held``) minus their
-        mean, turned into the blend's heading (``yaw_to``, mean over a..b) and units."""
-        p = self.at(_held(self.pos[side][point], self.contacts[side][point]))[a:b + 1]
+        """This source's slide of a point over blended frames a..b: its positions during the one contact of its own
+        that overlaps its frames there the most (held at that contact's ends outside it, ``_held``) minus their
+        mean, turned into the blend's heading (``yaw_to``, mean over a..b) and units; zero when none overlaps."""
+        frame = self.frame[a:b + 1]
+        p = _held(self.pos[side][point], self.contacts[side][point], frame)
+        if p is None:
+            return np.zeros((b - a + 1, 3))
         yaw = self.at(self.yaw)[a:b + 1, 0]
         r = (p - p.mean(axis=0)) * (self.unit / unit_to)
         delta = np.angle(np.mean(np.exp(1j * (yaw_to - yaw))))
         return so3.turn(r, up_to, delta)
 
 
-def _held(p, mask):
-    """Positions p (frames, 3) held at the nearest contact frame of ``mask`` where the point is not in contact (a
-    source whose foot is already lifted while the blend's is planted adds no slide); p without contacts."""
-    idx = np.flatnonzero(mask)
-    if not len(idx):
-        return p
-    k = np.arange(len(p))
-    j = np.clip(np.searchsorted(idx, k), 1, len(idx) - 1) if len(idx) > 1 else np.zeros(len(p), dtype=int)
-    if len(idx) > 1:
-        j = np.where(np.abs(idx[j - 1] - k) <= np.abs(idx[j] - k), j - 1, j)
-    return p[idx[j]]
+def _held(p, mask, frame):
+    """Positions p (frames, 3) at the fractional ``frame`` values, each clamped to the contact run of ``mask`` that
+    overlaps ``frame``'s span the most (a source whose foot is lifted while the blend's is planted adds no slide
+    there; one run only, so the positions never jump from one footprint to the next); None if no run overlaps."""
+    lo, hi = float(frame.min()), float(frame.max())
+    best, most = None, -1.0
+    for s, e in _runs(mask):
+        overlap = min(hi, e) - max(lo, s)
+        if overlap >= 0 and overlap > most:
+            best, most = (s, e), overlap
+    if best is None:
+        return None
+    f = np.clip(frame, *best)
+    x = np.arange(len(p))
+    return np.stack([np.interp(f, x, p[:, i]) for i in range(p.shape[1])], axis=1)
 
 
 def stance_drift(positions, mask):
@@ -318,6 +336,20 @@ def source_drifts(clip):
     return [d * unit for side in contacts for p in POINTS for d in stance_drift(pos[side][p], contacts[side][p])]
 
 
+def rotation_steps(blend, sources):
+    """(blend, sources): the largest per-frame rotation angle (degrees) of any bone in the blend, and in the faster
+    of the sources, each sampled at its times in the blend (``source_times``: time-aligned; any rig). The no-pops
+    criterion: blend <= sources + 5."""
+    def largest(R):
+        return float(np.degrees(np.linalg.norm(so3.relative_rotvecs(R), axis=-1).max()))
+
+    src = 0.0
+    for clip, t in zip(sources, source_times(blend, sources)):
+        x = np.clip(np.asarray(t) * clip.fps / max(clip.frames - 1, 1), 0.0, 1.0)
+        src = max(src, largest(geodesic_interpolate(clip.rotations, uniform_times(clip.frames), x)))
+    return largest(blend.rotations), src
+
+
 def _working_clip(blend, sources):
     """The blend with its rig's skeleton meta (the first source's, unless the blend carries one)."""
     if not sources:
@@ -336,6 +368,18 @@ def _working_clip(blend, sources):
     if "up_axis" in rig.meta:
         meta["up_axis"] = rig.meta["up_axis"]
     return replace(blend, meta=meta)
+
+
+def _reach_fade(hip, desired, current, length, fps):
+    """(frames,) the weight of a leg's correction: 1 while the target is within the larger of FADE_REACH of the
+    leg's ``length`` and the blended leg's own hip-ankle distance, easing to 0 as the target's distance nears
+    ``length`` (a foot the leg cannot reach lets go instead of throwing the leg straight), then eased in time: a
+    running minimum over RAMP, smoothed over RAMP, so the lock fades over a few frames before and after."""
+    reach = np.linalg.norm(desired - hip, axis=1)
+    start = np.maximum(FADE_REACH * length, np.linalg.norm(current - hip, axis=1))
+    fade = 1.0 - _ease((reach - start) / (FADE_SPAN * length))
+    k = max(1, int(round(RAMP * fps))) | 1
+    return uniform_filter1d(minimum_filter1d(fade, k, mode="nearest"), k, mode="nearest")
 
 
 def _lower_root(hips, desired, current, lengths, up):
@@ -400,7 +444,11 @@ def lock_feet(blend, sources):
             root = root - np.outer(lowered, up)
             heads = heads - np.outer(lowered, up)[:, None]
     for side in desired:
-        _ik_leg(X, W, heads, rest, legs[side], desired[side])
+        fade = _reach_fade(heads[:, legs[side][0]], desired[side], pos[side]["heel"] - np.outer(lowered, up),
+                           lengths[side], work.fps)
+        target = pos[side]["heel"] - np.outer(lowered, up)
+        target = target + fade[:, None] * (desired[side] - target)
+        _ik_leg(X, W, heads, rest, legs[side], target)
     rotations = from_aligned(work, X)
     rt = work.root_translation if root is None else root_translation_from_heads(work, rest, root)
     out = replace(blend, rotations=rotations, root_translation=rt)

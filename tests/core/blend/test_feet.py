@@ -178,3 +178,79 @@ def test_pose_space_gives_the_same_planted_feet():
     pose_planted, _ = feet.lock_feet(to_pose(blend), [to_pose(a), to_pose(b)])
     assert np.abs(pose_planted.rotations - to_pose(planted).rotations).max() < 1e-9
     assert np.abs(pose_planted.root_translation - to_pose(planted).root_translation).max() < 1e-9
+
+
+# ------------------------------------------------------------------------------------------------ no pops
+
+def _whole(name, asf):
+    return load_acclaim(ACC / name, ACC / asf, axes="blender")
+
+
+@pytest.mark.parametrize("w", [0.25, 0.5, 0.75])
+def test_whole_takes_locked_without_pops(w):
+    """Issue 31: AMC 07_01 x 09_02 whole takes at 0.5 threw the left femur 36.5 and 60.7 degrees in a frame."""
+    from blender_shapesig.core.blend import make_blends
+
+    a, b = _whole("07_01.amc", "07-walk.asf"), _whole("09_02.amc", "09-run.asf")
+    (locked,), info = make_blends([a, b], [[1 - w, w]], feet="lock")
+    step, source = feet.rotation_steps(locked, [a, b])
+    assert 5.0 < source < 30.0
+    assert step <= source + 5.0
+    # and the lock still plants: the stance drifts after are below those before
+    before, after = _drifts(info["feet"][0], "drift_before"), _drifts(info["feet"][0], "drift_after")
+    assert np.median(after) < np.median(before)
+
+
+def test_rotation_steps_of_a_clip_against_itself_are_equal():
+    a = walk()
+    blend = blend_clips(a, a, 0.5, align=False)
+    step, source = feet.rotation_steps(blend, [a, a])
+    assert abs(step - source) < 1e-6
+    # a quarter turn of one bone in one frame is 90 degrees
+    R = blend.rotations.copy()
+    R[40:, 3] = np.array([[1.0, 0, 0], [0, 0, -1], [0, 1, 0]]) @ R[40:, 3]
+    from dataclasses import replace
+
+    assert abs(feet.rotation_steps(replace(blend, rotations=R), [a, a])[0] - 90.0) < source + 1e-6
+
+
+def test_overlapping_ramps_give_a_continuous_offset():
+    """Two contacts closer than two ramps: the offset is their weighted mean, never a switch from one to the other."""
+    n, fps = 60, 120.0
+    mask = np.zeros(n, bool)
+    mask[5:15] = mask[25:40] = True
+    pos = {p: np.zeros((n, 3)) for p in feet.POINTS}
+    pos["heel"][:, 0] = pos["ball"][:, 0] = np.linspace(0.0, 0.6, n)  # a sliding foot: each run pins elsewhere
+
+    def slide(point, a, b):
+        return np.zeros((b - a + 1, 3))
+
+    offset, weight = feet._ankle_offsets({"heel": mask, "ball": mask}, pos, fps, slide)
+    target = pos["heel"] + weight[:, None] * offset
+    jumps = np.linalg.norm(np.diff(target, axis=0), axis=1)
+    assert jumps.max() < 3 * 0.6 / n  # at most a few times the foot's own step (the old switch jumped ~0.1 m)
+    # each run holds its pin (its last frames lean a few mm to the next run's ramp, continuous by design)
+    assert np.allclose(target[5:13, 0], target[5, 0]) and np.allclose(target[27:40, 0], target[39, 0])
+    assert np.abs(target[5:15, 0] - target[5, 0]).max() < 0.005
+    assert weight[0] > 0 and weight[20] > 0 and np.all(weight[5:15] == 1)
+
+
+def test_held_keeps_one_footprint():
+    p = np.zeros((100, 3))
+    p[:, 0] = np.arange(100.0)
+    mask = np.zeros(100, bool)
+    mask[10:20] = mask[60:80] = True
+    held = feet._held(p, mask, np.linspace(15.0, 50.0, 30))  # overlaps the first footprint only
+    assert np.allclose(held[:, 0], np.clip(np.linspace(15.0, 50.0, 30), 10, 19))
+    assert feet._held(p, mask, np.linspace(30.0, 50.0, 5)) is None  # no contact of its own there: no slide
+
+
+def test_reach_fade_lets_go_beyond_the_leg():
+    n = 40
+    hip = np.zeros((n, 3))
+    current = np.tile([0.0, 0.0, -0.8], (n, 1))
+    desired = current.copy()
+    desired[20:, 2] = -1.2  # half a metre beyond a 0.9 m leg
+    fade = feet._reach_fade(hip, desired, current, 0.9, 120.0)
+    assert np.allclose(fade[:5], 1.0) and np.allclose(fade[-5:], 0.0)
+    assert np.abs(np.diff(fade)).max() < 0.2  # eased over several frames
