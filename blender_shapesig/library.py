@@ -457,7 +457,8 @@ def store_results(settings, results, items, query_name, order_by="sim^3", query_
         row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
         row.is_action, row.spec, row.target, row.written = is_action, spec, target, ""
         row.source = name if is_action else spec
-        row.coverage = min(r.shared / query_bones, 1.0) if query_bones else 0.0
+        row.coverage = getattr(r, "coverage", 1.0)  # joints compared / joints both rigs have (core.rigs)
+        row.unmapped = ", ".join(getattr(r, "unmapped", ()))
         # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
         row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
         row.window_action = ""

@@ -54,7 +54,8 @@ class ShapeSigResult(bpy.types.PropertyGroup):
     frames: IntProperty(name="Frames")
     shared: IntProperty(name="Shared Bones")
     partial: BoolProperty(name="Partial Match", default=False,
-                          description="Shares few of the query's moving bones: compared on those only, ranked "
+                          description="Shares few of the query's moving bones, or compares under half of the "
+                                      "joints (or arms and legs) both rigs have: compared on those only, ranked "
                                       "after the whole-body matches")
     is_action: BoolProperty(name="Action In File", description="The result is an action of this file",
                             default=True)
@@ -65,8 +66,10 @@ class ShapeSigResult(bpy.types.PropertyGroup):
                           "action for a .blend, and as many parent folders as tell two files apart)")
     spec: StringProperty(name="File", description="The clip file as discovered (FILE.blend#ACTION); empty for "
                          "an action of this file")
-    coverage: FloatProperty(name="Coverage", description="Bones compared / the query's bones",
+    coverage: FloatProperty(name="Coverage", description="Joints compared / the joints both rigs have",
                             precision=2)
+    unmapped: StringProperty(name="Unmapped", description="Joints both rigs have that were not compared "
+                             "(comma-separated)")
     frame_first: IntProperty(name="First Frame", description="First frame of the matched clip or window")
     frame_last: IntProperty(name="Last Frame", description="Last frame of the matched clip or window")
     # moments and explanations

@@ -12,7 +12,7 @@ from typing import Dict, List, Optional, Tuple, Union
 from .core import rigs
 from .core.errors import ShapeSigError
 
-__all__ = ["PROP", "armature_parents", "detect_armature_map", "stored_map", "store_map", "clear_map",
+__all__ = ["PROP", "armature_parents", "armature_report", "unmapped_joints", "detect_armature_map", "stored_map", "store_map", "clear_map",
            "armature_map", "rows", "export_map", "import_map", "saved_maps", "best_saved_map", "skipped_maps",
            "map_digest", "bone_map_of", "maps_folder", "set_joint", "import_saved", "MIN_PICKED", "across_rigs", "onto_comparison",
            "back_onto_armature"]
@@ -34,10 +34,27 @@ def armature_parents(obj) -> Dict[str, Optional[str]]:
     return {b.name: (b.parent.name if b.parent else None) for b in _armature_data(obj).bones}
 
 
+def armature_report(obj) -> rigs.RigReport:
+    """``core.rigs.analyse_rig`` of the armature: its bone names, hierarchy and rest pose (every bone's
+    ``head_local``/``tail_local``, in the armature's space), so sides come from the rest pose as for files."""
+    bones = _armature_data(obj).bones
+    parents = {b.name: (b.parent.name if b.parent else None) for b in bones}
+    heads = {b.name: tuple(b.head_local) for b in bones}
+    tails = {b.name: tuple(b.tail_local) for b in bones}
+    return rigs.analyse_rig(list(parents), parents, heads, tails)
+
+
 def detect_armature_map(obj) -> Dict[str, str]:
-    """The automatic map of the armature's bones (``core.rigs.detect_map``)."""
-    parents = armature_parents(obj)
-    return rigs.detect_map(list(parents), parents)
+    """The automatic map of the armature's bones (``armature_report``: names, hierarchy and rest pose)."""
+    return armature_report(obj).mapping
+
+
+def unmapped_joints(obj, used: Optional[Dict[str, str]] = None) -> List[str]:
+    """The canonical joints the armature's rig has (``armature_report``) that no bone of the map in use
+    (``used``, default ``armature_map``) is given, in ``rigs.JOINTS`` order."""
+    used = armature_map(obj) if used is None else used
+    has, given = set(armature_report(obj).joints), set(used.values())
+    return [j for j in rigs.JOINTS if j in has and j not in given]
 
 
 def stored_map(obj) -> Optional[Dict[str, str]]:

@@ -142,6 +142,7 @@ def run(args):
         trim = trimmed_range(r.trimmed)  # trim: the frames compared (null: the whole clip); trimmed: [head, tail]
         rows.append({"clip": r.name, "distance": c.finite(r.distance), "elastic": c.finite(r.elastic),
                      "path": path, "action": action, "coverage": r.coverage,
+                     "unmapped": list(r.unmapped), "partial": bool(r.partial),
                      "trim": trim["frames"], "trimmed": trim["cut"]})
         if r.start is not None:
             rows[-1].update(start=r.start, end=r.end)

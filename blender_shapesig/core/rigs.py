@@ -22,6 +22,7 @@ from .rig_names import BODY, CANONICAL_PARENTS, FAMILIES, JOINTS, LIMBS, SIDES, 
 __all__ = [
     "JOINTS", "BODY", "LIMBS", "SIDES", "FAMILIES", "BONE_MAP_MODES", "strip_prefix", "detect_map", "detect_family",
     "analyse_rig", "analyse_clip", "RigReport", "LIMB_CHAINS", "chains_covered", "joint_coverage", "coverage_report",
+    "coverage_from", "below_minimum",
     "check_map", "parse_map", "load_map", "save_map", "map_json", "MAX_MAP_BYTES", "resolve_map", "world_rotations", "heading",
     "to_comparison_space", "rest_retarget", "rests_differ", "other_rigs", "REST_DEGREES", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
     "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
@@ -435,33 +436,48 @@ def chains_covered(present_a: Iterable[str], present_b: Iterable[str], has_a: It
     return sum(all(j in pa and j in pb for j in LIMB_CHAINS[c]) for c in both), len(both)
 
 
+def coverage_from(bones_a: Iterable[str], still_a: Iterable[str], has_a: Iterable[str], bones_b: Iterable[str],
+                  still_b: Iterable[str], has_b: Iterable[str]) -> dict:
+    """``coverage_report``'s dict from each clip's bones, still bones and canonical joints its rig has (empty:
+    unknown, e.g. a clip read by name): the shared bones that move in either clip, over the canonical joints both
+    rigs have (``joint_coverage``) when both rigs are known, else over the moving bones of the smaller clip."""
+    bones_a, bones_b, has_a, has_b = tuple(bones_a), tuple(bones_b), tuple(has_a or ()), tuple(has_b or ())
+    sa, sb = set(still_a) & set(bones_a), set(still_b) & set(bones_b)
+    in_b = set(bones_b)
+    shared = [x for x in bones_a if x in in_b and not (x in sa and x in sb)]
+    if has_a and has_b:
+        cov, unmapped = joint_coverage(shared, sa & sb, has_a, has_b)
+        chains, total = chains_covered(bones_a, bones_b, has_a, has_b)
+        return {"bones": len(shared), "coverage": cov, "chains": chains, "chains_total": total, "unmapped": unmapped}
+    smaller = min(len(bones_a) - len(sa), len(bones_b) - len(sb))
+    cov = 1.0 if smaller == 0 else min(1.0, len(shared) / smaller)
+    return {"bones": len(shared), "coverage": cov, "chains": 0, "chains_total": 0, "unmapped": []}
+
+
+def below_minimum(got: Mapping) -> str:
+    """Why a ``coverage_report`` dict is below the comparison rule (``MIN_COVERAGE`` of the joints, and of the limb
+    chains both rigs have), as a short phrase; "" when it passes."""
+    if got["coverage"] < MIN_COVERAGE:
+        return f"coverage {got['coverage']:.2f} < {MIN_COVERAGE}"
+    if got["chains_total"] and got["chains"] < MIN_COVERAGE * got["chains_total"]:
+        return f"{got['chains']} of the {got['chains_total']} arms and legs both rigs have compared"
+    return ""
+
+
 def coverage(a: Clip, b: Clip) -> Tuple[int, float]:
     """(joints compared, coverage): the shared bones that move in either clip, over the canonical joints both
     rigs have (``meta["rig_joints"]``, ``joint_coverage``) for mapped clips, else over the moving joints of the
     smaller clip (the one with fewer moving joints); 0..1 (1 when nothing moves)."""
-    still_a, still_b = set(a.still_bones()), set(b.still_bones())
-    shared = [x for x in a.bones if x in set(b.bones) and not (x in still_a and x in still_b)]
-    has_a, has_b = a.meta.get("rig_joints"), b.meta.get("rig_joints")
-    if has_a and has_b:
-        return len(shared), joint_coverage(shared, still_a & still_b, has_a, has_b)[0]
-    smaller = min(moving_count(a), moving_count(b))
-    if smaller == 0:
-        return len(shared), 1.0
-    return len(shared), min(1.0, len(shared) / smaller)
+    got = coverage_report(a, b)
+    return got["bones"], got["coverage"]
 
 
 def coverage_report(a: Clip, b: Clip) -> dict:
-    """``{"bones", "coverage", "chains", "chains_total", "unmapped"}`` of two clips: ``coverage``, the limb chains
-    compared (``chains_covered``) and the canonical joints both rigs have that are not compared."""
-    bones, cov = coverage(a, b)
-    has_a, has_b = a.meta.get("rig_joints"), b.meta.get("rig_joints")
-    if not (has_a and has_b):
-        return {"bones": bones, "coverage": cov, "chains": 0, "chains_total": 0, "unmapped": []}
-    still = set(a.still_bones()) & set(b.still_bones())
-    shared = [x for x in a.bones if x in set(b.bones) and x not in still]
-    _, unmapped = joint_coverage(shared, still, has_a, has_b)
-    chains, total = chains_covered(a.bones, b.bones, has_a, has_b)
-    return {"bones": bones, "coverage": cov, "chains": chains, "chains_total": total, "unmapped": unmapped}
+    """``{"bones", "coverage", "chains", "chains_total", "unmapped"}`` of two clips (``coverage_from``): the
+    coverage, the limb chains compared (``chains_covered``) and the canonical joints both rigs have that are not
+    compared."""
+    return coverage_from(a.bones, a.still_bones(), a.meta.get("rig_joints") or (), b.bones, b.still_bones(),
+                         b.meta.get("rig_joints") or ())
 
 
 def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:

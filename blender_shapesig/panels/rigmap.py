@@ -11,7 +11,7 @@ import bpy
 from .. import library, rigmap
 from ..core.errors import ShapeSigError
 
-__all__ = ["classes", "SHAPESIG_UL_bone_map", "draw_bone_map"]
+__all__ = ["classes", "SHAPESIG_UL_bone_map", "draw_bone_map", "bone_rows", "unmapped_rows"]
 
 # (armature data pointer, map text, maps folder and its mtime, bone names) -> ({bone: (joint in use, detected
 # joint)}, where the map comes from): the list draws one row at a time; detection runs once per armature and map
@@ -31,8 +31,17 @@ def bone_rows(obj):
         used = rigmap.bone_map_of(obj)
         kind = "auto" if used == "auto" else ("stored" if rigmap.PROP in obj.data else "picked")
         _ROWS.clear()
-        got = _ROWS[memo] = ({b: (j, d) for b, j, d in rigmap.rows(obj)}, kind)
-    return got
+        rows = rigmap.rows(obj)
+        unmapped = rigmap.unmapped_joints(obj, {b: j for b, j, _d in rows if j})
+        got = _ROWS[memo] = ({b: (j, d) for b, j, d in rows}, kind, unmapped)
+    return got[:2]
+
+
+def unmapped_rows(obj):
+    """The canonical joints the armature's rig has that its map in use leaves out (``rigmap.unmapped_joints``),
+    memoized with ``bone_rows``."""
+    bone_rows(obj)
+    return next(iter(_ROWS.values()))[2]
 
 
 class SHAPESIG_UL_bone_map(bpy.types.UIList):
@@ -103,6 +112,15 @@ def draw_bone_map(layout, context):
     row.operator("shapesig.bone_map_detect", text="Detect", icon="AUTO")
     row.operator("shapesig.bone_map_clear", text="Clear", icon="X")
     layout.template_list("SHAPESIG_UL_bone_map", "", obj.data, "bones", s, "bone_map_index", rows=8)
+    try:
+        missing = unmapped_rows(obj)
+    except ShapeSigError:  # a corrupt stored map: the status line says so
+        missing = []
+    if missing:  # what comparisons leave out: the rig has these joints, no bone is given them
+        box = layout.column(align=True)
+        box.label(text=f"Unmapped: {len(missing)} joint(s) of this rig", icon="ERROR")
+        for i in range(0, len(missing), 4):
+            box.label(text=", ".join(missing[i:i + 4]))
     row = layout.row(align=True)
     row.operator("shapesig.bone_map_import", text="Import", icon="IMPORT")
     row.operator("shapesig.bone_map_export", text="Export", icon="EXPORT")

@@ -34,7 +34,7 @@ class SHAPESIG_UL_results(bpy.types.UIList):
             split = row.split(factor=0.45)
             # a partial match (few shared bones) is greyed out, with the number of bones it was compared on
             split.active = not item.partial
-            text = (item.label or item.name) + (f" ({item.shared} bones)" if item.partial else "")
+            text = (item.label or item.name) + (f" (partial, {item.coverage:.0%})" if item.partial else "")
             if item.preview_icon:  # the row's picture of key poses, once made (thumbnails.py)
                 split.label(text=text, icon_value=item.preview_icon)
             else:
@@ -208,8 +208,11 @@ def _draw_results(layout, s, res):
         info.label(text=f"sim^{s.level} = {item.distance:.4f}" + (f", d_S* = {item.elastic:.4f}"
                                                                   if item.has_elastic else ""))
     window = f"frames {item.frame_first}-{item.frame_last}" if item.frame_last else f"{item.frames} frames"
-    cover = f" of {res.query_bones} ({item.coverage:.0%})" if res.query_bones else ""
-    info.label(text=f"{window}, compared on {item.shared} bones{cover}")
+    info.label(text=f"{window}, compared on {item.shared} bones ({item.coverage:.0%} of the joints both rigs have)")
+    if item.partial:
+        info.label(text="Partial match: ranked after the whole-body matches", icon="ERROR")
+    if item.unmapped:
+        info.label(text=f"Unmapped: {item.unmapped}", icon="BONE_DATA")
     if item.read_last:  # trimming cut rest-pose / ramp frames: the frames compared and those read
         info.label(text=f"trimmed: frames {item.kept_first}-{item.kept_last} compared of "
                    f"{item.read_first}-{item.read_last} read", icon="INFO")

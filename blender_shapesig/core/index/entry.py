@@ -45,6 +45,8 @@ class IndexEntry:
     trimmed: Tuple[int, ...] = ()
     # frames of the clip as read (its own rate, what results show); ``frames`` counts the prepared curve's samples
     clip_frames: int = 0
+    # the canonical joints the clip's rig has (``rigs.apply_bone_map``: meta["rig_joints"]); () for a clip read by name
+    rig_joints: Tuple[str, ...] = ()
 
     @property
     def nbytes(self):
@@ -54,6 +56,12 @@ class IndexEntry:
     def heavy_nbytes(self):
         """Bytes of the arrays a store may drop from memory (direction and increments)."""
         return self.nbytes - self.sketch.nbytes
+
+    @property
+    def still(self) -> Tuple[str, ...]:
+        """The bones that do not move (those not in ``moving``)."""
+        moving = set(self.moving)
+        return tuple(b for j, b in enumerate(self.bones) if j not in moving)
 
     @property
     def loaded(self):
@@ -93,7 +101,8 @@ def make_entry(clip: Clip, level=DEFAULT_LEVEL, key="") -> IndexEntry:
     return IndexEntry(name=clip.name, bones=tuple(clip.bones), moving=moving, frames=int(R.shape[0]),
                       level=level, norm=norm, direction=direction, increments=inc.astype(np.float32),
                       sketch=sketch(direction, len(clip.bones), moving, level), fps=float(clip.fps),
-                      source=clip.source, key=key, trimmed=trimmed, clip_frames=clip_frames)
+                      source=clip.source, key=key, trimmed=trimmed, clip_frames=clip_frames,
+                      rig_joints=tuple(clip.meta.get("rig_joints") or ()))
 
 
 def entry_distance(a: IndexEntry, b: IndexEntry) -> float:

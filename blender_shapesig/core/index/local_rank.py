@@ -28,7 +28,8 @@ def _entry(clip: Clip, settings) -> dict:
     except ShapeSigError as exc:
         return {"name": clip.name, "refused": error_line(exc)}
     e.update(name=clip.name, frames=int(clip.frames), trimmed=tuple(int(f) for f in trim_record(clip)),
-             bones=len(clip.bones))
+             bones=len(clip.bones), joints=tuple(clip.bones), still=tuple(clip.still_bones()),
+             rig_joints=tuple(clip.meta.get("rig_joints") or ()))
     return e
 
 

@@ -19,11 +19,14 @@ from .local_library import open_library, write_library
 __all__ = ["LOCAL_PACK", "LocalEntries"]
 
 LOCAL_PACK = "local_pack.bin"
+# an entry's joints (the clip's bones), still joints and the canonical joints its rig has: its rows' coverage
+_JOINT_LISTS = ("joints", "still", "rig_joints")
 
 
 def _meta(e):
     return {"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
-            "bones": int(e.get("bones", 0)), "trimmed": list(e.get("trimmed", ()))}
+            "bones": int(e.get("bones", 0)), "trimmed": list(e.get("trimmed", ())),
+            **{k: list(e.get(k, ())) for k in _JOINT_LISTS}}
 
 
 def _entry(m, w, q, p):
@@ -31,7 +34,8 @@ def _entry(m, w, q, p):
         return {"name": m["name"], "refused": str(m["refused"])}
     e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
          "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": np.asarray(w, np.float16),
-         "sequence": np.asarray(q, np.float16), "path": np.asarray(p, np.float32)}
+         "sequence": np.asarray(q, np.float16), "path": np.asarray(p, np.float32),
+         **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS}}
     if e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0:
         raise ValueError("bad shapes")
     return e

@@ -17,7 +17,7 @@ from ..clip.clip import Clip
 from ..errors import ShapeSigError
 from ..progress import wants_cancel
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, DEFAULT_METRIC, LOCAL, curve_distance, parse_metric
-from ..rigs import MIN_COVERAGE
+from ..rigs import below_minimum, coverage_from
 from ..io.sources import LibraryItem, as_items, clip_item, library
 from .entry import (IndexEntry, curve_from_increments, entry_distance, make_entry, pair_increments,
                     sim_from_increments, sketch_distance)
@@ -25,7 +25,7 @@ from .local import SHORTLIST
 from .local_rank import item_local_entries, local_entries, query_local_entry, rank_local
 from .store import SignatureCache
 
-__all__ = ["EXACT_POOL", "FEW_SHARED", "RankResult", "RankList", "clip_items", "folder_library", "item_entries",
+__all__ = ["EXACT_POOL", "FEW_SHARED", "RankResult", "RankList", "coverage_rule", "clip_items", "folder_library", "item_entries",
            "iter_entries", "compute_entries", "build_index", "rank_clips"]
 
 # At least this many sketch candidates are compared exactly.
@@ -41,7 +41,9 @@ class RankResult:
     """One ranked clip. ``distance``: sim^n (or the chosen metric); ``elastic``: d_S* when re-ranked,
     else None; ``frames``: the clip's frame count; ``key``: its library item's key; ``shared``: bones
     compared; ``approximate``: True when ``distance`` is a sketch estimate (only with a compact store);
-    ``partial``: the clip shares fewer than FEW_SHARED of the query's moving bones (ranked after the others)."""
+    ``partial``: the clip shares fewer than FEW_SHARED of the query's moving bones, or (kept by ``allow_partial``)
+    is below the coverage rule (``rigs.below_minimum``): ranked after the others; ``unmapped``: the canonical
+    joints both rigs have that are not compared."""
 
     name: str
     distance: float
@@ -52,7 +54,8 @@ class RankResult:
     shared: int = 0
     approximate: bool = False
     partial: bool = False
-    coverage: float = 1.0  # joints compared / moving joints of the smaller clip (core.rigs.coverage)
+    coverage: float = 1.0  # joints compared / canonical joints both rigs have (core.rigs.coverage_from)
+    unmapped: Tuple[str, ...] = ()  # canonical joints both rigs have that are not compared
     start: Optional[int] = None  # a moment (``windows.rank_windows``): its frames in the clip's own numbers
     end: Optional[int] = None
     explain: Optional[dict] = None  # ``core.elastic.explain``: per-joint shares, cost over time
@@ -63,7 +66,8 @@ class RankResult:
 
     def as_dict(self):
         out = {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
-               "source": self.source, "coverage": self.coverage}
+               "source": self.source, "coverage": self.coverage, "unmapped": list(self.unmapped),
+               "partial": self.partial}
         if self.metric:
             out.update(metric=self.metric, first_stage=self.first_stage, dtw=self.dtw)
         if self.start is not None:
@@ -205,17 +209,31 @@ def _query_entry(query, level, store):
     return dataclasses.replace(_loaded(query, item, store))
 
 
-def _result(e, d, shared, approximate=False, partial=False, coverage=1.0):
+def _result(e, d, shared, approximate=False, partial=False, got=None):
+    got = got or {"coverage": 1.0, "unmapped": []}
     return RankResult(name=e.name, distance=float(d), frames=e.clip_frames or e.frames, key=e.key, source=e.source,
-                      shared=shared, approximate=approximate, partial=partial, coverage=coverage,
-                      trimmed=e.trimmed)
+                      shared=shared, approximate=approximate, partial=partial, coverage=float(got["coverage"]),
+                      unmapped=tuple(got["unmapped"]), trimmed=e.trimmed)
 
 
-def _coverage(q, e, shared):
-    """Moving joints compared / moving joints of the smaller clip (``rigs.coverage`` on index entries)."""
-    moving = {q.bones[j] for j in q.moving} | {e.bones[j] for j in e.moving}
-    smaller = min(len(q.moving), len(e.moving))
-    return 1.0 if smaller == 0 else min(1.0, sum(b in moving for b in shared) / smaller)
+def _entry_coverage(q: IndexEntry, e: IndexEntry) -> dict:
+    """``rigs.coverage_from`` of two index entries (their bones, still bones and rigs' canonical joints)."""
+    return coverage_from(q.bones, q.still, q.rig_joints, e.bones, e.still, e.rig_joints)
+
+
+def coverage_rule(name, got, allow_partial, warnings, skipped):
+    """The coverage rule for one row (``rigs.below_minimum``): None when it is refused (one warning; without
+    ``allow_partial``), else whether the row is partial because of it."""
+    why = below_minimum(got)
+    if not why:
+        return False
+    if not allow_partial:
+        skipped.append(name)
+        missing = ", ".join(got["unmapped"][:6]) + (", ..." if len(got["unmapped"]) > 6 else "")
+        warnings.append(f"{name}: {why}" + (f" (unmapped: {missing})" if missing else "")
+                        + "; skipped (allow partial matches to rank it)")
+        return None
+    return True
 
 
 def _sketch_candidates(q, same, store, npool):
@@ -226,23 +244,28 @@ def _sketch_candidates(q, same, store, npool):
     return [same[i] for i in np.argpartition(approx, npool - 1)[:npool]]
 
 
-def _rank_same_skeleton(q, same, store, npool, use_sketch):
+def _rank_same_skeleton(q, same, store, npool, use_sketch, warnings, skipped, allow_partial=True):
     """Results for the clips of the query's skeleton by sim, from the directions (exact) or, for entries a
-    compact store keeps no direction of, the sketches (approximate)."""
+    compact store keeps no direction of, the sketches (approximate); the coverage rule as ``coverage_rule``."""
     results = []
     for item, e in (_sketch_candidates(q, same, store, npool) if use_sketch else same):
+        got = _entry_coverage(q, e)
+        partial = coverage_rule(e.name, got, allow_partial, warnings, skipped)
+        if partial is None:
+            continue
         _loaded(e, item, store)
         if q.exact and e.exact:
-            results.append(_result(e, entry_distance(q, e), len(q.bones)))
+            results.append(_result(e, entry_distance(q, e), len(q.bones), partial=partial, got=got))
         else:
-            results.append(_result(e, sketch_distance(q, e), len(q.bones), approximate=True))
+            results.append(_result(e, sketch_distance(q, e), len(q.bones), approximate=True, partial=partial,
+                                   got=got))
     return results
 
 
 def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnings, skipped, allow_partial=True):
     """Results for clips compared pairwise on the bones they share with the query (other skeletons, or any
-    metric other than sim), from their increments; without ``allow_partial``, clips whose coverage is below
-    ``rigs.MIN_COVERAGE`` are skipped with a warning naming it."""
+    metric other than sim), from their increments; without ``allow_partial``, clips below the coverage rule
+    (``rigs.below_minimum``: joints, limb chains) are skipped with a warning naming it, with it they are partial."""
     q_moving = {q.bones[j] for j in q.moving}
     results = []
     for item, e in pairs:
@@ -253,11 +276,9 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
             warnings.append(f"{e.name}: shares no bones with the query {q.name!r}; skipped")
             continue
         moving_shared = q_moving & set(shared)
-        cov = _coverage(q, e, shared)
-        if not allow_partial and cov < MIN_COVERAGE:
-            skipped.append(e.name)
-            warnings.append(f"{e.name}: coverage {cov:.2f} < {MIN_COVERAGE} of the moving joints; skipped "
-                            f"(allow partial matches to rank it)")
+        got = _entry_coverage(q, e)
+        low = coverage_rule(e.name, got, allow_partial, warnings, skipped)
+        if low is None:
             continue
         partial = bool(q_moving) and len(moving_shared) < FEW_SHARED * len(q_moving)
         if partial:
@@ -269,7 +290,7 @@ def _rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warnin
         else:
             d = curve_distance(curve_from_increments(a, base), curve_from_increments(b, base), base, level=level,
                                depth=depth)
-        results.append(_result(e, d, len(shared), partial=partial, coverage=cov))
+        results.append(_result(e, d, len(shared), partial=partial or low, got=got))
     return results
 
 
@@ -303,14 +324,24 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
     got = local_entries(items, store, progress, warnings)
     ok = [(item, e) for item, e in got if not e.get("refused")]
     refused = [(item, e) for item, e in got if e.get("refused")]
-    results = []
+    full, part = [], []
     ranked = rank_local(q, ok, store, shortlist or SHORTLIST)
-    for i, score, d1, d2 in ranked[:top]:  # rows only for what is kept
+    for i, score, d1, d2 in ranked:
+        if top is not None and len(full) >= top:  # rows only for what is kept
+            break
         item, e = ok[i]
-        # the body is compared whole: every canonical joint the two clips have (coverage 1)
-        results.append(RankResult(name=e["name"], distance=score, frames=e.get("frames", 0), key=item.key,
-                                  source=item.source, trimmed=tuple(e.get("trimmed", ())), metric=LOCAL,
-                                  first_stage=d1, dtw=d2, shared=min(q.get("bones", 0), e.get("bones", 0))))
+        # the body is compared whole: every canonical joint both clips have (their rigs' other joints unmapped)
+        got = coverage_from(q.get("joints", ()), q.get("still", ()), q.get("rig_joints", ()), e.get("joints", ()),
+                            e.get("still", ()), e.get("rig_joints", ()))
+        low = coverage_rule(e["name"], got, allow_partial, warnings, skipped)
+        if low is None:
+            continue
+        (part if low else full).append(RankResult(
+            name=e["name"], distance=score, frames=e.get("frames", 0), key=item.key, source=item.source,
+            trimmed=tuple(e.get("trimmed", ())), metric=LOCAL, first_stage=d1, dtw=d2, partial=low,
+            shared=min(q.get("bones", 0), e.get("bones", 0)), coverage=float(got["coverage"]),
+            unmapped=tuple(got["unmapped"])))
+    results = full + part
     if refused:
         warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1]['name']}: "
                         f"{refused[0][1]['refused']}) are ranked after the others by sim{DEFAULT_LEVEL}")
@@ -346,8 +377,10 @@ def rank_clips(query, library, metric=DEFAULT_METRIC, level=None, rerank=0, top=
     4 top, rerank)). Clips of other skeletons are compared on the shared bones; clips sharing fewer than
     FEW_SHARED of the query's moving bones are ``partial``: warned about and ranked after all others (their
     distances cover a different, smaller part of the body), and never re-ranked above them; clips sharing
-    none are skipped with a warning in ``result.warnings``. ``allow_partial=False``: clips whose coverage
-    (``RankResult.coverage``) is below ``rigs.MIN_COVERAGE`` are skipped with a warning instead.
+    none are skipped with a warning in ``result.warnings``. Clips below the coverage rule (``rigs.below_minimum``:
+    ``RankResult.coverage`` or the share of the arms and legs both rigs have that are compared below
+    ``rigs.MIN_COVERAGE``) are skipped with a warning, or with ``allow_partial`` kept as ``partial``; every row
+    names its ``unmapped`` joints.
     ``progress(done, total)``: over the library's items while their entries are read (``iter_entries``); a
     cancel ranks the items read so far.
     """
@@ -384,7 +417,8 @@ def rank_clips(query, library, metric=DEFAULT_METRIC, level=None, rerank=0, top=
     if base == "sim":  # the query's skeleton through the index; other skeletons on their shared bones
         same = [(item, e) for item, e in pairs if e.bones == q.bones]
         npool = pool if pool is not None else max(EXACT_POOL, 4 * (top or 0), rerank)
-        results = _rank_same_skeleton(q, same, store, npool, use_sketch=top is not None and len(same) > npool)
+        results = _rank_same_skeleton(q, same, store, npool, top is not None and len(same) > npool, warnings, skipped,
+                                      allow_partial)
     other = [(item, e) for item, e in pairs if base != "sim" or e.bones != q.bones]
     pairwise = _rank_on_shared_bones(q, other, store, base, sig_level, lvl, depth, warnings, skipped, allow_partial)
     compared = sum(not r.approximate for r in results) + len(pairwise)

@@ -30,8 +30,10 @@ __all__ = ["SignatureCache", "default_cache_dir", "private_cache_dir", "CACHE_FO
 # 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
 # time base (entry.make_entry), as metrics.clip_distance prepares the curves; 4: entries record the clip's own frame
 # count (clip_frames) beside the prepared curve's; 5: local-search entries (core.index.local) in files of their own
-# beside the signature entries (the pose pictures of core.index.thumbnails, <sha1>.png, beside them too)
-CACHE_FORMAT = 5
+# beside the signature entries (the pose pictures of core.index.thumbnails, <sha1>.png, beside them too); 6: both
+# kinds of entries record the canonical joints of the clip's rig (rig_joints; the local ones their joints and still
+# joints too), what a row's coverage and "unmapped" are computed from
+CACHE_FORMAT = 6
 CACHE_ENV = "SHAPESIG_CACHE_DIR"
 # Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
 COMPACT_MAX_DIRECTION = 65_536
@@ -50,7 +52,7 @@ _OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.(?:npz|png)|" + re.escape(_PACK) + "|"
                        + re.escape(_TMP_SUFFIX) + ")")
 _ENTRY_FILE = re.compile(r"[0-9a-f]{40}\.npz")
 _ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact",
-                 "trimmed", "clip_frames")
+                 "trimmed", "clip_frames", "rig_joints")
 
 
 class _Refused(Exception):
@@ -117,7 +119,8 @@ def _entry_from_meta(m, key, sketch):
     return IndexEntry(name=m["name"], bones=tuple(m["bones"]), moving=tuple(m["moving"]), frames=int(m["frames"]),
                       level=int(m["level"]), norm=float(m["norm"]), fps=float(m["fps"]), source=m["source"],
                       key=key, direction=None, increments=None, sketch=sketch, exact=bool(m["exact"]),
-                      trimmed=tuple(int(f) for f in m.get("trimmed", ())), clip_frames=int(m.get("clip_frames", 0)))
+                      trimmed=tuple(int(f) for f in m.get("trimmed", ())), clip_frames=int(m.get("clip_frames", 0)),
+                      rig_joints=tuple(str(j) for j in m.get("rig_joints", ())))
 
 
 def _load_heavy(e: IndexEntry, z, i):
@@ -291,7 +294,7 @@ class SignatureCache(LocalEntries):
 
     def _write(self, key, level, entries):
         meta = {"format": CACHE_FORMAT, "key": key, "level": level, "clips": [
-            {f: (list(getattr(e, f)) if f in ("bones", "moving") else getattr(e, f)) for f in _ENTRY_FIELDS}
+            {f: (list(getattr(e, f)) if f in ("bones", "moving", "rig_joints") else getattr(e, f)) for f in _ENTRY_FIELDS}
             for e in entries]}
         arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
         for i, e in enumerate(entries):

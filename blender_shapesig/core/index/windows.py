@@ -15,11 +15,11 @@ from ..clip.clip import Clip, restrict_to_shared
 from ..errors import CurveError, ShapeSigError
 from ..metrics import DEFAULT_DEPTH
 from ..clip.prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
-from ..rigs import MIN_COVERAGE, coverage, moving_count
+from ..rigs import coverage_report, moving_count
 from ..signatures.signatures import normalized_difference
 from ..io.sources import LibraryItem, as_items
 from ..progress import wants_cancel
-from .rank import FEW_SHARED, RankList, RankResult
+from .rank import FEW_SHARED, RankList, RankResult, coverage_rule
 
 __all__ = ["WINDOW_LEVEL", "SCALES", "STRIDE", "REFINE", "prefix_signatures", "window_log_signatures",
            "clip_windows", "rank_windows", "query_clip", "retimed_excerpt"]
@@ -156,11 +156,10 @@ def _moment(query, item, clip, level, scales, stride, allow_partial, warnings, s
         skipped.append(clip.name)
         warnings.append(f"{clip.name}: {clip.frames} frame, too short for a moment; skipped")
         return None
-    shared, cov = coverage(query.clip, clip)
-    if not allow_partial and cov < MIN_COVERAGE:
-        skipped.append(clip.name)
-        warnings.append(f"{clip.name}: coverage {cov:.2f} < {MIN_COVERAGE} of the moving joints; skipped "
-                        f"(allow partial matches to rank it)")
+    got = coverage_report(query.clip, clip)
+    shared, cov = got["bones"], got["coverage"]
+    low = coverage_rule(clip.name, got, allow_partial, warnings, skipped)
+    if low is None:
         return None
     try:
         scored, bsig = _best_windows(query, clip, level, scales, stride)
@@ -172,7 +171,8 @@ def _moment(query, item, clip, level, scales, stride, allow_partial, warnings, s
     # partial as in rank_clips: few of the query's moving joints compared (a clip moving one bone covers itself)
     few = shared < FEW_SHARED * moving_count(query.clip)
     r = RankResult(name=clip.name, distance=float(d), frames=clip.frames, key=item.key,
-                   source=clip.source or item.source, shared=shared, coverage=cov, partial=cov < FEW_SHARED or few,
+                   source=clip.source or item.source, shared=shared, coverage=cov, partial=cov < FEW_SHARED or few or low,
+                   unmapped=tuple(got["unmapped"]),
                    start=_to_clip_frame(clip, bsig.frames, s), end=_to_clip_frame(clip, bsig.frames, e))
     return r, (clip, scored, bsig.frames)
 
