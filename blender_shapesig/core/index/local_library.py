@@ -22,6 +22,9 @@ COARSE = 4  # windows of each clip kept for the prefilter (evenly spaced over it
 _ALIGN = 64
 _SEQ_DIM = 3 * len(local.POINTS)
 
+# an entry's joints (the clip's bones), still joints and the canonical joints its rig has: its rows' coverage
+JOINT_LISTS = ("joints", "still", "rig_joints")
+
 
 def coarse_windows(windows, k=COARSE) -> np.ndarray:
     """The clip's prefilter windows (``local.coarse_windows``)."""
@@ -105,7 +108,8 @@ class LibraryFile:
         A = self.arrays
         return {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
                 "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
-                "sequence": A["sequences"][q0:q1], "path": A["paths"][k], "_rows": (id(self), w0, w1, k)}
+                "sequence": A["sequences"][q0:q1], "path": A["paths"][k], "_rows": (id(self), w0, w1, k),
+                **{name: tuple(str(j) for j in m.get(name, ())) for name in JOINT_LISTS}}
 
     def stack(self):
         """The whole file as ``local.first_stage``'s library (no copy): windows, norms, coarse and, per clip, its

@@ -14,13 +14,11 @@ import os
 import numpy as np
 
 from . import local
-from .local_library import open_library, write_library
+from .local_library import JOINT_LISTS as _JOINT_LISTS, open_library, write_library
 
 __all__ = ["LOCAL_PACK", "LocalEntries"]
 
 LOCAL_PACK = "local_pack.bin"
-# an entry's joints (the clip's bones), still joints and the canonical joints its rig has: its rows' coverage
-_JOINT_LISTS = ("joints", "still", "rig_joints")
 
 
 def _meta(e):
