@@ -51,7 +51,7 @@ def selected_bone_names(armature):
     return [pb.name for pb in armature.pose.bones if compat.pose_bone_selected(pb)]
 
 
-def _read_all(armature, actions, bones, rates=None):
+def _read_all(armature, actions, bones, rates=None, allow_partial=False):
     """(clips on their own rigs, clips in the comparison space or None, bones, across): every action read with the
     armature that plays it (at ``rates[i]`` when given, else its own rate); through the bone maps when one is of
     another rig (``rigmap``)."""
@@ -67,7 +67,7 @@ def _read_all(armature, actions, bones, rates=None):
            for act, o, r in zip(actions, owners, rates)]
     mapped = None
     if across:
-        ma, mb, bones = rigmap.onto_comparison(own[0], armature, own[1], owners[1], bones)
+        ma, mb, bones = rigmap.onto_comparison(own[0], armature, own[1], owners[1], bones, allow_partial)
         mapped = [ma, mb] + [apply_bone_map(x, rigmap.bone_map_of(o)) for x, o in zip(own[2:], owners[2:])]
     work = mapped or own
     if bones is not None:
@@ -83,7 +83,7 @@ def _read_all(armature, actions, bones, rates=None):
 def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DEFAULT_DEPTH, frames=None,
                   bones: Optional[Sequence[str]] = None, root="blend", progress=None, extra=(), ranges=None,
                   loop=False, feet="none", mask=None, groups=None, timing="bake", rates=None,
-                  allow_long=False) -> BlendResult:
+                  allow_long=False, allow_partial=False) -> BlendResult:
     """Blend ``action_a`` towards ``action_b`` at each weight into new actions on ``armature``.
 
     ``weights``: B's weight per blend (two actions); with ``extra`` (pairs (action, weight)) one blend whose
@@ -96,7 +96,8 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
     Cancelled and creates nothing. ``rates``: per action (A, B, the extras) the frame rate to read it at, or None
     for its own (``frame_rates.rate_of``); ``info["rates"]`` holds (name, fps, known) per action and
     ``info["rate_note"]`` the one line when an assumed rate meets known ones. ``allow_long``: blend sources lasting
-    more than ``core.blend.make.MAX_DURATION_RATIO`` times as long as each other."""
+    more than ``core.blend.make.MAX_DURATION_RATIO`` times as long as each other. ``allow_partial``: blend two rigs
+    whose maps compare fewer of the joints they both have than ``core.rigs.MIN_COVERAGE`` (refused otherwise)."""
     if action_a == action_b:
         raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
     actions = [action_a, action_b] + [act for act, _w in extra]
@@ -118,7 +119,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
         raise ShapeSigError(f"timing: expected 'bake' or 'nla', got {timing!r}")
     if timing == "nla" and loop:
         raise ShapeSigError("a loop is written baked: choose Bake timing or switch Loop off")
-    own, mapped, bones, across = _read_all(armature, actions, bones, rates)
+    own, mapped, bones, across = _read_all(armature, actions, bones, rates, allow_partial)
     n = len(vectors)
     clips, info = make_blends(
         own, vectors, mapped=mapped, back=rigmap.back_onto_armature if across else None, ranges=ranges,

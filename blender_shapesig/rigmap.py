@@ -232,15 +232,16 @@ def across_rigs(armature, other) -> bool:
     return rigs.rests_differ(*_rest(armature), *_rest(other))
 
 
-def onto_comparison(a, armature, b, other, bones=None):
+def onto_comparison(a, armature, b, other, bones=None, allow_partial=False):
     """(a, b, bones) for a blend of two rigs: clips ``a`` of ``armature`` and ``b`` of ``other`` (read in
     armature space with their own armatures) in the comparison space through each armature's map
     (``bone_map_of``); ``bones`` (a subset of ``armature``'s bones, or None) becomes their joints. ShapeSigError
-    (one line) when a bone of the subset has no joint or the coverage is below ``core.rigs.MIN_COVERAGE``."""
+    (one line) when a bone of the subset has no joint or the coverage is below ``core.rigs.MIN_COVERAGE`` (unless
+    ``allow_partial``)."""
     from .core.metrics import check_coverage
 
     ma, mb = rigs.apply_bone_map(a, bone_map_of(armature)), rigs.apply_bone_map(b, bone_map_of(other))
-    check_coverage(ma, mb)
+    check_coverage(ma, mb, allow_partial)
     if bones is not None:
         joint_of = {bone: joint for joint, bone in (ma.meta.get("bone_map") or {}).items()}
         missing = [x for x in bones if x not in joint_of]

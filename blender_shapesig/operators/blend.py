@@ -125,6 +125,9 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
     allow_long: BoolProperty(
         name="Allow Long", description="Blend actions lasting more than 8 times as long as each other (refused "
         "otherwise: choose a frame range of the longer one)", default=False)
+    allow_partial: BoolProperty(
+        name="Allow Partial", description="Blend two rigs whose bone maps pair fewer than half of the joints both "
+        "rigs have (refused otherwise: map more bones in the Bone Map panel)", default=False)
     expect_b: StringProperty(
         name="Expected B", description="The read hash B had when a search result named it (the panel's Blend): "
         "a B changed since is refused", options={"HIDDEN", "SKIP_SAVE"})
@@ -178,6 +181,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         layout.prop(self, "range_a")
         layout.prop(self, "range_b")
         layout.prop(self, "allow_long")
+        layout.prop(self, "allow_partial")
         layout.prop(self, "extra")
         layout.prop(self, "mask")
         if self.mask:
@@ -257,6 +261,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
             weights = self._weights()
             options = self._options()
             options["allow_long"] = self.allow_long
+            options["allow_partial"] = self.allow_partial
             options["rates"] = [check_fps(f, label) if f else None
                                 for f, label in ((self.fps_a, "A Frame Rate"), (self.fps_b, "B Frame Rate"))]
             show = wm is not None and len(weights) > 1

@@ -277,13 +277,17 @@ def test_blend_across_rigs_reads_through_the_stored_map(empty_file, data_dir):
     assert "rShin" not in auto.unmatched and "lThumb1" in auto.unmatched  # kept: no counterpart in B
     # a stored map of three bones: only those are blended, every other bone keeps A's motion
     rigmap.store_map(daz, {"hip": "hips", "lThigh": "thigh.L", "rThigh": "thigh.R"})
-    mine = blend_actions(daz, a, b, [0.5])
+    before = set(bpy.data.actions)
+    with pytest.raises(Exception, match="coverage 0.16 < 0.5"):  # 3 of the joints both rigs have: asked for only
+        blend_actions(daz, a, b, [0.5])
+    assert set(bpy.data.actions) == before
+    mine = blend_actions(daz, a, b, [0.5], allow_partial=True)
     assert "rShin" in mine.unmatched and "lThigh" not in mine.unmatched
     assert len(mine.unmatched) > len(auto.unmatched)
     # a bone subset is given in A's bone names; one without a joint is refused, nothing created
     before = set(bpy.data.actions)
     with pytest.raises(Exception, match="map to no joint"):
-        blend_actions(daz, a, b, [0.5], bones=["rShin"])
+        blend_actions(daz, a, b, [0.5], bones=["rShin"], allow_partial=True)
     assert set(bpy.data.actions) == before
 
 
