@@ -349,8 +349,13 @@ def test_blend_actions_degenerate_but_valid_input(rig, case):
     hashes = all_hashes()
     names_before = {a.name for a in bpy.data.actions}
     bpy.ops.ed.undo_push(message="before blend")
+    long = case != "constant"  # B lasts under 1/8 (two frames) or over 8 times (10,000 frames) as long as A
+    if long:  # refused in one line unless asked (Allow Long), creating nothing
+        assert "more than 8" in op_error(bpy.ops.shapesig.blend_actions, action_a="09_02", action_b="B",
+                                         weight=0.5, align=(case != "long_10000"), assign=True)
+        assert {a.name for a in bpy.data.actions} == names_before and all_hashes() == hashes
     result = bpy.ops.shapesig.blend_actions("EXEC_DEFAULT", True, action_a="09_02", action_b="B",
-                                            weight=0.5, align=(case != "long_10000"), assign=True)
+                                            weight=0.5, align=(case != "long_10000"), assign=True, allow_long=long)
     assert result == {"FINISHED"}
     new = {a.name for a in bpy.data.actions} - names_before
     assert len(new) == 1
