@@ -9,18 +9,14 @@ from . import common as c
 def run(args):
     from ..core import index
     from ..dedupe import parallel
-    from .rank import library_items
+    from .rank import library_or_refuse
 
     sched = args.scheduler
     if sched and sched not in parallel.LOCAL_SCHEDULERS and "://" not in sched and ":" not in sched:
         raise c.CommandError(f"--scheduler {sched!r}: give {', '.join(parallel.LOCAL_SCHEDULERS)} or an address "
                              f"(tcp://host:8786)")
     t0 = time.perf_counter()
-    skipped = []
-    items = library_items(args.paths, args, skipped)
-    skipped = c.report_skipped(skipped)
-    if not items:
-        raise c.CommandError("no clips to index" + (f" ({skipped[0]})" if skipped else ""))
+    items, _skipped = library_or_refuse(args.paths, args, "index")
     cache = index.SignatureCache(args.cache or index.default_cache_dir())
     with parallel.scheduler(sched) as s, c.progress_bar(args, "indexing") as bar:
         clips, computed, errors = parallel.index_items(items, cache, s, bar)
