@@ -222,11 +222,14 @@ def clip_heading(clip: Clip, by_joint: Mapping[str, str], W: Optional[np.ndarray
 
 
 def leg_length(clip: Clip, by_joint: Mapping[str, str]) -> Optional[float]:
-    """The rig's leg (hip to ankle: the rest heads of the mapped thigh and foot, mean over sides) in the clip's
-    units, or None without a mapped leg or rest skeleton."""
+    """The rig's leg (hip to ankle: the rest heads of the mapped thigh and foot, else the thigh's head and the
+    shin's tail for a rig without a foot bone; mean over sides) in the clip's units, or None without a mapped leg
+    or rest skeleton."""
     heads = clip.meta.get(skeleton.REST_HEADS) or {}
-    pairs = [(by_joint.get(f"thigh.{s}"), by_joint.get(f"foot.{s}")) for s in SIDES]
-    lengths = [np.linalg.norm(np.subtract(heads[t], heads[f])) for t, f in pairs if t in heads and f in heads]
+    tails = clip.meta.get(skeleton.REST_TAILS) or {}
+    ankles = {s: heads.get(by_joint.get(f"foot.{s}"), tails.get(by_joint.get(f"shin.{s}"))) for s in SIDES}
+    lengths = [np.linalg.norm(np.subtract(heads[by_joint[f"thigh.{s}"]], ankles[s])) for s in SIDES
+               if by_joint.get(f"thigh.{s}") in heads and ankles[s] is not None]
     length = float(np.mean(lengths)) if lengths else 0.0
     return length if length > 0 else None
 
