@@ -98,11 +98,14 @@ def _rest_offsets(clip: Clip, joints):
     return h, t
 
 
-def _leg(h):
-    legs = [np.linalg.norm(h[f"thigh.{s}"] - h[f"foot.{s}"]) for s in "LR" if f"thigh.{s}" in h and f"foot.{s}" in h]
+def _leg(h, t):
+    """The rest leg (hip to ankle: the thigh's head to the foot's, else to the shin's tail for rigs without a foot
+    bone), mean over the sides."""
+    ankle = {s: h.get(f"foot.{s}", t.get(f"shin.{s}")) for s in "LR"}
+    legs = [np.linalg.norm(h[f"thigh.{s}"] - ankle[s]) for s in "LR" if f"thigh.{s}" in h and ankle[s] is not None]
     leg = float(np.mean(legs)) if legs else 0.0
     if not leg > 0:
-        raise ShapeSigError("local search needs the legs (thigh and foot) and the rest skeleton")
+        raise ShapeSigError("local search needs the legs (thigh and foot or shin) and the rest skeleton")
     return leg
 
 
@@ -116,7 +119,7 @@ def rig_positions(clip: Clip):
     joints = [j for j in _ORDER if j in clip.bones]
     index = {b: i for i, b in enumerate(clip.bones)}
     h, t = _rest_offsets(clip, joints)
-    leg = _leg(h)
+    leg = _leg(h, t)
     R = clip.rotations
     if clip.meta.get("root_path") == "hips_legs" and clip.root_translation is not None:
         hips = np.asarray(clip.root_translation, float)
