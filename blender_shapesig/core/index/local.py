@@ -61,6 +61,11 @@ _PARENTS = {"hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine
 _ORDER = tuple(_PARENTS)
 
 
+# changes when the features change for the same settings (e.g. the leg of a rig without a foot bone): stored
+# entries made by an older recipe are then computed again, never used
+RECIPE_VERSION = 2
+
+
 class Settings:
     """The recipe's constants in one object (experiments vary them; the defaults are the module's)."""
 
@@ -74,7 +79,7 @@ class Settings:
         self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
 
     def key(self):
-        return (self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+        return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
                 self.global_weight, self.max_windows, self.max_sequence)
 
