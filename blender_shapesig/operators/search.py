@@ -372,7 +372,8 @@ class SHAPESIG_OT_explain_result(bpy.types.Operator):
             self.report({"ERROR"}, f"Why Different: {exc}")
             return {"CANCELLED"}
         name, share = top_joints(out, 1, "groups" if out.get("groups") else "joints")[0]
-        self.report({"INFO"}, f"largest share: {name} {share:.0%}")
+        note = f"; {out['resampled'][0].lower()}{out['resampled'][1:]}" if out.get("resampled") else ""
+        self.report({"INFO"}, f"largest share: {name} {share:.0%}{note}")
         _tag_redraw(context)
         return {"FINISHED"}
 
