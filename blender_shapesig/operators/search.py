@@ -318,11 +318,11 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            obj, action = results.assign_result(context, library.settings_of(context))
+            obj, action, note = results.assign_result(context, library.settings_of(context))
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Assign Result: {exc}")
             return {"CANCELLED"}
-        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}")
+        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}{'; ' + note if note else ''}")
         return {"FINISHED"}
 
 

@@ -138,3 +138,29 @@ def test_why_different_resamples_a_long_take(take):
     lay = FakeLayout()
     SHAPESIG_PT_search_view3d.draw(type("P", (), {"layout": lay})(), bpy.context)
     assert line in lay.labels()
+
+
+def test_find_similar_after_assigning_a_moment(take):
+    """Moments search with a part of the query (its frame range), Assign the first row (the window written as a new
+    action on the armature, frames 101-340 of the take), then Find Similar from the armature: the range set for the
+    old query no longer applies (it lay outside the new action's frames, which greyed the search out), so Assign
+    resets it and says so; the new action is the query and the take it came from is found."""
+    s = bpy.context.scene.shapesig
+    s.use_windows = True
+    first, last = (int(v) for v in bpy.data.actions["query"].frame_range)
+    s.use_frame_range, s.frame_start, s.frame_end = True, first + 5, first + 60
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    names = [r.name for r in _rows()]
+    bpy.context.window_manager.shapesig_results.results_index = names.index("take")
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    assigned = take.animation_data.action
+    assert assigned.name.startswith("take[") and assigned.frame_range[0] > first + 60
+    assert not s.use_frame_range and s.frame_start == 0 and s.frame_end == 0
+    for windows in (False, True):
+        s.use_windows = windows
+        assert bpy.ops.shapesig.rank.poll()
+        assert bpy.ops.shapesig.rank() == {"FINISHED"}
+        names = [r.name for r in _rows()]
+        assert assigned.name not in names and names[0] == "take"
+    window = tuple(int(v) for v in assigned.frame_range)  # the moment found again where it came from
+    assert _iou((_rows()[0].frame_first, _rows()[0].frame_last), window) >= 0.8
