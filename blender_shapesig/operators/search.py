@@ -219,8 +219,8 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
     poll = _poll_with(library.result_problem)
 
     def execute(self, context):
-        obj, action = results.assign_result(context, library.settings_of(context))
-        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}")
+        obj, action, note = results.assign_result(context, library.settings_of(context))
+        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}{'; ' + note if note else ''}")
         return {"FINISHED"}
 
 
@@ -262,7 +262,8 @@ class SHAPESIG_OT_explain_result(bpy.types.Operator):
     def execute(self, context):
         out = results.explain_result(context, library.settings_of(context))
         name, share = top_joints(out, 1, "groups" if out.get("groups") else "joints")[0]
-        self.report({"INFO"}, f"largest share: {name} {share:.0%}")
+        note = f"; {out['resampled'][0].lower()}{out['resampled'][1:]}" if out.get("resampled") else ""
+        self.report({"INFO"}, f"largest share: {name} {share:.0%}{note}")
         tag_redraw(context)
         return {"FINISHED"}
 
