@@ -354,16 +354,28 @@ def stack(entries: Sequence) -> Dict[str, np.ndarray]:
 PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first_stage(keep=)``)
 
 
-def _groups(starts, ends, idx, block):
-    """Runs of ``idx`` (sorted by start) whose rows are contiguous, cut where a run passes ``block`` rows from its
-    first row (a run then ends at most one entry's rows past it); index arrays, found without a loop per entry."""
-    s, e = starts[idx], ends[idx]
-    cuts = np.flatnonzero(s[1:] != e[:-1]) + 1
-    for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(idx)]])):
-        part = (s[a:b] - s[a]) // block
-        inner = np.flatnonzero(np.diff(part)) + 1
-        for c, d in zip(np.concatenate([[0], inner]), np.concatenate([inner, [b - a]])):
-            yield idx[a + c:a + d]
+def _chunks(lengths, block):
+    """Slices of consecutive entries (``lengths`` their rows) of at most ``block`` rows each (an entry longer than
+    ``block`` alone), found without a loop per entry."""
+    first = np.concatenate([[0], np.cumsum(lengths)[:-1]]) // max(int(block), 1)
+    cuts = np.flatnonzero(np.diff(first)) + 1
+    return [slice(a, b) for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(lengths)]]))]
+
+
+def gather_rows(starts, ends):
+    """(rows, offsets): the row numbers of the entries' row ranges [starts, ends) one after another, and where each
+    entry's rows begin in them (a contiguous block of candidates is ``W[rows]``; ``reduceat`` by ``offsets``)."""
+    lengths = np.asarray(ends - starts, np.int64)
+    offsets = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
+    rows = np.repeat(np.asarray(starts, np.int64) - offsets, lengths) + np.arange(int(lengths.sum()), dtype=np.int64)
+    return rows, offsets
+
+
+def _take(A, rows):
+    """A[rows] read at once: a slice when the rows are consecutive (a memory map read in one piece)."""
+    if len(rows) and rows[-1] - rows[0] + 1 == len(rows):
+        return A[int(rows[0]):int(rows[-1]) + 1]
+    return A[rows]
 
 
 def coarse_windows(windows, k) -> np.ndarray:
@@ -372,24 +384,43 @@ def coarse_windows(windows, k) -> np.ndarray:
     return np.asarray(w[np.linspace(0, len(w) - 1, k).round().astype(int)], np.float32)
 
 
-def coarse_distances(query, coarse) -> np.ndarray:
+def coarse_distances(query, coarse, norms=None) -> np.ndarray:
     """(entries,) the prefilter: the Chamfer distance of the query's windows subsampled like the entries'
-    (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k."""
-    k = coarse.shape[1]
+    (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k. ``norms``: the coarse
+    windows' squared norms (entries * k,) when the caller keeps them (``first_stage`` does, per library)."""
+    n, k = coarse.shape[0], coarse.shape[1]
     q = coarse_windows(query["windows"], 4 * k)
     C = np.asarray(coarse, np.float32).reshape(-1, coarse.shape[2])
-    D = np.sqrt(np.maximum(_sq_dist(q, C), 0.0)).reshape(len(q), -1, k)  # (q, entries, k)
-    return 0.5 * (D.min(axis=2).mean(axis=0) + D.min(axis=0).mean(axis=1))
+    if norms is None:
+        norms = (C * C).sum(1)
+    D = (q * q).sum(1)[:, None] + norms[None] - 2.0 * (q @ C.T)  # (q, entries * k) squared distances
+    D = D.reshape(len(q), n, k)
+    near = D[:, :, 0].copy()  # the nearest of an entry's k windows: k - 1 elementwise minima (not a reduction
+    for j in range(1, k):     # over a short axis, which numpy runs slowly)
+        np.minimum(near, D[:, :, j], out=near)
+    q_side = np.sqrt(np.maximum(near, 0.0)).mean(axis=0)
+    e_side = np.sqrt(np.maximum(D.min(axis=0), 0.0)).mean(axis=1)
+    return 0.5 * (q_side + e_side)
+
+
+def _coarse_norms(lib):
+    """The library's coarse windows' squared norms, computed on its first query and kept in its block."""
+    got = lib.get("coarse_norms")
+    if got is None:
+        C = np.asarray(lib["coarse"], np.float32).reshape(-1, lib["coarse"].shape[2])
+        got = (C * C).sum(1)
+        lib["coarse_norms"] = got
+    return got
 
 
 def first_stage(query, library, block: int = 65536, keep: Optional[int] = None) -> np.ndarray:
     """(entries,) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's distance + the
     same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries (or a library
-    file's), or the entries. Streamed over the library's windows, at most ``block`` rows at a time (a memory-mapped
-    library is read block by block), with one BLAS thread (small products). ``keep``: with a library that has
-    ``coarse`` windows and more entries than ``keep``, only the ``keep`` nearest by ``coarse_distances`` are
-    computed exactly; the others come after them in the prefilter's order (the largest exact distance plus their
-    coarse distance)."""
+    file's), or the entries. The entries' rows (a memory-mapped library's in any order) are gathered into
+    contiguous blocks of at most ``block`` rows, each compared in one product, with one BLAS thread (small
+    products). ``keep``: with a library that has ``coarse`` windows and more entries than ``keep``, only the
+    ``keep`` nearest by ``coarse_distances`` are computed exactly; the others come after them in the prefilter's
+    order (the largest exact distance plus their coarse distance)."""
     lib = library if isinstance(library, dict) and "starts" in library else stack(library)
     q = np.asarray(query["windows"], dtype=np.float32)
     qn = (q * q).sum(1)[:, None]
@@ -400,18 +431,20 @@ def first_stage(query, library, block: int = 65536, keep: Optional[int] = None) 
         return out
     idx = np.arange(n)
     coarse = None
-    if keep is not None and lib.get("coarse") is not None and n > keep:
-        coarse = coarse_distances(query, lib["coarse"])
-        idx = np.argpartition(coarse, keep)[:keep]
-    idx = idx[np.argsort(starts[idx], kind="stable")]
     with one_blas_thread():
-        for run in _groups(starts, ends, idx, block):
-            r0, r1 = int(starts[run[0]]), int(ends[run[-1]])
-            D = qn + np.asarray(norms[r0:r1], np.float32)[None] - 2.0 * (q @ np.asarray(W[r0:r1], np.float32).T)
+        if keep is not None and lib.get("coarse") is not None and n > keep:
+            coarse = coarse_distances(query, lib["coarse"], _coarse_norms(lib))
+            idx = np.argpartition(coarse, keep)[:keep]
+            idx = idx[np.argsort(starts[idx], kind="stable")]  # the file's order: the map is read forward
+        lengths = ends[idx] - starts[idx]
+        for part in _chunks(lengths, block):
+            run = idx[part]
+            rows, rel = gather_rows(starts[run], ends[run])
+            D = qn + np.asarray(_take(norms, rows), np.float32)[None] \
+                - 2.0 * (q @ np.asarray(_take(W, rows), np.float32).T)
             np.sqrt(np.maximum(D, 0.0, out=D), out=D)
-            rel = starts[run] - r0
             q_side = np.minimum.reduceat(D, rel, axis=1).mean(axis=0)
-            e_side = np.add.reduceat(D.min(axis=0), rel) / (ends[run] - starts[run])
+            e_side = np.add.reduceat(D.min(axis=0), rel) / lengths[part]
             out[run] = 0.5 * (q_side + e_side)
     if coarse is not None:
         rest = np.isinf(out)
