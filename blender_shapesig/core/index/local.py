@@ -21,6 +21,7 @@ import sys
 from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
@@ -477,6 +478,69 @@ def _dtw_numpy(a, b, band, free_a, free_b):
     return math.sqrt(min(D[n, m - free_b:].min(), D[n - free_a:, m].min()))
 
 
+def _outside_band(n, m, band):
+    """(n, m) True where a cell (row i + 1, column j + 1) is outside the band (``_dtw_numpy``'s lo and hi)."""
+    rows = np.arange(n)
+    lo = np.maximum(1, np.ceil(rows * m / n).astype(int) - band)
+    hi = np.minimum(m, np.floor(rows * m / n).astype(int) + band + 1)
+    j = np.arange(1, m + 1)
+    return (j[None] < lo[:, None]) | (j[None] > hi[:, None])
+
+
+def _dtw_many(a, bs, bands, fas, fbs):
+    """(len(bs),) ``_dtw_numpy`` of ``a`` against each of ``bs`` (the same numbers), all at once: the recursion by
+    anti-diagonals d = i + j run over every candidate together (one diagonal of all of them is a (K, n + 1) array
+    by row i), so a shortlist costs about one numpy DTW, not one each. Costs outside a band are infinite; the
+    skewed cost array is filled by a strided view (cell (i, j) of candidate k at [i + j, k, i])."""
+    n, K = len(a), len(bs)
+    ms = np.array([len(b) for b in bs])
+    M = int(ms.max())
+    S = K * (n + 1)  # one anti-diagonal d = i + j of every candidate: (K, n + 1) cells by row i
+    Cs = np.full((n + M + 1, K, n + 1), np.inf)
+    flat = Cs.reshape(-1)
+    it = flat.itemsize
+    for k, b in enumerate(bs):
+        C = ((a[:, None, :] - b[None, :, :]) ** 2).sum(-1)
+        if bands[k] >= 0:
+            C[_outside_band(n, len(b), bands[k])] = np.inf
+        as_strided(flat[2 * S + k * (n + 1) + 1:], shape=(n, len(b)), strides=((S + 1) * it, S * it))[...] = C
+    prev2, prev, cur = (np.full((K, n + 1), np.inf) for _ in range(3))
+    fas, fbs = np.asarray(fas), np.asarray(fbs)
+    steps = np.arange(n + M + 1)[:, None]
+    start_b = np.where(fbs[None] >= steps, 0.0, np.inf)  # D[0, d]: b's first d samples left out
+    start_a = np.where(fas[None] >= steps, 0.0, np.inf)  # D[d, 0]
+    row_n = np.full((n + M + 1, K), np.inf)  # D[n, d - n]
+    col_m = np.full((n + M + 1, K), np.inf)  # D[d - m_k, m_k], where a's end may be left out
+    ends = {}
+    for k in range(K):
+        for d in range(n + ms[k] - fas[k], n + ms[k] + 1):
+            ends.setdefault(d, ([], []))
+            ends[d][0].append(k), ends[d][1].append(d - ms[k])
+    prev2[:, 0] = 0.0
+    prev[:, 0], prev[:, 1] = start_b[1], start_a[1]
+    tmp = np.empty((K, n + 1))
+    for d in range(2, n + M + 1):
+        lo, hi = max(1, d - M), min(n, d - 1)
+        cur[:, 0] = start_b[d]
+        if d <= n:
+            cur[:, d] = start_a[d]
+        t = tmp[:, :hi - lo + 1]
+        np.minimum(prev[:, lo - 1:hi], prev[:, lo:hi + 1], out=t)
+        np.minimum(t, prev2[:, lo - 1:hi], out=t)
+        np.add(Cs[d, :, lo:hi + 1], t, out=cur[:, lo:hi + 1])
+        if d >= n:
+            row_n[d] = cur[:, n]
+        if d in ends:
+            ks, i = ends[d]
+            col_m[d, ks] = cur[ks, i]
+        prev2, prev, cur = prev, cur, prev2
+    res = np.empty(K)
+    for k in range(K):
+        m = ms[k]
+        res[k] = math.sqrt(min(row_n[n + m - fbs[k]:n + m + 1, k].min(), col_m[n + m - fas[k]:n + m + 1, k].min()))
+    return res
+
+
 def _dtw_loops(a, b, band, free_a, free_b):  # pragma: no cover - run compiled by numba (``_kernel``)
     n, m, d = a.shape[0], b.shape[0], a.shape[1]
     prev = np.full(m + 1, np.inf)
@@ -544,13 +608,17 @@ def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) 
     """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the square
     root of the sum of the two lengths (clips of other durations stay comparable); up to ``free`` of either
     sequence's length may be left out at each end (crops)."""
-    a = np.asarray(query["sequence"], dtype=np.float64)
-    out = np.empty(len(candidates))
-    for i, c in enumerate(candidates):
-        b = np.asarray(c["sequence"], dtype=np.float64)
-        out[i] = dtw(a, b, _band(len(a), len(b), band), int(free * len(a)), int(free * len(b)))
-        out[i] /= math.sqrt(len(a) + len(b))
-    return out
+    a = np.ascontiguousarray(query["sequence"], dtype=np.float64)
+    bs = [np.ascontiguousarray(c["sequence"], dtype=np.float64) for c in candidates]
+    if not bs:
+        return np.empty(0)
+    if _kernel() is None and len(bs) > 1:  # numpy: the shortlist at once
+        fa = min(int(free * len(a)), len(a) - 1)
+        out = _dtw_many(a, bs, [max(_band(len(a), len(b), band), 1) for b in bs], [fa] * len(bs),
+                        [max(0, min(int(free * len(b)), len(b) - 1)) for b in bs])
+    else:
+        out = np.array([dtw(a, b, _band(len(a), len(b), band), int(free * len(a)), int(free * len(b))) for b in bs])
+    return out / np.sqrt(len(a) + np.array([len(b) for b in bs], float))
 
 
 def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:
