@@ -323,9 +323,11 @@ def whole_path(feat) -> np.ndarray:
 
 
 def entry_from_features(feat, settings: Settings = DEFAULT):
-    V = window_vectors(feat, settings).astype(np.float32)
+    """``index_entry`` from ``features``. The projection is multiplied in float64 so that the float16 entry does not
+    depend on how many BLAS threads ran the product (a cluster's worker and this process store the same bytes)."""
+    V = window_vectors(feat, settings)
     if settings.dim:
-        V = V @ _projection(V.shape[1], settings.dim, settings.seed)
+        V = V @ _projection(V.shape[1], settings.dim, settings.seed).astype(np.float64)
     return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
             "path": whole_path(feat).astype(np.float32)}
 

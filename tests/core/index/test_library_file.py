@@ -126,3 +126,48 @@ def test_index_command_json_and_dask(capsys, lib_dir, tmp_path):
         ea, eb = a.get_local(it.key, ls.settings_key()), b.get_local(it.key, ls.settings_key())
         assert np.array_equal(np.asarray(ea[0]["windows"]), np.asarray(eb[0]["windows"]))
     assert cli.main(["index", str(lib_dir), "--scheduler", "nonsense"]) == 2
+
+
+def test_rank_scheduler_computes_the_missing_entries_on_a_dask_cluster(capsys, lib_dir, tmp_path):
+    """``rank --scheduler``: the library's entries computed on a LocalCluster, stored once, the ranking then only
+    reads them (cache misses: the query alone) and equals the ranking computed in this process."""
+    import distributed
+
+    query = str(lib_dir / "08_01.bvh")
+    base = ["rank", query, str(lib_dir), "--json", "--no-progress", "--top", "5"]
+    assert cli.main(base + ["--cache", str(tmp_path / "plain")]) == 0
+    plain = json.loads(capsys.readouterr().out)
+    n = len(os.listdir(lib_dir))
+    assert plain["cache"]["misses"] >= n  # computed here, clip after clip
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c:
+        for metric in ([], ["--metric", "sim3"]):
+            assert cli.main(base + metric + ["--cache", str(tmp_path / "dask"), "--scheduler", c.scheduler_address]) == 0
+            out = json.loads(capsys.readouterr().out)
+            assert out["computed"] == n and out["cache"]["misses"] <= 1  # the query's entry is this process'
+            if not metric:
+                assert [(r["clip"], round(r["distance"], 6)) for r in out["results"]] == \
+                       [(r["clip"], round(r["distance"], 6)) for r in plain["results"]]
+        assert cli.main(base + ["--cache", str(tmp_path / "dask"), "--scheduler", c.scheduler_address]) == 0
+        assert json.loads(capsys.readouterr().out)["computed"] == 0  # nothing again
+    assert cli.main(base + ["--scheduler", "nonsense"]) == 2
+    assert cli.main(base + ["--windows", "--scheduler", "threads"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 2 and err.count("--scheduler") == 2
+
+
+def test_rank_scheduler_without_dask_is_one_line_naming_the_package(lib_dir, tmp_path):
+    """Dask is optional: made unimportable, ``rank --scheduler`` stops with one line naming what to install,
+    before any clip is read; without the option the ranking runs."""
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.modules['dask'] = sys.modules['distributed'] = None; "
+            "from blender_shapesig import cli; sys.exit(cli.main(sys.argv[1:]))")
+    env = dict(os.environ, PYTHONPATH=str(ls.__file__).rsplit("/blender_shapesig/", 1)[0])
+    args = [sys.executable, "-c", code, "rank", str(lib_dir / "08_01.bvh"), str(lib_dir), "--no-cache", "--top", "2",
+            "--no-progress"]
+    for sched, package in (("threads", "'dask'"), ("tcp://127.0.0.1:8786", "'distributed'")):
+        p = subprocess.run(args + ["--scheduler", sched], env=env, capture_output=True, text=True)
+        assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
+        assert package in p.stderr and "pip install" in p.stderr and "Traceback" not in p.stderr
+    assert subprocess.run(args, env=env, capture_output=True, text=True).returncode == 0
