@@ -387,23 +387,27 @@ def coarse_windows(windows, k) -> np.ndarray:
     return np.asarray(w[np.linspace(0, len(w) - 1, k).round().astype(int)], np.float32)
 
 
-def coarse_distances(query, coarse, norms=None) -> np.ndarray:
+def coarse_distances(query, coarse, norms=None, block: int = 4096) -> np.ndarray:
     """(entries,) the prefilter: the Chamfer distance of the query's windows subsampled like the entries'
     (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k. ``norms``: the coarse
-    windows' squared norms (entries * k,) when the caller keeps them (``first_stage`` does, per library)."""
+    windows' squared norms (entries * k,) when the caller keeps them (``first_stage`` does, per library). Run
+    ``block`` entries at a time (the distances of a block stay in the processor's cache)."""
     n, k = coarse.shape[0], coarse.shape[1]
     q = coarse_windows(query["windows"], 4 * k)
-    C = np.asarray(coarse, np.float32).reshape(-1, coarse.shape[2])
-    if norms is None:
-        norms = (C * C).sum(1)
-    D = (q * q).sum(1)[:, None] + norms[None] - 2.0 * (q @ C.T)  # (q, entries * k) squared distances
-    D = D.reshape(len(q), n, k)
-    near = D[:, :, 0].copy()  # the nearest of an entry's k windows: k - 1 elementwise minima (not a reduction
-    for j in range(1, k):     # over a short axis, which numpy runs slowly)
-        np.minimum(near, D[:, :, j], out=near)
-    q_side = np.sqrt(np.maximum(near, 0.0)).mean(axis=0)
-    e_side = np.sqrt(np.maximum(D.min(axis=0), 0.0)).mean(axis=1)
-    return 0.5 * (q_side + e_side)
+    qn = (q * q).sum(1)[:, None]
+    out = np.empty(n)
+    for a in range(0, n, block):
+        b = min(n, a + block)
+        C = np.asarray(coarse[a:b], np.float32).reshape(-1, coarse.shape[2])
+        cn = (C * C).sum(1) if norms is None else norms[a * k:b * k]
+        D = (qn + cn[None] - 2.0 * (q @ C.T)).reshape(len(q), b - a, k)  # squared distances
+        near = D[:, :, 0].copy()  # the nearest of an entry's k windows: k - 1 elementwise minima (not a
+        for j in range(1, k):     # reduction over a short axis, which numpy runs slowly)
+            np.minimum(near, D[:, :, j], out=near)
+        q_side = np.sqrt(np.maximum(near, 0.0)).mean(axis=0)
+        e_side = np.sqrt(np.maximum(D.min(axis=0), 0.0)).mean(axis=1)
+        out[a:b] = 0.5 * (q_side + e_side)
+    return out
 
 
 def _coarse_norms(lib):
