@@ -171,3 +171,44 @@ def test_rank_scheduler_without_dask_is_one_line_naming_the_package(lib_dir, tmp
         assert p.returncode == 2 and p.stderr.count("\n") == 1, p.stderr
         assert package in p.stderr and "pip install" in p.stderr and "Traceback" not in p.stderr
     assert subprocess.run(args, env=env, capture_output=True, text=True).returncode == 0
+
+
+def _mapped(path):
+    with open("/proc/self/maps") as f:
+        return any(line.rstrip().endswith(str(path)) for line in f)
+
+
+@pytest.mark.parametrize("locked", [True, False])
+def test_the_library_file_is_closed_before_it_is_replaced_where_mapped_files_are_locked(
+        lib_dir, tmp_path, data_dir, monkeypatch, locked):
+    """Windows refuses to replace a file this process has memory-mapped. Simulated here (Linux's /proc/self/maps
+    tells whether the file is mapped): with ``MAPPED_FILES_LOCKED`` the store closes the map before writing the
+    file again (no warning, the file holds the added clip, the ranking is the one computed without a cache); without it the simulated
+    refusal turns the disk off with one warning (what Windows did before)."""
+    from blender_shapesig.core.index import local_store
+
+    q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
+    cache = tmp_path / "cache"
+    index.rank_clips(q, _items(lib_dir), cache=index.SignatureCache(cache))
+    pack = cache / index.CACHE_SUBDIR / LOCAL_PACK
+    store = index.SignatureCache(cache)
+    index.rank_clips(q, _items(lib_dir), cache=store)
+    assert _mapped(pack)  # the entries are read from the mapped file
+    real = os.replace
+
+    def windows_replace(src, dst):
+        if _mapped(dst):
+            raise PermissionError(13, "The process cannot access the file because it is being used", str(dst))
+        return real(src, dst)
+
+    monkeypatch.setattr(local_store, "MAPPED_FILES_LOCKED", locked)
+    monkeypatch.setattr(os, "replace", windows_replace)
+    shutil.copy(data_dir / "bvh" / "13_32.bvh", lib_dir / "added.bvh")
+    got = index.rank_clips(q, _items(lib_dir), cache=store)
+    monkeypatch.setattr(os, "replace", real)
+    if locked:
+        assert store.warning is None and not _mapped(pack)
+        assert "added" in {m["name"] for *_, meta, _ in open_library(str(pack)).files for m in meta["clips"]}
+        assert _names(got) == _names(index.rank_clips(q, _items(lib_dir), cache=None))
+    else:
+        assert store.warning and "signature cache off" in store.warning and "\n" not in store.warning
