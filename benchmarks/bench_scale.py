@@ -8,7 +8,7 @@ The clips: the local entries (``local.index_entry``) of real clips (``tests/data
 Gaussian noise (a random level, 0.01-0.15 of the windows' RMS), so copies are distinct; they are written straight
 into one library file (``write_library``, streamed: each copy regenerated from its seed, never all in memory).
 Prints JSON: ``clips``; ``query_ms`` and ``query_cpu_ms`` (median wall and CPU time over Q queries: the first stage
-with the prefilter, ``keep`` = ``local.PREFILTER``, over the memory-mapped file, plus the DTW re-rank of the
+with the prefilter, ``keep`` = ``local.PREFILTER`` (or ``PREFILTER_SHARE`` of the clips), over the memory-mapped file, plus the DTW re-rank of the
 shortlist, what ``rank_local`` runs; numba not loaded, as in a command-line ``rank``); the baselines of the same run:
 ``previous_query_ms`` / ``_cpu_ms`` (the query as it ran before, kept here: run by run, one DTW at a time;
 ``vs_previous_cpu`` the ratio, ``same_top10_as_previous``) and ``exact_query_ms`` / ``_cpu_ms`` (no prefilter;
@@ -97,7 +97,7 @@ def ranked(q, lib, block, entries_of, keep, top=10, previous=False):
     return [int(head[k]) for k in np.argsort(score, kind="stable")[:top]]
 
 
-# ---- the baseline: the query as it ran before (26 Nov, commit 8d9f6a0), the same numbers by other means: the exact
+# ---- the baseline: the query as it ran before (26 Nov, commit 8d9f6a0; the same keep), the same numbers by other means: the exact
 # pass run by run of the kept entries' contiguous rows (one product per run), the prefilter recomputing its norms
 # and taking the nearest of k by a reduction over the short axis, one numpy DTW per candidate
 def _runs(starts, ends, idx):
@@ -111,6 +111,7 @@ def previous_first_stage(query, lib, keep=None):
     starts, ends = lib["starts"], lib["ends"]
     out, idx, coarse = np.full(len(starts), np.inf), np.arange(len(starts)), None
     with one_blas_thread():
+        keep = None if keep is None else max(keep, int(np.ceil(local.PREFILTER_SHARE * len(starts))))
         if keep is not None and len(starts) > keep:
             C = np.asarray(lib["coarse"], np.float32)
             k = C.shape[1]
