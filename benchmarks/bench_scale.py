@@ -97,9 +97,9 @@ def ranked(q, lib, block, entries_of, keep, top=10, previous=False):
     return [int(head[k]) for k in np.argsort(score, kind="stable")[:top]]
 
 
-# ---- the baseline: the query as it ran before (26 Nov, commit 8d9f6a0; the same keep), the same numbers by other means: the exact
-# pass run by run of the kept entries' contiguous rows (one product per run), the prefilter recomputing its norms
-# and taking the nearest of k by a reduction over the short axis, one numpy DTW per candidate
+# ---- the baseline: the query as it ran before (26 Nov, commit 8d9f6a0; the same keep), the same numbers by other
+# means: the exact pass run by run of the kept entries' contiguous rows (one product per run), the prefilter
+# recomputing its norms and taking the nearest of k by a reduction over the short axis, one numpy DTW per candidate
 def _runs(starts, ends, idx):
     cuts = np.flatnonzero(starts[idx][1:] != ends[idx][:-1]) + 1
     return np.split(idx, cuts)

@@ -212,3 +212,58 @@ def test_the_library_file_is_closed_before_it_is_replaced_where_mapped_files_are
         assert _names(got) == _names(index.rank_clips(q, _items(lib_dir), cache=None))
     else:
         assert store.warning and "signature cache off" in store.warning and "\n" not in store.warning
+
+
+def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_path):
+    """The header keeps each distinct joint list once (a 100,000-clip library of a few rigs would otherwise carry
+    about a kilobyte of joint names per clip, read at every opening); entries read back have their own lists.
+    A file of version 2 (the lists in each clip) still opens with the same entries."""
+    import struct
+
+    from blender_shapesig.core.index import local_library as ll
+
+    rng = np.random.default_rng(4)
+    rig_a = [f"bone_with_a_long_name_{i:02d}" for i in range(12)]
+    rig_b = ["hips", "thigh.L", "thigh.R"]
+    clips, entries = [], []
+    for i in range(9):
+        joints = rig_a if i % 3 else rig_b
+        clips.append({"name": f"c{i}", "frames": 10, "bones": len(joints), "trimmed": [], "joints": joints,
+                      "still": joints[:2], "rig_joints": ["hips"]})
+        entries.append({"windows": rng.standard_normal((3, ls.DIM)).astype(np.float16),
+                        "sequence": rng.standard_normal((4, 3 * len(ls.POINTS))).astype(np.float16),
+                        "path": np.zeros(10, np.float32)})
+    fn = tmp_path / "lib.bin"
+    with open(fn, "wb") as f:
+        ll.write_library(f, [("f", 1, 2, {"clips": clips}, entries)], "fmt")
+    data = fn.read_bytes()
+    assert data.count(b"bone_with_a_long_name_07") == 1
+
+    def read_back(path):
+        lib = open_library(str(path))
+        return [lib.entry(m, r) for *_, meta, rows in lib.files for m, r in zip(meta["clips"], rows)]
+
+    for want, got in zip(clips, read_back(fn)):
+        assert got["joints"] == tuple(want["joints"]) and got["still"] == tuple(want["still"])
+        assert got["rig_joints"] == ("hips",)
+    # version 2: the same arrays, the lists written in each clip (the arrays start after a reserve of 4 KB)
+    (n,) = struct.unpack("<Q", data[len(ll.MAGIC):len(ll.MAGIC) + 8])
+    header = json.loads(data[len(ll.MAGIC) + 8:len(ll.MAGIC) + 8 + n])
+    tables = header.pop("lists")
+    for m in header["files"][0][3]["clips"]:
+        for k in ll.JOINT_LISTS:
+            m[k] = tables[m[k]]
+    text = json.dumps(header).encode()
+    v2 = b"SHAPESIG-LPACK2\n" + struct.pack("<Q", len(text)) + text
+    start = min(a[0] for a in header["arrays"].values())
+    assert len(v2) <= start
+    (tmp_path / "v2.bin").write_bytes(v2 + b"\0" * (start - len(v2)) + data[start:])
+    old = read_back(tmp_path / "v2.bin")
+    for a, b in zip(read_back(fn), old):
+        assert a["joints"] == b["joints"] and np.array_equal(a["windows"], b["windows"])
+    # a list number that is not in the table: refused in one line
+    bad = data.replace(b'"rig_joints": 2', b'"rig_joints": 9', 1)
+    assert bad != data
+    (tmp_path / "bad.bin").write_bytes(bad)
+    with pytest.raises(ValueError, match="damaged"):
+        open_library(str(tmp_path / "bad.bin"))
