@@ -5,18 +5,18 @@ clips, queried warm through the CLI's core path, opened in a fresh process, agai
 
 The clips: the local entries (``local.index_entry``) of real clips (``tests/data``' BVH files, plus the BVH files of
 ``--data`` when given), each copy a random contiguous crop (60-100 % of its windows and of its pose sequence) with
-Gaussian noise (a random level, 0.01-0.15 of the windows' RMS), so copies are distinct; they are written straight
-into one library file (``write_library``, streamed: each copy regenerated from its seed, never all in memory).
-Prints JSON: ``clips``; ``query_ms`` and ``query_cpu_ms`` (median wall and CPU time over Q queries: the first stage
-with the prefilter, ``keep`` = ``local.PREFILTER`` (or ``PREFILTER_SHARE`` of the clips), over the memory-mapped file, plus the DTW re-rank of the
-shortlist, what ``rank_local`` runs; numba not loaded, as in a command-line ``rank``); the baselines of the same run:
+Gaussian noise (a random level, 0.01-0.15 of the windows' RMS), so copies are distinct, with their base clip's joint
+lists (as the cache stores them); they are written straight into one library file (``write_library``, streamed: each
+copy regenerated from its seed, never all in memory). Prints JSON: ``clips``; ``query_ms`` and ``query_cpu_ms``
+(median wall and CPU time over Q queries: the first stage with the prefilter, ``keep`` = ``local.PREFILTER`` (or
+``PREFILTER_SHARE`` of the clips), over the memory-mapped file, plus the DTW re-rank of the shortlist, what
+``rank_local`` runs; numba not loaded, as in a command-line ``rank``); the baselines of the same run:
 ``previous_query_ms`` / ``_cpu_ms`` (the query as it ran before, kept here: run by run, one DTW at a time;
 ``vs_previous_cpu`` the ratio, ``same_top10_as_previous``) and ``exact_query_ms`` / ``_cpu_ms`` (no prefilter;
-``speedup_cpu``); ``open_s``
-(``open_library`` + its stack in a fresh process); ``bytes_per_clip_disk``; ``bytes_per_clip_memory`` (the fresh
-process' RSS growth after opening and one query, per clip); ``peak_rss_mb`` (this process); ``recall_at_10``: the
-share of the exact search's top 10 (the two stages, no prefilter) found in the top 10 with the prefilter, over R
-queries (each a new noisy crop of a random clip).
+``speedup_cpu``); ``open_s`` (``open_library`` + its stack in a fresh process); ``bytes_per_clip_disk``;
+``bytes_per_clip_memory`` (the fresh process' RSS growth after opening and one query, per clip); ``peak_rss_mb`` (this
+process); ``recall_at_10``: the share of the exact search's top 10 (the two stages, no prefilter) found in the top 10
+with the prefilter, over R queries (each a new noisy crop of a random clip).
 """
 
 import argparse
@@ -47,16 +47,25 @@ def base_entries(folders):
                     continue
                 try:
                     clip = sources.read_one(sources.ClipSpec(os.path.join(dirpath, f)))
-                    out.append(local.index_entry(clip))
+                    e = local.index_entry(clip)
+                    # the joint lists the cache keeps with each clip (local_rank's entries): the header's size
+                    e["lists"] = {"joints": list(clip.bones), "still": list(clip.still_bones()),
+                                  "rig_joints": list(clip.meta.get("rig_joints") or ())}
+                    out.append(e)
                 except Exception:  # noqa: BLE001 - clips the local features refuse are left out
                     pass
     return out
 
 
+def base_of(seed, n):
+    return int(np.random.default_rng(seed).integers(n))
+
+
 def copy(bases, seed):
     """One synthetic clip: a noisy random crop of a base entry (deterministic in ``seed``)."""
     rng = np.random.default_rng(seed)
-    b = bases[rng.integers(len(bases))]
+    b = bases[base_of(seed, len(bases))]
+    rng.integers(len(bases))  # (the draw that picked the base; the same copies as before)
     W, Q = np.asarray(b["windows"], np.float32), np.asarray(b["sequence"], np.float32)
     f = rng.uniform(0.6, 1.0)
     nw, nq = max(2, int(len(W) * f)), max(4, int(len(Q) * f))
@@ -82,7 +91,8 @@ def build(fn, bases, n, per_file=100):
     files = []
     for f0 in range(0, n, per_file):
         seeds = range(f0, min(n, f0 + per_file))
-        meta = {"clips": [{"name": f"c{s}", "frames": 0, "bones": 0, "trimmed": []} for s in seeds]}
+        meta = {"clips": [dict(name=f"c{s}", frames=0, bones=0, trimmed=[], **bases[base_of(s, len(bases))]["lists"])
+                          for s in seeds]}
         files.append((f"file{f0}", 0, 0, meta, Lazy(bases, seeds)))
     with open(fn, "wb") as f:
         write_library(f, files, "bench")
