@@ -33,7 +33,7 @@ import numpy as np
 from _common import ROOT
 
 from blender_shapesig.core.blas import one_blas_thread  # noqa: E402
-from blender_shapesig.core.index import local  # noqa: E402
+from blender_shapesig.core.index import local, local_dtw  # noqa: E402
 from blender_shapesig.core.index.local_library import open_library, write_library  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 
@@ -151,7 +151,7 @@ def previous_rerank(query, cands):
     out = []
     for c in cands:
         b = np.asarray(c["sequence"], np.float64)
-        d = local._dtw_numpy(a, b, max(local._band(len(a), len(b)), 1), min(int(local.FREE * len(a)), len(a) - 1),
+        d = local_dtw._dtw_numpy(a, b, max(local._band(len(a), len(b)), 1), min(int(local.FREE * len(a)), len(a) - 1),
                              min(int(local.FREE * len(b)), len(b) - 1))
         out.append(d / np.sqrt(len(a) + len(b)))
     return np.array(out)

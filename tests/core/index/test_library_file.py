@@ -141,7 +141,8 @@ def test_rank_scheduler_computes_the_missing_entries_on_a_dask_cluster(capsys, l
     assert plain["cache"]["misses"] >= n  # computed here, clip after clip
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as c:
         for metric in ([], ["--metric", "sim3"]):
-            assert cli.main(base + metric + ["--cache", str(tmp_path / "dask"), "--scheduler", c.scheduler_address]) == 0
+            dask_run = base + metric + ["--cache", str(tmp_path / "dask"), "--scheduler", c.scheduler_address]
+            assert cli.main(dask_run) == 0
             out = json.loads(capsys.readouterr().out)
             assert out["computed"] == n and out["cache"]["misses"] <= 1  # the query's entry is this process'
             if not metric:
@@ -183,8 +184,8 @@ def test_the_library_file_is_closed_before_it_is_replaced_where_mapped_files_are
         lib_dir, tmp_path, data_dir, monkeypatch, locked):
     """Windows refuses to replace a file this process has memory-mapped. Simulated here (Linux's /proc/self/maps
     tells whether the file is mapped): with ``MAPPED_FILES_LOCKED`` the store closes the map before writing the
-    file again (no warning, the file holds the added clip, the ranking is the one computed without a cache); without it the simulated
-    refusal turns the disk off with one warning (what Windows did before)."""
+    file again (no warning, the file holds the added clip, the ranking is the one computed without a cache);
+    without it the simulated refusal turns the disk off with one warning (what Windows did before)."""
     from blender_shapesig.core.index import local_store
 
     q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
