@@ -98,8 +98,8 @@ def build(fn, bases, n, per_file=100):
         write_library(f, files, "bench")
 
 
-def ranked(q, lib, block, entries_of, keep, top=10, previous=False):
-    d1 = (previous_first_stage if previous else local.first_stage)(q, block, keep=keep)
+def ranked(q, lib, block, entries_of, keep, top=10, previous=False, share=local.PREFILTER_SHARE):
+    d1 = previous_first_stage(q, block, keep=keep) if previous else local.first_stage(q, block, keep=keep, share=share)
     head = np.argsort(d1, kind="stable")[:local.SHORTLIST]
     cands = [entries_of(i) for i in head]
     d2 = previous_rerank(q, cands) if previous else local.rerank(q, cands)
@@ -197,6 +197,8 @@ def main():
     ap.add_argument("--queries", type=int, default=20)
     ap.add_argument("--recall-queries", type=int, default=200)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--keeps", help="also recall@10 and CPU ms a query when the prefilter keeps exactly these "
+                    "numbers of clips (comma-separated), over the recall queries")
     args = ap.parse_args()
     bases = base_entries([ROOT / "tests" / "data"] + ([args.data] if args.data else []))
     with tempfile.TemporaryDirectory() as tmp:
@@ -218,11 +220,18 @@ def main():
         exact = timed(lambda q: ranked(q, lib, block, entries_of, None), queries[:min(3, args.queries)])
         same = all(ranked(q, lib, block, entries_of, local.PREFILTER)
                    == ranked(q, lib, block, entries_of, local.PREFILTER, previous=True) for q in queries[:args.queries])
-        hits = []
-        for q in queries[:args.recall_queries]:
-            a = set(ranked(q, lib, block, entries_of, None))
-            b = set(ranked(q, lib, block, entries_of, local.PREFILTER))
-            hits.append(len(a & b) / len(a))
+        truth = [set(ranked(q, lib, block, entries_of, None)) for q in queries[:args.recall_queries]]
+        hits = [len(a & set(ranked(q, lib, block, entries_of, local.PREFILTER))) / len(a)
+                for q, a in zip(queries, truth)]
+        keeps = {}
+        for k in [int(x) for x in args.keeps.split(",")] if args.keeps else []:
+            recall, cpu = [], []
+            for q, a in zip(queries, truth):
+                c = time.process_time()
+                got = set(ranked(q, lib, block, entries_of, k, share=0.0))
+                cpu.append(time.process_time() - c)
+                recall.append(len(got & a) / len(a))
+            keeps[k] = {"recall_at_10": float(np.mean(recall)), "query_cpu_ms": 1000 * float(np.median(cpu))}
         fresh = open_and_query(fn)
         size = os.path.getsize(fn)
     out = {"clips": args.clips, "query_ms": fast[0], "query_cpu_ms": fast[1],
@@ -233,7 +242,7 @@ def main():
            "bytes_per_clip_memory": fresh["rss"] / args.clips,
            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
            "recall_at_10": float(np.mean(hits)), "recall_queries": len(hits), "base_clips": len(bases),
-           "build_s": build_s}
+           "build_s": build_s, **({"keeps": keeps} if keeps else {})}
     print(json.dumps(out) if args.json else "\n".join(f"{k}: {v}" for k, v in out.items()))
 
 
