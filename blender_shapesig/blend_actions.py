@@ -16,7 +16,7 @@ from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
 from .core.progress import check as check_progress
 
-__all__ = ["BlendResult", "blend_actions", "unique_action_name", "selected_bone_names",
+__all__ = ["BlendResult", "blend_actions", "unique_action_name", "selected_bone_names", "stride_ranges",
            "bake_strip", "timed_strips", "TIMING_TRACK"]
 
 TIMING_TRACK = "ShapeSig Timing"  # the NLA track of a blend written with editable timing
@@ -78,6 +78,24 @@ def _read_all(armature, actions, bones, rates=None, allow_partial=False):
             raise ShapeSigError(f"bone(s) {', '.join(missing[:5])} are not animated in "
                                 f"{'both' if len(actions) == 2 else 'all of'} {names}")
     return own, mapped, bones, across
+
+
+def stride_ranges(armature, action_a, action_b):
+    """One stride of each of two cyclic actions as ((first, last), (first, last)) in their own frames, B's starting
+    at A's phase (the strides Loop blends: ``core.blend.cycle.one_cycle``), looked for after a converter's rest
+    frame and ramp (``core.clip.trim``), or None when either shows no clear cycle or cannot be read (the Blend
+    dialog's default ranges)."""
+    from .core.blend.cycle import one_cycle
+    from .core.clip.trim import trim_clip
+
+    try:
+        own, mapped, _bones, _across = _read_all(armature, [action_a, action_b], None, allow_partial=True)
+        work = [trim_clip(c) for c in (mapped or own)]
+        first = one_cycle(work[0])
+        second = one_cycle(work[1], like=first)
+    except ShapeSigError:
+        return None
+    return tuple((int(c.meta["cycle"]["start"]), int(c.meta["cycle"]["end"])) for c in (first, second))
 
 
 def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DEFAULT_DEPTH, frames=None,

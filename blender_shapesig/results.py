@@ -290,12 +290,23 @@ def preview_result(context, settings):
 def assign_result(context, settings):
     """Make the selected result the armature's action (a running preview is stopped first, keeping the result
     when it was written for the preview); the replaced action is stashed when nothing else uses it. Returns
-    (armature, action)."""
+    (armature, action, note): ``note`` one line when the query's frame range was reset, else ''."""
     library.check_problem(library.result_problem(context, settings))
     if settings.preview_object:
         row = results_of().results[results_of().results_index]
         keep = row.window_action if row.frame_last else (row.on_armature or (row.source if row.is_action else ""))
         stop_preview(context, settings, keep=keep)
     obj, action = selected_action(context, settings)
+    before = obj.animation_data.action if obj.animation_data else None
     action_io.assign_action(obj, action)
-    return obj, action
+    return obj, action, _release_query_range(settings, before, action)
+
+
+def _release_query_range(settings, before, action):
+    """The query's frame range belongs to the action it was set on: when Assign makes another action the query (the
+    armature's, no Query Action chosen), the range is reset to the whole action (a range outside the new action's
+    frames greyed Find Similar out). Returns one line saying so, or ''."""
+    if settings.query_action or not settings.use_frame_range or before == action:
+        return ""
+    settings.use_frame_range, settings.frame_start, settings.frame_end = False, 0, 0
+    return f"the query is now all of {action.name!r} (its frame range was for {before.name!r})" if before else ""

@@ -39,7 +39,7 @@ def joints(clip):
     """{joint: (frames, 3)} heads in the heading frame (x: travel), leg lengths, hips at the origin."""
     by_joint = {j: b for b, j in rigs.resolve_map("auto", clip).items()}
     heads, _tails, W = skeleton.forward_kinematics(clip)
-    H = rigs.heading(W[:, clip.bones.index(by_joint["hips"])], clip.root_translation)
+    H = rigs.clip_heading(clip, by_joint)
     leg = rigs.leg_length(clip, by_joint)
     hips = heads[:, clip.bones.index(by_joint["hips"])]
     turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # Blender's forward -Y to +x

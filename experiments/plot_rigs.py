@@ -104,7 +104,7 @@ def main(argv=None):
     for k, ((label, _p), (raw, mapped, P)) in enumerate(zip(PAIR, rigs_)):
         bm = mapped.meta["bone_map"]
         index = {b: i for i, b in enumerate(raw.bones)}
-        H = rigs.heading(rigs.world_rotations(raw)[:, index[bm["hips"]]], raw.root_translation)
+        H = rigs.clip_heading(raw, bm)
         height = np.ptp(P[0, :, 2])
         side = int(np.argmax(np.ptp(P[:, index[bm["hips"]], :2], axis=0)))
         for m in moments:

@@ -207,7 +207,7 @@ def _relative_feet(clip):
 
     by_joint = {j: b for b, j in rigs.resolve_map("auto", clip).items()}
     heads, _tails, W = skeleton.forward_kinematics(clip)
-    H = rigs.heading(W[:, clip.bones.index(by_joint["hips"])], clip.root_translation)
+    H = rigs.clip_heading(clip, by_joint)
     at = lambda j: heads[:, clip.bones.index(by_joint[j])]  # noqa: E731
     leg = rigs.leg_length(clip, by_joint)
     return {s: ((at(f"foot.{s}") - at("hips")) @ H) / leg for s in "LR"}

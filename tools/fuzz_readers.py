@@ -4,6 +4,7 @@
     .venv/bin/python tools/fuzz_readers.py --cases 2000 --seed 1
     .venv/bin/python tools/fuzz_readers.py --cases 300 --seed 7 --targets bvh,blend --batch 50 --keep /tmp/fails
     .venv/bin/python tools/fuzz_readers.py --cases 300 --targets fbx,glb --batch 75
+    .venv/bin/python tools/fuzz_readers.py --cases 500 --targets npz
 
 Each case takes a real CMU file from ``tests/data`` (ASF, AMC, BVH, or a .blend written from an AMC take),
 applies one mutation (``KINDS``: truncation, garbage bytes, dropped / repeated / swapped lines, wrong
@@ -73,9 +74,13 @@ PRESERVING = {"crlf", "cr", "tabs", "bom", "latin1_comment", "utf16", "utf16_be"
 BLEND_KINDS = ("truncate", "garbage_bytes", "insert_garbage", "zero_block", "bit_flips", "drop_block",
                "repeat_block", "bad_magic", "empty", "binary", "wrong_format")
 BINARY_KINDS = {"blend": BLEND_KINDS, "fbx": BLEND_KINDS + ("huge_count",), "glb": BLEND_KINDS + ("huge_count",)}
-_MAGIC = {"blend": (b"BLENDER?", b"NOTBLEND"), "fbx": (b"Kaydara FBX Binary  \x01", b"; FBX 7.4.0 project f"),
+_MAGIC = {"npz": (b"PK\x05\x06", b"\x93NUMPY"), "blend": (b"BLENDER?", b"NOTBLEND"), "fbx": (b"Kaydara FBX Binary  \x01", b"; FBX 7.4.0 project f"),
           "glb": (b"glTF\x01\x00\x00\x00", b"gltf")}
 INTERCHANGE_TARGETS = ("fbx", "glb")  # read through Blender's importers in the reading child
+# SMPL/AMASS .npz (read in process, pure numpy): the container's bytes, and its arrays (keys, shapes, values)
+NPZ_KINDS = ("truncate", "garbage_bytes", "bit_flips", "bad_magic", "empty", "binary", "wrong_format",
+             "npy_huge_shape", "missing_key", "odd_width", "nonfinite", "huge", "object_array", "zero_frames",
+             "negative_rate", "huge_rate", "string_rate", "wrong_dims")
 
 _NUM = re.compile(rb"(?<![\w.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?![\w.])")
 NONFINITE = (b"nan", b"NaN", b"inf", b"-inf", b"Infinity", b"1e999", b"-1e999", b"nan(0x1)")
@@ -518,6 +523,80 @@ def acclaim_case(rng, kind, folder):
     return outcome, detail, f"{which}:{amc_rel if which == 'amc' else asf_rel}"
 
 
+def _amass_arrays(rng, frames=40):
+    """The arrays of an AMASS SMPL-H file: 52 joints' axis angles, the root path, rate, shape and gender."""
+    nrng = np.random.default_rng(rng.randrange(2 ** 32))
+    return {"poses": nrng.normal(0.0, 0.3, (frames, 156)), "trans": np.cumsum(nrng.normal(0, 0.01, (frames, 3)), 0),
+            "mocap_framerate": np.array(120.0), "betas": nrng.normal(0, 1, 16), "gender": np.array("male")}
+
+
+def _npz_bytes(arrays):
+    import io
+
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    return buf.getvalue()
+
+
+def _npy_huge_shape(data, rng):
+    """The first array's .npy header in the zip made to declare a huge shape (the reader must not allocate it)."""
+    i = data.find(b"'shape': (")
+    if i < 0:
+        return data
+    j = data.find(b")", i)
+    huge = rng.choice((b"'shape': (4000000000, 156", b"'shape': (99999999999999", b"'shape': (-1, 156"))
+    new = huge + b" " * max(0, j - i - len(huge))
+    return data[:i] + new[:j - i] + data[j:] if len(new) >= j - i else data[:i] + new + data[j:]
+
+
+def npz_case(rng, kind, folder, i):
+    """One mutated AMASS-like .npz, read through the front door (``sources.read``): (outcome, detail, source)."""
+    from blender_shapesig.core.io.sources import read as read_clips
+
+    arrays = _amass_arrays(rng)
+    if kind == "missing_key":
+        del arrays[rng.choice(("poses", "mocap_framerate"))]
+    elif kind == "odd_width":
+        arrays["poses"] = arrays["poses"][:, :rng.choice((0, 1, 5, 70, 100))]
+    elif kind == "nonfinite":
+        arrays["poses"][rng.randrange(40), rng.randrange(156)] = rng.choice((np.nan, np.inf, -np.inf))
+    elif kind == "huge":
+        arrays[rng.choice(("poses", "trans"))][rng.randrange(40)] = rng.choice((1e308, -1e300, 1e38))
+    elif kind == "object_array":
+        arrays["poses"] = np.array([None, [1, 2]], dtype=object)
+    elif kind == "zero_frames":
+        arrays["poses"], arrays["trans"] = arrays["poses"][:0], arrays["trans"][:0]
+    elif kind in ("negative_rate", "huge_rate", "string_rate"):
+        arrays["mocap_framerate"] = {"negative_rate": np.array(-30.0), "huge_rate": np.array(1e30),
+                                     "string_rate": np.array("fast")}[kind]
+    elif kind == "wrong_dims":
+        arrays["poses"] = arrays["poses"].reshape(40, 52, 3)
+    try:
+        data = _npz_bytes(arrays)
+    except ValueError:  # an object array numpy will not write without pickling: write it pickled
+        import io
+
+        buf = io.BytesIO()
+        np.savez(buf, **{k: v for k, v in arrays.items()})
+        data = buf.getvalue()
+    if kind == "npy_huge_shape":
+        data = _npy_huge_shape(data, rng)
+    elif kind in BLEND_KINDS:
+        data = _mutate_binary(data, kind, rng, "npz")
+    path = os.path.join(folder, f"{i}.npz")
+    pathlib.Path(path).write_bytes(data)
+
+    def read():
+        got = read_clips(path)
+        for c in got[1:]:
+            why = check_clip(c)
+            if why:
+                raise AssertionError(why)
+        return got[0]
+    outcome, detail = run_case(read, None, 30)
+    return outcome, detail, "amass"
+
+
 # ----------------------------------------------------------------------------- Blender workers (subprocess)
 
 
@@ -690,16 +769,16 @@ def main(argv=None):
     targets = [t.strip() for t in args.targets.split(",") if t.strip()]
     weights = dict(kv.split("=") for kv in args.weights.split(","))
     for t in targets:
-        if t not in ("acclaim", "bvh", "blend", "import_op") + INTERCHANGE_TARGETS:
+        if t not in ("acclaim", "npz", "bvh", "blend", "import_op") + INTERCHANGE_TARGETS:
             p.error(f"unknown target {t!r}")
     import importlib.util
 
     have_bpy = importlib.util.find_spec("bpy") is not None  # the workers import it, not this process
     if not have_bpy:
-        dropped = [t for t in targets if t != "acclaim"]
+        dropped = [t for t in targets if t not in ("acclaim", "npz")]
         if dropped:
             print(f"bpy is not importable: skipping {', '.join(dropped)}", file=sys.stderr)
-        targets = [t for t in targets if t == "acclaim"]
+        targets = [t for t in targets if t in ("acclaim", "npz")]
     total_w = sum(float(weights.get(t, 1)) for t in targets)
     counts = {t: int(round(args.cases * float(weights.get(t, 1)) / total_w)) for t in targets}
     rng = random.Random(args.seed)
@@ -728,6 +807,16 @@ def main(argv=None):
                     log(f"  acclaim {kind} {src}: {detail}")
                     keep(os.path.join(folder, "skel.asf"), f"acclaim-{i}-{kind}.asf")
                     keep(os.path.join(folder, "take.amc"), f"acclaim-{i}-{kind}.amc")
+        if counts.get("npz"):
+            folder = os.path.join(tmp, "npz")
+            os.makedirs(folder)
+            for i in range(counts["npz"]):
+                kind = NPZ_KINDS[i % len(NPZ_KINDS)] if i < len(NPZ_KINDS) else rng.choice(NPZ_KINDS)
+                outcome, detail, src = npz_case(rng, kind, folder, i)
+                rows.append(("npz", kind, outcome, detail, src))
+                if outcome == "FAIL":
+                    log(f"  npz {kind}: {detail}")
+                    keep(os.path.join(folder, f"{i}.npz"), f"npz-{i}-{kind}.npz")
         for target in ("bvh", "blend", "import_op") + INTERCHANGE_TARGETS:
             n = counts.get(target, 0)
             if not n:

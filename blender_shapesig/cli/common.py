@@ -98,8 +98,12 @@ def crop_of(args):
     """``(start, end, fps, trim)`` of the command line (what ClipSpec takes besides the path and skeleton)."""
     if args is None:
         return None
-    return (getattr(args, "start", None), getattr(args, "end", None), getattr(args, "fps", None),
-            getattr(args, "trim", None) or "auto")
+    fps = getattr(args, "fps", None)
+    if fps is not None:
+        from ..core.clip.prepare import check_fps
+
+        fps = check_fps(fps, "--fps")  # the command line names its flag (core's messages name none)
+    return (getattr(args, "start", None), getattr(args, "end", None), fps, getattr(args, "trim", None) or "auto")
 
 
 def clip_spec(text, asf=None, crop=None, bone_map="auto"):

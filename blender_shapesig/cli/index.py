@@ -9,15 +9,11 @@ from . import common as c
 def run(args):
     from ..core import index
     from ..dedupe import parallel
-    from .rank import library_items
+    from .rank import library_or_refuse
 
     sched = c.check_scheduler(args.scheduler)
     t0 = time.perf_counter()
-    skipped = []
-    items = library_items(args.paths, args, skipped)
-    skipped = c.report_skipped(skipped)
-    if not items:
-        raise c.CommandError("no clips to index" + (f" ({skipped[0]})" if skipped else ""))
+    items, _skipped = library_or_refuse(args.paths, args, "index")
     cache = index.SignatureCache(args.cache or index.default_cache_dir())
     with parallel.scheduler(sched) as s, c.progress_bar(args, "indexing") as bar:
         clips, computed, errors = parallel.index_items(items, cache, s, bar)

@@ -37,6 +37,17 @@ def library_items(specs, args, skipped=None):
     return items
 
 
+
+def library_or_refuse(specs, args, verb):
+    """(``library_items`` of ``specs``, the skipped files' lines, reported on stderr); CommandError "no clips to
+    ``verb``" when none is left."""
+    skipped = []
+    items = library_items(specs, args, skipped)
+    skipped = c.report_skipped(skipped)
+    if not items:
+        raise c.CommandError(f"no clips to {verb}" + (f" ({skipped[0]})" if skipped else ""))
+    return items, skipped
+
 def _rank_windows(query, items, args, progress):
     """``rank --windows``: moments of the clips (``core.index.windows``), the signature stage at level 2."""
     from ..core.index.windows import rank_windows
@@ -131,11 +142,7 @@ def run(args):
     query = read_one(spec)
     # the query is keyed like the library: its signature is a cache hit when it was indexed before
     query_item = spec_item(spec, load=lambda _spec: query)
-    skipped = []
-    items = library_items(args.clips, args, skipped)
-    skipped = c.report_skipped(skipped)
-    if not items:
-        raise c.CommandError("no clips to rank" + (f" ({skipped[0]})" if skipped else ""))
+    items, skipped = library_or_refuse(args.clips, args, "rank")
     cache = index.SignatureCache(c.cache_dir(args, index))
     computed = _fill_on(sched, items, cache, base, level, args) if sched else None
     with c.progress_bar(args, "signatures") as bar:

@@ -84,14 +84,7 @@ class Canvas:
 
     def line(self, a, b, width: float, color):
         """A capsule from ``a`` to ``b`` (x, y), ``width`` pixels thick, with round ends."""
-        r = 0.5 * float(width)
-        box = self._box(min(a[0], b[0]) - r - 1, min(a[1], b[1]) - r - 1, max(a[0], b[0]) + r + 1,
-                        max(a[1], b[1]) + r + 1)
-        if box is None:
-            return
-        r0, r1, c0, c1 = box
-        py, px = np.mgrid[r0:r1, c0:c1] + 0.5
-        self.paint(r0, c0, coverage_of(_segment_distance(px, py, a, b), r), color)
+        self.polyline(np.array([a, b], np.float64), width, color)
 
     def polyline(self, points, width: float, color):
         """Capsules joining consecutive points (one coverage for the whole chain: joints are not painted twice)."""

@@ -81,8 +81,14 @@ def _names_only(bones, prior) -> Dict[str, str]:
 class _Tree:
     def __init__(self, bones, parents):
         self.bones = list(bones)
-        self.parent = {b: (parents.get(b) if parents.get(b) in parents or parents.get(b) in self.bones else None)
-                       for b in self.bones}
+        held = set(self.bones)
+        self.parent = {}
+        for b in self.bones:  # the nearest ancestor the clip holds (a rig's unanimated bones are skipped)
+            p, seen = parents.get(b), {b}
+            while p is not None and p not in held and p not in seen:
+                seen.add(p)
+                p = parents.get(p)
+            self.parent[b] = p if p in held else None
         self.children = {b: [] for b in self.bones}
         for b, p in self.parent.items():
             if p in self.children:

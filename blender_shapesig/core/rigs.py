@@ -24,13 +24,14 @@ __all__ = [
     "analyse_rig", "analyse_clip", "RigReport", "LIMB_CHAINS", "chains_covered", "joint_coverage", "coverage_report",
     "coverage_from", "below_minimum",
     "check_map", "parse_map", "load_map", "save_map", "map_json", "MAX_MAP_BYTES", "resolve_map", "world_rotations", "heading",
+    "clip_heading", "rest_forward",
     "to_comparison_space", "rest_retarget", "rests_differ", "other_rigs", "REST_DEGREES", "apply_bone_map", "check_comparable", "coverage", "moving_count", "onto_rig",
     "MIN_COVERAGE", "TABLES_VERSION", "TRAVEL_RATIO", "CANONICAL_PARENTS",
 ]
 
 BONE_MAP_MODES = ("auto", "none")
 # bump when the tables or the comparison space change (it is part of every clip's cache key)
-TABLES_VERSION = 3
+TABLES_VERSION = 4
 # below this coverage (joints compared / canonical joints both rigs have; limb chains compared / limb chains both
 # rigs have) comparisons and blends refuse
 MIN_COVERAGE = 0.5
@@ -168,31 +169,67 @@ _Z = np.array([0.0, 0.0, 1.0])  # up in the comparison space (Blender's Z)
 TRAVEL_RATIO = 0.5
 
 
-def heading(W_root: np.ndarray, root_translation: Optional[np.ndarray] = None) -> np.ndarray:
+def heading(W_root: np.ndarray, root_translation: Optional[np.ndarray] = None,
+            forward: Optional[np.ndarray] = None) -> np.ndarray:
     """The rotation about the vertical (Z) that ``to_comparison_space`` removes: where the take goes.
 
     * A clip that travels (net horizontal displacement of the root >= ``TRAVEL_RATIO`` of its horizontal path):
       the direction of travel, turned so that it becomes Blender's forward (-Y). Positions do not depend on
       rest poses or bone axes, so this heading is the same for the take on any rig.
-    * Otherwise: the circular mean over the frames of the root's yaw (its twist about Z, ``2 atan2(z, w)`` of
-      its quaternion), i.e. the facing relative to the rig's rest pose (rigs whose rests face the same way
-      agree; a left Z-rotation adds to it exactly)."""
+    * Otherwise, with the rig's rest facing ``forward`` (3,) (``rest_forward``): where the body faces, the mean
+      over the frames of ``W_root(t) forward``'s horizontal part, turned to -Y. Also a fact of positions: the
+      same for a rig whose rest faces elsewhere (a whole rig turned about the vertical turns it along).
+    * Without it: the circular mean over the frames of the root's yaw (its twist about Z), the facing relative
+      to the rig's rest pose (only rigs whose rests face the same way agree)."""
     if root_translation is not None and len(root_translation) > 1:
         flat = np.asarray(root_translation, dtype=np.float64)[:, :2]
         net = flat[-1] - flat[0]
         path = np.linalg.norm(np.diff(flat, axis=0), axis=1).sum()
         if path > 0 and np.linalg.norm(net) >= TRAVEL_RATIO * path:
             return so3.exp((np.arctan2(net[1], net[0]) + np.pi / 2) * _Z)
+    if forward is not None:
+        # unnormalized: frames where the body lies (facing up or down) weigh less
+        f = (np.asarray(W_root, dtype=np.float64) @ np.asarray(forward, dtype=np.float64))[:, :2].mean(axis=0)
+        if np.linalg.norm(f) > 1e-6:
+            return so3.exp(np.arctan2(f[0], -f[1]) * _Z)  # the turn about Z taking -Y to f
     yaw = so3.twist(W_root, _Z)
     return so3.exp(np.arctan2(np.sin(yaw).mean(), np.cos(yaw).mean()) * _Z)
 
 
-def leg_length(clip: Clip, by_joint: Mapping[str, str]) -> Optional[float]:
-    """The rig's leg (hip to ankle: the rest heads of the mapped thigh and foot, mean over sides) in the clip's
-    units, or None without a mapped leg or rest skeleton."""
+def rest_forward(clip: Clip, by_joint: Mapping[str, str]) -> Optional[np.ndarray]:
+    """The unit direction the rig's body faces at rest, in armature axes: left x up, left from the right to the
+    left thigh's rest head (else the upper arms', the feet's), up from the hips (else the thighs' midpoint) to the
+    neck (else the head, the chest); None without a rest skeleton or those joints."""
     heads = clip.meta.get(skeleton.REST_HEADS) or {}
-    pairs = [(by_joint.get(f"thigh.{s}"), by_joint.get(f"foot.{s}")) for s in SIDES]
-    lengths = [np.linalg.norm(np.subtract(heads[t], heads[f])) for t, f in pairs if t in heads and f in heads]
+    h = {j: np.asarray(heads[b], dtype=np.float64) for j, b in by_joint.items() if b in heads}
+    left = next((h[f"{j}.L"] - h[f"{j}.R"] for j in ("thigh", "upper_arm", "foot")
+                 if f"{j}.L" in h and f"{j}.R" in h), None)
+    low = h.get("hips", 0.5 * (h["thigh.L"] + h["thigh.R"]) if "thigh.L" in h and "thigh.R" in h else None)
+    top = next((h[j] for j in ("neck", "head", "chest") if j in h), None)
+    if left is None or low is None or top is None:
+        return None
+    up = _unit(top - low)
+    return None if up is None else _unit(np.cross(left - (left @ up) * up, up))
+
+
+def clip_heading(clip: Clip, by_joint: Mapping[str, str], W: Optional[np.ndarray] = None) -> np.ndarray:
+    """``heading`` of a clip read in armature axes with its map ``{joint: bone}``: of its hips (else its first
+    mapped bone), its root translation and its rest facing (``rest_forward``). ``W``: ``world_rotations(clip)``
+    when already computed."""
+    W = world_rotations(clip) if W is None else W
+    root = by_joint.get("hips", next((by_joint[j] for j in JOINTS if j in by_joint), None))
+    return heading(W[:, clip.bones.index(root)], clip.root_translation, rest_forward(clip, by_joint))
+
+
+def leg_length(clip: Clip, by_joint: Mapping[str, str]) -> Optional[float]:
+    """The rig's leg (hip to ankle: the rest heads of the mapped thigh and foot, else the thigh's head and the
+    shin's tail for a rig without a foot bone; mean over sides) in the clip's units, or None without a mapped leg
+    or rest skeleton."""
+    heads = clip.meta.get(skeleton.REST_HEADS) or {}
+    tails = clip.meta.get(skeleton.REST_TAILS) or {}
+    ankles = {s: heads.get(by_joint.get(f"foot.{s}"), tails.get(by_joint.get(f"shin.{s}"))) for s in SIDES}
+    lengths = [np.linalg.norm(np.subtract(heads[by_joint[f"thigh.{s}"]], ankles[s])) for s in SIDES
+               if by_joint.get(f"thigh.{s}") in heads and ankles[s] is not None]
     length = float(np.mean(lengths)) if lengths else 0.0
     return length if length > 0 else None
 
@@ -218,7 +255,8 @@ def hips_path(clip: Clip, by_joint: Mapping[str, str], W: np.ndarray) -> Optiona
 
 def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
     """The clip in the comparison space: the mapped bones only, renamed to their joints (canonical order),
-    rotations ``H^T W_b(t)`` (``world_rotations``, ``heading`` of the hips or the first mapped bone). The root
+    rotations ``H^T W_b(t)`` (``world_rotations``, ``clip_heading``: of the hips or the first mapped bone, and the
+    rig's rest facing). The root
     translation is the hips' path in leg lengths (``hips_path``; ``meta["root_path"] = "hips_legs"``, else the
     root's translation as read), turned with the heading. ``meta["bone_map"]`` keeps ``{joint: bone}``."""
     mapping = {b: j for b, j in mapping.items() if b in clip.bones}
@@ -228,8 +266,7 @@ def to_comparison_space(clip: Clip, mapping: Mapping[str, str]) -> Clip:
     index = {b: i for i, b in enumerate(clip.bones)}
     by_joint = {j: b for b, j in mapping.items()}
     joints = [j for j in JOINTS if j in by_joint]
-    root = by_joint.get("hips", by_joint[joints[0]])
-    H = heading(W[:, index[root]], clip.root_translation)
+    H = clip_heading(clip, by_joint, W)
     R = H.T[None, None] @ W[:, [index[by_joint[j]] for j in joints]]
     hips = hips_path(clip, by_joint, W)
     rt = clip.root_translation if hips is None else hips[0]
@@ -493,8 +530,7 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
     unblended = set(clip.meta.get("unmatched_a", ()))  # joints a blend copied from A: A's local motion stays
     joint_of = {b: j for j, b in bone_map.items() if j in clip.bones and j not in unblended}
     parents = rig.meta.get("parents") or {}
-    W0 = world_rotations(rig)
-    H = heading(W0[:, rig.bones.index(bone_map.get("hips", next(iter(bone_map.values()))))], rig.root_translation)
+    H = clip_heading(rig, {j: b for j, b in bone_map.items() if b in rig.bones})
     X_rig = geodesic_interpolate(rig.rotations, uniform_times(rig.frames), uniform_times(clip.frames))
     index = {b: i for i, b in enumerate(rig.bones)}
     W = np.empty_like(X_rig)

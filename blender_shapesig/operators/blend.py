@@ -87,12 +87,16 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
             ("A", "Keep A", "Keep A's root path (in the blended timing)"),
         ),
         default="BLEND")
+    # not remembered between dialogs (SKIP_SAVE): a range belongs to the actions it was chosen for
     range_a: IntVectorProperty(
-        name="A Frames", description="Frames of A to blend (first, last, inclusive); 0, 0: all of A", size=2,
-        default=(0, 0))
+        name="A Frames", description="Frames of A to blend (first, last, inclusive); 0, 0: all of A. For two "
+        "cyclic actions the dialog starts with one stride of each", size=2, default=(0, 0), options={"SKIP_SAVE"})
     range_b: IntVectorProperty(
-        name="B Frames", description="Frames of B to blend (first, last, inclusive); 0, 0: all of B", size=2,
-        default=(0, 0))
+        name="B Frames", description="Frames of B to blend (first, last, inclusive); 0, 0: all of B. For two "
+        "cyclic actions the dialog starts with one stride of each", size=2, default=(0, 0), options={"SKIP_SAVE"})
+    strides_for: StringProperty(
+        name="Strides For", description="The actions and ranges the dialog's one-stride default was found for "
+        "(A, B, A's first and last, B's first and last, tab-separated)", options={"HIDDEN", "SKIP_SAVE"})
     extra: StringProperty(
         name="More Actions", description="More actions to blend and their weights: NAME=WEIGHT, ... (A's weight "
         "is 1 - B's - theirs; one blend)")
@@ -156,7 +160,35 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                     if act.name != self.action_a:
                         self.action_b = act.name
                         break
+            self._default_strides(obj)
         return context.window_manager.invoke_props_dialog(self, width=360)
+
+    def _default_strides(self, obj):
+        """Two cyclic actions and no ranges or loop asked for: the ranges start at one stride of each (whole takes
+        shuffle, then take big strides; docs/blending.md), visible and changeable in the dialog."""
+        from ..blend_actions import stride_ranges
+
+        acts = [bpy.data.actions.get(n) if n else None for n in (self.action_a, self.action_b)]
+        if self.loop or None in acts or acts[0] == acts[1] or tuple(self.range_a) != (0, 0) \
+                or tuple(self.range_b) != (0, 0):
+            return
+        strides = stride_ranges(obj, *acts)
+        if strides is not None:
+            self.range_a, self.range_b = strides
+            self.strides_for = "\t".join([acts[0].name, acts[1].name] + [str(v) for r in strides for v in r])
+
+    def _strides_note(self):
+        """(the line the dialog shows about the one-stride default or '', True when its ranges were found for
+        other actions than A and B now: then they are not used)."""
+        parts = self.strides_for.split("\t")
+        if len(parts) != 6:
+            return "", False
+        ranges = (tuple(int(v) for v in parts[2:4]), tuple(int(v) for v in parts[4:6]))
+        if (tuple(self.range_a), tuple(self.range_b)) != ranges:
+            return "", False  # changed by hand: the user's ranges
+        if parts[:2] != [self.action_a, self.action_b]:
+            return f"The one-stride ranges were found for {parts[0]} and {parts[1]}: whole actions are blended", True
+        return "One stride of each (cycles found); 0, 0 blends the whole action", False
 
     def draw(self, context):
         layout = self.layout
@@ -180,6 +212,9 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         layout.prop(self, "root")
         layout.prop(self, "range_a")
         layout.prop(self, "range_b")
+        note, stale = self._strides_note()
+        if note:
+            layout.label(text=note, icon="ERROR" if stale else "INFO")
         layout.prop(self, "allow_long")
         layout.prop(self, "allow_partial")
         layout.prop(self, "extra")
@@ -227,7 +262,8 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         timing); ShapeSigError (one line) on bad input."""
         from ..core.blend import parse_groups, parse_mask, parse_range
 
-        ranges = [None if tuple(r) == (0, 0) else parse_range(tuple(r), label)
+        stale = self._strides_note()[1]  # one-stride ranges found for other actions than A and B now
+        ranges = [None if tuple(r) == (0, 0) or stale else parse_range(tuple(r), label)
                   for r, label in ((self.range_a, "A Frames"), (self.range_b, "B Frames"))]
         extra = []
         for name, w in parse_extra(self.extra):

@@ -47,19 +47,15 @@ class SHAPESIG_OT_set_frame_rate(bpy.types.Operator):
         from ..frame_rates import found_rate, rate_text, record
 
         act = self._action(context)
-        try:
-            if act is None:
-                raise ShapeSigError(f"no action named {self.action!r}" if self.action else "no active action")
-            if self.fps:
-                record(act, self.fps, "user")
-            else:
-                found = found_rate(act, context)
-                if found is None:
-                    raise ShapeSigError(f"no source file of {act.name!r} found: type its frame rate")
-                record(act, found[0], f"file {bpy.path.basename(found[1])}")
-        except ShapeSigError as exc:
-            self.report({"ERROR"}, f"Set Frame Rate: {exc}")
-            return {"CANCELLED"}
+        if act is None:
+            raise ShapeSigError(f"no action named {self.action!r}" if self.action else "no active action")
+        if self.fps:
+            record(act, self.fps, "user")
+        else:
+            found = found_rate(act, context)
+            if found is None:
+                raise ShapeSigError(f"no source file of {act.name!r} found: type its frame rate")
+            record(act, found[0], f"file {bpy.path.basename(found[1])}")
         self.report({"INFO"}, f"Set Frame Rate: {act.name} at {rate_text(act['shapesig_fps'])}")
         return {"FINISHED"}
 

@@ -1,7 +1,7 @@
 """Signature search operators (sidebar tab "ShapeSig"; settings in ``scene.shapesig``): ``shapesig.build_index``,
 ``shapesig.rank`` (Find Similar, with an optional elastic re-rank), ``shapesig.assign_result``,
 ``shapesig.preview_result``, ``shapesig.clear_index`` and ``shapesig.explain_result``. Thin: they parse the
-settings, call ``library`` and report; preconditions are in ``poll`` (``library.search_problem`` /
+settings, call ``library`` and report (a failure is one line through ``errors_ui``'s guard); preconditions are in ``poll`` (``library.search_problem`` /
 ``result_problem``). See docs/search.md and docs/dev/blender_layer.md.
 """
 
@@ -17,15 +17,9 @@ from ..core.errors import ShapeSigError
 # names kept for scripts and tests written against this module (they live in ``library``)
 from ..library import get_cache
 from ..properties import index_level, uses_local
+from .modal_job import ModalJob, tag_redraw
 
 __all__ = ["classes"]
-
-
-def _tag_redraw(context):
-    screen = getattr(context, "screen", None)
-    for area in getattr(screen, "areas", ()):
-        if area.type in ("VIEW_3D", "DOPESHEET_EDITOR", "NLA_EDITOR"):
-            area.tag_redraw()
 
 
 def _poll_with(problem):
@@ -59,40 +53,14 @@ def _confirm_cost(op, context, event, settings):
                                                  confirm_text="Index", icon="WARNING")
 
 
-def _after_confirm(op, context, name, **props):
-    """The dialog's OK calls ``execute``: in the UI, start the operator again with its progress bar (modal)."""
-    if not op.confirmed or context.window is None or bpy.app.background:
-        return False
-    getattr(bpy.ops.shapesig, name)("INVOKE_DEFAULT", confirmed=True, **props)
-    return True
+class _IndexingJob(ModalJob):
+    """A click that may index the library: a costly level asks first (``_confirm_cost``)."""
+
+    def _ask(self, context, event):
+        return _confirm_cost(self, context, event, library.settings_of(context))
 
 
-class _ModalSteps:
-    """A timer-driven modal operator with Blender's progress cursor: ``_begin_modal`` / ``_end_modal``."""
-
-    _timer = None
-
-    def _begin_modal(self, context, total):
-        wm = context.window_manager
-        wm.progress_begin(0, total)
-        self._timer = wm.event_timer_add(0.01, window=context.window)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
-
-    def _end_modal(self, context):
-        wm = context.window_manager
-        if self._timer is not None:
-            wm.event_timer_remove(self._timer)
-            self._timer = None
-        wm.progress_end()
-
-    def cleanup(self, context):
-        """After any failure (``errors_ui``): the timer and the progress cursor ended."""
-        if self._timer is not None:
-            self._end_modal(context)
-
-
-class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
+class SHAPESIG_OT_build_index(_IndexingJob, bpy.types.Operator):
     """Compute the signature index of every library clip not indexed yet (Esc cancels)"""
 
     bl_idname = "shapesig.build_index"
@@ -104,12 +72,15 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
     confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
 
     poll = _poll_with(library.search_problem)
+    OP_NAME, RUNNING, PROGRESS = "build_index", "index_running", "index_progress"
 
-    def cleanup(self, context):
-        _ModalSteps.cleanup(self, context)
-        library.settings_of(context).index_running = False
+    def _panel(self, context):
+        return library.settings_of(context)
 
-    def _prepare(self, context):
+    def _again(self):
+        return {"then_rank": self.then_rank}
+
+    def _start(self, context):
         self.settings = library.settings_of(context)
         self.lib = library.search_library(context, self.settings)  # folder files are hashed in the steps
         self.total = self.lib.size
@@ -120,9 +91,23 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
                                          local=uses_local(self.settings), computed=self.computed)
         self.done = 0
 
-    def _step(self):
-        next(self.steps, None)
-        self.done += 1
+    def _work(self):
+        """One clip a tick."""
+        if self.done < self.total:
+            next(self.steps, None)
+            self.done += 1
+
+    def _fraction(self):
+        return self.done / max(self.total, 1)
+
+    def _finished(self):
+        return self.done >= self.total
+
+    def _cancel(self, context):
+        return self._finish(context, cancelled=True)
+
+    def _done(self, context):
+        return self._finish(context)
 
     def _finish(self, context, cancelled=False):
         s = self.settings
@@ -143,67 +128,16 @@ class SHAPESIG_OT_build_index(_ModalSteps, bpy.types.Operator):
         library.results_of(context).message = msg
         self.report({"WARNING"} if (self.errors or cancelled or self.lib.skipped or self.cache.warning) else {"INFO"},
                     msg)
-        _tag_redraw(context)
+        tag_redraw(context)
         if getattr(self, "then_rank", False) and not cancelled:
             try:
                 bpy.ops.shapesig.rank()
             except RuntimeError:
                 pass  # rank reported its error already
-
-    def execute(self, context):
-        if _after_confirm(self, context, "build_index", then_rank=self.then_rank):
-            return {"FINISHED"}
-        try:
-            self._prepare(context)
-            while self.done < self.total:
-                self._step()
-        except ShapeSigError as exc:
-            self.report({"ERROR"}, f"Build Index: {exc}")
-            return {"CANCELLED"}
-        self._finish(context)
-        return {"FINISHED"}
-
-    def invoke(self, context, event):
-        asked = _confirm_cost(self, context, event, library.settings_of(context))
-        if asked is not None:
-            return asked
-        if context.window is None or bpy.app.background:
-            return self.execute(context)
-        try:
-            self._prepare(context)
-        except ShapeSigError as exc:
-            self.report({"ERROR"}, f"Build Index: {exc}")
-            return {"CANCELLED"}
-        self.settings.index_running = True
-        self.settings.index_progress = 0.0
-        return self._begin_modal(context, self.total)
-
-    def modal(self, context, event):
-        if event.type == "ESC":
-            self._end_modal(context)
-            self._finish(context, cancelled=True)
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        try:
-            if self.done < self.total:
-                self._step()
-        except Exception as exc:  # noqa: BLE001 - never leave a modal operator running after an error
-            self._end_modal(context)
-            self.settings.index_running = False
-            self.report({"ERROR"}, f"Build Index: {exc}")
-            return {"CANCELLED"}
-        self.settings.index_progress = self.done / max(self.total, 1)
-        context.window_manager.progress_update(self.done)
-        _tag_redraw(context)
-        if self.done >= self.total:
-            self._end_modal(context)
-            self._finish(context)
-            return {"FINISHED"}
-        return {"RUNNING_MODAL"}
+        return {"CANCELLED"} if cancelled else {"FINISHED"}
 
 
-class SHAPESIG_OT_rank(_ModalSteps, bpy.types.Operator):
+class SHAPESIG_OT_rank(_IndexingJob, bpy.types.Operator):
     """Rank the library by similarity (sim^n) to the query action (Esc cancels a long ranking)"""
 
     bl_idname = "shapesig.rank"
@@ -215,82 +149,50 @@ class SHAPESIG_OT_rank(_ModalSteps, bpy.types.Operator):
     confirmed: BoolProperty(options={"SKIP_SAVE", "HIDDEN"}, default=False)
 
     poll = _poll_with(library.search_problem)
+    OP_NAME, RUNNING, PROGRESS = "rank", "running", "progress"
 
-    def cleanup(self, context):
-        _ModalSteps.cleanup(self, context)
-        library.results_of(context).running = False
+    def _panel(self, context):
+        return library.results_of(context)
 
     def _start(self, context):
+        # the click's start (invoke): the panel reports its whole time
         self.job = library.RankJob(context, library.settings_of(context), started=getattr(self, "t0", None))
+
+    def _work(self):
+        """Several quick steps a tick, one slow one at most."""
+        t_end = time.perf_counter() + 0.05
+        while not self.job.step() and time.perf_counter() < t_end:
+            pass
+
+    def _fraction(self):
+        return self.job.progress
+
+    def _finished(self):
+        return self.job.finished
 
     def _done(self, context):
         msg = self.job.store()
-        out = library.results_of(context)
-        out.running = False
+        library.results_of(context).running = False
         self.report({"WARNING"} if self.job.warnings or self.job.failed or self.job.skipped else {"INFO"}, msg)
-        _tag_redraw(context)
+        tag_redraw(context)
         return {"FINISHED"}
 
     def _fail(self, context, exc):
+        library.results_of(context).message = str(exc)
+        return ModalJob._fail(self, context, exc)
+
+    def _cancel(self, context):
         out = library.results_of(context)
         out.running = False
-        out.message = str(exc)
-        self.report({"ERROR"}, f"Find Similar: {exc}")
+        out.message = (f"Find Similar cancelled after {time.perf_counter() - self.job.t0:.2f} s "
+                       f"({self.job.indexed} clips newly indexed stay in the index)")
+        self.report({"WARNING"}, out.message)
+        tag_redraw(context)
         return {"CANCELLED"}
-
-    def execute(self, context):
-        if _after_confirm(self, context, "rank"):
-            return {"FINISHED"}
-        self.t0 = getattr(self, "t0", None) or time.perf_counter()
-        try:
-            self._start(context)
-            self.job.run()
-        except ShapeSigError as exc:
-            return self._fail(context, exc)
-        return self._done(context)
 
     def invoke(self, context, event):
         self.t0 = time.perf_counter()  # the click: the panel reports its whole time
-        settings = library.settings_of(context)
-        asked = _confirm_cost(self, context, event, settings)
-        if asked is not None:
-            return asked
-        if context.window is None or bpy.app.background:
-            return self.execute(context)
-        try:
-            self._start(context)
-        except ShapeSigError as exc:
-            return self._fail(context, exc)
-        out = library.results_of(context)
-        out.running, out.progress = True, 0.0
-        return self._begin_modal(context, 1000)
-
-    def modal(self, context, event):
-        out = library.results_of(context)
-        if event.type == "ESC":
-            self._end_modal(context)
-            out.running = False
-            out.message = (f"Find Similar cancelled after {time.perf_counter() - self.job.t0:.2f} s "
-                           f"({self.job.indexed} clips newly indexed stay in the index)")
-            self.report({"WARNING"}, out.message)
-            _tag_redraw(context)
-            return {"CANCELLED"}
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        try:
-            t_end = time.perf_counter() + 0.05  # several quick steps per tick, one slow one at most
-            while not self.job.step() and time.perf_counter() < t_end:
-                pass
-        except Exception as exc:  # noqa: BLE001 - never leave a modal operator running after an error
-            self._end_modal(context)
-            return self._fail(context, exc)
-        out.progress = self.job.progress
-        context.window_manager.progress_update(int(1000 * self.job.progress))
-        _tag_redraw(context)
-        if self.job.finished:
-            self._end_modal(context)
-            return self._done(context)
-        return {"RUNNING_MODAL"}
+        return ModalJob.invoke(self, context, event)
 
 
 def _kept_text(action):
@@ -317,12 +219,8 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
     poll = _poll_with(library.result_problem)
 
     def execute(self, context):
-        try:
-            obj, action = results.assign_result(context, library.settings_of(context))
-        except ShapeSigError as exc:
-            self.report({"ERROR"}, f"Assign Result: {exc}")
-            return {"CANCELLED"}
-        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}")
+        obj, action, note = results.assign_result(context, library.settings_of(context))
+        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}{'; ' + note if note else ''}")
         return {"FINISHED"}
 
 
@@ -344,11 +242,7 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
             results.stop_preview(context, settings)
             self.report({"INFO"}, "preview stopped")
             return {"FINISHED"}
-        try:
-            action = results.preview_result(context, settings)
-        except ShapeSigError as exc:
-            self.report({"ERROR"}, f"Preview: {exc}")
-            return {"CANCELLED"}
+        action = results.preview_result(context, settings)
         start, end = (int(v) for v in action.frame_range)
         self.report({"INFO"}, f"previewing {action.name!r} (frames {start}-{end}){_kept_text(action)}; run again "
                               f"to stop")
@@ -366,14 +260,11 @@ class SHAPESIG_OT_explain_result(bpy.types.Operator):
     poll = _poll_with(library.result_problem)
 
     def execute(self, context):
-        try:
-            out = results.explain_result(context, library.settings_of(context))
-        except ShapeSigError as exc:
-            self.report({"ERROR"}, f"Why Different: {exc}")
-            return {"CANCELLED"}
+        out = results.explain_result(context, library.settings_of(context))
         name, share = top_joints(out, 1, "groups" if out.get("groups") else "joints")[0]
-        self.report({"INFO"}, f"largest share: {name} {share:.0%}")
-        _tag_redraw(context)
+        note = f"; {out['resampled'][0].lower()}{out['resampled'][1:]}" if out.get("resampled") else ""
+        self.report({"INFO"}, f"largest share: {name} {share:.0%}{note}")
+        tag_redraw(context)
         return {"FINISHED"}
 
 
@@ -385,13 +276,9 @@ class SHAPESIG_OT_clear_index(bpy.types.Operator):
     bl_options = {"REGISTER"}
 
     def execute(self, context):
-        try:
-            cache = get_cache(context)
-            n, size = cache.disk_usage()
-            cache.clear()
-        except OSError as exc:
-            self.report({"ERROR"}, f"Clear Index: {exc}")
-            return {"CANCELLED"}
+        cache = get_cache(context)
+        n, size = cache.disk_usage()
+        cache.clear()
         msg = f"removed {n} index files ({size / 2 ** 20:.1f} MB)"
         if cache.warning:  # a folder that is not the cache's own: nothing in it was touched
             self.report({"WARNING"}, f"{msg}; {cache.warning}")

@@ -269,6 +269,8 @@ def _draw_explanation(layout, item):
         ex = json.loads(item.explain)
     except ValueError:
         return
+    if ex.get("resampled"):  # a long take, compared at a lower rate (core.elastic.explain.fit_intervals)
+        box.label(text=ex["resampled"], icon="INFO")
     key = "groups" if ex.get("groups") else "joints"
     col = box.column(align=True)
     for name, share in top_joints(ex, EXPLAIN_BARS, key):

@@ -19,6 +19,7 @@ from ..core.errors import ParseError, ShapeSigError
 from ..core.io.files import check_file
 from ..core.io.blend_file import check_blend
 from . import _blend_file_child
+from .child import child_command
 from ..owners import find_owner
 from .scratch import id_snapshot, remove_new_ids
 
@@ -41,14 +42,8 @@ def read_blend_file(path, action_name=None, space="armature", rig=False):
 
 
 def _child_command(args_json):
-    """The command that runs _blend_file_child: the Blender binary in background mode inside Blender, else this
-    Python (which has the bpy module)."""
-    script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_blend_file_child.py")
-    binary = getattr(bpy.app, "binary_path", "") or ""
-    if binary and os.path.basename(binary).lower().startswith("blender"):
-        return [binary, "--background", "--factory-startup", "--python-exit-code", "3", "--python", script,
-                "--", args_json]
-    return [sys.executable, script, args_json]
+    """The command that runs _blend_file_child (``child.child_command``)."""
+    return child_command(os.path.join(os.path.dirname(os.path.abspath(__file__)), "_blend_file_child.py"), args_json)
 
 
 def _read_isolated(path, action_name, space, rig=False):

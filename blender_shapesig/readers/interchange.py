@@ -34,8 +34,13 @@ def _import(path, info):
                 result = bpy.ops.import_scene.gltf(filepath=path, import_pack_images=False)
     except RuntimeError as exc:
         lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip() and not ln.startswith("Location")]
-        text = lines[-1] if lines else str(exc)
-        raise ParseError(f"Blender's {kind} importer failed: {text.removeprefix('Error: ')[:200]}", path) from None
+        text = (lines[-1] if lines else str(exc)).removeprefix("Error: ")
+        if "draco" in text.lower():  # a Draco-compressed mesh and a Blender built without the decoder
+            text = "the file's meshes are Draco-compressed and this Blender has no Draco decoder"
+        else:  # the importer's words without a Python exception name or this machine's paths
+            text = re.sub(r"^[A-Za-z]*(Error|Exception): ", "", text)
+            text = re.sub(r"(/[^\s:'\"]+)+/", "", text)
+        raise ParseError(f"Blender's {kind} importer failed: {text[:200]}", path) from None
     if "FINISHED" not in result:
         raise ParseError(f"Blender's {kind} importer did not finish", path)
 

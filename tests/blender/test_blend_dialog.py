@@ -8,7 +8,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import compat  # noqa: E402
+from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.blend_actions import TIMING_TRACK, timed_strips  # noqa: E402
 from blender_shapesig.core.blend import pose_steps  # noqa: E402
 
@@ -160,3 +160,67 @@ def test_bad_input_is_refused_creating_nothing(rig, kw, message):
         bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, **kw)
     assert sorted(a.name for a in bpy.data.actions) == names
     assert len(rig.animation_data.nla_tracks) == tracks and rig.animation_data.action.name == "walk"
+
+
+def _dialog(**props):
+    """A stand-in for the dialog's operator: every property at its default (or ``props``) and the methods draw
+    calls, with a recording layout."""
+    from types import SimpleNamespace
+
+    from blender_shapesig.operators.blend import SHAPESIG_OT_blend_actions as Op
+    from test_search_ui import FakeLayout
+
+    values = {k: v.keywords.get("default", "") for k, v in Op.__annotations__.items()}
+    values.update(props, layout=FakeLayout())
+    op = SimpleNamespace(**values)
+    op._strides_note = lambda: Op._strides_note(op)
+    op._default_strides = lambda obj: Op._default_strides(op, obj)
+    return Op, op
+
+
+def test_cyclic_actions_default_to_one_stride(rig):
+    """Walk x run: the dialog opens with one stride of each (cycles found after the converter's rest frame and ramp,
+    B at A's phase), says so in one line, and blends them (the same as those ranges given by hand); the ranges are
+    fields to change; the same ranges left for other actions are not used."""
+    from blender_shapesig.blend_actions import stride_ranges
+
+    from types import SimpleNamespace
+
+    Op, op = _dialog(action_b="run")  # A: the armature's action
+    opened = []
+    wm = SimpleNamespace(invoke_props_dialog=lambda o, width: opened.append(o) or {"RUNNING_MODAL"})
+    assert Op.invoke(op, SimpleNamespace(active_object=rig, window_manager=wm), None) == {"RUNNING_MODAL"}
+    assert opened == [op] and op.action_a == "walk"
+    (a0, a1), (b0, b1), strides_for = tuple(op.range_a), tuple(op.range_b), op.strides_for
+    assert 7 <= a0 < a1 and 7 <= b0 < b1
+    walk, run = _read("walk", rig), _read("run", rig)
+    for clip, (s, e) in ((walk, (a0, a1)), (run, (b0, b1))):
+        seconds = (e - s) / clip.fps
+        assert 0.6 <= seconds <= 1.3  # a stride of a walk or a run (two steps)
+        R = clip.rotations
+        i, j, h = s - clip.frame_start, e - clip.frame_start, (s + e) // 2 - clip.frame_start
+        assert _angle(R[i], R[j]) < 0.5 * _angle(R[i], R[h])  # a cycle: it ends where it starts
+    Op.draw(op, bpy.context)
+    assert "One stride of each" in op.layout.labels()
+    # OK in the dialog: the blend of those strides (headless Blender runs no invoke: the dialog's values are given)
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(a0, a1),
+                                          range_b=(b0, b1), strides_for=strides_for) == {"FINISHED"}
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(a0, a1),
+                                          range_b=(b0, b1)) == {"FINISHED"}
+    by_dialog, by_hand = _read("walk_x_run_0.50", rig), _read("walk_x_run_0.50_2", rig)
+    assert by_dialog.frames == by_hand.frames == round(0.5 * (a1 - a0) + 0.5 * (b1 - b0)) + 1
+    assert _angle(by_dialog.rotations, by_hand.rotations) < 1e-6
+    # ranges given (or Loop) are left alone; the strides found for walk x run are not used for walk x walk2
+    _, op = _dialog(action_a="walk", action_b="run", range_a=(10, 200))
+    op._default_strides(rig)
+    assert tuple(op.range_b) == (0, 0)
+    Op, op = _dialog(action_a="walk", action_b="walk2", range_a=(a0, a1), range_b=(b0, b1), strides_for=strides_for)
+    Op.draw(op, bpy.context)
+    assert "found for walk and run" in op.layout.labels()
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="walk2", weight=0.5, range_a=(a0, a1),
+                                          range_b=(b0, b1), strides_for=strides_for, feet="NONE") == {"FINISHED"}
+    whole = _read("walk_x_walk2_0.50", rig)
+    assert whole.frames > 250  # whole actions (317 and 330 frames), not the strides
+    # a pose (one frame) shows no cycle: whole actions
+    action_io.write_action(walk.crop(50, 50), armature=rig, name="pose").use_fake_user = True
+    assert stride_ranges(rig, bpy.data.actions["walk"], bpy.data.actions["pose"]) is None

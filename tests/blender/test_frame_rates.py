@@ -84,3 +84,51 @@ def test_blend_with_an_assumed_rate_says_so(mixed, capsys):
     assert abs((clip.frames - 1) / clip.fps - truth) <= 0.05 * truth
     for act in result.actions:
         bpy.data.actions.remove(act)
+
+
+def _shown_rates():
+    """{action: the 'Frame rate: ...' line the search panel shows with that action as the query, and the Blend
+    dialog's rate label for it}: every action of the file, each with its armature active (the pose as the chosen
+    Query Action)."""
+    from types import SimpleNamespace
+
+    from blender_shapesig.operators.blend import _draw_rate
+    from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
+    from test_search_ui import FakeLayout
+
+    s = bpy.context.scene.shapesig
+    out = {}
+    for act in bpy.data.actions:
+        arm = next((o for o in bpy.data.objects if o.animation_data and o.animation_data.action == act),
+                   bpy.data.objects["07-walk"])
+        activate(arm)
+        s.query_action = "" if arm.animation_data.action == act else act.name
+        lay = FakeLayout()
+        SHAPESIG_PT_search_view3d.draw(SimpleNamespace(layout=lay), bpy.context)
+        panel = [e[2]["text"] for e in lay.log if e[0] == "label" and e[2].get("text", "").startswith("Frame rate")]
+        dialog = FakeLayout()
+        _draw_rate(dialog, SimpleNamespace(fps_a=0.0), act.name, "fps_a")
+        out[act.name] = (panel, dialog.labels())
+    s.query_action = ""
+    return out
+
+
+def test_the_rates_shown_are_the_true_ones_or_flagged_as_assumed(mixed):
+    """Done when (issue 31): in the panel and the Blend dialog, each action's rate is its true one (the Acclaim
+    import's 120; the BVH files' Frame Time once their folder is known) or shown as assumed (the scene's 24, the
+    one-frame pose always)."""
+    from mixed_scene import one_frame_pose
+
+    one_frame_pose(bpy.data.objects["07-walk"])
+    shown = _shown_rates()
+    assert set(shown) == {"07_01", "07_01.001", "09_02", "002_03", "pose"}
+    assert shown["07_01"] == (["Frame rate: 120 fps"], "120 fps")
+    for name in ("07_01.001", "09_02", "002_03", "pose"):
+        assert shown[name] == (["Frame rate: 24 fps (assumed: the scene's)"], "24 fps (assumed)"), name
+    bpy.context.scene.shapesig.folders = str(DATA)
+    frame_rates.forget()
+    shown = _shown_rates()
+    for name in ("07_01", "07_01.001", "09_02", "002_03"):
+        fps = f"{TRUE_FPS[name]:.0f} fps"
+        assert shown[name] == ([f"Frame rate: {fps}"], fps), name
+    assert "assumed" in shown["pose"][0][0] and "assumed" in shown["pose"][1]

@@ -264,3 +264,58 @@ def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, 
     rows = bpy.context.window_manager.shapesig_results.results
     assert sorted(r.name for r in rows) == ["07_01", "walk", "walk_short"]
     library.CACHES.clear()
+
+
+def test_assign_of_an_fbx_result_retargets_it_onto_the_active_armature(files, empty_file, tmp_path, monkeypatch):
+    """Find Similar from an iClone (Character Creator) armature with a clip folder of the exporters' FBX and GLB
+    and an AMASS .npz ranks their clips; Assign of the FBX walk makes a new action on the CC armature through both bone maps: every
+    joint both rigs have moves with the FBX clip's angular velocity in the comparison space (correlation >= 0.9);
+    the FBX file is not changed."""
+    from blender_shapesig import action_io, library, rigmap
+    from blender_shapesig.core import index as search
+    from blender_shapesig.core import rigs
+    from blender_shapesig.core.geometry import so3
+
+    monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
+    library.CACHES.clear()
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    for name in ("walk.fbx", "walk.glb"):
+        shutil.copy(files / name, folder / name)
+    t = np.linspace(0.0, 2.0, 60)[:, None]  # an SMPL-H body swinging its legs and arms, written as AMASS does
+    poses = np.zeros((60, 156))
+    poses[:, 3:6] = poses[:, 12:15] = 0.4 * np.sin(2 * np.pi * t) * np.array([1.0, 0.0, 0.0])
+    poses[:, 48:51] = 0.5 * np.sin(2 * np.pi * t) * np.array([0.0, 0.0, 1.0])
+    np.savez(folder / "amass.npz", poses=poses, trans=np.zeros((60, 3)), mocap_framerate=np.array(30.0))
+    stamp = (folder / "walk.fbx").read_bytes()
+    cc = BVH.parent.parent / "cross_rig" / "002_03.bvh"
+    bpy.ops.import_anim.bvh(filepath=str(cc), rotate_mode="NATIVE", frame_start=1, use_fps_scale=False,
+                            update_scene_fps=True, update_scene_duration=True)
+    arm = bpy.context.object
+    own = arm.animation_data.action
+    s = bpy.context.scene.shapesig
+    s.use_file_actions, s.use_folders, s.folders = False, True, str(folder)
+    s.similarity, s.rerank = "sim", 0
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    res = bpy.context.window_manager.shapesig_results
+    names = [r.name for r in res.results]
+    # the FBX take, the GLB's two animations and the SMPL-H body
+    assert sorted(names) == ["07_01", "amass", "walk", "walk_short"], names
+    res.results_index = next(i for i, r in enumerate(res.results) if "walk.fbx" in (r.spec or r.source))
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    new = arm.animation_data.action
+    assert new != own and "walk" in new.name
+    got = rigs.apply_bone_map(action_io.read_action(new, armature=arm, exclude_unkeyed=True, space="armature"),
+                              rigmap.bone_map_of(arm))
+    src = sources.read_one(sources.ClipSpec(str(folder / "walk.fbx")))
+    shared = [j for j in src.bones if j in got.bones]
+    assert len(shared) >= 15, shared
+    assert got.frames == src.frames, (got.frames, src.frames)
+    for j in shared:
+        va, vb = (so3.log(R[1:] @ np.swapaxes(R[:-1], -1, -2))
+                  for R in (got.rotations[:, got.bones.index(j)], src.rotations[:, src.bones.index(j)]))
+        if np.abs(vb).max() < 1e-3:
+            continue  # a joint the walk holds still
+        assert np.corrcoef(va.ravel(), vb.ravel())[0, 1] >= 0.9, j
+    assert (folder / "walk.fbx").read_bytes() == stamp
+    library.CACHES.clear()

@@ -101,3 +101,66 @@ def test_moments_with_a_one_frame_pose_in_the_file(take):
     names = [r.name for r in _rows()]
     assert names[0] == "take" and "pose" not in names
     assert "pose" in bpy.context.window_manager.shapesig_results.message
+
+
+def test_why_different_resamples_a_long_take(take):
+    """A 20,000-frame take (the 16_15 walk repeated) against a 12-frame query: the alignment needs steps the DP
+    cannot take at the comparison rate (it refused before); Why Different resamples, explains (shares summing to
+    1, the cost along the query summing to the energy) and says so in one line in the box and the report."""
+    import dataclasses
+
+    import numpy as np
+
+    from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
+
+    clip = action_io.read_action(bpy.data.actions["take"], armature=take)
+    reps = -(-20000 // clip.frames)
+    rt = None if clip.root_translation is None else np.concatenate([clip.root_translation] * reps)[:20000]
+    long = dataclasses.replace(clip, rotations=np.concatenate([clip.rotations] * reps)[:20000], root_translation=rt)
+    action_io.write_action(long, armature=take, name="long").use_fake_user = True
+    short = action_io.write_action(clip.crop(clip.frame_start + 100, clip.frame_start + 111), armature=take,
+                                   name="short")
+    short.use_fake_user = True
+    compat.assign_action(take, short)
+    s = bpy.context.scene.shapesig
+    s.use_windows, s.rerank = False, 0
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    names = [r.name for r in _rows()]
+    assert "long" in names
+    results = bpy.context.window_manager.shapesig_results
+    results.results_index = names.index("long")
+    assert bpy.ops.shapesig.explain_result() == {"FINISHED"}
+    ex = json.loads(_rows()[names.index("long")].explain)
+    assert sum(ex["joints"].values()) == pytest.approx(1.0)
+    assert sum(ex["cost_over_time"]) == pytest.approx(ex["energy"])
+    line = ex["resampled"]
+    assert "\n" not in line and "samples per second" in line and "--" not in line
+    lay = FakeLayout()
+    SHAPESIG_PT_search_view3d.draw(type("P", (), {"layout": lay})(), bpy.context)
+    assert line in lay.labels()
+
+
+def test_find_similar_after_assigning_a_moment(take):
+    """Moments search with a part of the query (its frame range), Assign the first row (the window written as a new
+    action on the armature, frames 101-340 of the take), then Find Similar from the armature: the range set for the
+    old query no longer applies (it lay outside the new action's frames, which greyed the search out), so Assign
+    resets it and says so; the new action is the query and the take it came from is found."""
+    s = bpy.context.scene.shapesig
+    s.use_windows = True
+    first, last = (int(v) for v in bpy.data.actions["query"].frame_range)
+    s.use_frame_range, s.frame_start, s.frame_end = True, first + 5, first + 60
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    names = [r.name for r in _rows()]
+    bpy.context.window_manager.shapesig_results.results_index = names.index("take")
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    assigned = take.animation_data.action
+    assert assigned.name.startswith("take[") and assigned.frame_range[0] > first + 60
+    assert not s.use_frame_range and s.frame_start == 0 and s.frame_end == 0
+    for windows in (False, True):
+        s.use_windows = windows
+        assert bpy.ops.shapesig.rank.poll()
+        assert bpy.ops.shapesig.rank() == {"FINISHED"}
+        names = [r.name for r in _rows()]
+        assert assigned.name not in names and names[0] == "take"
+    window = tuple(int(v) for v in assigned.frame_range)  # the moment found again where it came from
+    assert _iou((_rows()[0].frame_first, _rows()[0].frame_last), window) >= 0.8

@@ -11,6 +11,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import errors_ui, library, operators  # noqa: E402
+from stand_in import stand_in  # noqa: E402
 from test_operators_lose_nothing import _error, cache_env, rig  # noqa: E402,F401
 
 FAILURES = (OSError(28, "No space left on device", "/index/x.npz"), MemoryError(),
@@ -69,11 +70,7 @@ def _stand():
     """An object with the rank operator's modal methods (a window is needed to start it for real)."""
     from blender_shapesig.operators.search import SHAPESIG_OT_rank as Op
 
-    names = ("_start", "_done", "_fail", "_begin_modal", "_end_modal", "modal", "cleanup")
-    obj = type("Stand", (), dict({n: getattr(Op, n) for n in names}, _timer=None, bl_label=Op.bl_label))()
-    obj.reports = []
-    obj.report = lambda kind, msg: obj.reports.append((set(kind), msg))
-    return obj
+    return stand_in(Op)
 
 
 @pytest.mark.parametrize("indexed", [False, True], ids=["while indexing", "after indexing"])

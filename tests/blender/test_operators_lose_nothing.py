@@ -20,6 +20,7 @@ from blender_shapesig import compat, library, results  # noqa: E402
 from blender_shapesig.core import index
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.errors import MAX_INBETWEENS  # noqa: E402
+from stand_in import stand_in  # noqa: E402
 from test_blend_operator import _buffer_hash, _import_bvh, _reopen  # noqa: E402
 from test_search_ui import FakeLayout, _draw  # noqa: E402
 
@@ -300,12 +301,7 @@ def test_rank_modal_progress_escape_and_measured_time(rig):
     from blender_shapesig.operators.search import SHAPESIG_OT_rank as Op
 
     def stand():
-        """An object with the operator's modal methods and a report log."""
-        methods = {n: getattr(Op, n) for n in ("_start", "_done", "_fail", "_begin_modal", "_end_modal", "modal")}
-        obj = type("Stand", (), dict(methods, _timer=None))()
-        obj.reports = []
-        obj.report = lambda kind, msg: obj.reports.append((set(kind), msg))
-        return obj
+        return stand_in(Op)
 
     ctx = bpy.context
     res = library.results_of(ctx)

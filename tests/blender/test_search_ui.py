@@ -18,6 +18,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_changes, action_io, compat  # noqa: E402
 from blender_shapesig.core import index as search, rigs  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
+from stand_in import stand_in  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
 CLIPS = {"walk1": "07_01", "walk2": "07_02", "walk3": "08_01", "run1": "09_02", "run2": "09_03", "jump": "13_32"}
@@ -339,21 +340,10 @@ def test_build_index_modal_steps_and_escape(rig):
     on a stand-in instance that borrows the operator's methods."""
     from blender_shapesig.operators.search import SHAPESIG_OT_build_index as Op
 
-    class Stand:
-        _timer = None
-
-        def __init__(self):
-            self.reports = []
-
-        def report(self, kind, msg):
-            self.reports.append((set(kind), msg))
-
-    for name in ("_prepare", "_step", "_finish", "_end_modal", "modal"):
-        setattr(Stand, name, getattr(Op, name))
     ctx = bpy.context
     s = ctx.scene.shapesig
-    op = Stand()
-    op._prepare(ctx)
+    op = stand_in(Op)
+    op._start(ctx)
     s.index_running = True
     timer = SimpleNamespace(type="TIMER")
     assert op.modal(ctx, SimpleNamespace(type="MOUSEMOVE")) == {"PASS_THROUGH"}
@@ -367,9 +357,9 @@ def test_build_index_modal_steps_and_escape(rig):
     from blender_shapesig.library import missing_count
 
     assert missing_count(ctx, s) == 4
-    op = Stand()
+    op = stand_in(Op)
     op.then_rank = True
-    op._prepare(ctx)
+    op._start(ctx)
     while (res := op.modal(ctx, timer)) == {"RUNNING_MODAL"}:
         pass
     assert res == {"FINISHED"} and s.index_progress == 1.0

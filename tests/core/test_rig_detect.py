@@ -138,3 +138,17 @@ def test_non_humanoids_are_refused_in_one_line():
 def test_name_words(name, side, words, role):
     assert tokens(name) == (side, words)
     assert word_role(words) == role
+
+
+def test_a_rig_bone_the_clip_does_not_hold_is_skipped_in_the_hierarchy(tmp_path):
+    """A clip of some of a rig's bones (an importer leaves an unanimated root out, as the glTF fox's
+    ``b_Root_00``): the bones below it hang from the nearest bone the clip holds; the map is the same (a
+    KeyError before)."""
+    path = write_bvh(tmp_path / "rig.bvh", UNITY, root="joint_Root")
+    raw = _read(path, bone_map="none")
+    m = raw.meta
+    whole = rigs.analyse_rig(raw.bones, m["parents"], m["rest_heads"], m["rest_tails"])
+    held = [b for b in raw.bones if b not in ("joint_Root", "Spine")]
+    part = rigs.analyse_rig(held, m["parents"], m["rest_heads"], m["rest_tails"])
+    assert part.mapping == {b: j for b, j in whole.mapping.items() if b in held}
+    assert part.sides == "rest" and not part.refusal

@@ -156,6 +156,64 @@ def test_world_space_survives_rest_poses_rolls_and_heading(walk):
     assert clip_distance(raw, local, "sim3") > 0.1
 
 
+def _turned(raw, degrees):
+    """The whole rig turned about the vertical: rest skeleton, every bone's motion (armature axes) and the root
+    path, ``X' = T X T^T``."""
+    from blender_shapesig.core.clip import skeleton
+
+    T = so3.exp(np.radians(degrees) * np.array([0.0, 0.0, 1.0]))
+    meta = dict(raw.meta)
+    for key in (skeleton.REST_HEADS, skeleton.REST_TAILS):
+        meta[key] = {b: tuple(T @ np.asarray(v)) for b, v in raw.meta[key].items()}
+    return dataclasses.replace(raw, rotations=T[None, None] @ raw.rotations @ T.T[None, None],
+                               root_translation=raw.root_translation @ T.T, meta=meta), T
+
+
+def _in_place(raw):
+    rt = raw.root_translation.copy()
+    rt[:, :2] = rt[0, :2]  # an in-place take (Mixamo's "in place", an idle): the heading is the body's facing
+    return dataclasses.replace(raw, root_translation=rt)
+
+
+@pytest.mark.parametrize("degrees", [30.0, 90.0, 180.0])
+@pytest.mark.parametrize("path, in_place", [(("acclaim", "07_01.amc"), False), (("acclaim", "07_01.amc"), True),
+                                            (("cross_rig", "002_03.bvh"), True), (("bvh", "13_32.bvh"), True)])
+def test_a_rig_turned_about_up_gives_the_same_comparison_space(data_dir, path, in_place, degrees):
+    """Closed form: a rig whose rest and motion are turned together about the vertical by T is the same take.
+    Its comparison-space rotations are the unturned ones times T^T on the right (relative to its own, turned,
+    rest), so the increments every measure sees, the hips' path and the joints' positions (FK with the rig's
+    own rest offsets) agree to rounding; before, an in-place take turned 30 degrees was sim3 0.70 away."""
+    from blender_shapesig.core.geometry.curves import relative_rotvecs
+    from blender_shapesig.core.index.local import rig_positions
+
+    asf = str(data_dir / "acclaim" / "07-walk.asf") if path[1].endswith(".amc") else None
+    raw = sources.read_one(sources.ClipSpec(str(data_dir.joinpath(*path)), asf=asf, bone_map="none"))
+    raw = _in_place(raw) if in_place else raw
+    a = rigs.apply_bone_map(raw)
+    moved, T = _turned(raw, degrees)
+    b = rigs.apply_bone_map(moved)
+    assert b.bones == a.bones and len(a.bones) >= 19
+    np.testing.assert_allclose(b.rotations, a.rotations @ T.T[None, None], atol=1e-9)
+    np.testing.assert_allclose(relative_rotvecs(b.rotations), relative_rotvecs(a.rotations), atol=1e-9)
+    np.testing.assert_allclose(b.root_translation, a.root_translation, atol=1e-9)
+    if "thigh.L" in a.bones and "foot.L" in a.bones:
+        pa, pb = rig_positions(a)[0], rig_positions(b)[0]
+        for j in pa:
+            np.testing.assert_allclose(pb[j], pa[j], atol=1e-9)
+    assert clip_distance(a, b, "sim3") < 1e-9
+    # and the way back onto the turned rig is exact
+    back = rigs.onto_rig(b, moved, b)
+    np.testing.assert_allclose(back.rotations, moved.rotations, atol=1e-9)
+
+
+def test_rest_forward_faces_the_way_the_rig_faces(walk):
+    mapped, raw = walk
+    f = rigs.rest_forward(raw, mapped.meta["bone_map"])
+    assert f @ np.array([0.0, -1.0, 0.0]) > 0.95  # Acclaim rigs read into Blender's axes face -Y
+    moved, T = _turned(raw, 90.0)
+    np.testing.assert_allclose(rigs.rest_forward(moved, mapped.meta["bone_map"]), T @ f, atol=1e-12)
+
+
 def test_onto_rig_inverts_the_comparison_space(walk):
     mapped, raw = walk
     back = rigs.onto_rig(mapped, raw, mapped)

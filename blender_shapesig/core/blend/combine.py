@@ -11,7 +11,7 @@ import numpy as np
 
 from ..geometry import so3
 from ..geometry.curves import (
-    as_curve,
+    as_curve_pair,
     geodesic_interpolate,
     move_to_identity,
     relative_rotvecs,
@@ -19,7 +19,7 @@ from ..geometry.curves import (
     uniform_times,
 )
 from ..elastic.elastic import check_warp
-from ..errors import CurveError, ShapeSigError, check_inbetweens, check_integer, check_number, check_weight, check_weights
+from ..errors import ShapeSigError, check_inbetweens, check_integer, check_number, check_weight, check_weights
 from ..metrics import DEFAULT_DEPTH
 
 __all__ = [
@@ -280,12 +280,7 @@ def geodesic_blend(R0, R1, weight, align=True, depth=DEFAULT_DEPTH, *, frames=No
     align).
     """
     w = check_weight(weight)
-    R0 = as_curve(R0, "R0")
-    R1 = as_curve(R1, "R1")
-    if R0.shape[1] != R1.shape[1]:
-        raise CurveError(f"the curves have {R0.shape[1]} and {R1.shape[1]} joints")
-    if R0.shape[0] < 2 or R1.shape[0] < 2:
-        raise CurveError("each curve needs at least two frames")
+    R0, R1 = as_curve_pair(R0, R1)
     frames = _check_frames(frames)
     if warp is not None:
         warp, edist = check_warp(warp, strict=True), None

@@ -28,7 +28,9 @@ __all__ = [
     "reparametrize",
     "warp_grid",
     "step_table",
+    "step_entries",
     "required_depth",
+    "dp_problem",
 ]
 
 METHODS = ("auto", "numba", "numpy")
@@ -130,15 +132,10 @@ def _step_table(mi, mj, prune=True):
         for dj in range(1, mj + 1):
             if prune and math.gcd(di, dj) != 1:
                 continue
-            # The step's breakpoints in units of h0 / dj: curve 0's at multiples of dj, curve 1's
-            # at multiples of di; each merged piece [u, v] lies in interval u // dj of curve 0
-            # and u // di of curve 1.
-            pts = np.union1d(np.arange(di + 1) * dj, np.arange(dj + 1) * di)
-            u = pts[:-1]
-            parts.append(np.stack([u // dj, u // di, np.diff(pts)]))
+            parts.append(step_entries(di, dj))
             di_l.append(di)
             dj_l.append(dj)
-            start.append(start[-1] + len(u))
+            start.append(start[-1] + parts[-1].shape[1])
     ent = np.concatenate(parts, axis=1)
     table = {
         "di": np.array(di_l, dtype=np.int64),
@@ -152,6 +149,31 @@ def _step_table(mi, mj, prune=True):
         v.setflags(write=False)
     _TABLES[key] = table
     return table
+
+
+def step_entries(di, dj):
+    """The entries of one step (di, dj), shape (3, count) int64: rows ``ea``, ``eb``, ``ew`` as in ``step_table``.
+
+    The step's breakpoints in units of h0 / dj: curve 0's at multiples of dj, curve 1's at multiples of di; each
+    merged piece [u, v] lies in interval u // dj of curve 0 and u // di of curve 1."""
+    pts = np.union1d(np.arange(int(di) + 1) * int(dj), np.arange(int(dj) + 1) * int(di))
+    u = pts[:-1]
+    return np.stack([u // dj, u // di, np.diff(pts)])
+
+
+def dp_problem(intervals0, intervals1, depth=DEFAULT_DEPTH, max_bytes=None):
+    """Why ``elastic_align`` cannot take curves of ``intervals0`` x ``intervals1`` intervals at ``depth``:
+    'steps' (the frame ratio needs a step table above MAX_TABLE_ENTRIES), 'memory' (the DP needs more than
+    ``max_bytes``, default MAX_DP_BYTES), or None when it can."""
+    n0, n1 = int(intervals0), int(intervals1)
+    if n0 < 1 or n1 < 1:
+        raise CurveError("each curve needs at least two frames")
+    mi, mj = _max_steps(n0, n1, _check_depth(depth))
+    if _table_size(mi, mj, True) > MAX_TABLE_ENTRIES:
+        return "steps"
+    if DP_BYTES_PER_NODE * n0 * n1 > (MAX_DP_BYTES if max_bytes is None else max_bytes):
+        return "memory"
+    return None
 
 
 def _max_steps(n0, n1, depth):

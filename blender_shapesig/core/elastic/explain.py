@@ -2,21 +2,28 @@
 (query interval x joint) pieces (``subsequence.path_costs``). ``explain_path`` / ``explain_clips`` give ``joints``
 (each bone's share of d_S*^2, summing to 1), ``groups`` (the same over the canonical joint groups of
 ``core.rigs``) and ``cost_over_time`` (the energy on each interval of the query on the comparison time base).
+A pair the DP cannot take at the comparison rate (a long take against a short query, two very long takes) is
+resampled to a size it can (``fit_intervals``) and the explanation says so in one line (``resampled``).
 See docs/search.md, "Moments".
 """
+
+from dataclasses import replace
 
 import numpy as np
 
 from ..clip.clip import Clip, restrict_to_shared
-from .elastic import elastic_align
+from .elastic import dp_problem, elastic_align
 from ..errors import CurveError
 from ..metrics import DEFAULT_DEPTH
-from ..clip.prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip
+from ..clip.prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip, prepare_rotations
 from ..rigs import BODY, LIMBS
 from .subsequence import path_costs
 
-__all__ = ["joint_group", "explain_path", "explain_clips", "top_joints"]
+__all__ = ["joint_group", "explain_path", "explain_clips", "top_joints", "fit_intervals", "EXPLAIN_MAX_BYTES"]
 
+# DP memory of one explanation (16 bytes per grid node): 512 MiB, a few seconds; two 5-minute takes at the
+# comparison rate need 2.6 GiB and are resampled to fit (``fit_intervals``)
+EXPLAIN_MAX_BYTES = 2**29
 ARM = LIMBS[:4]  # clavicle, upper_arm, forearm, hand; the rest of core.rigs.LIMBS is the leg
 
 
@@ -62,11 +69,54 @@ def explain_path(R0, R1, nodes, bones, *, same_spacing, fps=COMPARE_FPS):
     return out
 
 
+def fit_intervals(n0, n1, depth=DEFAULT_DEPTH, max_bytes=EXPLAIN_MAX_BYTES):
+    """Interval counts (m0, m1) for two curves of ``n0`` and ``n1`` intervals that one pinned DP can take
+    (``elastic.dp_problem``), (n0, n1) when it can already: while the frame ratio needs too large a step table,
+    the shorter curve is sampled more densely (the same piecewise-geodesic curve on [0, 1]); while the grid needs
+    more than ``max_bytes``, both more sparsely by the same factor."""
+    m = [int(n0), int(n1)]
+    for _ in range(200):
+        problem = dp_problem(m[0], m[1], depth, max_bytes)
+        if problem is None:
+            return m[0], m[1]
+        if problem == "steps":
+            s = 0 if m[0] <= m[1] else 1
+            if m[1 - s] <= depth * m[s]:  # the table is too large at this depth whatever the ratio
+                raise CurveError(f"a timing freedom (depth) of {depth} is too large for the alignment; lower it")
+            m[s] = max(m[s] + 1, int(np.ceil(m[s] * 1.25)))
+        else:
+            m = [max(1, int(v * 0.9)) for v in m]
+    raise CurveError(f"no resampling of {n0} x {n1} intervals fits the alignment")  # not reached for real sizes
+
+
+def _resampled(c, intervals):
+    """The prepared clip ``c`` (on the comparison lattice) at ``intervals`` intervals over its duration: low-passed
+    first when sparser (a Gaussian of half the new step), geodesic interpolation when denser."""
+    if intervals == c.frames - 1:
+        return c
+    duration = (c.frames - 1) / c.fps
+    rate = intervals / duration
+    smooth = 0.5 / rate if rate < c.fps else 0.0
+    R = prepare_rotations(c.rotations, c.fps, rate, smooth=smooth, keep_end=True)
+    if R.shape[0] != intervals + 1:  # keep_end rounds duration * rate; the rate is chosen to make it exact
+        raise CurveError(f"resampling {c.name!r} gave {R.shape[0]} samples, not {intervals + 1}")
+    return replace(c, rotations=R, root_translation=None, fps=rate)
+
+
+def _resampled_line(pairs):
+    """One line for the box: which clips were compared at another rate than the comparison rate."""
+    parts = [f"{c.name} at {c.fps:.3g}" for c in pairs]
+    return (f"Resampled to fit the alignment: {' and '.join(parts)} samples per second "
+            f"(normally {COMPARE_FPS:g})")
+
+
 def explain_clips(query: Clip, clip: Clip, window=None, depth=DEFAULT_DEPTH):
     """``explain_path`` for two clips on their shared bones, on the comparison time base (the SRVT low-pass of
     ``core.clip.prepare``): the pinned elastic alignment of the query with ``clip``, or with its frames
     ``window = (start, end)`` (the clip's own numbers, inclusive) for a moment; adds ``warp``, the alignment's
-    matching times [[t_query, t_clip], ...] from (0, 0) to (1, 1) (t_clip of the window for a moment)."""
+    matching times [[t_query, t_clip], ...] from (0, 0) to (1, 1) (t_clip of the window for a moment). A pair
+    the DP cannot take at the comparison rate is resampled (``fit_intervals``): then ``resampled`` is one line
+    saying so (and ``fps`` is the query's rate used), else it is absent."""
     if window is not None:
         clip = clip.crop(int(window[0]), int(window[1]))
     a, b = restrict_to_shared(query, clip)
@@ -74,9 +124,14 @@ def explain_clips(query: Clip, clip: Clip, window=None, depth=DEFAULT_DEPTH):
     for c in (a, b):
         if c.frames < 2:
             raise CurveError(f"clip {c.name!r} is too short to explain a distance")
+    m0, m1 = fit_intervals(a.frames - 1, b.frames - 1, depth, EXPLAIN_MAX_BYTES)
+    changed = (m0 != a.frames - 1, m1 != b.frames - 1)
+    a, b = _resampled(a, m0), _resampled(b, m1)
     warp, _, info = elastic_align(a.rotations, b.rotations, depth=depth, return_info=True)
     out = explain_path(a.rotations, b.rotations, info["nodes"], a.bones, same_spacing=False, fps=a.fps)
     out["warp"] = [[float(t0), float(t1)] for t0, t1 in warp]  # matching times (query, clip or window), 0..1
+    if any(changed):
+        out["resampled"] = _resampled_line([c for c, ch in zip((a, b), changed) if ch])
     return out
 
 

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _dp_kernels
-from .elastic import _check_depth, _check_method, _entry_coefficients, _srvt_matrix, _window_sums, step_table
+from .elastic import (_check_depth, _check_method, _entry_coefficients, _srvt_matrix, _window_sums, step_entries,
+                      step_table)
 from ..errors import CurveError
 from ..metrics import DEFAULT_DEPTH
 
@@ -205,14 +206,15 @@ def path_costs(R0, R1, nodes, *, same_spacing=True):
     steps = np.diff(nodes, axis=0)
     if np.any(steps <= 0):
         raise CurveError("a DP path must increase strictly in both columns")
-    table = step_table(int(steps.max()), prune=False)
-    index = {(int(a), int(b)): s for s, (a, b) in enumerate(zip(table["di"], table["dj"]))}
+    entries = {}  # only the steps the path takes (a long clip against a short one: steps of up to e.g. 9 x 800)
     out = np.zeros((n0, J))
     for (k, l), (a, b) in zip(nodes[:-1], steps):
-        s = index[(int(a), int(b))]
-        e0, e1 = table["start"][s], table["start"][s + 1]
-        ia, ib = k + table["ea"][e0:e1], l + table["eb"][e0:e1]
-        length = table["ew"][e0:e1] * h0 / b  # in units of curve 0's time
+        key = (int(a), int(b))
+        if key not in entries:
+            entries[key] = step_entries(*key)
+        ea, eb, ew = entries[key]
+        ia, ib = k + ea, l + eb
+        length = ew * h0 / b  # in units of curve 0's time
         rate = np.sqrt(b * h1 / (a * h0))     # sqrt(phi')
         diff = q0[ia] - rate * q1[ib]
         np.add.at(out, ia, length[:, None] * np.einsum("pjc,pjc->pj", diff, diff))

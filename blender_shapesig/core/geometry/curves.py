@@ -13,6 +13,7 @@ from ..errors import CurveError
 
 __all__ = [
     "as_curve",
+    "as_curve_pair",
     "as_times",
     "uniform_times",
     "move_to_identity",
@@ -58,6 +59,16 @@ def as_curve(R, name="curve"):
     if not np.all(np.isfinite(arr)):
         raise CurveError(f"{name}: rotation matrices contain NaN or infinite values")
     return arr
+
+
+def as_curve_pair(R0, R1):
+    """Two curves (``as_curve``) of the same joints and at least two frames each, else CurveError."""
+    R0, R1 = as_curve(R0, "R0"), as_curve(R1, "R1")
+    if R0.shape[1] != R1.shape[1]:
+        raise CurveError(f"the curves have {R0.shape[1]} and {R1.shape[1]} joints")
+    if R0.shape[0] < 2 or R1.shape[0] < 2:
+        raise CurveError("each curve needs at least two frames")
+    return R0, R1
 
 
 def uniform_times(frames):
@@ -257,12 +268,7 @@ def l2_distance(R0, R1, t0=None, t1=None):
     invariant under right translation, so moving to P* changes nothing in q; it is done anyway to
     make the definition explicit.
     """
-    R0 = move_to_identity(as_curve(R0, "R0"))
-    R1 = move_to_identity(as_curve(R1, "R1"))
-    if R0.shape[1] != R1.shape[1]:
-        raise CurveError(f"the curves have {R0.shape[1]} and {R1.shape[1]} joints")
-    if R0.shape[0] < 2 or R1.shape[0] < 2:
-        raise CurveError("each curve needs at least two frames")
+    R0, R1 = (move_to_identity(R) for R in as_curve_pair(R0, R1))
     t0 = as_times(t0, R0.shape[0], "t0")
     t1 = as_times(t1, R1.shape[0], "t1")
     return float(np.sqrt(max(srvt_l2_squared(srvt(R0, t0), t0, srvt(R1, t1), t1), 0.0)))

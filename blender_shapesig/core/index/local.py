@@ -62,6 +62,11 @@ _PARENTS = {"hips": None, "spine": "hips", "spine_mid": "spine", "chest": "spine
 _ORDER = tuple(_PARENTS)
 
 
+# changes when the features change for the same settings (e.g. the leg of a rig without a foot bone): stored
+# entries made by an older recipe are then computed again, never used
+RECIPE_VERSION = 2
+
+
 class Settings:
     """The recipe's constants in one object (experiments vary them; the defaults are the module's)."""
 
@@ -75,7 +80,7 @@ class Settings:
         self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
 
     def key(self):
-        return (self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+        return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
                 self.global_weight, self.max_windows, self.max_sequence)
 
@@ -99,11 +104,14 @@ def _rest_offsets(clip: Clip, joints):
     return h, t
 
 
-def _leg(h):
-    legs = [np.linalg.norm(h[f"thigh.{s}"] - h[f"foot.{s}"]) for s in "LR" if f"thigh.{s}" in h and f"foot.{s}" in h]
+def _leg(h, t):
+    """The rest leg (hip to ankle: the thigh's head to the foot's, else to the shin's tail for rigs without a foot
+    bone), mean over the sides."""
+    ankle = {s: h.get(f"foot.{s}", t.get(f"shin.{s}")) for s in "LR"}
+    legs = [np.linalg.norm(h[f"thigh.{s}"] - ankle[s]) for s in "LR" if f"thigh.{s}" in h and ankle[s] is not None]
     leg = float(np.mean(legs)) if legs else 0.0
     if not leg > 0:
-        raise ShapeSigError("local search needs the legs (thigh and foot) and the rest skeleton")
+        raise ShapeSigError("local search needs the legs (thigh and foot or shin) and the rest skeleton")
     return leg
 
 
@@ -117,7 +125,7 @@ def rig_positions(clip: Clip):
     joints = [j for j in _ORDER if j in clip.bones]
     index = {b: i for i, b in enumerate(clip.bones)}
     h, t = _rest_offsets(clip, joints)
-    leg = _leg(h)
+    leg = _leg(h, t)
     R = clip.rotations
     if clip.meta.get("root_path") == "hips_legs" and clip.root_translation is not None:
         hips = np.asarray(clip.root_translation, float)

@@ -1,15 +1,9 @@
 """Which files the readers open, and how much of them: the one owner of the checks made before a clip file is read.
-
-Only regular files are ever opened (``check_file``: ``os.stat`` follows a symbolic link, so a link to a regular file
-is fine, while a FIFO, a socket, a device such as ``/dev/zero``, a dangling or a looping link is refused before any
-``open``, which on a FIFO would wait forever). Clip files have caps, checked before reading: the size
-(``$SHAPESIG_MAX_FILE_MB``, default 128 MB: real takes are under 100 MB and reading one peaks at 13x (BVH) to 20x
-(AMC) its size; ``$SHAPESIG_MAX_BLEND_MB``, default 1024 MB, for .blend files, read by Blender in a child process),
-the length of a line of a text format (``MAX_LINE_BYTES``: one 200 MB line would cost gigabytes when split) and the
-frames of a clip (``$SHAPESIG_MAX_FRAMES``, default 1,000,000: 2.3 hours at 120 fps; a BVH's ``Frames:`` header and
-its line count are checked before the motion is parsed, an AMC's frames while it is parsed). A refused file raises
-``UnreadableFileError`` (a ParseError, one line naming the file); libraries skip such files and report them once
-(``skipped_line``).
+Only regular files are opened (``check_file``: a link to one is fine; a FIFO, socket, device, dangling or looping
+link is refused before any ``open``). Clip files have caps, checked before reading: the size
+(``$SHAPESIG_MAX_FILE_MB``; ``$SHAPESIG_MAX_BLEND_MB`` for .blend files), a text line's length (``MAX_LINE_BYTES``)
+and a clip's frames (``$SHAPESIG_MAX_FRAMES``). A refused file raises ``UnreadableFileError`` (one line naming the
+file); libraries skip such files and report them once (``skipped_line``). The caps and why: docs/robustness.md.
 """
 
 import errno

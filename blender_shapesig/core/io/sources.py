@@ -57,7 +57,7 @@ class ClipSpec:
         if self.trim not in TRIM_MODES:
             raise ShapeSigError(f"trim must be one of {', '.join(TRIM_MODES)}, got {self.trim!r}")
         if self.fps is not None:
-            object.__setattr__(self, "fps", check_fps(self.fps, "--fps"))
+            object.__setattr__(self, "fps", check_fps(self.fps, "frame rate"))
 
     @classmethod
     def parse(cls, text, **options) -> "ClipSpec":

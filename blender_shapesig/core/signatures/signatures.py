@@ -399,6 +399,15 @@ def _pair_increments(R0, R1, joints, drop_still):
     return ea.reshape(ea.shape[0], 3 * ea.shape[1]), eb.reshape(eb.shape[0], 3 * eb.shape[1])
 
 
+def _pair_log_signatures(R0, R1, level, joints, drop_still, basis, method):
+    """The flat log-signatures of both curves' developments, on the joints they are compared on."""
+    level = _check_level(level)
+    basis = _check_basis(basis)
+    dx, dy = _pair_increments(R0, R1, joints, drop_still)
+    m = resolve_method(method, dx.shape[1], log=True)
+    return _logsig_flat(dx, level, m, basis), _logsig_flat(dy, level, m, basis)
+
+
 def group_distance(R0, R1, level, *, joints=None, drop_still=True, method="auto"):
     """rho^n between the developments of two curves (eqs. 8.1-8.3; Lyons-Victoir norm, both terms).
 
@@ -419,17 +428,10 @@ def concat_distance(R0, R1, level, *, joints=None, drop_still=True, basis="lyndo
 
 def linear_distance(R0, R1, level, *, joints=None, drop_still=True, basis="lyndon", method="auto"):
     """sigma_L^n = |log S(R0) - log S(R1)| (eq. 8.6)."""
-    level = _check_level(level)
-    basis = _check_basis(basis)
-    dx, dy = _pair_increments(R0, R1, joints, drop_still)
-    m = resolve_method(method, dx.shape[1], log=True)
-    return float(np.linalg.norm(_logsig_flat(dx, level, m, basis) - _logsig_flat(dy, level, m, basis)))
+    x, y = _pair_log_signatures(R0, R1, level, joints, drop_still, basis, method)
+    return float(np.linalg.norm(x - y))
 
 
 def normalized_distance(R0, R1, level, *, joints=None, drop_still=True, basis="lyndon", method="auto"):
     """sim^n (eq. 9.1), in [0, 2]; 0 when both curves are still, 1 when exactly one is."""
-    level = _check_level(level)
-    basis = _check_basis(basis)
-    dx, dy = _pair_increments(R0, R1, joints, drop_still)
-    m = resolve_method(method, dx.shape[1], log=True)
-    return normalized_difference(_logsig_flat(dx, level, m, basis), _logsig_flat(dy, level, m, basis))
+    return normalized_difference(*_pair_log_signatures(R0, R1, level, joints, drop_still, basis, method))

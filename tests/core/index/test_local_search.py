@@ -195,3 +195,21 @@ def test_index_entry_is_compact_and_refuses_clips_outside_the_comparison_space(l
     T = 60 * int(ls.RATE)
     feat = {"pose": np.zeros((T, 3 * len(ls.POINTS))), "motion": np.zeros((T, 4)), "rate": np.float64(ls.RATE)}
     assert ls.entry_bytes(ls.entry_from_features(feat)) <= 50 * 1024
+
+
+def test_a_rig_without_foot_bones_measures_its_leg_to_the_shin_tail(data_dir):
+    """A stylised rig whose feet are IK controls (Blender's godotman: no foot in the leg chain) still has legs:
+    hip to ankle is the thigh's head to the shin's tail. On the Acclaim 07_01 rig (the shin's tail is the foot's
+    head) the joints above the feet land where the whole rig puts them, and the leg length is the same."""
+    spec = sources.ClipSpec(str(data_dir / "acclaim" / "07_01.amc"), asf=str(data_dir / "acclaim" / "07-walk.asf"))
+    whole = sources.read_one(spec)
+    raw = sources.read_one(dataclasses.replace(spec, bone_map="none"))
+    no_feet = [j for j in whole.bones if not j.startswith(("foot.", "toe."))]
+    part = whole.select(no_feet)
+    part.meta = dict(whole.meta, bone_map={j: b for j, b in whole.meta["bone_map"].items() if j in no_feet})
+    a, b = ls.rig_positions(whole)[0], ls.rig_positions(part)[0]
+    assert set(b) == set(no_feet)
+    for j in b:
+        np.testing.assert_allclose(b[j], a[j], atol=1e-9)
+    by_joint = whole.meta["bone_map"]
+    assert rigs.leg_length(raw, {j: by_joint[j] for j in no_feet}) == pytest.approx(rigs.leg_length(raw, by_joint))
