@@ -5,15 +5,18 @@ clips, queried warm through the CLI's core path, opened in a fresh process, agai
 
 The clips: the local entries (``local.index_entry``) of real clips (``tests/data``' BVH files, plus the BVH files of
 ``--data`` when given), each copy a random contiguous crop (60-100 % of its windows and of its pose sequence) with
-Gaussian noise (a random level, 0.01-0.15 of the windows' RMS), so copies are distinct; they are written straight
-into one library file (``write_library``, streamed: each copy regenerated from its seed, never all in memory).
-Prints JSON: ``clips``; ``query_ms`` (median over Q queries: the first stage with the prefilter, ``keep`` =
-``local.PREFILTER``, over the memory-mapped file, plus the DTW re-rank of the shortlist, what ``rank_local`` runs);
-``exact_query_ms`` (the same without the prefilter: the baseline, same run) and ``speedup``; ``open_s``
-(``open_library`` + its stack in a fresh process); ``bytes_per_clip_disk``; ``bytes_per_clip_memory`` (the fresh
-process' RSS growth after opening and one query, per clip); ``peak_rss_mb`` (this process); ``recall_at_10``: the
-share of the exact search's top 10 (the two stages, no prefilter) found in the top 10 with the prefilter, over R
-queries (each a new noisy crop of a random clip).
+Gaussian noise (a random level, 0.01-0.15 of the windows' RMS), so copies are distinct, with their base clip's joint
+lists (as the cache stores them); they are written straight into one library file (``write_library``, streamed: each
+copy regenerated from its seed, never all in memory). Prints JSON: ``clips``; ``query_ms`` and ``query_cpu_ms``
+(median wall and CPU time over Q queries: the first stage with the prefilter, ``keep`` = ``local.PREFILTER`` (or
+``PREFILTER_SHARE`` of the clips), over the memory-mapped file, plus the DTW re-rank of the shortlist, what
+``rank_local`` runs; numba not loaded, as in a command-line ``rank``); the baselines of the same run:
+``previous_query_ms`` / ``_cpu_ms`` (the query as it ran before, kept here: run by run, one DTW at a time;
+``vs_previous_cpu`` the ratio, ``same_top10_as_previous``) and ``exact_query_ms`` / ``_cpu_ms`` (no prefilter;
+``speedup_cpu``); ``open_s`` (``open_library`` + its stack in a fresh process); ``bytes_per_clip_disk``;
+``bytes_per_clip_memory`` (the fresh process' RSS growth after opening and one query, per clip); ``peak_rss_mb`` (this
+process); ``recall_at_10``: the share of the exact search's top 10 (the two stages, no prefilter) found in the top 10
+with the prefilter, over R queries (each a new noisy crop of a random clip).
 """
 
 import argparse
@@ -29,7 +32,8 @@ import numpy as np
 
 from _common import ROOT
 
-from blender_shapesig.core.index import local  # noqa: E402
+from blender_shapesig.core.blas import one_blas_thread  # noqa: E402
+from blender_shapesig.core.index import local, local_dtw  # noqa: E402
 from blender_shapesig.core.index.local_library import open_library, write_library  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 
@@ -43,16 +47,25 @@ def base_entries(folders):
                     continue
                 try:
                     clip = sources.read_one(sources.ClipSpec(os.path.join(dirpath, f)))
-                    out.append(local.index_entry(clip))
+                    e = local.index_entry(clip)
+                    # the joint lists the cache keeps with each clip (local_rank's entries): the header's size
+                    e["lists"] = {"joints": list(clip.bones), "still": list(clip.still_bones()),
+                                  "rig_joints": list(clip.meta.get("rig_joints") or ())}
+                    out.append(e)
                 except Exception:  # noqa: BLE001 - clips the local features refuse are left out
                     pass
     return out
 
 
+def base_of(seed, n):
+    return int(np.random.default_rng(seed).integers(n))
+
+
 def copy(bases, seed):
     """One synthetic clip: a noisy random crop of a base entry (deterministic in ``seed``)."""
     rng = np.random.default_rng(seed)
-    b = bases[rng.integers(len(bases))]
+    b = bases[base_of(seed, len(bases))]
+    rng.integers(len(bases))  # (the draw that picked the base; the same copies as before)
     W, Q = np.asarray(b["windows"], np.float32), np.asarray(b["sequence"], np.float32)
     f = rng.uniform(0.6, 1.0)
     nw, nq = max(2, int(len(W) * f)), max(4, int(len(Q) * f))
@@ -78,18 +91,81 @@ def build(fn, bases, n, per_file=100):
     files = []
     for f0 in range(0, n, per_file):
         seeds = range(f0, min(n, f0 + per_file))
-        meta = {"clips": [{"name": f"c{s}", "frames": 0, "bones": 0, "trimmed": []} for s in seeds]}
+        meta = {"clips": [dict(name=f"c{s}", frames=0, bones=0, trimmed=[], **bases[base_of(s, len(bases))]["lists"])
+                          for s in seeds]}
         files.append((f"file{f0}", 0, 0, meta, Lazy(bases, seeds)))
     with open(fn, "wb") as f:
         write_library(f, files, "bench")
 
 
-def ranked(q, lib, block, entries_of, keep, top=10):
-    d1 = local.first_stage(q, block, keep=keep)
+def ranked(q, lib, block, entries_of, keep, top=10, previous=False, share=local.PREFILTER_SHARE):
+    d1 = previous_first_stage(q, block, keep=keep) if previous else local.first_stage(q, block, keep=keep, share=share)
     head = np.argsort(d1, kind="stable")[:local.SHORTLIST]
-    d2 = local.rerank(q, [entries_of(i) for i in head])
+    cands = [entries_of(i) for i in head]
+    d2 = previous_rerank(q, cands) if previous else local.rerank(q, cands)
     score = local.combine(d1[head], d2)
     return [int(head[k]) for k in np.argsort(score, kind="stable")[:top]]
+
+
+# ---- the baseline: the query as it ran before (26 Nov, commit 8d9f6a0; the same keep), the same numbers by other
+# means: the exact pass run by run of the kept entries' contiguous rows (one product per run), the prefilter
+# recomputing its norms and taking the nearest of k by a reduction over the short axis, one numpy DTW per candidate
+def _runs(starts, ends, idx):
+    cuts = np.flatnonzero(starts[idx][1:] != ends[idx][:-1]) + 1
+    return np.split(idx, cuts)
+
+
+def previous_first_stage(query, lib, keep=None):
+    q = np.asarray(query["windows"], np.float32)
+    qn = (q * q).sum(1)[:, None]
+    starts, ends = lib["starts"], lib["ends"]
+    out, idx, coarse = np.full(len(starts), np.inf), np.arange(len(starts)), None
+    with one_blas_thread():
+        keep = None if keep is None else max(keep, int(np.ceil(local.PREFILTER_SHARE * len(starts))))
+        if keep is not None and len(starts) > keep:
+            C = np.asarray(lib["coarse"], np.float32)
+            k = C.shape[1]
+            c = local.coarse_windows(query["windows"], 4 * k)
+            C = C.reshape(-1, C.shape[2])
+            D = (c * c).sum(1)[:, None] + (C * C).sum(1)[None] - 2.0 * (c @ C.T)
+            D = np.sqrt(np.maximum(D, 0.0)).reshape(len(c), -1, k)
+            coarse = 0.5 * (D.min(axis=2).mean(axis=0) + D.min(axis=0).mean(axis=1))
+            idx = np.argpartition(coarse, keep)[:keep]
+        idx = idx[np.argsort(starts[idx], kind="stable")]
+        for run in _runs(starts, ends, idx):
+            r0, r1 = int(starts[run[0]]), int(ends[run[-1]])
+            D = qn + np.asarray(lib["norms"][r0:r1], np.float32)[None] \
+                - 2.0 * (q @ np.asarray(lib["windows"][r0:r1], np.float32).T)
+            np.sqrt(np.maximum(D, 0.0, out=D), out=D)
+            rel = starts[run] - r0
+            out[run] = 0.5 * (np.minimum.reduceat(D, rel, axis=1).mean(axis=0)
+                              + np.add.reduceat(D.min(axis=0), rel) / (ends[run] - starts[run]))
+    if coarse is not None:
+        rest = np.isinf(out)
+        out[rest] = out[~rest].max() + coarse[rest]
+    return out
+
+
+def previous_rerank(query, cands):
+    a = np.asarray(query["sequence"], np.float64)
+    out = []
+    for c in cands:
+        b = np.asarray(c["sequence"], np.float64)
+        d = local_dtw._dtw_numpy(a, b, max(local._band(len(a), len(b)), 1), min(int(local.FREE * len(a)), len(a) - 1),
+                             min(int(local.FREE * len(b)), len(b) - 1))
+        out.append(d / np.sqrt(len(a) + len(b)))
+    return np.array(out)
+
+
+def timed(fn, queries):
+    """(median wall ms, median CPU ms) of fn(q) over the queries."""
+    wall, cpu = [], []
+    for q in queries:
+        t, c = time.perf_counter(), time.process_time()
+        fn(q)
+        wall.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    return 1000 * float(np.median(wall)), 1000 * float(np.median(cpu))
 
 
 def open_and_query(fn):
@@ -121,6 +197,8 @@ def main():
     ap.add_argument("--queries", type=int, default=20)
     ap.add_argument("--recall-queries", type=int, default=200)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--keeps", help="also recall@10 and CPU ms a query when the prefilter keeps exactly these "
+                    "numbers of clips (comma-separated), over the recall queries")
     args = ap.parse_args()
     bases = base_entries([ROOT / "tests" / "data"] + ([args.data] if args.data else []))
     with tempfile.TemporaryDirectory() as tmp:
@@ -135,30 +213,36 @@ def main():
         rng = np.random.default_rng(12345)
         queries = [copy(bases, int(s)) for s in rng.integers(10 ** 9, 2 * 10 ** 9, max(args.queries,
                                                                                         args.recall_queries))]
-        ranked(queries[0], lib, block, entries_of, local.PREFILTER)  # warm: page cache, DTW kernel
-        fast, exact = [], []
-        for q in queries[:args.queries]:
-            t = time.perf_counter()
-            ranked(q, lib, block, entries_of, local.PREFILTER)
-            fast.append(time.perf_counter() - t)
-        for q in queries[:min(3, args.queries)]:
-            t = time.perf_counter()
-            ranked(q, lib, block, entries_of, None)
-            exact.append(time.perf_counter() - t)
-        hits = []
-        for q in queries[:args.recall_queries]:
-            a = set(ranked(q, lib, block, entries_of, None))
-            b = set(ranked(q, lib, block, entries_of, local.PREFILTER))
-            hits.append(len(a & b) / len(a))
+        ranked(queries[0], lib, block, entries_of, local.PREFILTER)  # warm: page cache, the library's norms
+        fast = timed(lambda q: ranked(q, lib, block, entries_of, local.PREFILTER), queries[:args.queries])
+        before = timed(lambda q: ranked(q, lib, block, entries_of, local.PREFILTER, previous=True),
+                       queries[:args.queries])
+        exact = timed(lambda q: ranked(q, lib, block, entries_of, None), queries[:min(3, args.queries)])
+        same = all(ranked(q, lib, block, entries_of, local.PREFILTER)
+                   == ranked(q, lib, block, entries_of, local.PREFILTER, previous=True) for q in queries[:args.queries])
+        truth = [set(ranked(q, lib, block, entries_of, None)) for q in queries[:args.recall_queries]]
+        hits = [len(a & set(ranked(q, lib, block, entries_of, local.PREFILTER))) / len(a)
+                for q, a in zip(queries, truth)]
+        keeps = {}
+        for k in [int(x) for x in args.keeps.split(",")] if args.keeps else []:
+            recall, cpu = [], []
+            for q, a in zip(queries, truth):
+                c = time.process_time()
+                got = set(ranked(q, lib, block, entries_of, k, share=0.0))
+                cpu.append(time.process_time() - c)
+                recall.append(len(got & a) / len(a))
+            keeps[k] = {"recall_at_10": float(np.mean(recall)), "query_cpu_ms": 1000 * float(np.median(cpu))}
         fresh = open_and_query(fn)
         size = os.path.getsize(fn)
-    out = {"clips": args.clips, "query_ms": 1000 * float(np.median(fast)),
-           "exact_query_ms": 1000 * float(np.median(exact)), "speedup": float(np.median(exact) / np.median(fast)),
+    out = {"clips": args.clips, "query_ms": fast[0], "query_cpu_ms": fast[1],
+           "previous_query_ms": before[0], "previous_query_cpu_ms": before[1], "vs_previous_cpu": before[1] / fast[1],
+           "same_top10_as_previous": same,
+           "exact_query_ms": exact[0], "exact_query_cpu_ms": exact[1], "speedup_cpu": exact[1] / fast[1],
            "open_s": fresh["open_s"], "bytes_per_clip_disk": size / args.clips,
            "bytes_per_clip_memory": fresh["rss"] / args.clips,
            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
            "recall_at_10": float(np.mean(hits)), "recall_queries": len(hits), "base_clips": len(bases),
-           "build_s": build_s}
+           "build_s": build_s, **({"keeps": keeps} if keeps else {})}
     print(json.dumps(out) if args.json else "\n".join(f"{k}: {v}" for k, v in out.items()))
 
 

@@ -170,6 +170,21 @@ def cache_dir(args, search):
     return args.cache or search.default_cache_dir()
 
 
+SCHEDULER_HELP = ("run on Dask (optional package): a cluster's scheduler address (tcp://host:8786) or a local Dask "
+                  "scheduler: threads, processes, sync (default: a thread pool, no Dask)")
+
+
+def check_scheduler(name):
+    """``--scheduler``'s value, refused in one line when it is neither a local Dask scheduler nor an address (the
+    optional packages are checked by ``dedupe.parallel.require_dask`` before any clip is read)."""
+    from ..dedupe.parallel import LOCAL_SCHEDULERS
+
+    if name and name not in LOCAL_SCHEDULERS and "://" not in name and ":" not in name:
+        raise CommandError(f"--scheduler {name!r}: give {', '.join(LOCAL_SCHEDULERS)} or an address "
+                           f"(tcp://host:8786)")
+    return name
+
+
 def add_common(p, asf=True, crop=True):
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout and nothing else there")
     p.add_argument("--debug", action="store_true", help="show the full traceback on errors")

@@ -8,16 +8,12 @@ from . import common as c
 def run(args):
     from ..core import index
     from ..dedupe import dedupe_library
-    from ..dedupe.parallel import LOCAL_SCHEDULERS
 
     if args.k < 1:
         raise c.CommandError("--k must be 1 or more")
     if args.threshold is not None and not args.threshold >= 0:
         raise c.CommandError("--threshold must be 0 or more")
-    sched = args.scheduler
-    if sched and sched not in LOCAL_SCHEDULERS and "://" not in sched and ":" not in sched:
-        raise c.CommandError(f"--scheduler {sched!r}: give {', '.join(LOCAL_SCHEDULERS)} or an address "
-                             f"(tcp://host:8786)")
+    sched = c.check_scheduler(args.scheduler)
     unreadable = []
     try:
         out = dedupe_library(args.paths, args.out, args.threshold, sched, k=args.k,
@@ -46,9 +42,7 @@ def add_parser(sub):
     p.add_argument("--out", required=True, metavar="DIR", help="folder for report.html and report.json")
     p.add_argument("--threshold", type=float, metavar="X",
                    help="relative d_S* gate (default: half its median over a sample of the k-NN pairs)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run on Dask (optional package): a cluster's scheduler address (tcp://host:8786) or a "
-                        "local Dask scheduler: threads, processes, sync (default: a thread pool, no Dask)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help=c.SCHEDULER_HELP)
     p.add_argument("--k", type=int, default=8, help="neighbours per clip in the signature graph (default 8)")
     p.add_argument("--level", type=int, help=f"signature level (default {c.DEFAULT_LEVEL})")
     p.add_argument("--depth", type=int, default=c.DEFAULT_DEPTH, help="elastic DP depth")

@@ -11,10 +11,7 @@ def run(args):
     from ..dedupe import parallel
     from .rank import library_or_refuse
 
-    sched = args.scheduler
-    if sched and sched not in parallel.LOCAL_SCHEDULERS and "://" not in sched and ":" not in sched:
-        raise c.CommandError(f"--scheduler {sched!r}: give {', '.join(parallel.LOCAL_SCHEDULERS)} or an address "
-                             f"(tcp://host:8786)")
+    sched = c.check_scheduler(args.scheduler)
     t0 = time.perf_counter()
     items, _skipped = library_or_refuse(args.paths, args, "index")
     cache = index.SignatureCache(args.cache or index.default_cache_dir())
@@ -35,9 +32,7 @@ def add_parser(sub):
         "(one library file opened without reading every entry), so that the first rank over the library is fast.",
     )
     p.add_argument("paths", metavar="CLIP_OR_FOLDER", nargs="+", help=c.CLIP_HELP + ", or a folder of them")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run on Dask (optional package): a cluster's scheduler address (tcp://host:8786) or a "
-                        "local Dask scheduler: threads, processes, sync (default: a thread pool, no Dask)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help=c.SCHEDULER_HELP)
     p.add_argument("--cache", metavar="DIR",
                    help="signature cache folder (default $SHAPESIG_CACHE_DIR, else the per-user cache folder)")
     c.add_common(p, crop=False)

@@ -58,6 +58,20 @@ def _rank_windows(query, items, args, progress):
                         progress=progress, allow_partial=args.allow_partial)
 
 
+def _fill_on(sched, items, cache, base, level, args):
+    """``--scheduler``: the entries of the library files the cache lacks, computed on Dask by ``dedupe.parallel``'s
+    mapper (as ``index --scheduler`` does) and stored once by this process; the ranking then only reads them.
+    Returns the number of files computed. A file that cannot be read is left to the ranking (its warning)."""
+    from ..core.metrics import DEFAULT_LEVEL, LOCAL
+    from ..dedupe import parallel, sign_library
+
+    with parallel.scheduler(sched) as s, c.progress_bar(args, "indexing") as bar:
+        if base == LOCAL:
+            return parallel.index_items(items, cache, s, bar)[1]
+        lvl = level if base == "sim" and level else DEFAULT_LEVEL
+        return sign_library(items, lvl, cache, parallel.mapper_for(s))[2]
+
+
 def _explanation(query, item, result, args):
     """``--explain``: the result's per-joint shares and alignment cost (``core.elastic.explain``), from its DP path when
     the moment search made one, else from the elastic alignment of the two clips (or of the window)."""
@@ -107,6 +121,14 @@ def run(args):
     from ..core.metrics import DEFAULT_METRIC, metric_label, parse_metric
 
     base, level = parse_metric(args.metric or ("sim" if args.windows else DEFAULT_METRIC), args.level)
+    sched = c.check_scheduler(args.scheduler)
+    if sched:
+        if args.windows:
+            raise c.CommandError("--scheduler computes the clips' entries of the whole-clip search: leave it out "
+                                 "with --windows")
+        from ..dedupe.parallel import require_dask
+
+        require_dask(sched)  # before any clip is read
     if args.rerank is not None and args.rerank < 0:
         raise c.CommandError("--rerank must be 0 or more")
     if args.top is not None and args.top < 1:
@@ -122,6 +144,7 @@ def run(args):
     query_item = spec_item(spec, load=lambda _spec: query)
     items, skipped = library_or_refuse(args.clips, args, "rank")
     cache = index.SignatureCache(c.cache_dir(args, index))
+    computed = _fill_on(sched, items, cache, base, level, args) if sched else None
     with c.progress_bar(args, "signatures") as bar:
         if args.windows:
             results = _rank_windows(query, items, args, bar)
@@ -167,6 +190,8 @@ def run(args):
            "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}, "skipped": skipped}
     if args.thumbnails:
         out["query_thumbnail"] = out_thumbs
+    if sched:
+        out["computed"] = computed  # library files whose entries the scheduler computed
     lines = [f"query: {query.name}  metric: {label}"]
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
@@ -211,6 +236,10 @@ def add_parser(sub):
     p.add_argument("--cache", metavar="DIR",
                    help="signature cache folder (default $SHAPESIG_CACHE_DIR, else the per-user cache folder)")
     p.add_argument("--no-cache", action="store_true", help="do not read or write a signature cache")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="compute the entries the cache lacks on Dask (optional package) first, as the index "
+                   "command does: a cluster's scheduler address (tcp://host:8786) or a local Dask scheduler: "
+                   "threads, processes, sync (default: computed here, one clip after another)")
     p.add_argument("--thumbnails", metavar="DIR",
                    help="write a picture of each result's key poses (and the query's) into DIR as PNG files; each "
                    "JSON row adds \"thumbnail\" (its file)")

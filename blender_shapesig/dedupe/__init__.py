@@ -13,7 +13,7 @@ from ..core.errors import ShapeSigError
 from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 from . import parallel
 
-__all__ = ["dedupe_library", "library_items"]
+__all__ = ["dedupe_library", "library_items", "sign_library"]
 
 
 def library_items(paths, unreadable=None, **options):

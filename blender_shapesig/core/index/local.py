@@ -12,12 +12,11 @@ signed square root), normalized to unit length part by part (eq. 9.1 of the thes
 fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
 their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
 matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
-(Sakoe-Chiba band, open ends; compiled when numba is loaded, else by numpy anti-diagonals); ``combine`` scores the shortlist by both stages.
+(Sakoe-Chiba band, open ends; ``local_dtw``: compiled when numba is loaded, else by numpy anti-diagonals); ``combine`` scores the shortlist by both stages.
 ``search`` runs it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
 """
 
 import math
-import sys
 from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
@@ -25,13 +24,15 @@ import numpy as np
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
+from . import local_dtw
+from .local_dtw import dtw
 
-_COMPILED = []  # the compiled DTW kernel, once numba is loaded (``_kernel``)
 
 __all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
            "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
            "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
-           "PREFILTER", "coarse_windows", "coarse_distances", "first_stage", "dtw", "rerank", "path_distances", "combine", "search"]
+           "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows", "first_stage", "dtw",
+           "rerank", "path_distances", "combine", "search"]
 
 RATE = 30.0  # samples per second of the features
 WINDOWS = (0.5, 1.0)  # seconds per window, two scales (clips shorter than a window have one window of that scale)
@@ -330,9 +331,11 @@ def whole_path(feat) -> np.ndarray:
 
 
 def entry_from_features(feat, settings: Settings = DEFAULT):
-    V = window_vectors(feat, settings).astype(np.float32)
+    """``index_entry`` from ``features``. The projection is multiplied in float64 so that the float16 entry does not
+    depend on how many BLAS threads ran the product (a cluster's worker and this process store the same bytes)."""
+    V = window_vectors(feat, settings)
     if settings.dim:
-        V = V @ _projection(V.shape[1], settings.dim, settings.seed)
+        V = V @ _projection(V.shape[1], settings.dim, settings.seed).astype(np.float64)
     return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
             "path": whole_path(feat).astype(np.float32)}
 
@@ -359,19 +362,33 @@ def stack(entries: Sequence) -> Dict[str, np.ndarray]:
     return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds, "starts": bounds[:-1], "ends": bounds[1:]}
 
 
-PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first_stage(keep=)``)
+PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first_stage(keep=)``) ...
+PREFILTER_SHARE = 0.02  # ... and at least this share of the library (a larger library holds more near neighbours:
+# keeping 1,000 of 100,000 found 90 % of the exact top 10, 2 % 96 %; docs/performance.md, "At library scale")
 
 
-def _groups(starts, ends, idx, block):
-    """Runs of ``idx`` (sorted by start) whose rows are contiguous, cut where a run passes ``block`` rows from its
-    first row (a run then ends at most one entry's rows past it); index arrays, found without a loop per entry."""
-    s, e = starts[idx], ends[idx]
-    cuts = np.flatnonzero(s[1:] != e[:-1]) + 1
-    for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(idx)]])):
-        part = (s[a:b] - s[a]) // block
-        inner = np.flatnonzero(np.diff(part)) + 1
-        for c, d in zip(np.concatenate([[0], inner]), np.concatenate([inner, [b - a]])):
-            yield idx[a + c:a + d]
+def _chunks(lengths, block):
+    """Slices of consecutive entries (``lengths`` their rows) of at most ``block`` rows each (an entry longer than
+    ``block`` alone), found without a loop per entry."""
+    first = np.concatenate([[0], np.cumsum(lengths)[:-1]]) // max(int(block), 1)
+    cuts = np.flatnonzero(np.diff(first)) + 1
+    return [slice(a, b) for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(lengths)]]))]
+
+
+def gather_rows(starts, ends):
+    """(rows, offsets): the row numbers of the entries' row ranges [starts, ends) one after another, and where each
+    entry's rows begin in them (a contiguous block of candidates is ``W[rows]``; ``reduceat`` by ``offsets``)."""
+    lengths = np.asarray(ends - starts, np.int64)
+    offsets = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
+    rows = np.repeat(np.asarray(starts, np.int64) - offsets, lengths) + np.arange(int(lengths.sum()), dtype=np.int64)
+    return rows, offsets
+
+
+def _take(A, rows):
+    """A[rows] read at once: a slice when the rows are consecutive (a memory map read in one piece)."""
+    if len(rows) and rows[-1] - rows[0] + 1 == len(rows):
+        return A[int(rows[0]):int(rows[-1]) + 1]
+    return A[rows]
 
 
 def coarse_windows(windows, k) -> np.ndarray:
@@ -380,24 +397,48 @@ def coarse_windows(windows, k) -> np.ndarray:
     return np.asarray(w[np.linspace(0, len(w) - 1, k).round().astype(int)], np.float32)
 
 
-def coarse_distances(query, coarse) -> np.ndarray:
+def coarse_distances(query, coarse, norms=None, block: int = 4096) -> np.ndarray:
     """(entries,) the prefilter: the Chamfer distance of the query's windows subsampled like the entries'
-    (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k."""
-    k = coarse.shape[1]
+    (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k. ``norms``: the coarse
+    windows' squared norms (entries * k,) when the caller keeps them (``first_stage`` does, per library). Run
+    ``block`` entries at a time (the distances of a block stay in the processor's cache)."""
+    n, k = coarse.shape[0], coarse.shape[1]
     q = coarse_windows(query["windows"], 4 * k)
-    C = np.asarray(coarse, np.float32).reshape(-1, coarse.shape[2])
-    D = np.sqrt(np.maximum(_sq_dist(q, C), 0.0)).reshape(len(q), -1, k)  # (q, entries, k)
-    return 0.5 * (D.min(axis=2).mean(axis=0) + D.min(axis=0).mean(axis=1))
+    qn = (q * q).sum(1)[:, None]
+    out = np.empty(n)
+    for a in range(0, n, block):
+        b = min(n, a + block)
+        C = np.asarray(coarse[a:b], np.float32).reshape(-1, coarse.shape[2])
+        cn = (C * C).sum(1) if norms is None else norms[a * k:b * k]
+        D = (qn + cn[None] - 2.0 * (q @ C.T)).reshape(len(q), b - a, k)  # squared distances
+        near = D[:, :, 0].copy()  # the nearest of an entry's k windows: k - 1 elementwise minima (not a
+        for j in range(1, k):     # reduction over a short axis, which numpy runs slowly)
+            np.minimum(near, D[:, :, j], out=near)
+        q_side = np.sqrt(np.maximum(near, 0.0)).mean(axis=0)
+        e_side = np.sqrt(np.maximum(D.min(axis=0), 0.0)).mean(axis=1)
+        out[a:b] = 0.5 * (q_side + e_side)
+    return out
 
 
-def first_stage(query, library, block: int = 65536, keep: Optional[int] = None) -> np.ndarray:
+def _coarse_norms(lib):
+    """The library's coarse windows' squared norms, computed on its first query and kept in its block."""
+    got = lib.get("coarse_norms")
+    if got is None:
+        C = np.asarray(lib["coarse"], np.float32).reshape(-1, lib["coarse"].shape[2])
+        got = (C * C).sum(1)
+        lib["coarse_norms"] = got
+    return got
+
+
+def first_stage(query, library, block: int = 65536, keep: Optional[int] = None,
+                share: float = PREFILTER_SHARE) -> np.ndarray:
     """(entries,) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's distance + the
     same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries (or a library
-    file's), or the entries. Streamed over the library's windows, at most ``block`` rows at a time (a memory-mapped
-    library is read block by block), with one BLAS thread (small products). ``keep``: with a library that has
-    ``coarse`` windows and more entries than ``keep``, only the ``keep`` nearest by ``coarse_distances`` are
-    computed exactly; the others come after them in the prefilter's order (the largest exact distance plus their
-    coarse distance)."""
+    file's), or the entries. The entries' rows (a memory-mapped library's in any order) are gathered into
+    contiguous blocks of at most ``block`` rows, each compared in one product, with one BLAS thread (small
+    products). ``keep``: with a library that has ``coarse`` windows and more entries than ``keep`` (raised to
+    ``share`` of the entries when that is more), only that many nearest by ``coarse_distances`` are computed exactly;
+    the others come after them in the prefilter's order (the largest exact distance plus their coarse distance)."""
     lib = library if isinstance(library, dict) and "starts" in library else stack(library)
     q = np.asarray(query["windows"], dtype=np.float32)
     qn = (q * q).sum(1)[:, None]
@@ -408,18 +449,21 @@ def first_stage(query, library, block: int = 65536, keep: Optional[int] = None) 
         return out
     idx = np.arange(n)
     coarse = None
-    if keep is not None and lib.get("coarse") is not None and n > keep:
-        coarse = coarse_distances(query, lib["coarse"])
-        idx = np.argpartition(coarse, keep)[:keep]
-    idx = idx[np.argsort(starts[idx], kind="stable")]
     with one_blas_thread():
-        for run in _groups(starts, ends, idx, block):
-            r0, r1 = int(starts[run[0]]), int(ends[run[-1]])
-            D = qn + np.asarray(norms[r0:r1], np.float32)[None] - 2.0 * (q @ np.asarray(W[r0:r1], np.float32).T)
+        keep = None if keep is None else max(int(keep), int(math.ceil(share * n)))
+        if keep is not None and lib.get("coarse") is not None and n > keep:
+            coarse = coarse_distances(query, lib["coarse"], _coarse_norms(lib))
+            idx = np.argpartition(coarse, keep)[:keep]
+            idx = idx[np.argsort(starts[idx], kind="stable")]  # the file's order: the map is read forward
+        lengths = ends[idx] - starts[idx]
+        for part in _chunks(lengths, block):
+            run = idx[part]
+            rows, rel = gather_rows(starts[run], ends[run])
+            D = qn + np.asarray(_take(norms, rows), np.float32)[None] \
+                - 2.0 * (q @ np.asarray(_take(W, rows), np.float32).T)
             np.sqrt(np.maximum(D, 0.0, out=D), out=D)
-            rel = starts[run] - r0
             q_side = np.minimum.reduceat(D, rel, axis=1).mean(axis=0)
-            e_side = np.add.reduceat(D.min(axis=0), rel) / (ends[run] - starts[run])
+            e_side = np.add.reduceat(D.min(axis=0), rel) / lengths[part]
             out[run] = 0.5 * (q_side + e_side)
     if coarse is not None:
         rest = np.isinf(out)
@@ -429,88 +473,6 @@ def first_stage(query, library, block: int = 65536, keep: Optional[int] = None) 
 
 # ------------------------------------------------------------------------------------------------- stage two
 
-def _dtw_numpy(a, b, band, free_a, free_b):
-    """The DTW recursion by anti-diagonals (every cell of one depends on the two before): numpy, no compiler."""
-    n, m = len(a), len(b)
-    C = ((a[:, None, :] - b[None, :, :]) ** 2).sum(-1)
-    D = np.full((n + 1, m + 1), np.inf)
-    D[0, 0] = 0.0
-    D[0, 1:free_b + 1] = 0.0  # open begin: the path may start after skipping up to free_b samples of b
-    D[1:free_a + 1, 0] = 0.0
-    rows = np.arange(1, n + 1)
-    if band < 0:
-        lo, hi = np.ones(n, dtype=int), np.full(n, m)
-    else:
-        lo = np.maximum(1, np.ceil((rows - 1) * m / n).astype(int) - band)
-        hi = np.minimum(m, np.floor((rows - 1) * m / n).astype(int) + band + 1)
-    for diag in range(2, n + m + 1):
-        i = np.arange(max(1, diag - m), min(n, diag - 1) + 1)
-        j = diag - i
-        keep = (j >= lo[i - 1]) & (j <= hi[i - 1])
-        i, j = i[keep], j[keep]
-        D[i, j] = C[i - 1, j - 1] + np.minimum(np.minimum(D[i - 1, j], D[i, j - 1]), D[i - 1, j - 1])
-    return math.sqrt(min(D[n, m - free_b:].min(), D[n - free_a:, m].min()))
-
-
-def _dtw_loops(a, b, band, free_a, free_b):  # pragma: no cover - run compiled by numba (``_kernel``)
-    n, m, d = a.shape[0], b.shape[0], a.shape[1]
-    prev = np.full(m + 1, np.inf)
-    cur = np.full(m + 1, np.inf)
-    prev[0] = 0.0
-    for j in range(1, free_b + 1):
-        prev[j] = 0.0
-    best_end = np.inf
-    for i in range(1, n + 1):
-        for j in range(m + 1):
-            cur[j] = np.inf
-        cur[0] = 0.0 if i <= free_a else np.inf
-        if band >= 0:
-            lo = max(1, int(math.ceil((i - 1) * m / n)) - band)
-            hi = min(m, int(math.floor((i - 1) * m / n)) + band + 1)
-        else:
-            lo, hi = 1, m
-        for j in range(lo, hi + 1):
-            c = 0.0
-            for k in range(d):
-                t = a[i - 1, k] - b[j - 1, k]
-                c += t * t
-            best = prev[j - 1]
-            if prev[j] < best:
-                best = prev[j]
-            if cur[j - 1] < best:
-                best = cur[j - 1]
-            cur[j] = c + best
-        if i >= n - free_a and cur[m] < best_end:
-            best_end = cur[m]
-        if i == n:
-            for j in range(m - free_b, m + 1):
-                if cur[j] < best_end:
-                    best_end = cur[j]
-        prev, cur = cur, prev
-    return math.sqrt(best_end)
-
-
-def _kernel():
-    """The compiled DTW when numba is loaded already (the elastic DP loads it; importing it for a few DTWs would
-    cost a command-line query more than they take), else None: ``_dtw_numpy`` (equal to 1e-12)."""
-    if not _COMPILED and "numba" in sys.modules:
-        _COMPILED.append(sys.modules["numba"].njit(cache=True, nogil=True)(_dtw_loops))
-    return _COMPILED[0] if _COMPILED else None
-
-
-def dtw(a, b, band: Optional[int] = None, free_a: int = 0, free_b: int = 0) -> float:
-    """Dynamic time warping of two sequences (frames, channels): the square root of the least sum of squared
-    Euclidean distances over warping paths (tslearn's and aeon's convention); ``band`` (samples, around the
-    diagonal scaled to the lengths; None: no band) restricts the path (Sakoe-Chiba); ``free_a`` / ``free_b``: up to
-    that many samples at either end of ``a`` / ``b`` may be left out (open begin and end: crops)."""
-    a = np.ascontiguousarray(a, dtype=np.float64)
-    b = np.ascontiguousarray(b, dtype=np.float64)
-    bw = -1 if band is None else max(int(band), 1)
-    fa, fb = max(0, min(int(free_a), len(a) - 1)), max(0, min(int(free_b), len(b) - 1))
-    kernel = _kernel()
-    return float(kernel(a, b, bw, fa, fb)) if kernel is not None else _dtw_numpy(a, b, bw, fa, fb)
-
-
 def _band(n, m, band=BAND):
     return int(math.ceil(band * max(n, m))) + 1
 
@@ -519,13 +481,17 @@ def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) 
     """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the square
     root of the sum of the two lengths (clips of other durations stay comparable); up to ``free`` of either
     sequence's length may be left out at each end (crops)."""
-    a = np.asarray(query["sequence"], dtype=np.float64)
-    out = np.empty(len(candidates))
-    for i, c in enumerate(candidates):
-        b = np.asarray(c["sequence"], dtype=np.float64)
-        out[i] = dtw(a, b, _band(len(a), len(b), band), int(free * len(a)), int(free * len(b)))
-        out[i] /= math.sqrt(len(a) + len(b))
-    return out
+    a = np.ascontiguousarray(query["sequence"], dtype=np.float64)
+    bs = [np.ascontiguousarray(c["sequence"], dtype=np.float64) for c in candidates]
+    if not bs:
+        return np.empty(0)
+    if local_dtw._kernel() is None and len(bs) > 1:  # numpy: the shortlist at once
+        fa = min(int(free * len(a)), len(a) - 1)
+        out = local_dtw._dtw_many(a, bs, [max(_band(len(a), len(b), band), 1) for b in bs], [fa] * len(bs),
+                        [max(0, min(int(free * len(b)), len(b) - 1)) for b in bs])
+    else:
+        out = np.array([dtw(a, b, _band(len(a), len(b), band), int(free * len(a)), int(free * len(b))) for b in bs])
+    return out / np.sqrt(len(a) + np.array([len(b) for b in bs], float))
 
 
 def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:

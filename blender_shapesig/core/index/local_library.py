@@ -1,7 +1,8 @@
 """The local search's library file (``local_pack.bin`` in the cache's folder): every cached item's local entries in
 one file that a new process opens with ``numpy.memmap`` instead of reading (``open_library``), written in one pass
 from an iterable of files' entries (``write_library``): a header (magic, JSON index of files and clips, the arrays'
-offsets, the file's total size) then the arrays, 64-byte aligned: ``windows`` (all windows stacked, float16, N x DIM)
+offsets, the file's total size; each distinct joint list once, a clip naming its lists by number: a rig's clips
+share them) then the arrays, 64-byte aligned: ``windows`` (all windows stacked, float16, N x DIM)
 with their squared norms (float32), ``sequences`` (float16), ``paths`` (float32, 10 a clip) and ``coarse`` (``COARSE``
 windows of each clip as float32, the prefilter of ``local.first_stage``). A file whose header, sizes or row ranges do
 not hold is refused in one line (ValueError); the cache then deletes and rebuilds it. See docs/search.md, "At library
@@ -17,7 +18,8 @@ from . import local
 
 __all__ = ["MAGIC", "COARSE", "write_library", "open_library", "coarse_windows", "LibraryFile"]
 
-MAGIC = b"SHAPESIG-LPACK2\n"
+MAGIC = b"SHAPESIG-LPACK3\n"
+_READABLE = (MAGIC, b"SHAPESIG-LPACK2\n")  # version 2 kept each clip's joint lists in place (read as they are)
 COARSE = 4  # windows of each clip kept for the prefilter (evenly spaced over its windows, both scales)
 _ALIGN = 64
 _SEQ_DIM = 3 * len(local.POINTS)
@@ -41,8 +43,17 @@ def write_library(f, files, fmt):
     arrays). Returns the number of clips with windows."""
     files = list(files)
     rows, nw, nq, nc = [], 0, 0, 0
-    index = []
+    index, lists, at = [], [], {}
+
+    def listed(v):  # a joint list by its number in the header's table (a rig's clips share one)
+        t = tuple(str(j) for j in v)
+        if t not in at:
+            at[t] = len(lists)
+            lists.append(list(t))
+        return at[t]
+
     for name, size, mtime, meta, entries in files:
+        meta = dict(meta, clips=[dict(m, **{k: listed(m[k]) for k in JOINT_LISTS if k in m}) for m in meta["clips"]])
         r = []
         for e in entries:
             if e.get("refused"):
@@ -57,15 +68,16 @@ def write_library(f, files, fmt):
     specs = [("windows", np.float16, (nw, dim)), ("norms", np.float32, (nw,)), ("sequences", np.float16, (nq, _SEQ_DIM)),
              ("paths", np.float32, (nc, 10)), ("coarse", np.float32, (nc, COARSE, dim))]
     # the header's size must be known before the offsets: lay the arrays out after a generous estimate
-    head = json.dumps({"format": fmt, "files": index}).encode("utf-8")
+    head = json.dumps({"format": fmt, "files": index, "lists": lists}).encode("utf-8")
     start = len(MAGIC) + 8 + len(head) + 4096
     start += _pad(start)
-    arrays, at = {}, start
+    arrays, end = {}, start
     for name, dt, shape in specs:
         nbytes = int(np.prod(shape)) * np.dtype(dt).itemsize
-        arrays[name] = [at, list(shape), np.dtype(dt).str]
-        at += nbytes + _pad(nbytes)
-    header = json.dumps({"format": fmt, "files": index, "arrays": arrays, "total": at}).encode("utf-8")
+        arrays[name] = [end, list(shape), np.dtype(dt).str]
+        end += nbytes + _pad(nbytes)
+    header = json.dumps({"format": fmt, "files": index, "lists": lists, "arrays": arrays, "total": end}
+                        ).encode("utf-8")
     if len(MAGIC) + 8 + len(header) > start:
         raise ValueError("header too large")  # cannot happen: the arrays' offsets add < 4 KB
     f.write(MAGIC + struct.pack("<Q", len(header)) + header)
@@ -92,6 +104,10 @@ def write_library(f, files, fmt):
     return nc
 
 
+def _joints(v):
+    return v if isinstance(v, tuple) else tuple(str(j) for j in v)
+
+
 class LibraryFile:
     """An opened library file: ``files`` [[name, size, mtime_ns, meta, rows]] (rows: (w0, w1, q0, q1, clip) per
     clip, clip -1 when refused) and the memory-mapped arrays by name (``windows``, ``norms``, ``sequences``,
@@ -109,7 +125,7 @@ class LibraryFile:
         return {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
                 "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
                 "sequence": A["sequences"][q0:q1], "path": A["paths"][k], "_rows": (id(self), w0, w1, k),
-                **{name: tuple(str(j) for j in m.get(name, ())) for name in JOINT_LISTS}}
+                **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
 
     def stack(self):
         """The whole file as ``local.first_stage``'s library (no copy): windows, norms, coarse and, per clip, its
@@ -128,7 +144,7 @@ def open_library(fn) -> LibraryFile:
     truncated or its index does not hold."""
     with open(fn, "rb") as f:
         magic = f.read(len(MAGIC))
-        if magic != MAGIC:
+        if magic not in _READABLE:
             raise ValueError(f"{fn}: not a library file of this version")
         (n,) = struct.unpack("<Q", f.read(8))
         f.seek(0, 2)
@@ -150,7 +166,15 @@ def open_library(fn) -> LibraryFile:
         arrays[name] = (np.memmap(fn, dtype=np.dtype(dt), mode="r", offset=offset, shape=tuple(shape)) if count
                         else np.zeros(tuple(shape), np.dtype(dt)))
     nw, nq, nc = len(arrays["windows"]), len(arrays["sequences"]), len(arrays["paths"])
+    lists = [tuple(str(j) for j in v) for v in header.get("lists", ())]
     for file in header["files"]:
+        for m in file[3]["clips"]:
+            for k in JOINT_LISTS:
+                v = m.get(k)
+                if isinstance(v, int):
+                    if not 0 <= v < len(lists):
+                        raise ValueError(f"{fn}: damaged (a clip's joint list is not in the file)")
+                    m[k] = lists[v]
         for w0, w1, q0, q1, k in file[4]:
             if k >= 0 and not (0 <= w0 < w1 <= nw and 0 <= q0 < q1 <= nq and k < nc):
                 raise ValueError(f"{fn}: damaged (a clip's rows are outside the arrays)")

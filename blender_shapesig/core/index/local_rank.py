@@ -5,6 +5,7 @@ their one-line reason), the query's entry, and the ranking: the first stage over
 turns it into rows (docs/search.md, "The default search").
 """
 
+from collections.abc import Sequence
 from typing import List, Tuple
 
 import numpy as np
@@ -17,7 +18,7 @@ from ..progress import wants_cancel
 from . import local
 from .store import SignatureCache
 
-__all__ = ["item_local_entries", "local_entries", "query_local_entry", "rank_local"]
+__all__ = ["item_local_entries", "local_entries", "query_local_entry", "rank_local", "RankedRows"]
 
 
 def _entry(clip: Clip, settings) -> dict:
@@ -77,12 +78,39 @@ def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> d
     return got[0]
 
 
+class RankedRows(Sequence):
+    """``rank_local``'s rows, built when read: (index into the pairs, score, first-stage distance, DTW distance or
+    None), best first. The shortlist's rows are made at once; a row after it only when it is read (a panel keeping
+    the first ten of 100,000 clips reads a few dozen)."""
+
+    def __init__(self, head_rows, order, d1, worst, m1, mix):
+        self._head, self._order, self._d1 = head_rows, order, d1
+        self._worst, self._m1, self._mix = worst, m1, mix
+
+    def __len__(self):
+        return len(self._head) + len(self._order)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        if k < 0:
+            k += len(self)
+        if not 0 <= k < len(self):
+            raise IndexError(k)
+        if k < len(self._head):
+            return self._head[k]
+        i = int(self._order[k - len(self._head)])
+        d = float(self._d1[i])
+        return i, max(self._worst, (1.0 + self._mix) * d / self._m1), d, None
+
+
 def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST, mix=local.MIX
-               ) -> List[Tuple[int, float, float, object]]:
+               ) -> Sequence[Tuple[int, float, float, object]]:
     """[(index into ``pairs``, score, first-stage distance, DTW distance or None)], best first, for every pair
-    (item, entry) of readable entries. The shortlist's score is ``local.combine`` (d2 / mean d2 + mix d1 / mean
-    d1 over the shortlist); a clip after it scores max(the shortlist's worst, (1 + mix) d1 / mean d1): its first
-    stage stands for both terms, and the order stays the first stage's."""
+    (item, entry) of readable entries (a ``RankedRows``: rows after the shortlist are made when read). The
+    shortlist's score is ``local.combine`` (d2 / mean d2 + mix d1 / mean d1 over the shortlist); a clip after it
+    scores max(the shortlist's worst, (1 + mix) d1 / mean d1): its first stage stands for both terms, and the order
+    stays the first stage's."""
     if not pairs:
         return []
     entries = [e for _, e in pairs]
@@ -93,7 +121,5 @@ def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST,
     score = local.combine(d1[head], d2, mix)
     m1 = max(float(np.mean(d1[head])), 1e-12)
     by = np.argsort(score, kind="stable")
-    out = [(int(head[k]), float(score[k]), float(d1[head[k]]), float(d2[k])) for k in by]
-    worst = float(score.max())
-    out += [(int(i), max(worst, (1.0 + mix) * float(d1[i]) / m1), float(d1[i]), None) for i in order[len(head):]]
-    return out
+    rows = [(int(head[k]), float(score[k]), float(d1[head[k]]), float(d2[k])) for k in by]
+    return RankedRows(rows, order[len(head):], d1, float(score.max()), m1, mix)

@@ -19,6 +19,9 @@ from .local_library import JOINT_LISTS as _JOINT_LISTS, open_library, write_libr
 __all__ = ["LOCAL_PACK", "LocalEntries"]
 
 LOCAL_PACK = "local_pack.bin"
+# Windows does not replace a file this process has memory-mapped: the library file is closed before it is written
+# again (``LocalEntries.release_library``); elsewhere the old mapping stays valid and nothing is copied
+MAPPED_FILES_LOCKED = os.name == "nt"
 
 
 def _meta(e):
@@ -85,10 +88,28 @@ class LocalEntries:
         self._lpack[os.path.basename(fn)] = (st.st_size, st.st_mtime_ns, meta, entries)
         self._lpack_dirty = True
 
+    def release_library(self):
+        """Close the memory-mapped library file: every entry read from it gets its arrays copied into memory (in
+        place, so lists holding the entries follow) and the store forgets the map, so that the file can be
+        replaced; the next process maps the new one."""
+        with self._lock:
+            if self._lib is None:
+                return
+            lists = [got[3] for got in (self._lpack or {}).values()] + list(self._local.values())
+            for entries in lists:
+                for e in entries:
+                    if e.pop("_rows", None) is not None:
+                        for k in ("windows", "sequence", "path"):
+                            e[k] = np.array(e[k])
+            self._local_memo = None
+            self._lib = None
+
     def save_local_pack(self):
         """Write the pack when local entries were read or written since it was loaded (files gone: left out)."""
         if self.path is None or not self._lpack_dirty or not self._writable:
             return
+        if MAPPED_FILES_LOCKED:
+            self.release_library()
         with self._lock:
             files = [(name, size, mtime, meta, entries) for name, (size, mtime, meta, entries) in self._lpack.items()
                      if os.path.exists(os.path.join(self.path, name))]

@@ -63,6 +63,32 @@ def test_rank_orders_and_scores_as_the_local_search(clips):
     assert got[0].name == "07_02" and {r.metric for r in got} == {"local"}  # the other walk of the same subject
 
 
+def test_rank_local_rows_made_when_read_equal_the_rule(clips):
+    """``rank_local``'s rows after the shortlist are made when read: the same rows as the rule written out (score
+    max(the shortlist's worst, (1 + mix) d1 / mean d1 of the shortlist), order by the first stage), by index, by
+    negative index, by slice and by iteration."""
+    from blender_shapesig.core.index.local_rank import rank_local
+
+    qe = ls.index_entry(clips["07_01"])
+    entries = [ls.index_entry(c) for n, c in clips.items() if n != "07_01"]
+    rows = rank_local(qe, [(None, e) for e in entries], index.SignatureCache(), shortlist=2)
+    d1 = ls.first_stage(qe, entries)
+    order = np.argsort(d1, kind="stable")
+    head = order[:2]
+    score = ls.combine(d1[head], ls.rerank(qe, [entries[i] for i in head]))
+    want = [(int(head[k]), score[k], d1[head[k]]) for k in np.argsort(score, kind="stable")]
+    want += [(int(i), max(score.max(), 2.0 * d1[i] / d1[head].mean()), d1[i]) for i in order[2:]]
+    assert len(rows) == len(entries) == len(want)
+    got = list(rows)
+    assert [r[0] for r in got] == [w[0] for w in want]
+    assert np.allclose([r[1] for r in got], [w[1] for w in want], rtol=1e-12)
+    assert np.allclose([r[2] for r in got], [w[2] for w in want], rtol=1e-12)
+    assert [r[3] is None for r in got] == [False, False] + [True] * (len(want) - 2)
+    assert rows[-1] == got[-1] and rows[1:4] == got[1:4]
+    with pytest.raises(IndexError):
+        rows[len(want)]
+
+
 def test_local_entries_live_in_the_signature_cache(clips, tmp_path):
     q, lib = clips["09_02"], [clips[n] for n in ("09_03", "07_01", "13_32")]
     first = index.rank_clips(q, lib, cache=index.SignatureCache(tmp_path))

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig.core.index import local as ls
+from blender_shapesig.core.index import local_dtw
 from blender_shapesig.core import rigs
 from blender_shapesig.core.signatures import signatures
 from blender_shapesig.core.io import sources
@@ -40,11 +41,12 @@ def test_dtw_matches_the_textbook_recursion(n, m, free_a, free_b):
     a, b = rng.standard_normal((n, 4)), rng.standard_normal((m, 4))
     want = _reference_dtw(a, b, free_a, free_b)
     assert ls.dtw(a, b, None, free_a, free_b) == pytest.approx(want, rel=1e-12)
-    assert ls._dtw_numpy(a, b, -1, free_a, free_b) == pytest.approx(want, rel=1e-12)
-    assert ls._dtw_loops(a, b, -1, free_a, free_b) == pytest.approx(want, rel=1e-12)  # the compiled kernel's code
+    assert local_dtw._dtw_numpy(a, b, -1, free_a, free_b) == pytest.approx(want, rel=1e-12)
+    # the compiled kernel's code, run by Python
+    assert local_dtw._dtw_loops(a, b, -1, free_a, free_b) == pytest.approx(want, rel=1e-12)
     band = ls._band(n, m)
-    assert ls._dtw_loops(a, b, band, free_a, free_b) == pytest.approx(ls._dtw_numpy(a, b, band, free_a, free_b),
-                                                                        rel=1e-12)
+    want_band = local_dtw._dtw_numpy(a, b, band, free_a, free_b)
+    assert local_dtw._dtw_loops(a, b, band, free_a, free_b) == pytest.approx(want_band, rel=1e-12)
 
 
 def test_dtw_band_only_removes_paths():
@@ -56,6 +58,35 @@ def test_dtw_band_only_removes_paths():
     assert banded == sorted(banded, reverse=True)
     assert banded[-1] == pytest.approx(free, rel=1e-12)
     assert ls.dtw(a, a, 1) == 0.0
+
+
+def test_the_shortlist_at_once_equals_one_dtw_at_a_time():
+    """``_dtw_many`` (every candidate's anti-diagonals together) gives ``_dtw_numpy``'s numbers exactly, and both
+    agree with the textbook recursion: lengths from 1 to 40, bands, no band, open ends."""
+    rng = np.random.default_rng(11)
+    for trial in range(25):
+        n = int(rng.integers(1, 30))
+        bs = [rng.standard_normal((int(rng.integers(1, 40)), 3)) for _ in range(6)]
+        a = rng.standard_normal((n, 3))
+        bands = [-1 if trial % 3 == 0 else ls._band(n, len(b)) for b in bs]
+        fa = min(int(rng.integers(0, 5)), n - 1)
+        fbs = [min(int(rng.integers(0, 5)), len(b) - 1) for b in bs]
+        got = local_dtw._dtw_many(a, bs, bands, [fa] * len(bs), fbs)
+        want = [local_dtw._dtw_numpy(a, b, w, fa, fb) for b, w, fb in zip(bs, bands, fbs)]
+        assert np.array_equal(got, want)
+        if trial % 3 == 0:
+            assert got[0] == pytest.approx(_reference_dtw(a, bs[0], fa, fbs[0]), rel=1e-12)
+
+
+def test_rerank_is_the_same_with_and_without_the_compiled_kernel(monkeypatch):
+    rng = np.random.default_rng(12)
+    q = {"sequence": rng.standard_normal((20, 6)).astype(np.float16)}
+    cands = [{"sequence": rng.standard_normal((int(rng.integers(5, 30)), 6)).astype(np.float16)} for _ in range(7)]
+    monkeypatch.setattr(local_dtw, "_kernel", lambda: None)
+    batch = ls.rerank(q, cands)
+    monkeypatch.setattr(local_dtw, "_kernel", lambda: local_dtw._dtw_loops)  # the compiled kernel's code, run by Python
+    one_by_one = ls.rerank(q, cands)
+    assert np.allclose(batch, one_by_one, rtol=1e-12, atol=0)
 
 
 def test_levy_areas_are_level_two_of_the_log_signature():
