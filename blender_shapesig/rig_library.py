@@ -1,7 +1,8 @@
 """Which of the file's actions the search compares with an armature's (Blender layer): every action that animates
 pose bones and either shares bone names with the armature or is of a rig (the armature that plays it, its slot's,
 the one its bones fit: ``owners.find_owner``) whose bone map shares at least ``MIN_JOINTS`` canonical joints with
-the armature's (``rigmap.armature_map``). Each is then read with that rig (``library.action_item``), so actions of
+the armature's (``rigmap.armature_map``); an action no armature plays that fits two others is left out (whose it is
+cannot be told). Each is then read with that rig (``library.action_item``), so actions of
 other rigs meet through the canonical joints rather than a bone that happens to share a name. See docs/search.md.
 """
 
@@ -39,7 +40,7 @@ def library_actions(obj) -> List:
         try:
             owner = find_owner(action, prefer=obj)
         except ShapeSigError:
-            owner = None  # two armatures could own it: library.action_item says so when it is read
+            continue  # played by none and fits two armatures other than obj: whose it is cannot be told
         if owner is None or owner == obj or owner.data == obj.data:
             if owner is not None or not names.isdisjoint(animated_bones(action)):
                 out.append(action)
