@@ -47,12 +47,16 @@ def _import(path, info):
 
 def animation_name(action, owner, info):
     """The animation's name as the file stores it: the glTF animation (the action's name, without the ``.001``
-    Blender adds when the name is taken) or the FBX take (Blender names the action ``OBJECT|TAKE|LAYER``, or
-    ``OBJECT|TAKE`` when the layer is named like the take)."""
+    Blender adds when the name is taken, or the ``_NODE`` suffix Blender 4.2's importer adds) or the FBX take
+    (Blender names the action ``OBJECT|TAKE|LAYER``, or ``OBJECT|TAKE`` when the layer is named like the take)."""
     name = action.name
     if info["format"] != "fbx":
+        if name in info["animations"]:
+            return name
         base = re.sub(r"\.\d{3}$", "", name)
-        return base if name not in info["animations"] and base in info["animations"] else name
+        suffix = f"_{owner.name}" if owner is not None else None
+        candidates = [base] + ([base[:-len(suffix)]] if suffix and base.endswith(suffix) else [])
+        return next((c for c in candidates if c in info["animations"]), name)
     if owner is None or not name.startswith(owner.name + "|"):
         return name
     rest = name[len(owner.name) + 1:]
