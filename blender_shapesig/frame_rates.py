@@ -123,6 +123,9 @@ def record(action, fps, how) -> None:
 
     action[RATE] = float(check_fps(float(fps), "frame rate"))
     action[HOW] = str(how)
+    from .action_changes import forget_fingerprints
+
+    forget_fingerprints(action)  # a custom property set from Python is reported to no handler
 
 
 def rate_text(fps: float) -> str:

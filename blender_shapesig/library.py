@@ -246,6 +246,7 @@ def query_item(context, settings):
     """(armature, action, ActionItem) of the query; ShapeSigError with a clear message otherwise."""
     check_problem(search_problem(context, settings))
     action_changes.refresh_fingerprints(context)
+    action_changes.use_store(get_cache(context))  # fingerprints stored by an earlier session
     obj = active_armature(context)
     action = _query_action(obj, settings)
     trim, fps = _read_options(settings)
@@ -346,6 +347,7 @@ def search_library(context, settings) -> SearchLibrary:
         actions = [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps, owners)
                    for a in _file_actions(settings, obj, owners)]
         actions = [it for it in actions if it.key != q.key]
+        action_changes.save_store()  # for the next session (written when they changed)
     if settings.use_folders:
         specs = _folder_specs(context, settings, skipped)
     return SearchLibrary(action, q, actions, specs, skipped)
