@@ -29,10 +29,11 @@ _GENERATION = [0]  # advanced by refresh_fingerprints: a stamp is read once per 
 
 
 class _Fingerprint:
-    __slots__ = ("stamp", "hash", "bone_set", "generation")
+    __slots__ = ("stamp", "hash", "bone_set", "generation", "tried")
 
     def __init__(self, stamp):
         self.stamp = stamp
+        self.tried = False  # the store looked at
         self.hash = None
         self.bone_set = None
         self.generation = _GENERATION[0]
@@ -93,16 +94,17 @@ def _local(action):
     return action.library is None and getattr(action, "override_library", None) is None
 
 
-def _disk_stamp(action):
-    """The stamp an action's stored fingerprint is checked with: its F-curve counts and its frame range."""
-    return [list(_stamp(action)), [float(v) for v in action.frame_range]]
+def _disk_stamp(action, stamp=None):
+    """The stamp an action's stored fingerprint is checked with: its F-curve counts (``stamp``: ``_stamp``'s,
+    when known) and its frame range."""
+    return [list(_stamp(action) if stamp is None else stamp), [float(v) for v in action.frame_range]]
 
 
 def _snapshot(filepath):
     """The file as loaded (or saved) now: its key and each local action's name by its session id."""
     key = _file_key(filepath)
     _FILE.update(key=key, names={_uid(a): a.name for a in bpy.data.actions if _local(a)} if key else {},
-                 dirty=set(), all_dirty=False, records=None, bone_sets=[], written=None)
+                 dirty=set(), all_dirty=False, records=None, bone_sets=[], written=None, looked=None)
 
 
 def use_store(cache):
@@ -119,8 +121,9 @@ def use_store(cache):
             _FILE["written"] = _FILE["records"]
 
 
-def _trusted(action, uid):
-    """The stored (hash, bones) of an action unchanged since the file was loaded, else None."""
+def _trusted(action, uid, stamp=None):
+    """The stored (hash, bones) of an action unchanged since the file was loaded, else None (``stamp``: its
+    ``_stamp`` when known)."""
     records = _FILE["records"]
     if not records or _FILE["all_dirty"] or uid in _FILE["dirty"]:
         return None
@@ -128,7 +131,7 @@ def _trusted(action, uid):
     if _FILE["names"].get(uid) != name or not _local(action):
         return None
     rec = records.get(name)
-    if not isinstance(rec, list) or len(rec) != 3 or rec[0] != _disk_stamp(action):
+    if not isinstance(rec, list) or len(rec) != 3 or rec[0] != _disk_stamp(action, stamp):
         return None
     try:
         bones = frozenset(_FILE["bone_sets"][rec[2]])
@@ -148,18 +151,18 @@ def _records(clean_only):
         clean = not _FILE["all_dirty"] and uid not in _FILE["dirty"] and _FILE["names"].get(uid) == action.name
         if clean_only and not clean:
             continue
-        rec = _FINGERPRINTS.get(uid)
-        if rec is not None and rec.hash is not None and rec.stamp == _stamp(action):
+        rec, stamp = _FINGERPRINTS.get(uid), _stamp(action)
+        if rec is not None and rec.hash is not None and rec.stamp == stamp:
             found = rec.hash, rec.bones(action)
         else:
-            found = _trusted(action, uid) if clean else None
+            found = _trusted(action, uid, stamp) if clean else None
         if found is None:
             continue
         bones = tuple(sorted(found[1]))
         if bones not in index:
             index[bones] = len(sets)
             sets.append(list(bones))
-        records[action.name] = [_disk_stamp(action), found[0], index[bones]]
+        records[action.name] = [_disk_stamp(action, stamp), found[0], index[bones]]
     return records, sets
 
 
@@ -173,10 +176,11 @@ def _write(key, records, sets):
 
 
 def save_store():
-    """Write the fingerprints of the actions unchanged since the file was loaded (after a click), when they
-    differ from the stored ones."""
-    if _FILE["key"] is None or _FILE["cache"] is None:
+    """Write the fingerprints of the actions unchanged since the file was loaded (after a click), when some
+    were computed since the last look and they differ from the stored ones."""
+    if _FILE["key"] is None or _FILE["cache"] is None or _STATS["computed"] == _FILE.get("looked"):
         return
+    _FILE["looked"] = _STATS["computed"]
     records, sets = _records(clean_only=True)
     if records and records != _FILE["written"]:
         if _write(_FILE["key"], records, sets):
@@ -206,25 +210,31 @@ def remembered_hash(action):
 def action_bones(action) -> frozenset:
     """The names of the pose bones ``action`` animates (F-curves not muted), remembered like its fingerprint."""
     rec = _record(action)
-    if rec.bone_set is None and _FILE["records"]:
-        stored = _trusted(action, _uid(action))
-        if stored is not None:
-            rec.bone_set = stored[1]
+    if rec.bone_set is None:
+        _from_store(action, rec)
     return rec.bones(action)
 
 
 def action_fingerprint(action) -> str:
     """``read_hash(action)``, computed once per session while the action is unchanged (see above)."""
     rec = _record(action)
-    if rec.hash is None:
-        stored = _trusted(action, _uid(action)) if _FILE["records"] else None
-        if stored is not None:
-            rec.hash, rec.bone_set = stored[0], rec.bone_set or stored[1]
-            _STATS["stored"] += 1
-        else:
-            rec.hash = read_hash(action)
-            _STATS["computed"] += 1
+    if rec.hash is None and not _from_store(action, rec):
+        rec.hash = read_hash(action)
+        _STATS["computed"] += 1
     return rec.hash
+
+
+def _from_store(action, rec) -> bool:
+    """Fill a new record from the store when the action's stored fingerprint is trusted (once per record)."""
+    if rec.tried or not _FILE["records"]:
+        return False
+    rec.tried = True
+    stored = _trusted(action, _uid(action), rec.stamp)
+    if stored is None:
+        return False
+    rec.hash, rec.bone_set = stored[0], rec.bone_set or stored[1]
+    _STATS["stored"] += 1
+    return True
 
 
 def forget_fingerprints(action=None):
