@@ -17,7 +17,13 @@ ranking with the built index; the one-off index build; the index's memory.
    action, the key every click computed before); warm: later clicks (best of ``--repeat``) and a click after one action was edited. Then the click as
    the UI runs it, ``bpy.ops.shapesig.rank()`` (results written to the window manager, no undo step), beside the
    same run's baseline of one whole-file undo push (what each click cost when the operator was an UNDO one).
-4. Memory: the index in memory (numpy arrays and Python objects; tracemalloc) after loading every entry from the
+4. The first click of a fresh session (``--fresh`` runs): a new process opens the saved file, waits for the add-on's
+   kernel warm-up (started at enable, long done when a user clicks) and runs ``bpy.ops.shapesig.rank()`` once with
+   the index of step 2, with the fingerprints stored in the index folder by an earlier session
+   (``action_changes``), against the same-run baseline of the same fresh click with the stored fingerprints
+   deleted first (every action's ``read_hash`` computed, as before they were stored); best of ``--fresh`` each,
+   alternated.
+5. Memory: the index in memory (numpy arrays and Python objects; tracemalloc) after loading every entry from the
    folder and ranking with every clip compared exactly, per clip and scaled to 2,600 (the store also caps the
    directions it holds at its ``memory_limit``).
 """
@@ -141,6 +147,54 @@ def operator_clicks(context, folder, repeat):
     return out
 
 
+def fresh_click(blend):
+    """(In a new process: ``--fresh-click``) open ``blend``, click once, print the click's JSON."""
+    blender_shapesig.register()
+    for t in list(blender_shapesig._WARM_UP):
+        t.join()
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    context = bpy.context
+    context.view_layer.objects.active = bpy.data.objects["Rig"]
+    settings_for(context)
+    t0 = time.perf_counter()
+    bpy.ops.shapesig.rank()
+    wall = (time.perf_counter() - t0) * 1e3
+    res = library.results_of(context)
+    print("FRESH" + json.dumps({"wall_ms": wall, "panel_reports_ms": res.seconds * 1e3,
+                                "rows": [r.name for r in res.results], **action_changes.store_stats()}))
+
+
+def fresh_session_clicks(blend, folder, runs):
+    """The first click of ``runs`` fresh sessions with the stored fingerprints and ``runs`` without (the store
+    deleted first: the baseline), alternated; the best of each and their ratio."""
+    import subprocess
+
+    from blender_shapesig.core.index.store import CACHE_SUBDIR
+
+    env = dict(os.environ, **{index.CACHE_ENV: folder})
+    got = {"stored": [], "recomputed": []}
+    for _ in range(runs):
+        for kind in ("recomputed", "stored"):  # the baseline writes the store the next run reads
+            if kind == "recomputed":
+                for p in pathlib.Path(folder, CACHE_SUBDIR).glob("fingerprints-*.json"):
+                    p.unlink()
+            done = subprocess.run([sys.executable, __file__, "--fresh-click", "--blend", str(blend),
+                                   "--similarity", SIMILARITY[0]], env=env, capture_output=True, text=True,
+                                  timeout=900)
+            line = [ln for ln in done.stdout.splitlines() if ln.startswith("FRESH")]
+            if not line:
+                raise RuntimeError(done.stderr[-2000:])
+            got[kind].append(json.loads(line[-1][len("FRESH"):]))
+    best = {k: min(v, key=lambda r: r["wall_ms"]) for k, v in got.items()}
+    assert best["stored"]["rows"] == best["recomputed"]["rows"]
+    return {"stored_ms": best["stored"]["wall_ms"], "recomputed_ms": best["recomputed"]["wall_ms"],
+            "ratio": best["stored"]["wall_ms"] / best["recomputed"]["wall_ms"],
+            "stored_all_ms": [round(r["wall_ms"], 1) for r in got["stored"]],
+            "recomputed_all_ms": [round(r["wall_ms"], 1) for r in got["recomputed"]],
+            "fingerprints_stored_used": best["stored"]["stored"], "computed": best["stored"]["computed"],
+            "baseline_computed": best["recomputed"]["computed"], "same_rows": True}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--actions", type=int, default=1000)
@@ -148,10 +202,14 @@ def main(argv=None):
                     default=pathlib.Path(tempfile.gettempdir()) / "shapesig_bench_actions.blend")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--json", type=pathlib.Path)
+    ap.add_argument("--fresh", type=int, default=3, help="fresh sessions timed with and without stored fingerprints")
+    ap.add_argument("--fresh-click", action="store_true", help=argparse.SUPPRESS)
     ap.add_argument("--similarity", choices=("local", "sim"), default="local",
                     help="the panel's Similarity: local (Motion and pose, the default) or sim (Motion only)")
     args = ap.parse_args(argv)
     SIMILARITY[0] = args.similarity
+    if args.fresh_click:
+        return fresh_click(args.blend)
     out = {"actions": args.actions, "load_average_1min": os.getloadavg()[0]}
     blender_shapesig.register()
     if not args.blend.exists():
@@ -211,6 +269,8 @@ def main(argv=None):
         context.view_layer.update()
         out["click_after_one_edit"] = click(context, settings, cache)
         out["operator_click"] = operator_clicks(context, folder, args.repeat)
+        if args.fresh:
+            out["fresh_session_first_click"] = fresh_session_clicks(args.blend, folder, args.fresh)
     for k, v in list(out.items()):
         if isinstance(v, dict):
             out[k] = {kk: (round(vv, 2) if isinstance(vv, float) else vv) for kk, vv in v.items()}

@@ -24,8 +24,11 @@ def _modules():
 
 
 def register():
+    from . import action_changes
+
     for module in _modules():
         module.register()
+    action_changes.start_change_detection()
     _warm_up_kernels()
 
 

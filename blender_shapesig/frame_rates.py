@@ -123,6 +123,9 @@ def record(action, fps, how) -> None:
 
     action[RATE] = float(check_fps(float(fps), "frame rate"))
     action[HOW] = str(how)
+    from .action_changes import forget_fingerprints
+
+    forget_fingerprints(action)  # a custom property set from Python is reported to no handler
 
 
 def rate_text(fps: float) -> str:
@@ -144,7 +147,8 @@ def mixed_note(rates: Iterable[Tuple[str, float, bool]]) -> Optional[str]:
 def library_notes(lib) -> List[str]:
     """``mixed_note`` of a search library (``library.SearchLibrary``: its query action, the file's actions; folder
     clips' rates are their files'), as a list of at most one warning line."""
-    actions = [lib.action] + [bpy.data.actions.get(it.action) for it in lib.actions]
+    by_name = {a.name: a for a in bpy.data.actions} if lib.actions else {}  # one pass (.get is a linear search)
+    actions = [lib.action] + [by_name.get(it.action) for it in lib.actions]
     rates = [(a.name, *rate_of(a)[:2]) for a in actions if a is not None]
     rates += [("", 1.0, True)] if lib.specs else []
     note = mixed_note(rates)

@@ -102,23 +102,24 @@ def armature_digest(obj) -> str:
     return h.hexdigest()[:16]
 
 
-def owner_armature(action, default):
+def owner_armature(action, default, owners=None):
     """The armature object ``action`` belongs to (``owners.find_owner``, ``default`` the armature the user works
     with), else ``default`` when no armature holds its bones; ShapeSigError (one line) when it cannot be decided.
 
     A library action is read with its own rig: its bones' rest orientations give the armature space, and
     bones of another rig are not mistaken for unanimated bones of this one."""
-    return find_owner(action, prefer=default) or default
+    known = owners.get(action.as_pointer(), False) if owners else False  # rig_library.library_actions' owners
+    return (find_owner(action, prefer=default) if known is False else known) or default
 
 
-def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=None) -> ActionItem:
+def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=None, owners=None) -> ActionItem:
     """The library item of an action, read with the armature that plays it (else ``obj``) through that
     armature's bone map (``rigmap.bone_map_of``). Its content hash is the session's fingerprint
     (``action_changes``: re-read only when the action changed); ``digests``: a dict remembering
     ``armature_digest`` per armature for one library. ``trim`` "auto": rest-pose / ramp frames dropped
     (``sources.trim_ends``; a ``frame_range``'s start is explicit and kept: pass "none" for an exact range);
-    ``fps``: the rate to read at (None: the action's own)."""
-    arm = owner_armature(action, obj)
+    ``fps``: the rate to read at (None: the action's own); ``owners``: the owners ``library_actions`` found."""
+    arm = owner_armature(action, obj, owners)
     fps = fps or (None if frame_rates.stored_rate(action) else frame_rates.rate_of(action)[0])  # found or assumed
     digests = {} if digests is None else digests
     digest = digests.get(arm.as_pointer())
@@ -245,6 +246,7 @@ def query_item(context, settings):
     """(armature, action, ActionItem) of the query; ShapeSigError with a clear message otherwise."""
     check_problem(search_problem(context, settings))
     action_changes.refresh_fingerprints(context)
+    action_changes.use_store(get_cache(context))  # fingerprints stored by an earlier session
     obj = active_armature(context)
     action = _query_action(obj, settings)
     trim, fps = _read_options(settings)
@@ -263,11 +265,12 @@ def _folders(context, settings):
     return [bpy.path.abspath(p.strip()) for p in text.split(";") if p.strip()]
 
 
-def _file_actions(settings, obj):
-    """The file's actions ``obj``'s search compares (``rig_library``), filtered by name pattern and catalog."""
+def _file_actions(settings, obj, owners=None):
+    """The file's actions ``obj``'s search compares (``rig_library``), filtered by name pattern and catalog;
+    ``owners``: as ``library_actions``'."""
     pattern = settings.name_filter.strip()
     catalog = settings.catalog.strip()
-    for action in library_actions(obj):
+    for action in library_actions(obj, owners):
         if pattern and not fnmatch.fnmatchcase(action.name, pattern):
             continue
         if settings.assets_only:
@@ -340,10 +343,11 @@ def search_library(context, settings) -> SearchLibrary:
     actions, specs, skipped = [], [], []
     trim, fps = _read_options(settings)
     if settings.use_file_actions:
-        digests = {}
-        actions = [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps)
-                   for a in _file_actions(settings, obj)]
+        digests, owners = {}, {}
+        actions = [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps, owners)
+                   for a in _file_actions(settings, obj, owners)]
         actions = [it for it in actions if it.key != q.key]
+        action_changes.save_store()  # for the next session (written when they changed)
     if settings.use_folders:
         specs = _folder_specs(context, settings, skipped)
     return SearchLibrary(action, q, actions, specs, skipped)

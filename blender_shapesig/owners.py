@@ -59,10 +59,21 @@ def slot_hint(action, armatures):
     return hinted[0] if len(hinted) == 1 else None
 
 
-def fitting(action, armatures, bones=None):
-    """The armatures whose bones hold every bone the action animates."""
+def fitting(action, armatures, bones=None, bone_names=None):
+    """The armatures whose bones hold every bone the action animates; ``bone_names``: a dict remembering each
+    armature's bone names (by its data's pointer) over several calls that see the same armatures unchanged."""
     bones = animated_bones(action) if bones is None else bones
-    return [ob for ob in armatures if bones and bones <= {b.name for b in ob.data.bones}]
+    if not bones:
+        return []
+    memo = {} if bone_names is None else bone_names
+    out = []
+    for ob in armatures:
+        names = memo.get(ob.data.as_pointer())
+        if names is None:
+            names = memo[ob.data.as_pointer()] = {b.name for b in ob.data.bones}
+        if bones <= names:
+            out.append(ob)
+    return out
 
 
 def _names(obs):
@@ -70,9 +81,10 @@ def _names(obs):
     return ", ".join(names[:4]) + (", ..." if len(names) > 4 else "")
 
 
-def find_owner(action, armatures=None, prefer=None):
+def find_owner(action, armatures=None, prefer=None, bone_names=None):
     """The armature object ``action`` belongs to (see the module docstring); ``armatures``: the candidates
-    (default: every armature object of the file); ``prefer``: the armature the user works with. None when no
+    (default: every armature object of the file); ``prefer``: the armature the user works with; ``bone_names``:
+    as ``fitting``'s (for many actions in one pass over an unchanged file). None when no
     armature holds its bones; ShapeSigError (one line) when two or more could own it and nothing decides."""
     armatures = _armatures(armatures)
     playing = players(action, armatures)
@@ -87,7 +99,7 @@ def find_owner(action, armatures=None, prefer=None):
         raise ShapeSigError(f"action {action.name!r} is played by {len(playing)} armatures ({_names(playing)}); "
                             f"assign it to one of them only")
     hinted = slot_hint(action, armatures)
-    fits = fitting(action, armatures)
+    fits = fitting(action, armatures, bone_names=bone_names)
     if hinted is not None and (hinted in fits or not fits):
         return hinted
     if prefer is not None and prefer in fits:

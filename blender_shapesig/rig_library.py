@@ -8,6 +8,8 @@ other rigs meet through the canonical joints rather than a bone that happens to 
 
 from typing import Dict, List, Set
 
+import bpy
+
 from . import action_io, rigmap
 from .core.errors import ShapeSigError
 from .owners import animated_bones, find_owner
@@ -30,15 +32,21 @@ def rig_joints(obj, memo: Dict[int, Set[str]] = None) -> Set[str]:
     return memo[key]
 
 
-def library_actions(obj) -> List:
-    """The actions (bpy.data order) the search of ``obj`` compares: the module docstring's rule."""
+def library_actions(obj, owners: Dict = None) -> List:
+    """The actions (bpy.data order) the search of ``obj`` compares: the module docstring's rule. ``owners``: a
+    dict that receives each listed action's ``find_owner(action, prefer=obj)`` by the action's pointer (left
+    out when it raised), so that reading them does not look again."""
     names = {b.name for b in obj.data.bones}
     memo: Dict[int, Set[str]] = {}
     mine = rig_joints(obj, memo)
+    bone_names: Dict[int, Set[str]] = {}
+    armatures = [o for o in bpy.data.objects if o.type == "ARMATURE"]
     out = []
     for action in action_io.armature_actions(None):
         try:
-            owner = find_owner(action, prefer=obj)
+            owner = find_owner(action, armatures, prefer=obj, bone_names=bone_names)
+            if owners is not None:
+                owners[action.as_pointer()] = owner
         except ShapeSigError:
             continue  # played by none and fits two armatures other than obj: whose it is cannot be told
         if owner is None or owner == obj or owner.data == obj.data:

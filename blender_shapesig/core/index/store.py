@@ -47,7 +47,8 @@ _TAG_TEXT = ("Signature: 8a477f597d28d172789f06886806bc55\n"
              "# This file is a cache directory tag created by blender_shapesig.\n"
              "# Every file here was written by it and is rebuilt when needed.\n")
 _TMP_PREFIX, _TMP_SUFFIX = ".shapesig-", ".tmp"
-_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.(?:npz|png)|" + re.escape(_PACK) + "|" + re.escape(LOCAL_PACK) + "|"
+_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.(?:npz|png)|fingerprints-[0-9a-f]{40}\.json|"
+                       + re.escape(_PACK) + "|" + re.escape(LOCAL_PACK) + "|"
                        + re.escape(_TMP_PREFIX) + r"\w+"
                        + re.escape(_TMP_SUFFIX) + ")")
 _ENTRY_FILE = re.compile(r"[0-9a-f]{40}\.npz")
@@ -254,6 +255,34 @@ class SignatureCache(LocalEntries):
             except OSError:
                 pass
             raise
+
+    def _fingerprints_file(self, source):
+        return os.path.join(self.path, "fingerprints-" + hashlib.sha1(source.encode()).hexdigest() + ".json")
+
+    def read_fingerprints(self, source) -> Optional[dict]:
+        """The fingerprint record stored for ``source`` (a .blend file's path: the Blender layer's
+        ``action_changes`` writes and checks it), or None (none, unreadable, or no folder)."""
+        if self.path is None:
+            return None
+        try:
+            with open(self._fingerprints_file(source), encoding="utf-8") as f:
+                record = json.load(f)
+        except (OSError, ValueError):
+            return None
+        return record if isinstance(record, dict) and record.get("source") == source else None
+
+    def write_fingerprints(self, source, record: dict) -> bool:
+        """Store ``record`` (JSON-able) for ``source``, replacing the previous one (a temporary file, then a
+        rename); False when the folder cannot be written (the cache goes on in memory, ``warning``)."""
+        if self.path is None or not self._writable:
+            return False
+        try:
+            self._atomic_write(self._fingerprints_file(source),
+                               json.dumps(dict(record, source=source), separators=(",", ":")).encode())
+            return True
+        except OSError as exc:
+            self._memory_only(exc)
+            return False
 
     def file_for(self, key, level):
         """The entry file of (key, level) (its name also depends on the format, sketch size and compact mode)."""
