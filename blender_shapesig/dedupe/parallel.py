@@ -158,7 +158,10 @@ def _is_client(sched):
 def _cluster_error(exc):
     from ..core.errors import ShapeSigError
 
-    why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    if type(exc).__name__ == "KilledWorker":  # Dask's retries of a clip ran out: its workers died running it
+        why = "a worker died while computing a clip, more often than Dask retries"
+    else:
+        why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
     return ShapeSigError(f"the Dask cluster stopped the run ({why}); what was finished is kept: run again to "
                          f"compute the rest")
 
