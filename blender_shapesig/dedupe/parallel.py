@@ -8,7 +8,7 @@ import contextlib
 import os
 
 __all__ = ["LOCAL_SCHEDULERS", "DEFAULT_SCHEDULER", "require_dask", "scheduler", "dask_mapper", "thread_mapper",
-           "mapper_for", "sign_item", "local_item", "index_items"]
+           "mapper_for", "batches", "sign_item", "local_item", "index_items"]
 
 LOCAL_SCHEDULERS = ("threads", "processes", "sync")
 DEFAULT_SCHEDULER = "threads"  # the label of the run without --scheduler (a thread pool, no Dask)
@@ -113,34 +113,87 @@ def local_item(item):
         return [], f"{item.name}: {exc}"
 
 
+def batches(fn, tasks, sched=None, batch=64, ahead=2):
+    """Yield ``(chunk, [fn(t) for t in chunk])`` for the ``tasks`` in chunks of ``batch``, in order. On a
+    ``distributed.Client`` the next ``ahead`` chunks are already on the cluster while the caller handles one, so
+    the workers never wait for the client (nor for the slowest task of a chunk); elsewhere each chunk is one
+    ``mapper_for(sched)`` call. A cluster that fails a task (e.g. its worker died more often than Dask retries)
+    stops the run with a one-line ShapeSigError; the chunks yielded before stay the caller's."""
+    tasks = list(tasks)
+    chunks = [tasks[b0:b0 + batch] for b0 in range(0, len(tasks), batch)]
+    if not _is_client(sched):
+        mapper = mapper_for(sched)
+        for chunk in chunks:
+            yield chunk, mapper(fn, chunk)
+        return
+    from collections import deque
+
+    pending, todo = deque(), iter(chunks)
+
+    def submit():
+        chunk = next(todo, None)
+        if chunk is not None:
+            pending.append((chunk, sched.map(fn, chunk, pure=False)))
+
+    for _ in range(1 + ahead):
+        submit()
+    try:
+        while pending:
+            chunk, futures = pending.popleft()
+            try:
+                results = sched.gather(futures)
+            except Exception as exc:  # noqa: BLE001 - a lost worker, a closed scheduler: one line
+                raise _cluster_error(exc) from None
+            submit()
+            yield chunk, results
+    finally:
+        for _, futures in pending:  # stopped early (an error, a closed generator): free the cluster
+            sched.cancel(futures)
+
+
+def _is_client(sched):
+    return sched is not None and not isinstance(sched, str) and hasattr(sched, "gather")
+
+
+def _cluster_error(exc):
+    from ..core.errors import ShapeSigError
+
+    if type(exc).__name__ == "KilledWorker":  # Dask's retries of a clip ran out: its workers died running it
+        why = "a worker died while computing a clip, more often than Dask retries"
+    else:
+        why = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+    return ShapeSigError(f"the Dask cluster stopped the run ({why}); what was finished is kept: run again to "
+                         f"compute the rest")
+
+
 def index_items(items, store, sched=None, progress=None, batch=64):
-    """Fill ``store`` with the local entries of the ``items`` it lacks, computed by ``mapper_for(sched)`` in
-    batches of ``batch`` items, each batch stored (by this process: once per clip, however many workers run) as
-    soon as it is done, so a run stopped midway keeps what it finished. ``progress(done, total)`` after each
-    batch. Returns (clips, computed items, [one-line errors])."""
+    """Fill ``store`` with the local entries of the ``items`` it lacks, computed by ``batches`` (threads, or Dask on
+    ``sched``) in batches of ``batch`` items, each batch stored (by this process: once per clip, however many
+    workers run) as soon as it is done, so a run stopped midway keeps what it finished. ``progress(done, total)``
+    after each batch. Returns (clips, computed items, [one-line errors])."""
     from ..core.index import local
 
     skey = local.settings_key()
     todo = [it for it in items if not store.contains_local(it.key, skey)]
-    mapper = mapper_for(sched)
     errors, computed = [], 0
     done = len(items) - len(todo)
     if progress:
         progress(done, len(items))
-    for b0 in range(0, len(todo), batch):
-        chunk = todo[b0:b0 + batch]
-        for it, (entries, err) in zip(chunk, mapper(local_item, chunk)):
-            if err:
-                errors.append(err)
-                continue
-            store.put_local(it.key, skey, entries)
-            computed += 1
-        done += len(chunk)
-        if progress:
-            progress(done, len(items))
+    try:
+        for chunk, results in batches(local_item, todo, sched, batch):
+            for it, (entries, err) in zip(chunk, results):
+                if err:
+                    errors.append(err)
+                    continue
+                store.put_local(it.key, skey, entries)
+                computed += 1
+            done += len(chunk)
+            if progress:
+                progress(done, len(items))
+    finally:
+        store.save_pack()  # what was stored is in the library file even when the cluster failed
     clips = 0
     for it in items:
         got = store.get_local(it.key, skey)
         clips += sum(1 for e in got or () if not e.get("refused"))
-    store.save_pack()
     return clips, computed, errors
