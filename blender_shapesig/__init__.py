@@ -40,27 +40,38 @@ def unregister():
     for module in reversed(_modules()):
         module.unregister()
     # numba writes its compiled kernels beside the package: an uninstall right after enabling must not have them
-    # written into a folder being removed, so a warm-up still compiling is waited for
+    # written into a folder being removed, so a warm-up still compiling is stopped and waited for
     while _WARM_UP:
-        _WARM_UP.pop().join()
+        thread = _WARM_UP.pop()
+        if thread.proc.poll() is None:
+            thread.proc.terminate()
+        thread.join()
 
 
 def _warm_up_kernels():
-    """Compile numba's DP kernels, or load them from numba's on-disk cache, in a background thread at enable: the
-    first distance of a session then does not pay the JIT (19 s cold; 0.7 s once cached, benchmarks/bench_elastic.py)."""
-    import atexit
+    """Compile numba's DP kernels into numba's on-disk cache in a child process at enable, so the first distance of
+    a session only loads them (19 s cold; 0.7 s once cached, benchmarks/bench_elastic.py). A child, not a thread of
+    Blender: LLVM compiling in a thread beside Blender's own work crashed a headless session (one of three cold
+    runs), and another LLVM in the process is a known hazard (numba issue 7857). The child needs no bpy: core only."""
+    import os
+    import subprocess
+    import sys
     import threading
 
-    from .core.elastic import elastic
+    package_root = os.path.dirname(os.path.abspath(__file__))
+    code = ("import sys, importlib; sys.path[:0] = {paths!r}; "
+            "importlib.import_module({name!r} + '.core.elastic.elastic').warm_up()").format(
+        paths=[os.path.dirname(package_root)] + [p for p in sys.path if p], name=os.path.basename(package_root))
+    python = sys.executable
+    if not python or "blender" in os.path.basename(python).lower():
+        return  # no Python interpreter to run the child with: the first distance compiles
+    try:
+        proc = subprocess.Popen([python, "-c", code], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+    except OSError:
+        return  # the first distance compiles
 
-    def run():
-        try:
-            elastic.warm_up()
-        except Exception:  # noqa: BLE001 - a read-only cache or a missing numba only costs the first call
-            pass
-
-    thread = threading.Thread(target=run, name="shapesig-warm-up", daemon=True)
+    thread = threading.Thread(target=proc.wait, name="shapesig-warm-up", daemon=True)
     thread.start()
+    thread.proc = proc
     _WARM_UP.append(thread)
-    # never let the interpreter shut down under a compiling thread (it crashed Blender 4.2 at exit)
-    atexit.register(thread.join)
