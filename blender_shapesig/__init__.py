@@ -58,10 +58,20 @@ def _warm_up_kernels():
     import sys
     import threading
 
+    # the child imports the package under this process' name for it (an extension is bl_ext.REPO.blender_shapesig):
+    # numba's cached kernels record their module by name and import it when this process loads them
     package_root = os.path.dirname(os.path.abspath(__file__))
-    code = ("import sys, importlib; sys.path[:0] = {paths!r}; "
-            "importlib.import_module({name!r} + '.core.elastic.elastic').warm_up()").format(
-        paths=[os.path.dirname(package_root)] + [p for p in sys.path if p], name=os.path.basename(package_root))
+    parents, folder = [], package_root
+    for k in range(__name__.count("."), 0, -1):
+        folder = os.path.dirname(folder)
+        parents.append((__name__.rsplit(".", __name__.count(".") - k + 1)[0], folder))
+    code = ("import sys, types, importlib\n"
+            "sys.path[:0] = {paths!r}\n"
+            "for name, folder in {parents!r}:\n"
+            "    module = sys.modules.setdefault(name, types.ModuleType(name))\n"
+            "    module.__path__ = [folder]\n"
+            "importlib.import_module({name!r} + '.core.elastic.elastic').warm_up()\n").format(
+        paths=[os.path.dirname(package_root)] + [p for p in sys.path if p], parents=parents[::-1], name=__name__)
     python = sys.executable
     if not python or "blender" in os.path.basename(python).lower():
         return  # no Python interpreter to run the child with: the first distance compiles
