@@ -47,7 +47,7 @@ def needs_retarget(clip: Clip, armature) -> bool:
     armature lacks, or the same bones in another rest pose (``core.rigs.other_rigs``)."""
     if not set(clip.bones) <= {b.name for b in armature.data.bones}:
         return True
-    return rigs.other_rigs(replace(clip, bones=tuple(clip.bones)), _restricted_rest(armature, clip.bones))
+    return rigs.other_rigs(clip, _restricted_rest(armature, clip.bones))
 
 
 def _restricted_rest(armature, bones):

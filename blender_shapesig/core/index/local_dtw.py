@@ -17,30 +17,26 @@ _COMPILED = []  # the compiled DTW kernel, once numba is loaded (``_kernel``)
 
 
 def _dtw_numpy(a, b, band, free_a, free_b):
-    """The DTW recursion by anti-diagonals (every cell of one depends on the two before): numpy, no compiler."""
+    """The DTW recursion by anti-diagonals (every cell of one depends on the two before): numpy, no compiler.
+    Costs outside the band (``_outside_band``) are infinite."""
     n, m = len(a), len(b)
     C = ((a[:, None, :] - b[None, :, :]) ** 2).sum(-1)
+    if band >= 0:
+        C[_outside_band(n, m, band)] = np.inf
     D = np.full((n + 1, m + 1), np.inf)
     D[0, 0] = 0.0
     D[0, 1:free_b + 1] = 0.0  # open begin: the path may start after skipping up to free_b samples of b
     D[1:free_a + 1, 0] = 0.0
-    rows = np.arange(1, n + 1)
-    if band < 0:
-        lo, hi = np.ones(n, dtype=int), np.full(n, m)
-    else:
-        lo = np.maximum(1, np.ceil((rows - 1) * m / n).astype(int) - band)
-        hi = np.minimum(m, np.floor((rows - 1) * m / n).astype(int) + band + 1)
     for diag in range(2, n + m + 1):
         i = np.arange(max(1, diag - m), min(n, diag - 1) + 1)
         j = diag - i
-        keep = (j >= lo[i - 1]) & (j <= hi[i - 1])
-        i, j = i[keep], j[keep]
         D[i, j] = C[i - 1, j - 1] + np.minimum(np.minimum(D[i - 1, j], D[i, j - 1]), D[i - 1, j - 1])
     return math.sqrt(min(D[n, m - free_b:].min(), D[n - free_a:, m].min()))
 
 
 def _outside_band(n, m, band):
-    """(n, m) True where a cell (row i + 1, column j + 1) is outside the band (``_dtw_numpy``'s lo and hi)."""
+    """(n, m) True where a cell (row i + 1, column j + 1) is outside the Sakoe-Chiba band of ``band`` samples around
+    the diagonal scaled to the lengths (the one band rule of both numpy DTWs; ``_dtw_loops`` computes it per row)."""
     rows = np.arange(n)
     lo = np.maximum(1, np.ceil(rows * m / n).astype(int) - band)
     hi = np.minimum(m, np.floor(rows * m / n).astype(int) + band + 1)
