@@ -7,10 +7,11 @@ The clips: the local entries (``local.index_entry``) of real clips (``tests/data
 ``--data`` when given), each copy a random contiguous crop (60-100 % of its windows and of its pose sequence) with
 Gaussian noise (a random level, 0.01-0.15 of the windows' RMS), so copies are distinct, with their base clip's joint
 lists (as the cache stores them); they are written straight into one library file (``write_library``, streamed: each
-copy regenerated from its seed, never all in memory). Prints JSON: ``clips``; ``query_ms`` and ``query_cpu_ms``
+copy regenerated from its seed, never all in memory); a copy's whole-take signature is its base's with the same
+noise level. Prints JSON: ``clips``; ``query_ms`` and ``query_cpu_ms``
 (median wall and CPU time over Q queries: the first stage with the prefilter, ``keep`` = ``local.PREFILTER`` (or
-``PREFILTER_SHARE`` of the clips), over the memory-mapped file, plus the DTW re-rank of the shortlist, what
-``rank_local`` runs; numba not loaded, as in a command-line ``rank``); the baselines of the same run:
+``PREFILTER_SHARE`` of the clips), over the memory-mapped file, plus the DTW re-rank of the shortlist and the twin
+rule (``local.shortlist_scores``), what ``rank_local`` runs; numba not loaded, as in a command-line ``rank``); the baselines of the same run:
 ``previous_query_ms`` / ``_cpu_ms`` (the query as it ran before, kept here: run by run, one DTW at a time;
 ``vs_previous_cpu`` the ratio, ``same_top10_as_previous``) and ``exact_query_ms`` / ``_cpu_ms`` (no prefilter;
 ``speedup_cpu``); ``open_s`` (``open_library`` + its stack in a fresh process); ``bytes_per_clip_disk``;
@@ -33,7 +34,7 @@ import numpy as np
 from _common import ROOT
 
 from blender_shapesig.core.blas import one_blas_thread  # noqa: E402
-from blender_shapesig.core.index import local, local_dtw  # noqa: E402
+from blender_shapesig.core.index import local, local_dtw, take  # noqa: E402
 from blender_shapesig.core.index.local_library import open_library, write_library  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 
@@ -73,8 +74,11 @@ def copy(bases, seed):
     s = rng.uniform(0.01, 0.15)
     W = W[w0:w0 + nw] + s * np.sqrt((W ** 2).mean()) * rng.standard_normal((nw, W.shape[1]))
     Q = Q[q0:q0 + nq] + s * np.sqrt((Q ** 2).mean()) * rng.standard_normal((nq, Q.shape[1]))
+    T = np.asarray(b["take"], np.float32)
+    T = T + s * np.sqrt((T ** 2).mean()) * rng.standard_normal(T.shape)
     return {"name": f"c{seed}", "windows": W.astype(np.float16), "sequence": Q.astype(np.float16),
-            "path": np.asarray(b["path"], np.float32)}
+            "path": np.asarray(b["path"], np.float32), "take": T, "take_mask": b["take_mask"],
+            "seconds": np.float32(b["seconds"] * f)}
 
 
 class Lazy:
@@ -91,8 +95,8 @@ def build(fn, bases, n, per_file=100):
     files = []
     for f0 in range(0, n, per_file):
         seeds = range(f0, min(n, f0 + per_file))
-        meta = {"clips": [dict(name=f"c{s}", frames=0, bones=0, trimmed=[], **bases[base_of(s, len(bases))]["lists"])
-                          for s in seeds]}
+        meta = {"clips": [dict(name=f"c{s}", frames=0, bones=0, trimmed=[], seconds=float(copy(bases, s)["seconds"]),
+                               **bases[base_of(s, len(bases))]["lists"]) for s in seeds]}
         files.append((f"file{f0}", 0, 0, meta, Lazy(bases, seeds)))
     with open(fn, "wb") as f:
         write_library(f, files, "bench")
@@ -102,8 +106,10 @@ def ranked(q, lib, block, entries_of, keep, top=10, previous=False, share=local.
     d1 = previous_first_stage(q, block, keep=keep) if previous else local.first_stage(q, block, keep=keep, share=share)
     head = np.argsort(d1, kind="stable")[:local.SHORTLIST]
     cands = [entries_of(i) for i in head]
-    d2 = previous_rerank(q, cands) if previous else local.rerank(q, cands)
-    score = local.combine(d1[head], d2)
+    if previous:
+        score = take.twin_first(q, cands, local.combine(d1[head], previous_rerank(q, cands)))
+    else:
+        score, _ = local.shortlist_scores(q, cands, d1[head])
     return [int(head[k]) for k in np.argsort(score, kind="stable")[:top]]
 
 

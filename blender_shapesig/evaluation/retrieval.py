@@ -39,11 +39,10 @@ def rerank_order(order, k, second):
 
 def local_order(q_entry, entries, row, cand, shortlist=local.SHORTLIST):
     """The local search's ranking of ``cand`` for one query: the first stage's ``row``, its first ``shortlist``
-    scored by ``local.combine`` of both stages (``rank_clips``' order)."""
+    scored by ``local.shortlist_scores`` (``rank_clips``' order)."""
     order = first_stage_order(row, cand)
     head = order[:shortlist]
-    d2 = local.rerank(q_entry, [entries[j] for j in head])
-    score = local.combine(np.asarray(row)[head], d2)
+    score, _ = local.shortlist_scores(q_entry, [entries[j] for j in head], np.asarray(row)[head])
     return np.concatenate([head[np.argsort(score, kind="stable")], order[shortlist:]])
 
 

@@ -12,8 +12,9 @@ signed square root), normalized to unit length part by part (eq. 9.1 of the thes
 fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
 their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
 matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
-(Sakoe-Chiba band, open ends; ``local_dtw``: compiled when numba is loaded, else by numpy anti-diagonals); ``combine`` scores the shortlist by both stages.
-``search`` runs it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
+(Sakoe-Chiba band, open ends; ``local_dtw``: compiled when numba is loaded, else by numpy anti-diagonals); ``combine`` scores the shortlist by both stages,
+and the same take in another file ranks first (``take.twin_first``); ``shortlist_scores`` does both, ``search`` runs
+it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
 """
 
 import math
@@ -24,7 +25,7 @@ import numpy as np
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
-from . import local_dtw
+from . import local_dtw, take
 from .local_dtw import dtw
 
 
@@ -64,7 +65,7 @@ _ORDER = tuple(_PARENTS)
 
 # changes when the features change for the same settings (e.g. the leg of a rig without a foot bone): stored
 # entries made by an older recipe are then computed again, never used
-RECIPE_VERSION = 2
+RECIPE_VERSION = 3
 
 
 class Settings:
@@ -305,9 +306,12 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
 
 
 def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
-    """The compact arrays the search keeps per clip: ``windows`` (N, DIM) float16 (projected window descriptors)
-    and ``sequence`` (T', 3 * points) float16 (the pose every ``settings.step``-th sample, for the second stage)."""
-    return entry_from_features(features(clip, settings), settings)
+    """The compact arrays the search keeps per clip: ``windows`` (N, DIM) float16 (projected window descriptors),
+    ``sequence`` (T', 3 * points) float16 (the pose every ``settings.step``-th sample, for the second stage),
+    ``path`` (10,) and the whole take (``take.take_entry``: ``take``, ``take_mask``, ``seconds``)."""
+    entry = entry_from_features(features(clip, settings), settings)
+    entry.update(take.take_entry(clip))
+    return entry
 
 
 def _sequence(feat, settings):
@@ -511,6 +515,14 @@ def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:
     return s
 
 
+def shortlist_scores(query, candidates: Sequence, d1, mix: float = MIX, dg=None, global_weight: float = 0.0):
+    """(score, d2): the shortlist's final scores (``combine`` of the first stage's ``d1`` and the DTW ``d2``, the
+    query's twin first: ``take.twin_first``) and the DTW distances, for the candidates in the first stage's order."""
+    d2 = rerank(query, candidates)
+    score = combine(d1, d2, mix, dg, global_weight)
+    return take.twin_first(query, candidates, score), d2
+
+
 def path_distances(query, candidates) -> np.ndarray:
     q = np.asarray(query["path"], float)
     return np.array([np.linalg.norm(np.asarray(c["path"], float) - q) for c in candidates])
@@ -525,8 +537,7 @@ def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MI
     order = list(np.argsort(d1, kind="stable"))
     head = order[:shortlist]
     cands = [entries[i] for i in head]
-    d2 = rerank(query, cands)
     dg = path_distances(query, cands) if settings.global_weight else None
-    score = combine(d1[head], d2, mix, dg, settings.global_weight)
+    score, _ = shortlist_scores(query, cands, d1[head], mix, dg, settings.global_weight)
     head = [head[i] for i in np.argsort(score, kind="stable")]
     return head + order[shortlist:]

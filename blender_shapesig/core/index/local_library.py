@@ -3,8 +3,9 @@ one file that a new process opens with ``numpy.memmap`` instead of reading (``op
 from an iterable of files' entries (``write_library``): a header (magic, JSON index of files and clips, the arrays'
 offsets, the file's total size; each distinct joint list once, a clip naming its lists by number: a rig's clips
 share them) then the arrays, 64-byte aligned: ``windows`` (all windows stacked, float16, N x DIM)
-with their squared norms (float32), ``sequences`` (float16), ``paths`` (float32, 10 a clip) and ``coarse`` (``COARSE``
-windows of each clip as float32, the prefilter of ``local.first_stage``). A file whose header, sizes or row ranges do
+with their squared norms (float32), ``sequences`` (float16), ``paths`` (float32, 10 a clip), ``coarse`` (``COARSE``
+windows of each clip as float32, the prefilter of ``local.first_stage``), ``takes`` (float32, ``take.DIM`` a clip)
+and ``take_masks`` (uint8, one per canonical joint); a file written before the takes reads without them. A file whose header, sizes or row ranges do
 not hold is refused in one line (ValueError); the cache then deletes and rebuilds it. See docs/search.md, "At library
 scale".
 """
@@ -14,7 +15,7 @@ import struct
 
 import numpy as np
 
-from . import local
+from . import local, take
 
 __all__ = ["MAGIC", "COARSE", "write_library", "open_library", "coarse_windows", "LibraryFile"]
 
@@ -66,7 +67,8 @@ def write_library(f, files, fmt):
         rows.append(r)
     dim = local.DIM
     specs = [("windows", np.float16, (nw, dim)), ("norms", np.float32, (nw,)), ("sequences", np.float16, (nq, _SEQ_DIM)),
-             ("paths", np.float32, (nc, 10)), ("coarse", np.float32, (nc, COARSE, dim))]
+             ("paths", np.float32, (nc, 10)), ("coarse", np.float32, (nc, COARSE, dim)),
+             ("takes", np.float32, (nc, take.DIM)), ("take_masks", np.uint8, (nc, len(take.JOINTS)))]
     # the header's size must be known before the offsets: lay the arrays out after a generous estimate
     head = json.dumps({"format": fmt, "files": index, "lists": lists}).encode("utf-8")
     start = len(MAGIC) + 8 + len(head) + 4096
@@ -101,6 +103,8 @@ def write_library(f, files, fmt):
     put("sequences", (np.asarray(e["sequence"], np.float16) for e in each()))
     put("paths", (np.asarray(e["path"], np.float32).reshape(10) for e in each()))
     put("coarse", (coarse_windows(e["windows"]) for e in each()))
+    put("takes", (np.asarray(e["take"], np.float32).reshape(take.DIM) for e in each()))
+    put("take_masks", (np.asarray(e["take_mask"], np.uint8).reshape(len(take.JOINTS)) for e in each()))
     return nc
 
 
@@ -122,10 +126,13 @@ class LibraryFile:
             return {"name": m["name"], "refused": str(m["refused"])}
         w0, w1, q0, q1, k = row
         A = self.arrays
-        return {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
-                "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
-                "sequence": A["sequences"][q0:q1], "path": A["paths"][k], "_rows": (id(self), w0, w1, k),
-                **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
+        e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
+             "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
+             "sequence": A["sequences"][q0:q1], "path": A["paths"][k], "_rows": (id(self), w0, w1, k),
+             **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
+        if "takes" in A:
+            e.update(take=A["takes"][k], take_mask=A["take_masks"][k], seconds=np.float32(m.get("seconds", 0.0)))
+        return e
 
     def stack(self):
         """The whole file as ``local.first_stage``'s library (no copy): windows, norms, coarse and, per clip, its

@@ -1,7 +1,7 @@
 """The local search (``core.index.local``) over a library, through the signature cache: every item's local entries
 (computed from its comparison-space clips only when the store lacks them; clips the features refuse are kept as
 their one-line reason), the query's entry, and the ranking: the first stage over the library's stacked windows
-(memoized in the store), the first ``shortlist`` re-scored by ``local.combine`` of both stages. ``rank.rank_clips``
+(memoized in the store), the first ``shortlist`` re-scored by ``local.shortlist_scores`` (both stages; the same take in another file first). ``rank.rank_clips``
 turns it into rows (docs/search.md, "The default search").
 """
 
@@ -108,7 +108,8 @@ def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST,
                ) -> Sequence[Tuple[int, float, float, object]]:
     """[(index into ``pairs``, score, first-stage distance, DTW distance or None)], best first, for every pair
     (item, entry) of readable entries (a ``RankedRows``: rows after the shortlist are made when read). The
-    shortlist's score is ``local.combine`` (d2 / mean d2 + mix d1 / mean d1 over the shortlist); a clip after it
+    shortlist's score is ``local.shortlist_scores`` (d2 / mean d2 + mix d1 / mean d1 over the shortlist, the query's
+    twin in another file first); a clip after it
     scores max(the shortlist's worst, (1 + mix) d1 / mean d1): its first stage stands for both terms, and the order
     stays the first stage's."""
     if not pairs:
@@ -117,8 +118,7 @@ def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST,
     d1 = local.first_stage(q, store.local_stack(entries), keep=local.PREFILTER)
     order = np.argsort(d1, kind="stable")
     head = order[:max(int(shortlist), 1)]
-    d2 = local.rerank(q, [entries[i] for i in head])
-    score = local.combine(d1[head], d2, mix)
+    score, d2 = local.shortlist_scores(q, [entries[i] for i in head], d1[head], mix)
     m1 = max(float(np.mean(d1[head])), 1e-12)
     by = np.argsort(score, kind="stable")
     rows = [(int(head[k]), float(score[k]), float(d1[head[k]]), float(d2[k])) for k in by]

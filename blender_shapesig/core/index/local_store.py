@@ -1,5 +1,5 @@
 """The signature cache's part for the local search (``LocalEntries``, mixed into ``store.SignatureCache``): every
-item's local entries (``local.index_entry``, about 5 KB a clip, or a clip's one-line refusal) in a file of their own
+item's local entries (``local.index_entry``, about 14 KB a clip, or a clip's one-line refusal) in a file of their own
 beside its signature entries, named by the item's key and the settings' key; all of them also in one pack
 (``LOCAL_PACK``), so that a new process (a command-line ``rank``) reads a library's entries in one read; and the
 library's windows stacked once per library (``local_stack``). The safety rules are the cache's: atomic writes in
@@ -27,17 +27,22 @@ MAPPED_FILES_LOCKED = os.name == "nt"
 def _meta(e):
     return {"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
             "bones": int(e.get("bones", 0)), "trimmed": list(e.get("trimmed", ())),
-            **{k: list(e.get(k, ())) for k in _JOINT_LISTS}}
+            "seconds": float(e.get("seconds", 0.0)), **{k: list(e.get(k, ())) for k in _JOINT_LISTS}}
 
 
-def _entry(m, w, q, p):
+# an entry's arrays (``local.index_entry``) and their types on disk
+_ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "take": np.float32,
+           "take_mask": np.uint8}
+
+
+def _entry(m, arrays):
     if m.get("refused"):
         return {"name": m["name"], "refused": str(m["refused"])}
     e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
-         "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": np.asarray(w, np.float16),
-         "sequence": np.asarray(q, np.float16), "path": np.asarray(p, np.float32),
+         "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "seconds": np.float32(m.get("seconds", 0.0)),
+         **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items()},
          **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS}}
-    if e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0:
+    if e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0 or e["take"].ndim != 1:
         raise ValueError("bad shapes")
     return e
 
@@ -99,7 +104,7 @@ class LocalEntries:
             for entries in lists:
                 for e in entries:
                     if e.pop("_rows", None) is not None:
-                        for k in ("windows", "sequence", "path"):
+                        for k in _ARRAYS:
                             e[k] = np.array(e[k])
             self._local_memo = None
             self._lib = None
@@ -140,7 +145,7 @@ class LocalEntries:
                 if (meta.get("format") != self._format() or meta.get("key") != key
                         or meta.get("settings") != settings_key):
                     raise ValueError("outdated")
-                out = [_entry(m, *((z[f"w{i}"], z[f"q{i}"], z[f"p{i}"]) if not m.get("refused") else (0, 0, 0)))
+                out = [_entry(m, {} if m.get("refused") else {k: z[f"{k}{i}"] for k in _ARRAYS})
                        for i, m in enumerate(meta["clips"])]
             self._pack_local(fn, meta, out)
             return out
@@ -153,7 +158,7 @@ class LocalEntries:
         arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
         for i, e in enumerate(entries):
             if not e.get("refused"):
-                arrays[f"w{i}"], arrays[f"q{i}"], arrays[f"p{i}"] = e["windows"], e["sequence"], e["path"]
+                arrays.update({f"{k}{i}": np.asarray(e[k], dt) for k, dt in _ARRAYS.items()})
         buf = io.BytesIO()
         np.savez(buf, **arrays)
         fn = self.local_file_for(key, settings_key)

@@ -222,6 +222,7 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
     import struct
 
     from blender_shapesig.core.index import local_library as ll
+    from blender_shapesig.core.index import take
 
     rng = np.random.default_rng(4)
     rig_a = [f"bone_with_a_long_name_{i:02d}" for i in range(12)]
@@ -233,7 +234,9 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
                       "still": joints[:2], "rig_joints": ["hips"]})
         entries.append({"windows": rng.standard_normal((3, ls.DIM)).astype(np.float16),
                         "sequence": rng.standard_normal((4, 3 * len(ls.POINTS))).astype(np.float16),
-                        "path": np.zeros(10, np.float32)})
+                        "path": np.zeros(10, np.float32),
+                        "take": rng.standard_normal(take.DIM).astype(np.float32),
+                        "take_mask": (rng.random(len(take.JOINTS)) < 0.8).astype(np.uint8)})
     fn = tmp_path / "lib.bin"
     with open(fn, "wb") as f:
         ll.write_library(f, [("f", 1, 2, {"clips": clips}, entries)], "fmt")
@@ -244,9 +247,10 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
         lib = open_library(str(path))
         return [lib.entry(m, r) for *_, meta, rows in lib.files for m, r in zip(meta["clips"], rows)]
 
-    for want, got in zip(clips, read_back(fn)):
+    for want, e, got in zip(clips, entries, read_back(fn)):
         assert got["joints"] == tuple(want["joints"]) and got["still"] == tuple(want["still"])
         assert got["rig_joints"] == ("hips",)
+        assert np.array_equal(got["take"], e["take"]) and np.array_equal(got["take_mask"], e["take_mask"])
     # version 2: the same arrays, the lists written in each clip (the arrays start after a reserve of 4 KB)
     (n,) = struct.unpack("<Q", data[len(ll.MAGIC):len(ll.MAGIC) + 8])
     header = json.loads(data[len(ll.MAGIC) + 8:len(ll.MAGIC) + 8 + n])
