@@ -515,12 +515,20 @@ def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:
     return s
 
 
+def held_distances(query, candidates: Sequence) -> np.ndarray:
+    """(len(candidates),) how well each candidate holds the query: the mean over the query's windows of the distance
+    to the candidate's nearest window (the query's side of ``first_stage``; about 0 for the clip a crop was cut from)."""
+    q = np.asarray(query["windows"], np.float32)
+    return np.array([float(np.sqrt(_sq_dist(q, np.asarray(c["windows"], np.float32))).min(axis=1).mean())
+                     for c in candidates])
+
+
 def shortlist_scores(query, candidates: Sequence, d1, mix: float = MIX, dg=None, global_weight: float = 0.0):
     """(score, d2): the shortlist's final scores (``combine`` of the first stage's ``d1`` and the DTW ``d2``, the
     query's twin first: ``take.twin_first``) and the DTW distances, for the candidates in the first stage's order."""
     d2 = rerank(query, candidates)
     score = combine(d1, d2, mix, dg, global_weight)
-    return take.twin_first(query, candidates, score), d2
+    return take.twin_first(query, candidates, score, lambda picked: held_distances(query, picked)), d2
 
 
 def path_distances(query, candidates) -> np.ndarray:

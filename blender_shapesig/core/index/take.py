@@ -3,7 +3,8 @@ curve on every canonical joint (``take_entry``, stored beside the local entry), 
 have (``take_distances``, the package's ``linear2``). It sees motion only, so a converter's constant bone offsets do
 not change it, and the whole take, so another take of the same motion differs. One rule uses it (``twin_first``):
 a shortlisted clip of the query's length whose take is much nearer than the shortlist's typical take ranks first,
-unless the first is longer than the query (it may hold the query: a cut). Measurements: docs/model.md, "The same
+unless the first is longer than the query and holds the query's windows better (it may be the clip the query was
+cut from). Measurements: docs/model.md, "The same
 take in another file".
 """
 
@@ -60,20 +61,21 @@ def take_distances(query, candidates) -> np.ndarray:
     return out
 
 
-def twin_first(query, candidates, score) -> np.ndarray:
+def twin_first(query, candidates, score, held=None) -> np.ndarray:
     """The shortlist's scores with the query's twin (if any) made the lowest: among the candidates whose duration
     is the query's (``SAME_LENGTH``), the nearest take moves first when its take distance is below ``TWIN_RATIO``
-    times the shortlist's median and the current first is not longer than the query; its new score is the first's
-    times (its distance / the gate), so the order and the shown scores agree. Entries without a take: unchanged."""
+    times the shortlist's median, unless the current first is longer than the query and holds the query's windows
+    at least as well (it may be the clip the query was cut from): ``held(clips)`` gives how well each of the clips
+    holds the query (``local.held_distances``; without it, a longer first always stays). The twin's new score is the
+    first's times (its distance / the gate), so the order and the shown scores agree. Entries without a take, or a
+    first that is the query's exact copy (score 0): unchanged."""
     score = np.asarray(score, float)
     if len(candidates) < 2 or "take" not in query or any("take" not in c for c in candidates):
         return score
     first = int(np.argmin(score))
-    if not score[first] > 0:  # the first is the query's exact copy
+    if not score[first] > 0:
         return score
     lengths = np.log(np.maximum([float(c["seconds"]) for c in candidates], 1e-9) / max(float(query["seconds"]), 1e-9))
-    if lengths[first] > SAME_LENGTH:
-        return score
     same = np.flatnonzero(np.abs(lengths) <= SAME_LENGTH)
     if not len(same):
         return score
@@ -82,6 +84,12 @@ def twin_first(query, candidates, score) -> np.ndarray:
     e = int(same[np.argmin(g[same])])
     if e == first or not g[e] < gate:
         return score
+    if lengths[first] > SAME_LENGTH:
+        if held is None:
+            return score
+        h_twin, h_first = held([candidates[e], candidates[first]])
+        if not h_twin < h_first:
+            return score
     out = score.copy()
     out[e] = score[first] * g[e] / gate
     return out

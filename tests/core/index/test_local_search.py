@@ -236,3 +236,19 @@ def test_a_rig_without_foot_bones_measures_its_leg_to_the_shin_tail(data_dir):
         np.testing.assert_allclose(b[j], a[j], atol=1e-9)
     by_joint = whole.meta["bone_map"]
     assert rigs.leg_length(raw, {j: by_joint[j] for j in no_feet}) == pytest.approx(rigs.leg_length(raw, by_joint))
+
+
+def test_held_distance_is_the_query_side_of_the_first_stage(library):
+    full = library[1]
+    q = full["07_01.amc"]
+    cands = [full["07_01.bvh"], full["09_02.amc"], full["07_01.amc"]]
+    got = ls.held_distances(q, cands)
+    A = np.asarray(q["windows"], np.float64)
+    for c, h in zip(cands, got):
+        B = np.asarray(c["windows"], np.float64)
+        near = [min(np.linalg.norm(a - b) for b in B) for a in A]
+        assert h == pytest.approx(np.mean(near), rel=1e-3, abs=1e-3)
+        # the first stage is the mean of both sides
+        back = ls.held_distances(c, [q])[0]
+        assert ls.first_stage(q, [c])[0] == pytest.approx(0.5 * (h + back), rel=1e-3, abs=1e-3)
+    assert got[2] == pytest.approx(0.0, abs=1e-3)

@@ -116,9 +116,19 @@ def test_twin_in_the_shortlist_ranks_first():
 
 def test_twin_rule_keeps_the_order_when_it_does_not_apply():
     q, c, score = _shortlist()
-    # the first is longer than the query by more than "the same length": it may hold the query (a cut)
-    longer = [_entry([1.0, 2.0], 3.0 * 1.09)] + c[1:]  # SAME_LENGTH is 8 %
+    # the first is longer than the query by more than "the same length" (8 %) and may hold the query (a cut): it
+    # stays unless the twin holds the query's windows better
+    longer = [_entry([1.0, 2.0], 3.0 * 1.09)] + c[1:]
     assert np.array_equal(take.twin_first(q, longer, score), score)
+    asked = []
+
+    def held(clips, values):
+        asked.append([id(x) for x in clips])
+        return values
+
+    assert np.array_equal(take.twin_first(q, longer, score, lambda cl: held(cl, [0.5, 0.2])), score)
+    assert asked == [[id(longer[1]), id(longer[0])]]  # the twin's, then the first's
+    assert int(np.argmin(take.twin_first(q, longer, score, lambda cl: held(cl, [0.2, 0.5])))) == 1
     # the twin is not of the query's length
     off = [c[0], _entry([1.0, 0.3], 3.0 * 1.09)] + c[2:]
     assert np.array_equal(take.twin_first(q, off, score), score)
