@@ -166,11 +166,11 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
                 "The local search: windows of the body's key-point positions and motion, each described by its mean "
                 "pose and its level-2 log-signature normalized part by part (the normalized log-signature "
                 "similarity, eq. 9.1, window by window), then the best 20 re-scored by dynamic time warping of the "
-                "pose; across rigs, crops and start phases"),
+                "pose; across rigs, crops and start phases; the same take in another file first (its whole-take "
+                "log-signature)"),
                ("sim", "Motion only (signatures)",
                 "sim^n: the normalized log-signature similarity (eq. 9.1) of the whole clips' joint rotations at "
-                "Level n, optionally re-ranked by the elastic distance d_S* (Re-rank); best for the same take in "
-                "another file format")),
+                "Level n, optionally re-ranked by the elastic distance d_S* (Re-rank); motion only, whole clips")),
         default=LOCAL)
     level: IntProperty(name="Detail", description="How fine the motion description is: the log-signature level n "
                        "of the similarity sim^n (eq. 9.1); higher sees finer detail, costs more", default=DEFAULT_LEVEL,
