@@ -12,7 +12,7 @@ import bpy
 from . import compat
 from .core.errors import ShapeSigError
 
-__all__ = ["find_owner", "players", "slot_hint", "fitting", "animated_bones"]
+__all__ = ["find_owner", "players", "playing_map", "slot_hint", "fitting", "animated_bones"]
 
 
 def animated_bones(action):
@@ -24,6 +24,24 @@ def animated_bones(action):
 
 def _armatures(objects):
     return [o for o in (bpy.data.objects if objects is None else objects) if getattr(o, "type", "") == "ARMATURE"]
+
+
+def playing_map(armatures) -> dict:
+    """{action pointer: [armatures]}: what each of ``armatures`` plays (its active action and its NLA strips'), in
+    one pass over the armatures; ``find_owner(played=)`` takes it instead of asking every armature per action.
+    (A slot's users are the animation data that assign the action, so they add no armature to these.)"""
+    out = {}
+    for ob in armatures:
+        ad = ob.animation_data
+        if ad is None:
+            continue
+        acts = [ad.action] + [strip.action for track in ad.nla_tracks for strip in track.strips]
+        for a in acts:
+            if a is not None:
+                got = out.setdefault(a.as_pointer(), [])
+                if ob not in got:
+                    got.append(ob)
+    return out
 
 
 def players(action, armatures):
@@ -81,13 +99,14 @@ def _names(obs):
     return ", ".join(names[:4]) + (", ..." if len(names) > 4 else "")
 
 
-def find_owner(action, armatures=None, prefer=None, bone_names=None):
+def find_owner(action, armatures=None, prefer=None, bone_names=None, played=None):
     """The armature object ``action`` belongs to (see the module docstring); ``armatures``: the candidates
     (default: every armature object of the file); ``prefer``: the armature the user works with; ``bone_names``:
-    as ``fitting``'s (for many actions in one pass over an unchanged file). None when no
-    armature holds its bones; ShapeSigError (one line) when two or more could own it and nothing decides."""
+    as ``fitting``'s and ``played``: ``playing_map(armatures)`` (for many actions in one pass over an unchanged
+    file). None when no armature holds its bones; ShapeSigError (one line) when two or more could own it and
+    nothing decides."""
     armatures = _armatures(armatures)
-    playing = players(action, armatures)
+    playing = players(action, armatures) if played is None else played.get(action.as_pointer(), [])
     if prefer is not None and prefer in playing:
         return prefer
     if len(playing) == 1:
@@ -99,8 +118,10 @@ def find_owner(action, armatures=None, prefer=None, bone_names=None):
         raise ShapeSigError(f"action {action.name!r} is played by {len(playing)} armatures ({_names(playing)}); "
                             f"assign it to one of them only")
     hinted = slot_hint(action, armatures)
+    if hinted is not None and fitting(action, [hinted], bone_names=bone_names):
+        return hinted  # (it is among the fitting armatures)
     fits = fitting(action, armatures, bone_names=bone_names)
-    if hinted is not None and (hinted in fits or not fits):
+    if hinted is not None and not fits:
         return hinted
     if prefer is not None and prefer in fits:
         return prefer

@@ -12,7 +12,7 @@ import bpy
 
 from . import action_io, rigmap
 from .core.errors import ShapeSigError
-from .owners import animated_bones, find_owner
+from .owners import animated_bones, find_owner, playing_map
 
 __all__ = ["MIN_JOINTS", "library_actions", "rig_joints"]
 
@@ -41,10 +41,11 @@ def library_actions(obj, owners: Dict = None) -> List:
     mine = rig_joints(obj, memo)
     bone_names: Dict[int, Set[str]] = {}
     armatures = [o for o in bpy.data.objects if o.type == "ARMATURE"]
+    played = playing_map(armatures)
     out = []
     for action in action_io.armature_actions(None):
         try:
-            owner = find_owner(action, armatures, prefer=obj, bone_names=bone_names)
+            owner = find_owner(action, armatures, prefer=obj, bone_names=bone_names, played=played)
             if owners is not None:
                 owners[action.as_pointer()] = owner
         except ShapeSigError:

@@ -76,3 +76,21 @@ def test_moments_with_a_one_frame_pose(mixed):
     # a clip sharing few of the query's moving joints is marked partial and ranked after the others
     partial = [r.partial for r in rows]
     assert partial == sorted(partial)
+
+
+def test_one_pass_players_equal_asking_each_armature(mixed):
+    """``owners.playing_map`` (one pass over the armatures, what the library asks per click) gives every action
+    the armatures ``owners.players`` finds by asking each armature and each slot's users: here with an action in
+    an NLA strip of another armature, one action played by two armatures and one played by none."""
+    from blender_shapesig import owners
+
+    arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
+    walk, run = bpy.data.objects["07-walk"], bpy.data.objects["09_02"]
+    track = run.animation_data.nla_tracks.new()
+    track.strips.new("walk", 1, bpy.data.actions["07_01"])  # 07_01 is 07-walk's active action too
+    played = owners.playing_map(arms)
+    assert {o.name for o in played[bpy.data.actions["07_01"].as_pointer()]} == {walk.name, run.name}
+    for action in bpy.data.actions:
+        want = owners.players(action, arms)
+        assert played.get(action.as_pointer(), []) == want, action.name
+    assert owners.players(bpy.data.actions["pose"], arms) == []

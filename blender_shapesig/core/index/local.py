@@ -89,9 +89,17 @@ class Settings:
 DEFAULT = Settings()
 
 
+_KEYS = {}
+
+
 def settings_key(settings: Settings = DEFAULT) -> str:
-    """The settings as text: part of a stored entry's key (``SignatureCache.put_local``)."""
-    return repr(settings.key())
+    """The settings as text: part of a stored entry's key (``SignatureCache.put_local``; remembered by value: a
+    click asks once per library item)."""
+    k = settings.key()
+    text = _KEYS.get(k)
+    if text is None:
+        text = _KEYS[k] = repr(k)
+    return text
 
 
 # ------------------------------------------------------------------------------------------------- positions
@@ -489,7 +497,7 @@ def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) 
     bs = [np.ascontiguousarray(c["sequence"], dtype=np.float64) for c in candidates]
     if not bs:
         return np.empty(0)
-    if local_dtw._kernel() is None and len(bs) > 1:  # numpy: the shortlist at once
+    if not local_dtw.kernel_ready() and len(bs) > 1:  # numpy: the shortlist at once
         fa = min(int(free * len(a)), len(a) - 1)
         out = local_dtw._dtw_many(a, bs, [max(_band(len(a), len(b), band), 1) for b in bs], [fa] * len(bs),
                         [max(0, min(int(free * len(b)), len(b) - 1)) for b in bs])

@@ -144,6 +144,14 @@ def _kernel():
     return _COMPILED[0] if _COMPILED else None
 
 
+def kernel_ready() -> bool:
+    """True when the compiled DTW has run in this process. Its first call loads numba's machinery and the kernel
+    from the disk cache (0.3-0.7 s: most of a fresh Blender session's first Find Similar), so a shortlist
+    (``local.rerank``, ~5 ms by numpy) uses it only once something else has paid that."""
+    kernel = _kernel()
+    return kernel is not None and bool(kernel.signatures)
+
+
 def dtw(a, b, band: Optional[int] = None, free_a: int = 0, free_b: int = 0) -> float:
     """Dynamic time warping of two sequences (frames, channels): the square root of the least sum of squared
     Euclidean distances over warping paths (tslearn's and aeon's convention); ``band`` (samples, around the

@@ -6,6 +6,7 @@ library's windows stacked once per library (``local_stack``). The safety rules a
 its own folder, an unreadable or outdated file deleted and computed again, a failed write turning the disk off.
 """
 
+import functools
 import hashlib
 import io
 import json
@@ -16,12 +17,19 @@ import numpy as np
 from . import local
 from .local_library import JOINT_LISTS as _JOINT_LISTS, open_library, write_library
 
-__all__ = ["LOCAL_PACK", "LocalEntries"]
+__all__ = ["LOCAL_PACK", "LocalEntries", "hashed_name"]
 
 LOCAL_PACK = "local_pack.bin"
 # Windows does not replace a file this process has memory-mapped: the library file is closed before it is written
 # again (``LocalEntries.release_library``); elsewhere the old mapping stays valid and nothing is copied
 MAPPED_FILES_LOCKED = os.name == "nt"
+
+
+@functools.lru_cache(maxsize=1 << 18)
+def hashed_name(text: str) -> str:
+    """The cache's file name of an entry's description (its SHA-1), remembered: a click asks for every library
+    item's file names (``contains``), and 1,000 hashes a click were a tenth of a warm click."""
+    return hashlib.sha1(text.encode()).hexdigest()
 
 
 def _meta(e):
@@ -63,8 +71,7 @@ class LocalEntries:
         return self.FORMAT  # the cache's one version of its files (store.CACHE_FORMAT)
 
     def local_file_for(self, key, settings_key):
-        name = hashlib.sha1(f"{key}|LOCAL|{settings_key}|F{self._format()}".encode()).hexdigest()
-        return os.path.join(self.path, name + ".npz")
+        return os.path.join(self.path, hashed_name(f"{key}|LOCAL|{settings_key}|F{self._format()}") + ".npz")
 
     # -- the pack: every local file's entries in one memory-mapped file (``local_library``), used while the file
     # has the same size and mtime; a damaged pack is deleted (one line in ``pack_warning``) and written again

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..signatures import signatures
 from .entry import IndexEntry
-from .local_store import LOCAL_PACK, LocalEntries
+from .local_store import LOCAL_PACK, LocalEntries, hashed_name
 from .words import SKETCH_DIM
 
 __all__ = ["SignatureCache", "default_cache_dir", "private_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "CACHE_SUBDIR",
@@ -287,8 +287,7 @@ class SignatureCache(LocalEntries):
     def file_for(self, key, level):
         """The entry file of (key, level) (its name also depends on the format, sketch size and compact mode)."""
         compact = "" if self.max_direction is None else f"|C{self.max_direction}"
-        name = hashlib.sha1(f"{key}|L{level}|F{CACHE_FORMAT}|K{SKETCH_DIM}{compact}".encode()).hexdigest()
-        return os.path.join(self.path, name + ".npz")
+        return os.path.join(self.path, hashed_name(f"{key}|L{level}|F{CACHE_FORMAT}|K{SKETCH_DIM}{compact}") + ".npz")
 
     def _read(self, key, level, light=False):
         """The entries of a file, or None (missing; unreadable or outdated files are deleted). ``light``:

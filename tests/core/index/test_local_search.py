@@ -85,8 +85,33 @@ def test_rerank_is_the_same_with_and_without_the_compiled_kernel(monkeypatch):
     monkeypatch.setattr(local_dtw, "_kernel", lambda: None)
     batch = ls.rerank(q, cands)
     monkeypatch.setattr(local_dtw, "_kernel", lambda: local_dtw._dtw_loops)  # the compiled kernel's code, run by Python
+    monkeypatch.setattr(local_dtw, "kernel_ready", lambda: True)
     one_by_one = ls.rerank(q, cands)
     assert np.allclose(batch, one_by_one, rtol=1e-12, atol=0)
+
+
+def test_a_shortlist_does_not_load_the_compiled_kernel():
+    """In a fresh process with numba imported (as in Blender), a shortlist's DTW runs by numpy until the compiled
+    kernel has run for something else (its first call loads numba's machinery: most of a first click)."""
+    pytest.importorskip("numba")
+    import subprocess
+    import sys
+
+    code = """
+import numba, numpy as np
+from blender_shapesig.core.index import local as ls, local_dtw
+rng = np.random.default_rng(1)
+q = {"sequence": rng.standard_normal((20, 6))}
+cands = [{"sequence": rng.standard_normal((25, 6))} for _ in range(5)]
+before = ls.rerank(q, cands)
+assert not local_dtw.kernel_ready()
+local_dtw.dtw(q["sequence"], cands[0]["sequence"], 5)
+assert local_dtw.kernel_ready()
+assert np.allclose(ls.rerank(q, cands), before, rtol=1e-12, atol=0)
+print("ok")
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.stdout.strip() == "ok", out.stderr[-2000:]
 
 
 def test_levy_areas_are_level_two_of_the_log_signature():
