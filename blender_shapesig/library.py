@@ -5,6 +5,7 @@ file's actions, keyed by a typed ``ActionKey``, and the clip files of the chosen
 """
 
 import fnmatch
+import functools
 import hashlib
 import json
 import os
@@ -74,9 +75,9 @@ class ActionKey:
     trim: str = "none"            # "auto" trims rest-pose / ramp frames (core.clip.trim)
     fps: Optional[float] = None   # the rate read at (None: the action's own, else the scene's)
 
-    @property
+    @functools.cached_property
     def text(self) -> str:
-        """The cache key."""
+        """The cache key (made once: a click asks for every library action's)."""
         return (f"action:{self.read_hash}|arm:{self.armature_digest}|range:{self.frame_range}"
                 f"|space:armature|keyed|bone_map={sources.bone_map_key('auto')}"
                 + (f"|{sources.trim_key(self.trim)}" if self.trim != "none" else "")
@@ -88,6 +89,7 @@ class ActionItem(sources.LibraryItem):
     """A library item that is an action of this file (``action`` its name), keyed by ``action_key``."""
 
     action_key: Optional[ActionKey] = None
+    rate: Optional[Tuple[float, bool]] = None  # (fps, known): ``frame_rates.rate_of`` when the item was made
 
 
 def armature_digest(obj) -> str:
@@ -120,7 +122,9 @@ def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=No
     (``sources.trim_ends``; a ``frame_range``'s start is explicit and kept: pass "none" for an exact range);
     ``fps``: the rate to read at (None: the action's own); ``owners``: the owners ``library_actions`` found."""
     arm = owner_armature(action, obj, owners)
-    fps = fps or (None if frame_rates.stored_rate(action) else frame_rates.rate_of(action)[0])  # found or assumed
+    stored = frame_rates.stored_rate(action)
+    rate = (stored, True) if stored else tuple(frame_rates.rate_of(action)[:2])
+    fps = fps or (None if stored else rate[0])  # found or assumed
     digests = {} if digests is None else digests
     digest = digests.get(arm.as_pointer())
     if digest is None:
@@ -138,7 +142,8 @@ def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=No
         start = key.frame_range[0] if key.frame_range else None
         return sources.after_read([clip], trim=key.trim, start=start, bone_map=rigmap.bone_map_of(arm))[0]
 
-    return ActionItem(action.name, key.text, load, source=action.name, action=action.name, action_key=key)
+    return ActionItem(action.name, key.text, load, source=action.name, action=action.name, action_key=key,
+                      rate=rate)
 
 
 # ------------------------------------------------------------------------------------ preconditions

@@ -15,11 +15,11 @@ from .core.errors import ShapeSigError
 __all__ = ["find_owner", "players", "playing_map", "slot_hint", "fitting", "animated_bones"]
 
 
-def animated_bones(action):
-    """The names of the pose bones the action's F-curves animate."""
+def animated_bones(action) -> frozenset:
+    """The names of the pose bones the action's F-curves animate (remembered: ``action_changes.action_bones``)."""
     from .action_changes import action_bones
 
-    return set(action_bones(action))
+    return action_bones(action)
 
 
 def _armatures(objects):
