@@ -81,6 +81,14 @@ def copy(bases, seed):
             "seconds": np.float32(b["seconds"] * f)}
 
 
+def copy_seconds(bases, seed):
+    """``copy(bases, seed)["seconds"]`` without making the copy (the same draws)."""
+    rng = np.random.default_rng(seed)
+    b = bases[base_of(seed, len(bases))]
+    rng.integers(len(bases))
+    return float(b["seconds"] * rng.uniform(0.6, 1.0))
+
+
 class Lazy:
     """A file's entries regenerated on each iteration (the writer reads them in several passes)."""
 
@@ -95,7 +103,7 @@ def build(fn, bases, n, per_file=100):
     files = []
     for f0 in range(0, n, per_file):
         seeds = range(f0, min(n, f0 + per_file))
-        meta = {"clips": [dict(name=f"c{s}", frames=0, bones=0, trimmed=[], seconds=float(copy(bases, s)["seconds"]),
+        meta = {"clips": [dict(name=f"c{s}", frames=0, bones=0, trimmed=[], seconds=copy_seconds(bases, s),
                                **bases[base_of(s, len(bases))]["lists"]) for s in seeds]}
         files.append((f"file{f0}", 0, 0, meta, Lazy(bases, seeds)))
     with open(fn, "wb") as f:
