@@ -552,7 +552,10 @@ class RankJob:
         clips themselves, ``core.index.windows``); what is done stays cached when the click is cancelled."""
         if item is not self.query:
             self.items.append(item)
-        if self.settings.use_windows or indexed(self.cache, item.key, self.level, self.local):
+        # the local search needs its own entries only (a clip its features refuse gets its signature entries when
+        # ranked): one check in memory instead of a file check per action and click
+        if self.settings.use_windows or (self.cache.contains_local(item.key) if self.local
+                                         else indexed(self.cache, item.key, self.level, False)):
             return
         _item, entries = next(index.iter_entries([item], self.level, self.cache, self.errors, local=self.local))
         if entries:
