@@ -1,12 +1,10 @@
 """The same take in another file: the whole take's level-2 log-signature of the development of its comparison-space
 curve on every canonical joint (``take_entry``, stored beside the local entry), compared on the joints both clips
-have (``take_distances``, the package's ``linear2``). It sees motion only, so a converter's constant bone offsets do
-not change it, and the whole take, so another take of the same motion differs. One rule uses it (``twin_first``):
-a shortlisted clip of the query's length whose take is much nearer than the shortlist's typical take ranks first,
-unless the first is longer than the query and holds the query's windows better (it may be the clip the query was
-cut from). Measurements: docs/model.md, "The same
-take in another file".
-"""
+have (``take_distances``: the package's ``linear2``, still joints kept). It sees motion only, so a converter's
+constant bone offsets do not change it, and the whole take, so another take of the same motion differs. One rule
+uses it (``twin_first``): a shortlisted clip of the query's length whose take is much nearer than the shortlist's
+typical take ranks first, unless the first is longer than the query and holds the query's windows better (it may
+be the clip the query was cut from). Measurements: docs/model.md, "The same take in another file first"."""
 
 import math
 
@@ -33,12 +31,11 @@ def take_entry(clip: Clip) -> dict:
     comparison-space clip at the comparison rate, joint j in channels 3j..3j+2 of ``JOINTS`` (zeros where the rig
     has no such joint); ``take_mask`` (len(JOINTS),) uint8: the joints it has; ``seconds``: its span."""
     c = prepare_clip(clip, smooth=SIGNATURE_SMOOTH_SECONDS)
-    have = [JOINTS.index(b) for b in c.bones if b in JOINTS]
-    cols = np.array([3 * JOINTS.index(b) + k for b in c.bones if b in JOINTS for k in range(3)], dtype=int)
+    keep = [i for i, b in enumerate(c.bones) if b in JOINTS]
+    have = np.array([JOINTS.index(c.bones[i]) for i in keep], dtype=int)
     dx = np.zeros((max(c.frames - 1, 1), CHANNELS))
-    if c.frames > 1 and len(cols):
-        keep = [i for i, b in enumerate(c.bones) if b in JOINTS]
-        dx[:, cols] = sg.development_increments(c.rotations, keep)
+    if c.frames > 1 and keep:
+        dx[:, (3 * have[:, None] + np.arange(3)).ravel()] = sg.development_increments(c.rotations, keep)
     mask = np.zeros(len(JOINTS), np.uint8)
     mask[have] = 1
     take = sg.increments_log_signature(dx, 2).astype(np.float32)
