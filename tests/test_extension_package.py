@@ -108,15 +108,19 @@ def test_staged_package_passes_blenders_validator(tmp_path):
 
 
 def _other_builders():
-    """Blender's builders from the other development venvs (e.g. 4.2 LTS), run with their own Python."""
-    found = []
-    for ext in sorted(ROOT.glob(".venv-bpy-*/lib/python3*/site-packages/bpy/*/scripts/addons_core/bl_pkg/cli/"
-                                "blender_ext.py")):
-        venv = ext.parents[9]
-        if (venv / "bin" / "python").exists() and ext.resolve() != BLENDER_EXT.resolve():
-            found.append(pytest.param(venv / "bin" / "python", ext, id=f"bpy-{ext.parents[4].name}"))
-    return found or [pytest.param(None, None, id="none",
-                                  marks=pytest.mark.skip(reason="no .venv-bpy-* with another Blender version"))]
+    """Blender's builders from the other venvs (the development ones, ``.venv-bpy-*``, or the install test's,
+    ``.venv-install-*``: CI makes those first), one per Blender version, run with their own Python."""
+    found, versions = [], set()
+    for pattern in (".venv-bpy-*", ".venv-install-*"):
+        for ext in sorted(ROOT.glob(pattern + "/lib/python3*/site-packages/bpy/*/scripts/addons_core/bl_pkg/cli/"
+                                              "blender_ext.py")):
+            venv, version = ext.parents[9], ext.parents[4].name
+            if (venv / "bin" / "python").exists() and ext.resolve() != BLENDER_EXT.resolve() \
+                    and version != BLENDER_EXT.parents[4].name and version not in versions:
+                versions.add(version)
+                found.append(pytest.param(venv / "bin" / "python", ext, id=f"bpy-{version}"))
+    return found or [pytest.param(None, None, id="none", marks=pytest.mark.skip(
+        reason="no .venv-bpy-* or .venv-install-* with another Blender version"))]
 
 
 @pytest.mark.parametrize("python,builder", _other_builders())
