@@ -12,9 +12,9 @@ signed square root), normalized to unit length part by part (eq. 9.1 of the thes
 fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
 their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
 matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
-(Sakoe-Chiba band, open ends; ``local_dtw``: compiled when numba is loaded, else by numpy anti-diagonals); ``combine`` scores the shortlist by both stages,
-and the same take in another file ranks first (``take.twin_first``); ``shortlist_scores`` does both, ``search`` runs
-it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
+(Sakoe-Chiba band, open ends; ``local_dtw``: compiled when numba is loaded, else by numpy anti-diagonals);
+``combine`` scores the shortlist by both stages, and the same take in another file ranks first
+(``take.twin_first``); ``shortlist_scores`` does both, ``search`` runs it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
 """
 
 import math
@@ -525,7 +525,8 @@ def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:
 
 def held_distances(query, candidates: Sequence) -> np.ndarray:
     """(len(candidates),) how well each candidate holds the query: the mean over the query's windows of the distance
-    to the candidate's nearest window (the query's side of ``first_stage``; about 0 for the clip a crop was cut from)."""
+    to the candidate's nearest window (the query's side of ``first_stage``; about 0 for the clip a crop was cut
+    from)."""
     q = np.asarray(query["windows"], np.float32)
     return np.array([float(np.sqrt(_sq_dist(q, np.asarray(c["windows"], np.float32))).min(axis=1).mean())
                      for c in candidates])

@@ -5,7 +5,8 @@ offsets, the file's total size; each distinct joint list once, a clip naming its
 share them) then the arrays, 64-byte aligned: ``windows`` (all windows stacked, float16, N x DIM)
 with their squared norms (float32), ``sequences`` (float16), ``paths`` (float32, 10 a clip), ``coarse`` (``COARSE``
 windows of each clip as float32, the prefilter of ``local.first_stage``), ``takes`` (float32, ``take.DIM`` a clip)
-and ``take_masks`` (uint8, one per canonical joint); a file written before the takes reads without them. A file whose header, sizes or row ranges do
+and ``take_masks`` (uint8, one per canonical joint; none set: the entry has no take); a file written before the
+takes reads without them. A file whose header, sizes or row ranges do
 not hold is refused in one line (ValueError); the cache then deletes and rebuilds it. See docs/search.md, "At library
 scale".
 """
@@ -27,6 +28,10 @@ _SEQ_DIM = 3 * len(local.POINTS)
 
 # an entry's joints (the clip's bones), still joints and the canonical joints its rig has: its rows' coverage
 JOINT_LISTS = ("joints", "still", "rig_joints")
+
+
+_NO_TAKE = np.zeros(take.DIM, np.float32)
+_NO_MASK = np.zeros(len(take.JOINTS), np.uint8)
 
 
 def coarse_windows(windows, k=COARSE) -> np.ndarray:
@@ -103,8 +108,11 @@ def write_library(f, files, fmt):
     put("sequences", (np.asarray(e["sequence"], np.float16) for e in each()))
     put("paths", (np.asarray(e["path"], np.float32).reshape(10) for e in each()))
     put("coarse", (coarse_windows(e["windows"]) for e in each()))
-    put("takes", (np.asarray(e["take"], np.float32).reshape(take.DIM) for e in each()))
-    put("take_masks", (np.asarray(e["take_mask"], np.uint8).reshape(len(take.JOINTS)) for e in each()))
+    # an entry made before the whole take was stored (an older recipe's, kept in the pack until its file goes) has
+    # none: zeros, and a mask of no joints, which ``LibraryFile.entry`` reads back as no take
+    put("takes", (np.asarray(e.get("take", _NO_TAKE), np.float32).reshape(take.DIM) for e in each()))
+    put("take_masks", (np.asarray(e.get("take_mask", _NO_MASK), np.uint8).reshape(len(take.JOINTS))
+                       for e in each()))
     return nc
 
 
@@ -130,7 +138,7 @@ class LibraryFile:
              "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
              "sequence": A["sequences"][q0:q1], "path": A["paths"][k], "_rows": (id(self), w0, w1, k),
              **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
-        if "takes" in A:
+        if "takes" in A and A["take_masks"][k].any():
             e.update(take=A["takes"][k], take_mask=A["take_masks"][k], seconds=np.float32(m.get("seconds", 0.0)))
         return e
 

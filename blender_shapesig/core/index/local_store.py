@@ -38,7 +38,7 @@ def _meta(e):
             "seconds": float(e.get("seconds", 0.0)), **{k: list(e.get(k, ())) for k in _JOINT_LISTS}}
 
 
-# an entry's arrays (``local.index_entry``) and their types on disk
+# an entry's arrays (``local.index_entry``) and their types on disk (an older recipe's entries have no take)
 _ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "take": np.float32,
            "take_mask": np.uint8}
 
@@ -48,9 +48,10 @@ def _entry(m, arrays):
         return {"name": m["name"], "refused": str(m["refused"])}
     e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
          "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "seconds": np.float32(m.get("seconds", 0.0)),
-         **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items()},
+         **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays},
          **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS}}
-    if e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0 or e["take"].ndim != 1:
+    if (e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0
+            or e.get("take", e["path"]).ndim != 1):
         raise ValueError("bad shapes")
     return e
 
@@ -112,7 +113,8 @@ class LocalEntries:
                 for e in entries:
                     if e.pop("_rows", None) is not None:
                         for k in _ARRAYS:
-                            e[k] = np.array(e[k])
+                            if k in e:  # (an older recipe's entry has no take)
+                                e[k] = np.array(e[k])
             self._local_memo = None
             self._lib = None
 
@@ -152,7 +154,8 @@ class LocalEntries:
                 if (meta.get("format") != self._format() or meta.get("key") != key
                         or meta.get("settings") != settings_key):
                     raise ValueError("outdated")
-                out = [_entry(m, {} if m.get("refused") else {k: z[f"{k}{i}"] for k in _ARRAYS})
+                out = [_entry(m, {} if m.get("refused") else
+                              {k: z[f"{k}{i}"] for k in _ARRAYS if f"{k}{i}" in z.files})
                        for i, m in enumerate(meta["clips"])]
             self._pack_local(fn, meta, out)
             return out
@@ -165,7 +168,7 @@ class LocalEntries:
         arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
         for i, e in enumerate(entries):
             if not e.get("refused"):
-                arrays.update({f"{k}{i}": np.asarray(e[k], dt) for k, dt in _ARRAYS.items()})
+                arrays.update({f"{k}{i}": np.asarray(e[k], dt) for k, dt in _ARRAYS.items() if k in e})
         buf = io.BytesIO()
         np.savez(buf, **arrays)
         fn = self.local_file_for(key, settings_key)

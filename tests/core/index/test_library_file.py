@@ -272,3 +272,29 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
     (tmp_path / "bad.bin").write_bytes(bad)
     with pytest.raises(ValueError, match="damaged"):
         open_library(str(tmp_path / "bad.bin"))
+
+
+def test_a_cache_of_an_older_recipe_keeps_working(lib_dir, tmp_path):
+    """A cache folder used before the whole take was stored holds entries without it (another settings key, kept in
+    the pack until their files go): the next ranking writes the pack with them (a zero mask: read back as no take),
+    ranks as a fresh cache does, and releasing the memory map copies them without a take."""
+    items = _items(lib_dir)
+    q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
+    folder = tmp_path / "cache"
+    old = index.SignatureCache(folder)
+    olds = [{k: v for k, v in ls.index_entry(c).items() if k not in ("take", "take_mask", "seconds")}
+            for c in items[0].clips()]
+    for e in olds:
+        e["name"] = "old"
+    old.put_local(items[0].key, "an older recipe", olds)
+    old.save_local_pack()
+    store = index.SignatureCache(folder)
+    got = index.rank_clips(q, items, cache=store)  # reads the old pack, writes the new one
+    assert _names(got) == _names(index.rank_clips(q, items, cache=None))
+    reopened = index.SignatureCache(folder)
+    back = reopened.get_local(items[0].key, "an older recipe")
+    assert back is not None and "take" not in back[0] and len(back[0]["windows"]) == len(olds[0]["windows"])
+    fresh = reopened.get_local(items[0].key, ls.settings_key())
+    assert fresh is not None and fresh[0]["take_mask"].any()
+    reopened.release_library()
+    assert "take" not in back[0] and isinstance(fresh[0]["take"], np.ndarray)
