@@ -66,7 +66,7 @@ def _stamp(action):
 
 _STORE_FORMAT = 1  # raise when read_hash, bone_channels or the record change meaning
 _FILE = {"key": None, "names": {}, "dirty": set(), "all_dirty": False, "cache": None, "records": None,
-         "bone_sets": [], "written": None}
+         "bone_sets": [], "written": None, "looked": None}
 _STATS = {"stored": 0, "computed": 0, "writes": 0}
 
 
@@ -178,7 +178,7 @@ def _write(key, records, sets):
 def save_store():
     """Write the fingerprints of the actions unchanged since the file was loaded (after a click), when some
     were computed since the last look and they differ from the stored ones."""
-    if _FILE["key"] is None or _FILE["cache"] is None or _STATS["computed"] == _FILE.get("looked"):
+    if _FILE["key"] is None or _FILE["cache"] is None or _STATS["computed"] == _FILE["looked"]:
         return
     _FILE["looked"] = _STATS["computed"]
     records, sets = _records(clean_only=True)

@@ -149,11 +149,7 @@ def library_notes(lib) -> List[str]:
     rates their items were made with; folder clips' rates are their files'), as a list of at most one warning
     line."""
     rates = [(lib.action.name, *rate_of(lib.action)[:2])] if lib.action is not None else []
-    later = [it for it in lib.actions if getattr(it, "rate", None) is None]  # items made without their rate
-    rates += [(it.action, *it.rate) for it in lib.actions if getattr(it, "rate", None) is not None]
-    if later:
-        by_name = {a.name: a for a in bpy.data.actions}  # one pass (.get is a linear search)
-        rates += [(a.name, *rate_of(a)[:2]) for a in (by_name.get(it.action) for it in later) if a is not None]
+    rates += [(it.action, *it.rate) for it in lib.actions]  # ``library.action_item`` records each one's
     rates += [("", 1.0, True)] if lib.specs else []
     note = mixed_note(rates)
     return [note] if note else []

@@ -26,41 +26,36 @@ def _armatures(objects):
     return [o for o in (bpy.data.objects if objects is None else objects) if getattr(o, "type", "") == "ARMATURE"]
 
 
+def _plays(ob) -> list:
+    """The actions armature ``ob`` plays: its active action and its NLA strips' (None left out)."""
+    ad = ob.animation_data
+    if ad is None:
+        return []
+    acts = [ad.action] + [strip.action for track in ad.nla_tracks for strip in track.strips]
+    return [a for a in acts if a is not None]
+
+
 def playing_map(armatures) -> dict:
-    """{action pointer: [armatures]}: what each of ``armatures`` plays (its active action and its NLA strips'), in
-    one pass over the armatures; ``find_owner(played=)`` takes it instead of asking every armature per action.
-    (A slot's users are the animation data that assign the action, so they add no armature to these.)"""
+    """{action pointer: [armatures]}: what each of ``armatures`` plays (``_plays``), in one pass over the
+    armatures; ``find_owner(played=)`` takes it instead of asking every armature per action. (A slot's users are
+    the animation data that assign the action, so they add no armature to these.)"""
     out = {}
     for ob in armatures:
-        ad = ob.animation_data
-        if ad is None:
-            continue
-        acts = [ad.action] + [strip.action for track in ad.nla_tracks for strip in track.strips]
-        for a in acts:
-            if a is not None:
-                got = out.setdefault(a.as_pointer(), [])
-                if ob not in got:
-                    got.append(ob)
+        for a in _plays(ob):
+            got = out.setdefault(a.as_pointer(), [])
+            if ob not in got:
+                got.append(ob)
     return out
 
 
 def players(action, armatures):
     """The armatures (of ``armatures``) that play ``action``: active action, an NLA strip or a slot's user."""
-    out = []
     slot_users = set()
     for slot in compat.action_slots(action):
         users = getattr(slot, "users", None) if slot is not None else None
         if users is not None:
             slot_users.update(u.as_pointer() for u in users())
-    for ob in armatures:
-        ad = ob.animation_data
-        plays = ob.as_pointer() in slot_users
-        if ad is not None and not plays:
-            plays = ad.action == action or any(
-                strip.action == action for track in ad.nla_tracks for strip in track.strips)
-        if plays:
-            out.append(ob)
-    return out
+    return [ob for ob in armatures if ob.as_pointer() in slot_users or action in _plays(ob)]
 
 
 def slot_hint(action, armatures):

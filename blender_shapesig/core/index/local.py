@@ -14,7 +14,8 @@ their windows' nearest-window distances (a Chamfer distance): crops, start phase
 matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
 (Sakoe-Chiba band, open ends; ``local_dtw``: compiled when numba is loaded, else by numpy anti-diagonals);
 ``combine`` scores the shortlist by both stages, and the same take in another file ranks first
-(``take.twin_first``); ``shortlist_scores`` does both, ``search`` runs it all. Pure numpy (numba optional); no bpy. Measured in experiments/local_search/RESULTS.md.
+(``take.twin_first``); ``shortlist_scores`` does both, ``search`` runs it all. Pure numpy (numba optional); no
+bpy. Measured in experiments/local_search/RESULTS.md.
 """
 
 import math

@@ -1,8 +1,8 @@
 """The local search (``core.index.local``) over a library, through the signature cache: every item's local entries
 (computed from its comparison-space clips only when the store lacks them; clips the features refuse are kept as
 their one-line reason), the query's entry, and the ranking: the first stage over the library's stacked windows
-(memoized in the store), the first ``shortlist`` re-scored by ``local.shortlist_scores`` (both stages; the same take in another file first). ``rank.rank_clips``
-turns it into rows (docs/search.md, "The default search").
+(memoized in the store), the first ``shortlist`` re-scored by ``local.shortlist_scores`` (both stages; the same
+take in another file first). ``rank.rank_clips`` turns it into rows (docs/search.md, "The default search").
 """
 
 from collections.abc import Sequence

@@ -1,5 +1,5 @@
 """The signature cache's part for the local search (``LocalEntries``, mixed into ``store.SignatureCache``): every
-item's local entries (``local.index_entry``, about 14 KB a clip, or a clip's one-line refusal) in a file of their own
+item's local entries (``local.index_entry``, about 16 KB a clip, or a clip's one-line refusal) in a file of their own
 beside its signature entries, named by the item's key and the settings' key; all of them also in one pack
 (``LOCAL_PACK``), so that a new process (a command-line ``rank``) reads a library's entries in one read; and the
 library's windows stacked once per library (``local_stack``). The safety rules are the cache's: atomic writes in
@@ -51,7 +51,7 @@ def _entry(m, arrays):
          **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays},
          **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS}}
     if (e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0
-            or e.get("take", e["path"]).ndim != 1):
+            or ("take" in e and e["take"].ndim != 1)):
         raise ValueError("bad shapes")
     return e
 

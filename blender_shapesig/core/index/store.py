@@ -6,7 +6,6 @@ going on in memory with one ``warning`` when the folder cannot be used. It never
 """
 
 import errno
-import hashlib
 import io
 import json
 import os
@@ -257,7 +256,7 @@ class SignatureCache(LocalEntries):
             raise
 
     def _fingerprints_file(self, source):
-        return os.path.join(self.path, "fingerprints-" + hashlib.sha1(source.encode()).hexdigest() + ".json")
+        return os.path.join(self.path, "fingerprints-" + hashed_name(source) + ".json")
 
     def read_fingerprints(self, source) -> Optional[dict]:
         """The fingerprint record stored for ``source`` (a .blend file's path: the Blender layer's
