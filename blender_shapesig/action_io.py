@@ -16,13 +16,13 @@ from .action_hashes import action_hash, read_hash
 from .bone_channels import PROPS as _PROPS, bone_channels
 from .core.clip.clip import Clip
 from .core.errors import ShapeSigError, check_frame_range
-from .core.clip.skeleton import rest_meta
+from .core.clip.skeleton import from_world_axes, rest_meta, to_world_axes
 from .core.io.files import check_frames
 # the rotation maths is core.geometry.so3's; the channel conversions are re-exported here, where callers know them
 from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
 __all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions", "to_armature_space", "to_pose_space",
-           "EULER_MODES", "SPACES"]
+           "object_matrix", "EULER_MODES", "SPACES"]
 
 SPACES = ("pose", "armature")
 
@@ -349,15 +349,28 @@ def _rest_frames(bones, armature):
     return B, heads
 
 
-def to_armature_space(clip: Clip, armature) -> Clip:
-    """Pose-bone rotations P (each bone's rest frame) -> the same rotations in the armature's axes,
-    X = B P B^T with B the bone's rest orientation; the root translation becomes the root bone's head
-    position in armature space, head + B loc.
+def object_matrix(armature):
+    """The armature object's world matrix (4x4 numpy; rotation, scale, parents), or None when it is the identity
+    (then nothing is re-expressed: the numbers stay exactly those of the armature's own axes). An object in no
+    scene (loaded from a library by a reader) without a parent: its own transform (``matrix_basis``), since its
+    ``matrix_world`` was never evaluated here."""
+    world = armature.matrix_basis if (armature.parent is None and not armature.users_scene) else armature.matrix_world
+    M = np.array(world, dtype=np.float64)
+    return None if np.array_equal(M, np.eye(4)) else M
 
-    This is the space the package compares and blends clips in: it does not depend on bone rolls, so rigs
-    with other roll conventions, BVH and ASF/AMC imports of the same take, and folder clips
-    (``core.io.acclaim.load_acclaim(..., axes="blender")``) all agree. d_P*, d_S* and tensor-basis signatures
-    of one rig are unchanged by it (a constant rotation per joint); Lyndon coordinates change slightly.
+
+def to_armature_space(clip: Clip, armature) -> Clip:
+    """Pose-bone rotations P (each bone's rest frame) -> the same rotations in the world's axes as the scene shows
+    the armature: X = A B P B^T A^T with B the bone's rest orientation and A the rotation of the object's world
+    matrix (``object_matrix``: its rotation, scale and parents; ``skeleton.to_world_axes``); the root translation
+    becomes the root bone's head in the world, M (head + B loc). (The space keeps its name, "armature": for an
+    armature object at the identity, as every reader's, both are the same.)
+
+    This is the space the package compares and blends clips in: it does not depend on bone rolls nor on how the
+    armature object is turned or scaled (an FBX character imported lying in its armature's axes, a rig parented
+    to a turned empty), so rigs with other roll conventions, BVH and ASF/AMC imports of the same take, and folder
+    clips all agree. d_P*, d_S* and tensor-basis signatures of one rig are unchanged by it (a constant rotation
+    per joint); Lyndon coordinates change slightly.
     """
     if clip.meta.get("rotation_space", "pose") != "pose":
         raise ShapeSigError(f"clip {clip.name!r} is not in pose space")
@@ -368,13 +381,19 @@ def to_armature_space(clip: Clip, armature) -> Clip:
         Br, hr = _rest_frames([clip.root_bone], armature)
         rt = hr[0] + rt @ Br[0].T
     meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
-    return replace(clip, rotations=X, root_translation=rt, meta=meta)
+    out = replace(clip, rotations=X, root_translation=rt, meta=meta)
+    M = object_matrix(armature)
+    return out if M is None else to_world_axes(out, M)
 
 
 def to_pose_space(clip: Clip, armature) -> Clip:
-    """The inverse of ``to_armature_space`` for ``armature``'s bones: P = B^T X B, loc = B^T (x - head)."""
+    """The inverse of ``to_armature_space`` for ``armature``'s bones: the world's axes back into the armature's
+    (``skeleton.from_world_axes``), then P = B^T X B, loc = B^T (x - head)."""
     if clip.meta.get("rotation_space") != "armature":
         raise ShapeSigError(f"clip {clip.name!r} is not in armature space")
+    M = object_matrix(armature)
+    if M is not None:
+        clip = from_world_axes(clip, M)
     B, _heads = _rest_frames(clip.bones, armature)
     P = np.swapaxes(B, -1, -2)[None] @ clip.rotations @ B[None]
     rt = clip.root_translation
@@ -387,10 +406,11 @@ def to_pose_space(clip: Clip, armature) -> Clip:
             rt = (rt - hr[0]) @ Br[0]
     meta = dict(clip.meta, rotation_space="pose")
     meta.pop("up_axis", None)
+    meta.pop("axes", None)
     return replace(clip, rotations=P, root_translation=rt, meta=meta)
 
 
-# ----------------------------------------------------------------------------------------- writing
+# -------------------------------------------------------------------------------------------- writing
 
 
 def _write_fcurve(bag, bone, prop, index, frames_f32, values, co_buf, interp):

@@ -10,7 +10,7 @@ from typing import List, Optional, Sequence
 import bpy
 import numpy as np
 
-from . import action_io, compat, frame_rates, rigmap
+from . import action_io, compat, frame_rates, rigmap, scene_motion
 from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
@@ -154,7 +154,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
                 created.append(act)
                 strips.append(strip)
             else:
-                created.append(action_io.write_action(clip, armature=armature, name=names[-1], fake_user=True))
+                created.append(scene_motion.write_motion(clip, armature, name=names[-1]))
             check_progress(progress, n + i + 1, 2 * n)
     except BaseException:
         for strip in strips:
@@ -189,7 +189,8 @@ def _write_timed(clip, armature, name):
         fc.keyframe_points.clear()
         fc.keyframe_points.add(len(keys))
         co = np.empty(2 * len(keys), dtype=np.float32)
-        co[0::2] = keys[:, 0] + clip.frame_start
+        # the clock runs in the scene's frames: the blend's frame k plays at scene frame start + k * scene / blend rate
+        co[0::2] = keys[:, 0] * (frame_rates.scene_rate() / float(clip.fps)) + clip.frame_start
         co[1::2] = keys[:, 1] + clip.frame_start
         fc.keyframe_points.foreach_set("co", co)
         fc.keyframe_points.foreach_set("interpolation", np.full(len(keys), 1, dtype=np.int32))  # LINEAR
@@ -230,5 +231,5 @@ def bake_strip(armature, strip, name=None):
     first, last = int(round(strip.frame_start)), int(round(strip.frame_end))
     at = np.array([fc.evaluate(f) for f in range(first, last + 1)], dtype=np.float64) - curve.frame_start
     baked = replace(sample_at(curve, at, name=unique_action_name(name or f"{strip.action.name}_baked")),
-                    frame_start=first)
+                    frame_start=first, fps=frame_rates.scene_rate())  # one key per scene frame
     return action_io.write_action(baked, armature=armature, name=baked.name, fake_user=True)

@@ -17,7 +17,7 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_io, compat, frame_rates, rigmap, thumbnails
+from . import action_changes, action_io, compat, frame_rates, rigmap, scene_motion, thumbnails
 from .core import index
 from .core.io import sources
 from .core.index.windows import WINDOW_LEVEL, rank_windows
@@ -93,9 +93,12 @@ class ActionItem(sources.LibraryItem):
 
 
 def armature_digest(obj) -> str:
-    """Digest of an armature's pose bones: names, rotation modes and rest orientations (armature-space
-    rotations, what the index stores, depend on them)."""
+    """Digest of an armature's pose bones: names, rotation modes and rest orientations, and of the object's world
+    matrix (the world-axes rotations the index stores depend on them: ``action_io.to_armature_space``)."""
     h = hashlib.sha1()
+    world = action_io.object_matrix(obj)
+    if world is not None:
+        h.update(np.round(world, 9).tobytes())
     for pb in obj.pose.bones:
         h.update(f"{pb.name}\x1f{pb.rotation_mode}\x1e".encode())
         rest = np.array(pb.bone.matrix_local.to_3x3(), dtype=np.float64)
@@ -136,8 +139,7 @@ def action_item(action, obj, frame_range=None, digests=None, trim="none", fps=No
     def load(action=action, arm=arm, key=key, name=action.name):
         # armature space: comparable with folder clips and with actions of rigs with other bone rolls;
         # only the bones the action keys (a bone it does not animate is unknown, not the rest pose)
-        clip = action_io.read_action(action, armature=arm, frame_range=key.frame_range, name=name,
-                                     space="armature", exclude_unkeyed=True, fps=key.fps)
+        clip = scene_motion.read_motion(action, arm, frame_range=key.frame_range, name=name, fps=key.fps)
         # trimmed (an explicit range's start kept) and into the comparison space, as files are (sources.read)
         start = key.frame_range[0] if key.frame_range else None
         return sources.after_read([clip], trim=key.trim, start=start, bone_map=rigmap.bone_map_of(arm))[0]

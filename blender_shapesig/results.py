@@ -9,7 +9,7 @@ import json
 
 import bpy
 
-from . import action_io, compat, library, retarget, rigmap
+from . import action_io, compat, library, retarget, rigmap, scene_motion
 from .action_hashes import read_hash
 from .core.io import sources
 from .core.errors import ShapeSigError
@@ -80,7 +80,7 @@ def result_action(settings, obj, row):
         action, kept = retarget.action_on_armature(clip, "auto", obj, _on_name(clip.name, obj))
         row.kept = ", ".join(kept)
     else:
-        action = action_io.write_action(clip, armature=obj, name=clip.name)
+        action = scene_motion.write_motion(clip, obj, name=clip.name)
     row.is_action = True
     row.source = action.name
     _remember(row, action)
@@ -104,8 +104,7 @@ def _on_obj(row, obj, action, frame_range=None, name=None):
         check_action(row, got)
         return got
     name = name or action.name
-    clip = action_io.read_action(action, armature=owner, frame_range=frame_range, exclude_unkeyed=True,
-                                 space="armature", name=name)
+    clip = scene_motion.read_motion(action, owner, frame_range=frame_range, name=name)
     written = _write_on(row, obj, clip, name, rigmap.bone_map_of(owner) if rigmap.across_rigs(obj, owner) else None)
     row.on_armature = written.name
     return written
@@ -118,7 +117,7 @@ def _write_on(row, obj, clip, name, bone_map=None):
         written, kept = retarget.action_on_armature(clip, bone_map, obj, _on_name(name, obj))
         row.kept = ", ".join(kept)
     else:
-        written = action_io.write_action(clip, armature=obj, name=name)
+        written = scene_motion.write_motion(clip, obj, name=name)
     _remember(row, written)
     return written
 

@@ -11,7 +11,7 @@ from typing import Tuple
 
 import numpy as np
 
-from . import action_io, rigmap
+from . import action_io, rigmap, scene_motion
 from .core import rigs
 from .core.clip.clip import Clip
 from .core.clip.skeleton import rest_meta
@@ -83,8 +83,8 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
 
 
 def action_on_armature(clip: Clip, source_map, armature, name):
-    """(new action on ``armature`` holding ``clip`` retargeted, bones kept at rest)."""
+    """(new action on ``armature`` holding ``clip`` retargeted, keyed at the scene's rate, bones kept at rest)."""
     got = onto_armature(clip, source_map, armature, name)
-    action = action_io.write_action(got.clip, armature=armature, name=name)
+    action = scene_motion.write_motion(got.clip, armature, name=name)
     action["shapesig_retargeted_from"] = clip.name
     return action, got.kept

@@ -76,14 +76,19 @@ def source_armature(spec: ClipSpec):
 
 
 def write_blend(spec_a: ClipSpec, blended, out_path):
-    """Save a .blend with A's armature and one new action per blended clip (the first one assigned);
-    returns the action names."""
+    """Save a .blend with A's armature and one new action per blended clip (the first one assigned), the scene at
+    the blends' frame rate; returns the action names."""
     armature = source_armature(spec_a)
     names = []
     for i, clip in enumerate(blended):
         action = action_io.write_action(clip, armature, name=clip.name, fake_user=True, assign=(i == 0))
         names.append(action.name)
-    bpy.context.scene.frame_start = blended[0].frame_start
-    bpy.context.scene.frame_end = blended[0].frame_end
+    scene = bpy.context.scene
+    scene.frame_start = blended[0].frame_start
+    scene.frame_end = blended[0].frame_end
+    # the scene plays the blend at its own rate (its true speed): fps / fps_base = the blend's rate
+    rate = float(blended[0].fps)
+    scene.render.fps = max(1, int(round(rate)))
+    scene.render.fps_base = scene.render.fps / rate
     bpy.ops.wm.save_as_mainfile(filepath=out_path, check_existing=False)
     return names

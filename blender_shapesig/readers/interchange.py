@@ -13,7 +13,6 @@ import bpy
 
 from .. import action_io, compat
 from ..bone_channels import bone_channels
-from ..core.clip.skeleton import to_world_axes
 from ..core.errors import ParseError, ShapeSigError
 from ..core.io.interchange import check_interchange
 from ..owners import find_owner
@@ -66,7 +65,7 @@ def animation_name(action, owner, info):
 
 def read_interchange_here(path, animation=None, space="armature"):
     """The clips of an FBX / glTF file (every armature animation, or the one named ``animation``), read in this
-    process. Each clip is in the world's axes (``skeleton.to_world_axes``: the nodes above the armature, the
+    process. Each clip is in the world's axes (``action_io.to_armature_space``: the nodes above the armature, the
     file's up axis and units as Blender imported them), named after the file when it holds one animation, else after
     the animation; ``meta["animation"]`` is its name in the file (``FILE#ANIMATION``)."""
     path = os.path.abspath(os.fspath(path))
@@ -112,8 +111,6 @@ def _clips(path, found, animation, fps, fmt, space):
             clip = action_io.read_action(action, armature=arm, bones=bones, fps=fps,
                                          name=stem if len(names) == 1 else name,
                                          space="armature" if space == "armature" else "pose")
-            if space == "armature":
-                clip = to_world_axes(clip, [list(r) for r in arm.matrix_world])
         except ShapeSigError as exc:
             raise exc if isinstance(exc, ParseError) else ParseError(str(exc), path) from None
         clip.source = f"{path}#{name}" if len(names) > 1 else path

@@ -274,6 +274,8 @@ def test_assign_of_an_fbx_result_retargets_it_onto_the_active_armature(files, em
     from blender_shapesig import action_io, library, rigmap
     from blender_shapesig.core import index as search
     from blender_shapesig.core import rigs
+    from blender_shapesig import frame_rates
+    from blender_shapesig.core.clip.prepare import retime
     from blender_shapesig.core.geometry import so3
 
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
@@ -308,6 +310,10 @@ def test_assign_of_an_fbx_result_retargets_it_onto_the_active_armature(files, em
     got = rigs.apply_bone_map(action_io.read_action(new, armature=arm, exclude_unkeyed=True, space="armature"),
                               rigmap.bone_map_of(arm))
     src = sources.read_one(sources.ClipSpec(str(folder / "walk.fbx")))
+    # written at the scene's rate (60 fps, the iClone file's): the same duration, the source resampled to it
+    assert got.fps == pytest.approx(frame_rates.scene_rate()) and abs(got.fps - 60.0) < 0.01
+    assert abs((got.frames - 1) / got.fps - (src.frames - 1) / src.fps) <= 0.5 / got.fps
+    src = retime(src, got.fps)
     shared = [j for j in src.bones if j in got.bones]
     assert len(shared) >= 15, shared
     assert got.frames == src.frames, (got.frames, src.frames)

@@ -12,7 +12,7 @@ from ..geometry.curves import as_curve, geodesic_interpolate
 from ..errors import ShapeSigError, check_number
 
 __all__ = ["COMPARE_FPS", "SMOOTH_SECONDS", "SIGNATURE_SMOOTH_SECONDS", "smooth_increments", "lattice_frames", "lattice_cut", "resample_seconds", "prepare_rotations",
-           "prepare_clip", "decimate_clip", "check_fps"]
+           "prepare_clip", "decimate_clip", "retime", "check_fps"]
 
 COMPARE_FPS = 30.0
 SMOOTH_SECONDS = 0.05  # the SRVT measures and the blends' alignment
@@ -146,3 +146,20 @@ def decimate_clip(clip, step):
     root = None if clip.root_translation is None else clip.root_translation[::step]
     return replace(clip, rotations=clip.rotations[::step], root_translation=root, fps=clip.fps / step,
                    meta=dict(clip.meta, decimated=step))
+
+
+def retime(clip, fps):
+    """The same motion keyed at ``fps``: rotations along the SO(3)^d geodesics between frames, the root path
+    linearly, the duration kept (the last sample on the last frame; ``resample_seconds`` with ``keep_end``), the
+    first frame number kept. What is written onto an armature plays at its true speed in a scene of that rate;
+    ``meta["source_fps"]`` records the rate it had. The clip itself when the rates agree (1e-9)."""
+    target = check_fps(fps, "scene frame rate")
+    if abs(float(clip.fps) - target) <= 1e-9 * target or clip.frames < 2:
+        return clip
+    R = resample_seconds(clip.rotations, check_fps(clip.fps), target, keep_end=True)
+    root = clip.root_translation
+    if root is not None:
+        x, xn = np.linspace(0.0, 1.0, clip.frames), np.linspace(0.0, 1.0, R.shape[0])
+        root = np.stack([np.interp(xn, x, root[:, i]) for i in range(3)], axis=1)
+    meta = dict(clip.meta, source_fps=float(clip.meta.get("source_fps", clip.fps)))
+    return replace(clip, rotations=R, root_translation=root, fps=target, meta=meta)

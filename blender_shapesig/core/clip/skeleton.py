@@ -14,7 +14,7 @@ from ..geometry import so3
 from .clip import Clip
 from ..errors import ShapeSigError
 
-__all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "to_world_axes", "rest_of",
+__all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "to_world_axes", "from_world_axes", "rest_of",
            "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",
            "forward_kinematics", "chain_offset", "up_vector", "root_up", "parse_up", "estimate_up_axis", "unit_meters", "LEG_METERS"]
 
@@ -44,29 +44,49 @@ def map_rest_meta(meta: dict, matrix, scale: float = 1.0) -> dict:
     return out
 
 
-def to_world_axes(clip: Clip, matrix) -> Clip:
-    """A clip in its armature's axes re-expressed in the world's through the armature object's ``matrix`` (4x4,
-    rotation times a uniform scale plus a translation: the nodes above an imported armature): rotations and rest
-    orientations turned by the rotation A (``A X A^T``, ``A B``), rest heads/tails and the root translation mapped
-    by the whole matrix (the file's units times its scales). ShapeSigError for a mirroring or degenerate matrix."""
+def _world_parts(clip: Clip, matrix):
+    """(M, A): the 4x4 ``matrix`` and its rotation (the matrix's 3x3 part over its uniform scale); ShapeSigError
+    for a mirroring or degenerate matrix."""
     M = np.asarray(matrix, dtype=np.float64)
     det = float(np.linalg.det(M[:3, :3]))
     if not det > 1e-30:
         raise ShapeSigError(f"clip {clip.name!r}: its armature is {'mirrored' if det < 0 else 'scaled to nothing'} "
                             f"in the scene (a negative or zero scale)")
-    s = det ** (1.0 / 3.0)
-    A = so3.nearest_rotation(M[:3, :3] / s)
-    meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
+    return M, so3.nearest_rotation(M[:3, :3] / det ** (1.0 / 3.0))
+
+
+def _map_axes(clip: Clip, A, L, t, meta) -> Clip:
+    """Rotations and rest orientations turned by A, positions mapped by x -> L x + t."""
     for key in (REST_HEADS, REST_TAILS):
         if key in meta:
-            meta[key] = {n: tuple(float(v) for v in M[:3, :3] @ np.asarray(p, float) + M[:3, 3])
-                         for n, p in meta[key].items()}
+            meta[key] = {n: tuple(float(v) for v in L @ np.asarray(p, float) + t) for n, p in meta[key].items()}
     if "rest_rotations" in meta:
         meta["rest_rotations"] = A[None] @ np.asarray(meta["rest_rotations"], dtype=np.float64)
     rt = clip.root_translation
-    rt = None if rt is None else rt @ M[:3, :3].T + M[:3, 3]
+    rt = None if rt is None else rt @ L.T + t
     R = A[None, None] @ clip.rotations @ A.T[None, None]
     return replace(clip, rotations=R, root_translation=rt, meta=meta)
+
+
+def to_world_axes(clip: Clip, matrix) -> Clip:
+    """A clip in its armature's axes re-expressed in the world's through the armature object's ``matrix`` (4x4,
+    rotation times a uniform scale plus a translation: the object's world matrix, parents included): rotations
+    and rest orientations turned by the rotation A (``A X A^T``, ``A B``), rest heads/tails and the root
+    translation mapped by the whole matrix (the file's units times its scales); ``meta["axes"]`` becomes
+    "world". ShapeSigError for a mirroring or degenerate matrix. ``from_world_axes`` is its inverse."""
+    M, A = _world_parts(clip, matrix)
+    meta = dict(clip.meta, rotation_space="armature", up_axis="Z", axes="world")
+    return _map_axes(clip, A, M[:3, :3], M[:3, 3], meta)
+
+
+def from_world_axes(clip: Clip, matrix) -> Clip:
+    """The inverse of ``to_world_axes``: a clip in the world's axes back in the axes of the armature whose object
+    has the world ``matrix`` (what is written onto that armature)."""
+    M, A = _world_parts(clip, matrix)
+    inv = np.linalg.inv(M[:3, :3])
+    meta = dict(clip.meta, rotation_space="armature", axes="armature")
+    meta.pop("up_axis", None)
+    return _map_axes(clip, A.T, inv, -inv @ M[:3, 3], meta)
 
 
 @dataclass
