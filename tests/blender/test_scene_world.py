@@ -1,0 +1,291 @@
+"""The characters animators have (issue 38): an armature whose object is turned and scaled as Blender's FBX importer
+leaves a Mixamo character (rotation 90 degrees about X, scale 0.01, bones in Y-up centimetres), one parented to a
+turned empty, and a scaled one are read in the world's axes: Find Similar lists what it lists for the same motion
+on an armature at the identity and what the command line lists for the file; Assign of another rig's walk keeps the
+character upright; a blend across rigs keeps its toes above the floor and its joints without jumps; the key-pose
+pictures stand. Written actions play at their true speed in 24 and 30 fps scenes.
+
+The turned characters are made from Blender's own BVH import of a CMU take by Blender's own operators (the inverse
+turn applied to the armature data with Apply Transform, the object then turned back), so the world motion Blender
+evaluates is the same as the untouched import's: that equality, checked first, is the truth the rest relies on."""
+
+import contextlib
+import io
+import json
+import math
+import pathlib
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import frame_rates, library  # noqa: E402
+from blender_shapesig.core import index as search  # noqa: E402
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DATA = ROOT / "tests" / "data"
+WALK = DATA / "bvh" / "07_01.bvh"
+
+
+def _quiet(op, **kw):
+    with contextlib.redirect_stdout(io.StringIO()):
+        return op(**kw)
+
+
+def import_bvh(path, name):
+    _quiet(bpy.ops.import_anim.bvh, filepath=str(path))
+    arm = bpy.context.view_layer.objects.active
+    arm.name = name
+    arm.animation_data.action.name = name
+    return arm
+
+
+def _select_only(obj):
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+
+
+def turned(path, name, how):
+    """Blender's import of ``path`` made into a character whose world motion is the same but whose object carries
+    a transform T: "fbx" (T = 90 degrees about X and scale 0.01, as Blender's FBX importer leaves Mixamo
+    characters), "empty" (the same T on a parent empty, the armature object at the identity), "scaled" (T = scale
+    2.5). The armature data gets T^-1 by Apply Transform; the root's location keys (in its bone's frame) are
+    scaled by T's inverse scale, which Apply Transform does not do."""
+    arm = import_bvh(path, name)
+    turn, scale = {"fbx": (math.pi / 2, 0.01), "empty": (math.pi / 2, 0.01), "scaled": (0.0, 2.5)}[how]
+    _select_only(arm)
+    arm.rotation_euler = (-turn, 0.0, 0.0)
+    arm.scale = (1 / scale,) * 3
+    _quiet(bpy.ops.object.transform_apply, location=False, rotation=True, scale=True)
+    _scale_location_keys(arm.animation_data.action, 1 / scale)
+    if how == "empty":
+        empty = bpy.data.objects.new(f"{name}_parent", None)
+        bpy.context.collection.objects.link(empty)
+        empty.rotation_euler, empty.scale = (turn, 0.0, 0.0), (scale,) * 3
+        arm.parent = empty
+    else:
+        arm.rotation_euler, arm.scale = (turn, 0.0, 0.0), (scale,) * 3
+    bpy.context.view_layer.update()
+    return arm
+
+
+def _scale_location_keys(action, factor):
+    from blender_shapesig import compat  # only to list the action's F-curves in every Blender version
+
+    for fc in compat.all_action_fcurves(action):
+        if fc.data_path.endswith(".location"):
+            for k in fc.keyframe_points:
+                k.co.y *= factor
+                k.handle_left.y *= factor
+                k.handle_right.y *= factor
+
+
+def world_heads(arm, frames):
+    """(frames, bones, 3): every pose bone's head in the world as Blender evaluates it (no package code)."""
+    out = []
+    scene = bpy.context.scene
+    for f in frames:
+        scene.frame_set(int(f))
+        M = np.array(arm.matrix_world)
+        out.append([(M @ np.append(np.array(pb.head), 1.0))[:3] for pb in arm.pose.bones])
+    return np.array(out)
+
+
+@pytest.fixture
+def scene24(empty_file, monkeypatch, tmp_path):
+    monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
+    library.CACHES.clear()
+    frame_rates.forget()
+    bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = 24, 1.0
+    yield bpy.context.scene
+    library.CACHES.clear()
+
+
+@pytest.mark.parametrize("how", ["fbx", "empty", "scaled"])
+def test_the_turned_character_moves_as_the_import_in_the_world(scene24, how):
+    plain = import_bvh(WALK, "plain")
+    arm = turned(WALK, "lying", how)
+    assert not np.allclose(np.array(arm.matrix_world), np.eye(4))
+    frames = [1, 40, 120, 250]
+    np.testing.assert_allclose(world_heads(arm, frames), world_heads(plain, frames), atol=2e-4)
+
+
+def _find_similar(arm, folder):
+    s = bpy.context.scene.shapesig
+    s.use_file_actions, s.use_folders, s.folders = False, True, str(folder)
+    _select_only(arm)
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    return [(pathlib.Path(r.spec or r.source).name, r.distance) for r in
+            bpy.context.window_manager.shapesig_results.results]
+
+
+@pytest.fixture
+def folder(tmp_path):
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for rel in ("bvh/07_02.bvh", "bvh/08_01.bvh", "bvh/09_02.bvh", "bvh/09_03.bvh", "bvh/13_32.bvh",
+                "acclaim/16_15.bvh", "cross_rig/02_03.bvh", "cross_rig/002_03.bvh"):
+        shutil.copy(DATA / rel, lib / pathlib.Path(rel).name)
+    return lib
+
+
+@pytest.mark.parametrize("how", ["fbx", "empty", "scaled"])
+def test_find_similar_from_a_turned_character_lists_what_the_command_line_lists(scene24, folder, how):
+    plain = import_bvh(WALK, "plain")
+    arm = turned(WALK, "lying", how)
+    want = _find_similar(plain, folder)
+    got = _find_similar(arm, folder)
+    assert [n for n, _d in got[:5]] == [n for n, _d in want[:5]], (got, want)
+    np.testing.assert_allclose([d for _n, d in got], [d for _n, d in want], rtol=1e-4)
+    # the command line on the file, as a user runs it
+    run = subprocess.run([sys.executable, "-m", "blender_shapesig", "rank", str(WALK), str(folder), "--top", "5",
+                          "--json", "--no-cache"], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    assert [pathlib.Path(r["path"]).name for r in out["results"][:5]] == [n for n, _d in got[:5]]
+
+
+def _world_pose(arm, frames, tails=False):
+    """(heads or tails (frames, bones, 3), world rotations (frames, bones, 3, 3)) as Blender evaluates the pose."""
+    pts, rots = [], []
+    scene = bpy.context.scene
+    for f in frames:
+        scene.frame_set(int(f))
+        M = np.array(arm.matrix_world)
+        A = M[:3, :3] / np.cbrt(np.linalg.det(M[:3, :3]))
+        pts.append([(M @ np.append(np.array(pb.tail if tails else pb.head), 1.0))[:3] for pb in arm.pose.bones])
+        rots.append([A @ np.array(pb.matrix)[:3, :3] / np.linalg.norm(np.array(pb.matrix)[:3, 0]) for pb in arm.pose.bones])
+    return np.array(pts), np.array(rots)
+
+
+def _frames(action, step=1):
+    first, last = (int(round(x)) for x in action.frame_range)
+    return list(range(first, last + 1, step))
+
+
+def _largest_step_deg(rots):
+    rel = np.einsum("fbij,fbkj->fbik", rots[1:], rots[:-1])
+    cos = np.clip((np.trace(rel, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    return float(np.degrees(np.arccos(cos)).max())
+
+
+def _bone_index(arm, names):
+    return [i for i, pb in enumerate(arm.pose.bones) if pb.name in names]
+
+
+@pytest.mark.parametrize("how", ["fbx", "empty", "scaled"])
+def test_assign_of_another_rigs_walk_keeps_the_turned_character_upright(scene24, folder, how):
+    arm = turned(WALK, "lying", how)
+    hip, head = _bone_index(arm, {"hip"})[0], _bone_index(arm, {"head"})[0]
+    own, _rots = _world_pose(arm, _frames(arm.animation_data.action, 5))
+    stance = float(np.median(own[:, hip, 2]))  # the character's own hips height when it walks (its rest is 0)
+    _find_similar(arm, folder)
+    res = bpy.context.window_manager.shapesig_results
+    res.results_index = next(i for i, r in enumerate(res.results) if (r.spec or r.source).endswith("16_15.bvh"))
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    new = arm.animation_data.action
+    assert new.name != "lying"
+    heads, _rots = _world_pose(arm, _frames(new))
+    assert (heads[:, head, 2] > heads[:, hip, 2]).all()
+    assert np.abs(heads[:, hip, 2] / stance - 1.0).max() <= 0.25, (heads[:, hip, 2].min(), heads[:, hip, 2].max(),
+                                                                   stance)
+
+
+FEET = {"lFoot", "rFoot", "lfoot", "rfoot", "ltoes", "rtoes"}
+
+
+def _lowest_and_step(arm, frames):
+    heads, rots = _world_pose(arm, frames)
+    tails, _ = _world_pose(arm, frames, tails=True)
+    feet = _bone_index(arm, FEET)
+    return min(heads[:, feet, 2].min(), tails[:, feet, 2].min()), _largest_step_deg(rots)
+
+
+@pytest.mark.parametrize("how", ["fbx", "empty", "scaled"])
+def test_a_blend_of_the_turned_character_with_another_rigs_walk_stays_on_the_floor(scene24, how):
+    arm = turned(WALK, "lying", how)
+    other = import_bvh(DATA / "acclaim" / "16_15.bvh", "16_15")
+    # the sources at 24 samples a second (their keys are 120 a second, one a scene frame): every 5th frame
+    low_a, step_a = _lowest_and_step(arm, _frames(arm.animation_data.action, 5))
+    low_b, step_b = _lowest_and_step(other, _frames(other.animation_data.action, 5))
+    _select_only(arm)
+    assert bpy.ops.shapesig.blend_actions(action_a="lying", action_b="16_15", weight=0.5, fps_a=120.0, fps_b=120.0,
+                                          assign=True) == {"FINISHED"}
+    new = arm.animation_data.action
+    assert new.name.startswith("lying_x_16_15")
+    low, step = _lowest_and_step(arm, _frames(new))
+    assert low >= min(low_a, low_b) - 0.02, (low, low_a, low_b)
+    assert step <= max(step_a, step_b) + 5.0, (step, step_a, step_b)
+
+
+def test_the_key_pose_pictures_of_a_turned_character_stand(scene24):
+    """The pictures draw the canonical body the local search poses from the clip (``local.body_positions``,
+    Z up): on a turned character its head is above its pelvis and its ankles below, as on the plain import."""
+    from blender_shapesig.core.index import local
+
+    for how in ("fbx", "empty"):
+        arm = turned(WALK, f"lying_{how}", how)
+        clip = library.action_item(arm.animation_data.action, arm).clips()[0]
+        pelvis, P, _side = local.body_positions(clip)
+        head, ankles = local.POINTS.index("head"), [local.POINTS.index(f"ankle.{s}") for s in "LR"]
+        assert (P[:, head, 2] - pelvis[:, 2] > 0.5).all(), how
+        assert (P[:, ankles, 2] - pelvis[:, 2, None] < -0.5).all(), how
+
+
+def _bvh_at(src, rate, out):
+    """``src`` with its Frame Time set to 1 / ``rate``: a clip of the same frames at that rate."""
+    lines = src.read_text().splitlines()
+    i = next(k for k, ln in enumerate(lines) if ln.strip().startswith("Frame Time"))
+    lines[i] = f"Frame Time: {1.0 / rate:.8f}"
+    out.write_text("\n".join(lines) + "\n")
+    return out
+
+
+def _scene_seconds(action):
+    first, last = action.frame_range
+    return (last - first) / frame_rates.scene_rate()
+
+
+@pytest.mark.parametrize("scene_fps", [24, 30])
+def test_assigned_clips_play_at_their_true_speed(scene24, tmp_path, scene_fps):
+    from blender_shapesig.core.io import sources
+
+    bpy.context.scene.render.fps = scene_fps
+    lib = tmp_path / "rates"
+    lib.mkdir()
+    for rate in (30, 60, 100, 120):
+        _bvh_at(DATA / "acclaim" / "16_15.bvh", rate, lib / f"walk_{rate}.bvh")
+    arm = import_bvh(WALK, "walker")
+    _find_similar(arm, lib)
+    res = bpy.context.window_manager.shapesig_results
+    assert len(res.results) == 4
+    for i, row in enumerate(res.results):
+        res.results_index = i
+        assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+        got = _scene_seconds(arm.animation_data.action)
+        clip = sources.read_one(sources.ClipSpec(row.spec or row.source))
+        true = (clip.frames - 1) / clip.fps
+        assert abs(got / true - 1.0) <= 0.05, (row.source, got, true)
+
+
+@pytest.mark.parametrize("scene_fps", [24, 30])
+def test_blends_play_for_the_weight_average_of_their_sources(scene24, scene_fps):
+    bpy.context.scene.render.fps = scene_fps
+    arm = import_bvh(WALK, "walk")
+    other = import_bvh(DATA / "bvh" / "07_02.bvh", "walk2")
+    seconds = {}
+    for act, rate in ((arm.animation_data.action, 120.0), (other.animation_data.action, 60.0)):
+        first, last = act.frame_range
+        seconds[act.name] = (last - first) / rate
+    _select_only(arm)
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="walk2", weight=0.25, fps_a=120.0, fps_b=60.0,
+                                          feet="NONE", assign=True) == {"FINISHED"}
+    got = _scene_seconds(arm.animation_data.action)
+    want = 0.75 * seconds["walk"] + 0.25 * seconds["walk2"]
+    assert abs(got / want - 1.0) <= 0.05, (got, want, seconds)
