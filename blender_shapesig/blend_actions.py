@@ -195,6 +195,7 @@ def _write_timed(clip, armature, name):
         fc.keyframe_points.foreach_set("co", co)
         fc.keyframe_points.foreach_set("interpolation", np.full(len(keys), 1, dtype=np.int32))  # LINEAR
         fc.update()
+        strip.frame_end = float(co[-2])  # the strip lasts as long as its clock (in the scene's frames)
     except BaseException:
         ad.nla_tracks.remove(track)
         compat.remove_action(action)

@@ -22,6 +22,9 @@ def scene(addon, tmp_path_factory):
     bpy.ops.wm.read_homefile(use_empty=True)
     frame_rates.forget()
     build(names=("07_01.001", "002_03"), amc=(("07_01", "07-walk"), ("09_02", "09-run")))
+    # the scene at the blends' rate (120 fps): the written actions keep the blends' frames, compared step for step
+    # with the sources' (in a 24 fps scene they are keyed at 24: tests/blender/test_scene_world.py)
+    bpy.context.scene.render.fps = 120
     save_reopen(tmp_path_factory.mktemp("feet") / "feet.blend")
     yield
     frame_rates.forget()

@@ -289,3 +289,23 @@ def test_blends_play_for_the_weight_average_of_their_sources(scene24, scene_fps)
     got = _scene_seconds(arm.animation_data.action)
     want = 0.75 * seconds["walk"] + 0.25 * seconds["walk2"]
     assert abs(got / want - 1.0) <= 0.05, (got, want, seconds)
+
+
+def test_a_blend_with_editable_timing_plays_its_true_duration_in_a_24_fps_scene(scene24):
+    from blender_shapesig.blend_actions import timed_strips
+
+    arm = import_bvh(WALK, "walk")
+    other = import_bvh(DATA / "bvh" / "07_02.bvh", "walk2")
+    want = 0.5 * sum((a.frame_range[1] - a.frame_range[0]) / 120.0
+                     for a in (arm.animation_data.action, other.animation_data.action))
+    _select_only(arm)
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="walk2", weight=0.5, fps_a=120.0, fps_b=120.0,
+                                          feet="NONE", timing="NLA") == {"FINISHED"}
+    strip = timed_strips(arm)[0]
+    keys = strip.fcurves.find("strip_time").keyframe_points
+    clock = (keys[-1].co.x - keys[0].co.x) / 24.0
+    assert abs(clock / want - 1.0) <= 0.05, (clock, want)
+    assert strip.frame_end >= keys[-1].co.x - 1e-3  # the strip lasts as long as its clock
+    assert bpy.ops.shapesig.bake_blend_timing() == {"FINISHED"}
+    assert abs(_scene_seconds(arm.animation_data.action if arm.animation_data.action else
+                              bpy.data.actions["walk_x_walk2_0.50_baked"]) / want - 1.0) <= 0.05
