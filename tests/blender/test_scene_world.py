@@ -309,3 +309,58 @@ def test_a_blend_with_editable_timing_plays_its_true_duration_in_a_24_fps_scene(
     assert bpy.ops.shapesig.bake_blend_timing() == {"FINISHED"}
     assert abs(_scene_seconds(arm.animation_data.action if arm.animation_data.action else
                               bpy.data.actions["walk_x_walk2_0.50_baked"]) / want - 1.0) <= 0.05
+
+
+SHARED_MIXAMO = ROOT.parent / "shared" / "data" / "rigs" / "mixamo_fbx" / "Walking.fbx"
+MIXAMO_FEET = {f"mixamorig:{s}{b}" for s in ("Left", "Right") for b in ("Foot", "ToeBase", "Toe_End")}
+
+
+@pytest.mark.skipif(not SHARED_MIXAMO.exists(), reason="the Mixamo FBX of ../shared/data/rigs (not redistributable)")
+def test_a_real_mixamo_character_imported_by_blender(scene24, folder):
+    """The real thing, when ../shared is beside the repository (CI): Mixamo's Walking.fbx through Blender's FBX
+    importer at its default options (object turned 90 degrees, scale 0.01). Find Similar lists what the command
+    line lists for the file (top 5, same distances); Assign of another rig's walk stays upright; a blend with a
+    CMU walk keeps the toes on the floor and the joints without jumps."""
+    _quiet(bpy.ops.import_scene.fbx, filepath=str(SHARED_MIXAMO))
+    arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+    assert abs(arm.rotation_euler[0] - math.pi / 2) < 1e-4 and abs(arm.scale[0] - 0.01) < 1e-6
+    arm.animation_data.action.name = "mixamo_walk"
+    got = _find_similar(arm, folder)
+    run = subprocess.run([sys.executable, "-m", "blender_shapesig", "rank", str(SHARED_MIXAMO), str(folder),
+                          "--top", "5", "--json", "--no-cache"], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert run.returncode == 0, run.stderr
+    cli_rows = json.loads(run.stdout)["results"]
+    assert [pathlib.Path(r["path"]).name for r in cli_rows] == [n for n, _d in got[:5]]
+    np.testing.assert_allclose([r["distance"] for r in cli_rows], [d for _n, d in got[:5]], rtol=1e-4)
+    # Assign of the MotionBuilder walk (another rig) keeps the character upright at its own walking height
+    hip, head = _bone_index(arm, {"mixamorig:Hips"})[0], _bone_index(arm, {"mixamorig:Head"})[0]
+    own, _rots = _world_pose(arm, _frames(arm.animation_data.action))
+    stance = float(np.median(own[:, hip, 2]))
+    res = bpy.context.window_manager.shapesig_results
+    res.results_index = next(i for i, r in enumerate(res.results) if (r.spec or r.source).endswith("16_15.bvh"))
+    assert bpy.ops.shapesig.assign_result() == {"FINISHED"}
+    heads, _rots = _world_pose(arm, _frames(arm.animation_data.action))
+    assert (heads[:, head, 2] > heads[:, hip, 2]).all()
+    assert np.abs(heads[:, hip, 2] / stance - 1.0).max() <= 0.25, (heads[:, hip, 2].min(), stance)
+    # a blend with a CMU walk (Blender's BVH import, another rig)
+    bpy.context.scene.frame_set(1)
+    cmu = import_bvh(WALK, "cmu_walk")
+    feet = FEET | MIXAMO_FEET
+    low_a, step_a = _lowest_and_step_of(arm, bpy.data.actions["mixamo_walk"], feet, 1)
+    low_b, step_b = _lowest_and_step_of(cmu, cmu.animation_data.action, feet, 5)
+    _select_only(arm)
+    assert bpy.ops.shapesig.blend_actions(action_a="mixamo_walk", action_b="cmu_walk", weight=0.5, fps_a=24.0,
+                                          fps_b=120.0, assign=True) == {"FINISHED"}
+    low, step = _lowest_and_step_of(arm, arm.animation_data.action, feet, 1)
+    assert low >= min(low_a, low_b) - 0.02, (low, low_a, low_b)
+    assert step <= max(step_a, step_b) + 5.0, (step, step_a, step_b)
+
+
+def _lowest_and_step_of(arm, action, feet, step):
+    from blender_shapesig import compat
+
+    compat.assign_action(arm, action)
+    heads, rots = _world_pose(arm, _frames(action, step))
+    tails, _ = _world_pose(arm, _frames(action, step), tails=True)
+    idx = _bone_index(arm, feet)
+    return min(heads[:, idx, 2].min(), tails[:, idx, 2].min()), _largest_step_deg(rots)
