@@ -60,7 +60,9 @@ def _read_all(armature, actions, bones, rates=None, allow_partial=False):
 
     owners = [armature] + [owner_armature(act, armature) for act in actions[1:]]
     across = any(rigmap.across_rigs(armature, o) for o in owners[1:])
-    space = "armature" if across else "pose"
+    # one rig blends in its pose space, unless its object is turned, scaled or parented: then in the world's axes
+    # (the same blend, conjugation-equivariant, with planted feet found and kept with the world's up and units)
+    space = "armature" if (across or action_io.object_matrix(armature) is not None) else "pose"
     rates = list(rates or ()) + [None] * (len(actions) - len(rates or ()))
     own = [action_io.read_action(act, armature=o if across else armature, exclude_unkeyed=True, space=space,
                                  fps=float(r) if r else None)
@@ -143,7 +145,8 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
         own, vectors, mapped=mapped, back=rigmap.back_onto_armature if across else None, ranges=ranges,
         loop=loop, feet=feet, feet_required=False, mask=mask, groups=groups, align=align, depth=depth,
         frames=frames, bones=bones, root=root, allow_long=allow_long,
-        up_axis=None if across else action_io.up_in_bone_frame(armature, own[0].root_bone),
+        up_axis=None if own[0].meta.get("rotation_space") == "armature" else
+        action_io.up_in_bone_frame(armature, own[0].root_bone),
         progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
     created, names, strips = [], [], []
     try:

@@ -41,6 +41,9 @@ def _largest_steps(action, arm):
 
 
 def _blend(trim):
+    # the scene at the clips' 120 fps: the blend is keyed at the scene's rate, and a walk's steps between frames
+    # are a few degrees at 120 fps (five times that at 24)
+    bpy.context.scene.render.fps = 120
     walk, kept = _import("07_01", trim)
     run, _ = _import("09_02", trim)
     bpy.context.view_layer.objects.active = walk

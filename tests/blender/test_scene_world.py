@@ -364,3 +364,34 @@ def _lowest_and_step_of(arm, action, feet, step):
     tails, _ = _world_pose(arm, _frames(action, step), tails=True)
     idx = _bone_index(arm, feet)
     return min(heads[:, idx, 2].min(), tails[:, idx, 2].min()), _largest_step_deg(rots)
+
+
+@pytest.mark.parametrize("how", ["fbx", "empty"])
+def test_a_blend_of_two_walks_of_one_turned_rig_plants_its_feet_on_the_floor(scene24, how):
+    """One rig (blended in its pose space): planted feet are found and kept with the world's up, not the
+    armature's own Z (which is the world's -Y on a character the FBX importer turned): the same contacts as the
+    same blend of the plain imports, toes on the floor, no joint jumps."""
+    from blender_shapesig.blend_actions import blend_actions
+
+    def contacts(result):
+        report = result.info["feet"][0]
+        return [(r["clip"].split("_")[-1], r["side"], r["point"], len(r["intervals"])) for r in report["contacts"]]
+
+    plain = import_bvh(WALK, "plain_walk")
+    plain2 = import_bvh(DATA / "bvh" / "07_02.bvh", "plain_walk2")
+    want = contacts(blend_actions(plain, plain.animation_data.action, plain2.animation_data.action, [0.5],
+                                  feet="lock", rates=[120.0, 120.0]))
+    assert want
+    arm = turned(WALK, "walk", how)
+    other = turned(DATA / "bvh" / "07_02.bvh", "walk2", how)
+    low_a, step_a = _lowest_and_step(arm, _frames(arm.animation_data.action, 5))
+    low_b, step_b = _lowest_and_step(other, _frames(other.animation_data.action, 5))
+    result = blend_actions(arm, arm.animation_data.action, other.animation_data.action, [0.5], feet="lock",
+                           rates=[120.0, 120.0])
+    assert contacts(result) == want
+    from blender_shapesig import action_io
+
+    action_io.assign_action(arm, result.actions[0])
+    low, step = _lowest_and_step(arm, _frames(arm.animation_data.action))
+    assert low >= min(low_a, low_b) - 0.02, (low, low_a, low_b)
+    assert step <= max(step_a, step_b) + 5.0, (step, step_a, step_b)
