@@ -11,7 +11,7 @@ from typing import Tuple
 
 import numpy as np
 
-from . import action_io, rigmap
+from . import action_io, control_rigs, rigmap
 from .core import rigs
 from .core.clip.clip import Clip
 from .core.clip.skeleton import rest_meta
@@ -64,7 +64,10 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
     if clip.meta.get("rotation_space") not in ("armature", "comparison"):  # files come mapped (sources.read)
         raise ShapeSigError(f"clip {clip.name!r}: another rig's motion is retargeted from its armature's axes")
     mb = rigs.apply_bone_map(clip, source_map)
-    rest = rest_clip(armature, clip.frames, clip.fps, name or clip.name)
+    if control_rigs.is_control_rig(armature):  # the deform skeleton is the body (write_onto_controls keys controls)
+        rest = control_rigs.deform_rest_clip(armature, clip.frames, clip.fps, name or clip.name)
+    else:
+        rest = rest_clip(armature, clip.frames, clip.fps, name or clip.name)
     ma = rigs.apply_bone_map(rest, rigmap.bone_map_of(armature))
     for c, rig in ((mb, clip.name), (ma, armature.name)):
         if c.meta.get("rotation_space") != "comparison":
@@ -86,6 +89,9 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
 def action_on_armature(clip: Clip, source_map, armature, name):
     """(new action on ``armature`` holding ``clip`` retargeted, bones kept at rest)."""
     got = onto_armature(clip, source_map, armature, name)
-    action = action_io.write_action(got.clip, armature=armature, name=name)
+    if control_rigs.is_control_rig(armature):
+        action = control_rigs.write_onto_controls(got.clip, armature, name)
+    else:
+        action = action_io.write_action(got.clip, armature=armature, name=name)
     action["shapesig_retargeted_from"] = clip.name
     return action, got.kept
