@@ -1,0 +1,148 @@
+"""Control rigs (issue 38): a Rigify rig generated from Blender's bundled Human metarig. A found walk (the CMU 07_01
+AMC walk, retargeted through the bone maps) assigned onto it keys its FK controls and sets its limbs to FK, and its
+deform bones walk (each leg joint's angular velocity in the comparison space correlates >= 0.8 with the source's);
+an action keyed on its controls with IK feet (made by the test from a CMU walk) reads, through the evaluated pose,
+as the walk its deform bones make and finds walks first among the tests/data walks, runs and jump."""
+
+import csv
+import pathlib
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+bpy = pytest.importorskip("bpy")
+
+from blender_shapesig import action_io, compat, control_rigs, retarget  # noqa: E402
+from blender_shapesig.bone_channels import bone_channels  # noqa: E402
+from blender_shapesig.core import index, rigs  # noqa: E402
+from blender_shapesig.core.geometry import so3  # noqa: E402
+from blender_shapesig.core.io import sources  # noqa: E402
+
+DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
+LEGS = ("thigh.L", "thigh.R", "shin.L", "shin.R")
+
+
+def _read(rel, step=4):
+    """A tests/data clip in the comparison space, every ``step``-th frame (120 -> 30 fps: fewer frames to solve)."""
+    asf = {"07": "07-walk.asf", "09": "09-run.asf", "16": "16.asf"}.get(pathlib.Path(rel).name[:2])
+    spec = sources.ClipSpec(str(DATA / rel), asf=str(DATA / "acclaim" / asf) if rel.endswith(".amc") else None)
+    clip = sources.read_one(spec)
+    rt = None if clip.root_translation is None else clip.root_translation[::step]
+    return replace(clip, name=rel, rotations=clip.rotations[::step], root_translation=rt, fps=clip.fps / step)
+
+
+def _labelled():
+    with open(DATA / "labels.csv", encoding="utf-8") as fh:
+        return {row["file"]: row["label"] for row in csv.DictReader(fh)}
+
+
+@pytest.fixture(scope="module")
+def rigify(addon):
+    import addon_utils
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    addon_utils.enable("rigify", default_set=True)
+    bpy.ops.object.armature_human_metarig_add()
+    bpy.ops.pose.rigify_generate()
+    rig = bpy.context.object
+    bpy.ops.object.mode_set(mode="OBJECT")
+    yield rig
+
+
+def _velocity(R):
+    return so3.log(R[1:] @ np.swapaxes(R[:-1], -1, -2))
+
+
+def _legs_agree(a, b, least=0.8):
+    """Each leg joint's angular velocity (comparison space: invariant to the rigs' rest poses) correlates with
+    the other clip's; returns the correlations."""
+    n = min(a.frames, b.frames)
+    out = {}
+    for j in LEGS:
+        va = _velocity(a.rotations[:n, a.bones.index(j)])
+        vb = _velocity(b.rotations[:n, b.bones.index(j)])
+        out[j] = float(np.corrcoef(va.ravel(), vb.ravel())[0, 1])
+    assert min(out.values()) >= least, out
+    return out
+
+
+def _keyed_bones(action):
+    return set(bone_channels(compat.all_action_fcurves(action)))
+
+
+def test_a_found_walk_assigned_onto_rigify_keys_its_fk_controls_and_its_deform_bones_walk(rigify):
+    rig = rigify
+    assert control_rigs.is_control_rig(rig)
+    walk = _read("acclaim/07_01.amc")
+    frame, before = bpy.context.scene.frame_current, rig.animation_data.action if rig.animation_data else None
+    action, kept = retarget.action_on_armature(walk, "auto", rig, "07_01 on rigify")
+    keyed = _keyed_bones(action)
+    assert {"torso", "hips", "chest", "thigh_fk.L", "shin_fk.R", "foot_fk.L", "upper_arm_fk.R", "head"} <= keyed
+    assert not any(b.startswith(("DEF-", "ORG-", "MCH-")) for b in keyed), sorted(keyed)
+    switches = [fc for fc in compat.all_action_fcurves(action) if fc.data_path.endswith('["IK_FK"]')]
+    assert len(switches) == 4 and all(k.co[1] == 1.0 for fc in switches for k in fc.keyframe_points)  # FK
+    # the rig is as it was: no action assigned, same frame, switches at IK
+    assert (rig.animation_data.action if rig.animation_data else None) == before
+    assert bpy.context.scene.frame_current == frame and rig.pose.bones["thigh_parent.L"]["IK_FK"] == 0.0
+    # its deform bones make the walk
+    got = rigs.apply_bone_map(control_rigs.evaluated_clip(rig, action), "auto")
+    assert got.frames == walk.frames and len(got.bones) == 22
+    _legs_agree(got, walk)
+    # reading its F-curves is not reading the motion: no deform bone is keyed
+    fcurves = action_io.read_action(action, armature=rig, exclude_unkeyed=True)
+    assert not any(b.startswith("DEF-") for b in fcurves.bones)
+
+
+def _ik_action(rig, fk, name):
+    """A copy of the FK action ``fk`` with the legs switched to IK and the IK feet keyed where the FK feet were
+    (each frame: ``foot_ik`` takes the evaluated ``ORG-foot``'s turn and position), as an animator keys a walk."""
+    act = fk.copy()
+    act.name = name
+    start, end = (int(round(x)) for x in fk.frame_range)
+    mats = {s: [] for s in "LR"}
+    ad = rig.animation_data or rig.animation_data_create()
+    ad.action = None
+    compat.assign_action(rig, fk)
+    for f in range(start, end + 1):
+        bpy.context.scene.frame_set(f)
+        for s in "LR":
+            org, ik = rig.pose.bones[f"ORG-foot.{s}"], rig.data.bones[f"foot_ik.{s}"]
+            delta = np.array(org.matrix) @ np.linalg.inv(np.array(rig.data.bones[f"ORG-foot.{s}"].matrix_local))
+            mats[s].append(delta @ np.array(ik.matrix_local))
+    ad.action = None
+    compat.assign_action(rig, act)
+    for fc in list(compat.all_action_fcurves(act)):
+        if fc.data_path.endswith('["IK_FK"]') and "thigh" in fc.data_path:
+            for k in fc.keyframe_points:
+                k.co[1] = 0.0  # the legs in IK
+    from mathutils import Matrix
+
+    for s in "LR":
+        rig.pose.bones[f"thigh_parent.{s}"]["IK_FK"] = 0.0
+    for i, f in enumerate(range(start, end + 1)):
+        bpy.context.scene.frame_set(f)
+        for s in "LR":
+            pb = rig.pose.bones[f"foot_ik.{s}"]
+            pb.matrix = Matrix(mats[s][i].tolist())
+            bpy.context.view_layer.update()
+            pb.keyframe_insert("location", frame=f)
+            pb.keyframe_insert("rotation_quaternion", frame=f)
+    ad.action = None
+    return act
+
+
+def test_rigify_action_keyed_on_controls_with_ik_feet_reads_as_its_deform_motion_and_finds_walks(rigify):
+    rig = rigify
+    source = _read("bvh/08_01.bvh")  # a walk of another subject; its files are left out of the library
+    fk, _kept = retarget.action_on_armature(source, "auto", rig, "08_01 fk")
+    ik = _ik_action(rig, fk, "08_01 ik feet")
+    assert {"foot_ik.L", "foot_ik.R"} <= _keyed_bones(ik)
+    query = rigs.apply_bone_map(control_rigs.evaluated_clip(rig, ik), "auto")
+    # the IK legs make the FK legs' motion (the feet where they were, the knees by the IK solve)
+    _legs_agree(query, rigs.apply_bone_map(control_rigs.evaluated_clip(rig, fk), "auto"), least=0.8)
+    labels = _labelled()
+    library = [_read(f, step=1) for f in labels if "08_01" not in f]
+    ranked = index.rank_clips(query, library)
+    order = [labels[r.name] for r in ranked]
+    assert order[:3] == ["walk"] * 3, [(r.name, round(r.distance, 3)) for r in ranked]
