@@ -4,10 +4,6 @@ deform bones walk (each leg joint's angular velocity in the comparison space cor
 an action keyed on its controls with IK feet (made by the test from a CMU walk) reads, through the evaluated pose,
 as the walk its deform bones make and finds walks first among the tests/data walks, runs and jump."""
 
-import csv
-import pathlib
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
@@ -17,24 +13,9 @@ from blender_shapesig import action_io, compat, control_rigs, retarget  # noqa: 
 from blender_shapesig.bone_channels import bone_channels  # noqa: E402
 from blender_shapesig.core import index, rigs  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
-from blender_shapesig.core.io import sources  # noqa: E402
+from walks_runs_idles import library, read, walks_first  # noqa: E402
 
-DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
 LEGS = ("thigh.L", "thigh.R", "shin.L", "shin.R")
-
-
-def _read(rel, step=4):
-    """A tests/data clip in the comparison space, every ``step``-th frame (120 -> 30 fps: fewer frames to solve)."""
-    asf = {"07": "07-walk.asf", "09": "09-run.asf", "16": "16.asf"}.get(pathlib.Path(rel).name[:2])
-    spec = sources.ClipSpec(str(DATA / rel), asf=str(DATA / "acclaim" / asf) if rel.endswith(".amc") else None)
-    clip = sources.read_one(spec)
-    rt = None if clip.root_translation is None else clip.root_translation[::step]
-    return replace(clip, name=rel, rotations=clip.rotations[::step], root_translation=rt, fps=clip.fps / step)
-
-
-def _labelled():
-    with open(DATA / "labels.csv", encoding="utf-8") as fh:
-        return {row["file"]: row["label"] for row in csv.DictReader(fh)}
 
 
 @pytest.fixture(scope="module")
@@ -74,7 +55,7 @@ def _keyed_bones(action):
 def test_a_found_walk_assigned_onto_rigify_keys_its_fk_controls_and_its_deform_bones_walk(rigify):
     rig = rigify
     assert control_rigs.is_control_rig(rig)
-    walk = _read("acclaim/07_01.amc")
+    walk = read("acclaim/07_01.amc", step=4)  # 120 -> 30 fps: fewer frames to solve
     frame, before = bpy.context.scene.frame_current, rig.animation_data.action if rig.animation_data else None
     action, kept = retarget.action_on_armature(walk, "auto", rig, "07_01 on rigify")
     keyed = _keyed_bones(action)
@@ -134,15 +115,12 @@ def _ik_action(rig, fk, name):
 
 def test_rigify_action_keyed_on_controls_with_ik_feet_reads_as_its_deform_motion_and_finds_walks(rigify):
     rig = rigify
-    source = _read("bvh/08_01.bvh")  # a walk of another subject; its files are left out of the library
+    source = read("bvh/08_01.bvh", step=4)  # a walk of another subject; its files are left out of the library
     fk, _kept = retarget.action_on_armature(source, "auto", rig, "08_01 fk")
     ik = _ik_action(rig, fk, "08_01 ik feet")
     assert {"foot_ik.L", "foot_ik.R"} <= _keyed_bones(ik)
     query = rigs.apply_bone_map(control_rigs.evaluated_clip(rig, ik), "auto")
     # the IK legs make the FK legs' motion (the feet where they were, the knees by the IK solve)
     _legs_agree(query, rigs.apply_bone_map(control_rigs.evaluated_clip(rig, fk), "auto"), least=0.8)
-    labels = _labelled()
-    library = [_read(f, step=1) for f in labels if "08_01" not in f]
-    ranked = index.rank_clips(query, library)
-    order = [labels[r.name] for r in ranked]
-    assert order[:3] == ["walk"] * 3, [(r.name, round(r.distance, 3)) for r in ranked]
+    labels, clips = library("08_01")
+    walks_first(index.rank_clips(query, clips), labels)

@@ -5,34 +5,17 @@ IK bones parented to the root (``Hips, UpperLegL, LowerLegL, FootL, ..., Spine, 
 with a CMU walk and exported with Blender's glTF exporter, read back through the package's readers, is recognised
 (>= 12 canonical joints, the feet mapped) and its walk finds walks first among the tests/data clips."""
 
-import csv
-import pathlib
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, retarget  # noqa: E402
-from blender_shapesig.core import index, rigs  # noqa: E402
+from blender_shapesig.core import index  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
+from walks_runs_idles import library, read, walks_first  # noqa: E402
 
-DATA = pathlib.Path(__file__).resolve().parents[1] / "data"
-
-
-def _read(rel, step=1):
-    asf = {"07": "07-walk.asf", "09": "09-run.asf", "16": "16.asf"}.get(pathlib.Path(rel).name[:2])
-    spec = sources.ClipSpec(str(DATA / rel), asf=str(DATA / "acclaim" / asf) if rel.endswith(".amc") else None)
-    clip = sources.read_one(spec)
-    rt = None if clip.root_translation is None else clip.root_translation[::step]
-    return replace(clip, name=rel, rotations=clip.rotations[::step], root_translation=rt, fps=clip.fps / step)
-
-
-def _labelled():
-    with open(DATA / "labels.csv", encoding="utf-8") as fh:
-        return {row["file"]: row["label"] for row in csv.DictReader(fh)}
 
 
 def _armature(name, layout):
@@ -93,7 +76,7 @@ def _mixamo(word, side):
 
 def test_assign_onto_a_mixamo_rig_moves_every_spine_bone(empty_file):
     arm = _armature("Mixamo", _body(_mixamo, [f"mixamorig:{b}" for b in ("Hips", "Spine", "Spine1", "Spine2")]))
-    walk = _read("bvh/07_01.bvh", step=4)  # the Daz rig: hip, abdomen, chest (no spine_mid), neck, head
+    walk = read("bvh/07_01.bvh", step=4)  # the Daz rig: hip, abdomen, chest (no spine_mid), neck, head
     assert "spine_mid" not in walk.bones and {"spine", "chest"} <= set(walk.bones)
     action, kept = retarget.action_on_armature(walk, "auto", arm, "07_01 on mixamo")
     clip = action_io.read_action(action, armature=arm, space="armature")
@@ -121,7 +104,7 @@ def test_gltf_robot_with_ik_feet_is_recognised_and_its_walk_finds_walks(empty_fi
     arm = _armature("Robot", layout)
     assert arm.data.bones["FootL"].parent.name == "Root"
     bpy.context.scene.render.fps = 30
-    walk = _read("bvh/08_01.bvh", step=4)  # 120 -> 30 fps; its files are left out of the library
+    walk = read("bvh/08_01.bvh", step=4)  # 120 -> 30 fps; its files are left out of the library
     action, _kept = retarget.action_on_armature(walk, "auto", arm, "robot walk")
     action_io.assign_action(arm, action)
     start, end = (int(round(x)) for x in action.frame_range)
@@ -132,7 +115,5 @@ def test_gltf_robot_with_ik_feet_is_recognised_and_its_walk_finds_walks(empty_fi
     bone_map = clip.meta["bone_map"]
     assert len(clip.meta["rig_joints"]) >= 12 and len(bone_map) >= 12, bone_map
     assert bone_map["foot.L"].endswith("FootL") and bone_map["foot.R"].endswith("FootR")
-    labels = _labelled()
-    library = [_read(f) for f in labels if "08_01" not in f]
-    ranked = index.rank_clips(clip, library)
-    assert [labels[r.name] for r in ranked[:3]] == ["walk"] * 3, [(r.name, round(r.distance, 3)) for r in ranked]
+    labels, clips = library("08_01")
+    walks_first(index.rank_clips(clip, clips), labels)

@@ -198,3 +198,31 @@ def test_ik_feet_parented_to_the_root_are_the_legs_feet(style):
     # a foot control away from the ankle (e.g. on the floor in front of the toes) is not the foot
     far = dict(heads, **{name("Foot", s): (heads[name("Foot", s)][0], -0.5, 0.0) for s in "LR"})
     assert name("Foot", "L") not in rigs.analyse_rig(bones, parents, far, tails).mapping
+
+
+def test_rigify_deform_bones_with_twist_segments_map_their_joints():
+    """A Rigify rig's deform skeleton (``control_rigs.deform_parents``: ``DEF-thigh.L`` under ``DEF-spine`` through
+    ``ORG-spine``, two segments per limb bone, palms and fingers under the hand, breasts and pelvis bones): every
+    canonical joint maps to the first segment, the ``.001`` twist segments and helpers stay unmapped."""
+    parents = {"DEF-spine": None, "DEF-spine.001": "DEF-spine", "DEF-spine.002": "DEF-spine.001",
+               "DEF-spine.003": "DEF-spine.002", "DEF-spine.004": "DEF-spine.003", "DEF-spine.005": "DEF-spine.004",
+               "DEF-spine.006": "DEF-spine.005", "DEF-jaw": "DEF-spine.006"}
+    for s in "LR":
+        chain = {"leg": ["thigh", "thigh.001", "shin", "shin.001", "foot", "toe"],
+                 "arm": ["shoulder", "upper_arm", "upper_arm.001", "forearm", "forearm.001", "hand"]}
+        for kind, top in (("leg", "DEF-spine"), ("arm", "DEF-spine.003")):
+            p = top
+            for b in chain[kind]:
+                name = f"DEF-{b.split('.')[0]}.{s}" + (".001" if b.endswith(".001") else "")
+                parents[name], p = p, name
+        parents.update({f"DEF-pelvis.{s}": "DEF-spine", f"DEF-breast.{s}": "DEF-spine.003",
+                        f"DEF-palm.01.{s}": f"DEF-hand.{s}", f"DEF-f_index.01.{s}": f"DEF-palm.01.{s}",
+                        f"DEF-thumb.01.{s}": f"DEF-hand.{s}"})
+    report = rigs.analyse_rig(list(parents), parents)
+    expect = {"DEF-spine": "hips", "DEF-spine.001": "spine", "DEF-spine.002": "spine_mid", "DEF-spine.003": "chest",
+              "DEF-spine.004": "neck", "DEF-spine.006": "head"}
+    for s in "LR":
+        expect.update({f"DEF-{b}.{s}": f"{j}.{s}" for b, j in (
+            ("shoulder", "clavicle"), ("upper_arm", "upper_arm"), ("forearm", "forearm"), ("hand", "hand"),
+            ("thigh", "thigh"), ("shin", "shin"), ("foot", "foot"), ("toe", "toe"))})
+    assert report.mapping == expect and not report.refusal
