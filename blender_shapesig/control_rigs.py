@@ -22,7 +22,7 @@ from .core.errors import ShapeSigError, check_frame_range
 from .core.io.files import check_frames
 from .core.geometry.so3 import nearest_rotation
 
-__all__ = ["is_control_rig", "deform_bones", "deform_parents", "deform_rest_clip", "evaluated_clip",
+__all__ = ["is_control_rig", "is_rigify", "deform_bones", "deform_parents", "deform_rest_clip", "evaluated_clip",
            "write_onto_controls", "RIGIFY_CONTROLS", "IK_FK"]
 
 # Rigify's FK controls and the deform bone each follows (solved in the order their dependencies give,
@@ -60,6 +60,15 @@ def is_control_rig(armature) -> bool:
                     and getattr(c, "target", None) is not None:
                 return True
     return False
+
+
+def is_rigify(armature) -> bool:
+    """True for a control rig (``is_control_rig``) with Rigify's controls: a ``torso`` and the FK/IK switches
+    (``IK_FK``) that ``write_onto_controls`` keys. Other control rigs are read through ``evaluated_clip`` but
+    written onto their bones as before."""
+    obj = _armature(armature)
+    pose = obj.pose.bones
+    return "torso" in pose and any(IK_FK in pb.keys() for pb in pose) and is_control_rig(obj)
 
 
 def deform_bones(armature) -> List[str]:

@@ -2,8 +2,10 @@
 (in its own armature's axes) goes to the comparison space through its bone map (``core.rigs.apply_bone_map``), is
 made relative to the target's rest pose (``core.rigs.rest_retarget`` against the target at rest) and written back
 onto the target's bones (``core.rigs.onto_rig``): mapped bones take the motion, the root moves the hips by the same
-leg lengths at the target's size, bones without a counterpart keep their rest (``Retargeted.kept``). Results of the
-search (Assign, Preview, Blend) go through ``onto_armature``; the source is only read. See docs/rigs.md.
+leg lengths at the target's size, bones between two written spine / neck joints share the chain's rotation, bones
+without a counterpart keep their rest (``Retargeted.kept``). A Rigify rig (``control_rigs.is_rigify``) is mapped by its
+deform skeleton and written by keying its FK controls (``control_rigs.write_onto_controls``). Results of the search
+(Assign, Preview, Blend) go through ``onto_armature``; the source is only read. See docs/rigs.md.
 """
 
 from dataclasses import dataclass, replace
@@ -64,7 +66,7 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
     if clip.meta.get("rotation_space") not in ("armature", "comparison"):  # files come mapped (sources.read)
         raise ShapeSigError(f"clip {clip.name!r}: another rig's motion is retargeted from its armature's axes")
     mb = rigs.apply_bone_map(clip, source_map)
-    if control_rigs.is_control_rig(armature):  # the deform skeleton is the body (write_onto_controls keys controls)
+    if control_rigs.is_rigify(armature):  # its deform skeleton is the body (write_onto_controls keys its controls)
         rest = control_rigs.deform_rest_clip(armature, clip.frames, clip.fps, name or clip.name)
     else:
         rest = rest_clip(armature, clip.frames, clip.fps, name or clip.name)
@@ -87,9 +89,10 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
 
 
 def action_on_armature(clip: Clip, source_map, armature, name):
-    """(new action on ``armature`` holding ``clip`` retargeted, bones kept at rest)."""
+    """(new action on ``armature`` holding ``clip`` retargeted, bones kept at rest); on a Rigify rig the action
+    keys its FK controls (``control_rigs.write_onto_controls``)."""
     got = onto_armature(clip, source_map, armature, name)
-    if control_rigs.is_control_rig(armature):
+    if control_rigs.is_rigify(armature):
         action = control_rigs.write_onto_controls(got.clip, armature, name)
     else:
         action = action_io.write_action(got.clip, armature=armature, name=name)

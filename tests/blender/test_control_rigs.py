@@ -54,7 +54,7 @@ def _keyed_bones(action):
 
 def test_a_found_walk_assigned_onto_rigify_keys_its_fk_controls_and_its_deform_bones_walk(rigify):
     rig = rigify
-    assert control_rigs.is_control_rig(rig)
+    assert control_rigs.is_control_rig(rig) and control_rigs.is_rigify(rig)
     walk = read("acclaim/07_01.amc", step=4)  # 120 -> 30 fps: fewer frames to solve
     frame, before = bpy.context.scene.frame_current, rig.animation_data.action if rig.animation_data else None
     action, kept = retarget.action_on_armature(walk, "auto", rig, "07_01 on rigify")

@@ -10,7 +10,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, retarget  # noqa: E402
+from blender_shapesig import action_io, control_rigs, retarget  # noqa: E402
 from blender_shapesig.core import index  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
@@ -78,6 +78,7 @@ def test_assign_onto_a_mixamo_rig_moves_every_spine_bone(empty_file):
     arm = _armature("Mixamo", _body(_mixamo, [f"mixamorig:{b}" for b in ("Hips", "Spine", "Spine1", "Spine2")]))
     walk = read("bvh/07_01.bvh", step=4)  # the Daz rig: hip, abdomen, chest (no spine_mid), neck, head
     assert "spine_mid" not in walk.bones and {"spine", "chest"} <= set(walk.bones)
+    assert not control_rigs.is_control_rig(arm)  # a plain rig: its F-curves are its motion
     action, kept = retarget.action_on_armature(walk, "auto", arm, "07_01 on mixamo")
     clip = action_io.read_action(action, armature=arm, space="armature")
     R = {b: clip.rotations[:, clip.bones.index(f"mixamorig:{b}")] for b in ("Spine", "Spine1", "Spine2")}
@@ -117,3 +118,18 @@ def test_gltf_robot_with_ik_feet_is_recognised_and_its_walk_finds_walks(empty_fi
     assert bone_map["foot.L"].endswith("FootL") and bone_map["foot.R"].endswith("FootR")
     labels, clips = library("08_01")
     walks_first(index.rank_clips(clip, clips), labels)
+
+
+def test_a_deform_bone_driven_by_a_constraint_makes_a_control_rig(empty_file):
+    """A plain rig with an IK constraint on its deform shin (target: an IK bone of the armature) is a control rig
+    (read through the evaluated pose), but not a Rigify one (written onto its bones as before); muting the
+    constraint makes it plain again."""
+    layout = _body(_mixamo, [f"mixamorig:{b}" for b in ("Hips", "Spine", "Spine1", "Spine2")])
+    layout["IK_foot.L"] = (None, (0.1, 0, 0.08), (0.1, -0.1, 0.08))
+    arm = _armature("Mixamo", layout)
+    arm.data.bones["IK_foot.L"].use_deform = False
+    ik = arm.pose.bones["mixamorig:LeftLeg"].constraints.new("IK")
+    ik.target, ik.subtarget, ik.chain_count = arm, "IK_foot.L", 2
+    assert control_rigs.is_control_rig(arm) and not control_rigs.is_rigify(arm)
+    ik.mute = True
+    assert not control_rigs.is_control_rig(arm)
