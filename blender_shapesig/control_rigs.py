@@ -151,7 +151,8 @@ def _frame_range(action, frame_range) -> Tuple[int, int]:
 
 
 class _Borrowed:
-    """The armature playing another action (or none) for a while: its action, slot and the scene frame come back."""
+    """The armature playing another action (or none) for a while, without its NLA strips: its action, slot, NLA
+    switch and the scene frame come back."""
 
     def __init__(self, armature, action):
         self.obj, self.action = armature, action
@@ -162,8 +163,10 @@ class _Borrowed:
         self.old = (ad.action, compat.object_action_slot(self.obj)) if ad is not None else (None, None)
         scene = bpy.context.scene
         self.frame = (scene.frame_current, scene.frame_subframe)
+        self.nla = ad.use_nla if ad is not None else None
         if self.action is not None or self.had:
             ad = self.obj.animation_data or self.obj.animation_data_create()
+            ad.use_nla = False  # the action alone, not blended with the NLA's strips
             if ad.action != self.action:
                 ad.action = None
                 compat.assign_action(self.obj, self.action)
@@ -176,6 +179,8 @@ class _Borrowed:
                 ad.action = self.old[0]
             if self.old[1] is not None and hasattr(ad, "action_slot") and ad.action_slot != self.old[1]:
                 ad.action_slot = self.old[1]
+            if self.nla is not None:
+                ad.use_nla = self.nla
             if not self.had and ad.action is None:
                 self.obj.animation_data_clear()
         bpy.context.scene.frame_set(self.frame[0], subframe=self.frame[1])
