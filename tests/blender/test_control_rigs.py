@@ -69,6 +69,8 @@ def test_a_found_walk_assigned_onto_rigify_keys_its_fk_controls_and_its_deform_b
     # its deform bones make the walk
     got = rigs.apply_bone_map(control_rigs.evaluated_clip(rig, action), "auto")
     assert got.frames == walk.frames and len(got.bones) == 22
+    assert (rig.animation_data.action if rig.animation_data else None) == before  # reading restores them too
+    assert bpy.context.scene.frame_current == frame
     _legs_agree(got, walk)
     # reading its F-curves is not reading the motion: no deform bone is keyed
     fcurves = action_io.read_action(action, armature=rig, exclude_unkeyed=True)
