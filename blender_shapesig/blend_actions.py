@@ -10,7 +10,7 @@ from typing import List, Optional, Sequence
 import bpy
 import numpy as np
 
-from . import action_io, compat, frame_rates, rigmap, scene_motion
+from . import action_io, compat, control_rigs, frame_rates, rigmap, scene_motion
 from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
@@ -62,11 +62,16 @@ def _read_all(armature, actions, bones, rates=None, allow_partial=False):
     across = any(rigmap.across_rigs(armature, o) for o in owners[1:])
     # one rig blends in its pose space, unless its object is turned, scaled or parented: then in the world's axes
     # (the same blend, conjugation-equivariant, with planted feet found and kept with the world's up and units)
-    space = "armature" if (across or action_io.object_matrix(armature) is not None) else "pose"
+    # (a control rig, e.g. Rigify, is read through its deform bones' evaluated pose: scene_motion.read_motion)
+    space = "armature" if (across or action_io.object_matrix(armature) is not None
+                           or control_rigs.is_control_rig(armature)) else "pose"
     rates = list(rates or ()) + [None] * (len(actions) - len(rates or ()))
-    own = [action_io.read_action(act, armature=o if across else armature, exclude_unkeyed=True, space=space,
-                                 fps=float(r) if r else None)
-           for act, o, r in zip(actions, owners, rates)]
+    if space == "armature":
+        own = [scene_motion.read_motion(act, o if across else armature, fps=float(r) if r else None)
+               for act, o, r in zip(actions, owners, rates)]
+    else:
+        own = [action_io.read_action(act, armature=armature, exclude_unkeyed=True, space="pose",
+                                     fps=float(r) if r else None) for act, r in zip(actions, rates)]
     mapped = None
     if across:
         ma, mb, bones = rigmap.onto_comparison(own[0], armature, own[1], owners[1], bones, allow_partial)

@@ -2,8 +2,10 @@
 (in its own armature's axes) goes to the comparison space through its bone map (``core.rigs.apply_bone_map``), is
 made relative to the target's rest pose (``core.rigs.rest_retarget`` against the target at rest) and written back
 onto the target's bones (``core.rigs.onto_rig``): mapped bones take the motion, the root moves the hips by the same
-leg lengths at the target's size, bones without a counterpart keep their rest (``Retargeted.kept``). Results of the
-search (Assign, Preview, Blend) go through ``onto_armature``; the source is only read. See docs/rigs.md.
+leg lengths at the target's size, bones between two written spine / neck joints share the chain's rotation, bones
+without a counterpart keep their rest (``Retargeted.kept``). A Rigify rig (``control_rigs.is_rigify``) is mapped by its
+deform skeleton and written by keying its FK controls (``control_rigs.write_onto_controls``). Results of the search
+(Assign, Preview, Blend) go through ``onto_armature``; the source is only read. See docs/rigs.md.
 """
 
 from dataclasses import dataclass, replace
@@ -11,7 +13,7 @@ from typing import Tuple
 
 import numpy as np
 
-from . import action_io, rigmap, scene_motion
+from . import action_io, control_rigs, rigmap, scene_motion
 from .core import rigs
 from .core.clip.clip import Clip
 from .core.clip.skeleton import rest_meta
@@ -64,7 +66,11 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
     if clip.meta.get("rotation_space") not in ("armature", "comparison"):  # files come mapped (sources.read)
         raise ShapeSigError(f"clip {clip.name!r}: another rig's motion is retargeted from its armature's axes")
     mb = rigs.apply_bone_map(clip, source_map)
-    rest = rest_clip(armature, clip.frames, clip.fps, name or clip.name)
+    if control_rigs.is_rigify(armature):  # its deform skeleton is the body (write_onto_controls keys its controls)
+        rest = scene_motion.in_world(control_rigs.deform_rest_clip(armature, clip.frames, clip.fps, name or clip.name),
+                                     armature)
+    else:
+        rest = rest_clip(armature, clip.frames, clip.fps, name or clip.name)
     ma = rigs.apply_bone_map(rest, rigmap.bone_map_of(armature))
     for c, rig in ((mb, clip.name), (ma, armature.name)):
         if c.meta.get("rotation_space") != "comparison":
@@ -76,14 +82,16 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
     moved = rigs.rest_retarget(mb, ma)
     out = rigs.onto_rig(replace(moved, name=name or clip.name), rest, ma)
     joint_bones = {ma.meta["bone_map"][j] for j in shared}
-    kept = tuple(b for b in rest.bones if b not in joint_bones)
+    # bones between two written spine / neck joints share the chain's rotation (core.rig_chains): not kept
+    kept = tuple(b for b in rest.bones if b not in joint_bones and b not in out.meta.get("chain_bones", ()))
     out.meta["kept_bones"] = kept
     out.meta["rotation_space"] = "armature"
     return Retargeted(out, kept)
 
 
 def action_on_armature(clip: Clip, source_map, armature, name):
-    """(new action on ``armature`` holding ``clip`` retargeted, keyed at the scene's rate, bones kept at rest)."""
+    """(new action on ``armature`` holding ``clip`` retargeted, keyed at the scene's rate, bones kept at rest; on a
+    Rigify rig the action keys its FK controls: ``scene_motion.write_motion``)."""
     got = onto_armature(clip, source_map, armature, name)
     action = scene_motion.write_motion(got.clip, armature, name=name)
     action["shapesig_retargeted_from"] = clip.name

@@ -39,8 +39,13 @@ def armature_report(obj) -> rigs.RigReport:
     ``head_local``/``tail_local``, in the armature's space), so sides come from the rest pose as for files."""
     bones = _armature_data(obj).bones
     parents = {b.name: (b.parent.name if b.parent else None) for b in bones}
-    heads = {b.name: tuple(b.head_local) for b in bones}
-    tails = {b.name: tuple(b.tail_local) for b in bones}
+    if getattr(obj, "type", None) == "ARMATURE":
+        from . import control_rigs
+
+        if control_rigs.is_control_rig(obj):  # read through its deform bones: their map (control_rigs)
+            parents = control_rigs.deform_parents(obj)
+    heads = {b: tuple(bones[b].head_local) for b in parents}
+    tails = {b: tuple(bones[b].tail_local) for b in parents}
     return rigs.analyse_rig(list(parents), parents, heads, tails)
 
 

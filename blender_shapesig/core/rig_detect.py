@@ -305,6 +305,58 @@ def _check_upright(limbs, hips, chest, heads):
                            f"(a four-legged rig?)")
 
 
+# a hand or foot hanging elsewhere (an IK bone parented to the root) belongs to the limb whose last bone's rest tail
+# is within this fraction of that bone's length of its rest head
+_AT_TAIL = 0.1
+
+
+def _reattached(bones, parents, heads, tails, prior) -> Mapping[str, Optional[str]]:
+    """``parents`` with each hand, foot or toe (by its words or the tables) whose parent is not a bone of its limb
+    hung under the limb bone whose rest tail sits at its rest head (``_AT_TAIL``; same side when both say one):
+    IK-foot rigs (a glTF robot's ``FootL`` parented to the root) keep the foot in the leg. Bones without a rest
+    skeleton, or with no such bone, keep their parent; ``parents`` itself is not changed."""
+    if heads is None or tails is None:
+        return parents
+    held = [b for b in bones if b in heads and b in tails]
+    kinds = {}
+    for b in held:
+        side, words = tokens(b)
+        kind, role = _role(side, words)
+        joint = prior.get(b)
+        if joint is not None:
+            base, _, s = joint.partition(".")
+            kind, role, side = ("body" if joint in BODY else ("arm" if base in _ARM else "leg")), base, (s or None)
+        kinds[b] = (kind, role, side)
+    out = None
+    for b in held:
+        kind, role, side = kinds[b]
+        if role not in ("hand", "foot", "toe") or kinds.get(parents.get(b), (None,))[0] == kind:
+            continue
+        head = np.asarray(heads[b], dtype=np.float64)
+        best, gap = None, np.inf
+        for c in held:
+            k, _r, s = kinds[c]
+            if c == b or k != kind or (side and s and s != side):
+                continue
+            tail, top = np.asarray(tails[c], dtype=np.float64), np.asarray(heads[c], dtype=np.float64)
+            d = float(np.linalg.norm(tail - head))
+            if d <= _AT_TAIL * float(np.linalg.norm(tail - top)) and d < gap and b not in _lineage(c, parents):
+                best, gap = c, d
+        if best is not None:
+            out = dict(parents) if out is None else out
+            out[b] = best
+    return parents if out is None else out
+
+
+def _lineage(b, parents):
+    out, seen = [], set()
+    while b is not None and b not in seen:
+        seen.add(b)
+        out.append(b)
+        b = parents.get(b)
+    return out
+
+
 def analyse_rig(bones: Sequence[str], parents: Optional[Mapping[str, Optional[str]]] = None,
                 heads: Optional[Mapping] = None, tails: Optional[Mapping] = None) -> RigReport:
     """The automatic map of a rig and what it has (``RigReport``): names, confirmed by the hierarchy
@@ -315,7 +367,7 @@ def analyse_rig(bones: Sequence[str], parents: Optional[Mapping[str, Optional[st
         m = _names_only(bones, prior)
         return RigReport(mapping={b: m[b] for b in bones if b in m} if len(m) >= min(3, len(bones)) else {},
                          family=family, sides="names")
-    tree = _Tree(bones, parents)
+    tree = _Tree(bones, _reattached(bones, parents, heads, tails, prior))
     info = _classify(tree, prior)
     if not any(k in ("arm", "leg") for k, _r, _s in info.values()):  # nothing to map (not a refusal)
         m = _names_only(bones, prior)

@@ -8,7 +8,7 @@ docs/model.md, "Comparison space across rigs".
 import json
 import os
 from dataclasses import replace
-from typing import Dict, Iterable, List, Mapping, Optional, Tuple
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -16,6 +16,7 @@ from .clip import skeleton
 from .geometry import so3
 from .clip.clip import Clip
 from .errors import ParseError, ShapeSigError
+from .rig_chains import chains_between, share_chains
 from .rig_detect import LIMB_CHAINS, RigReport, analyse_rig, detect_map
 from .rig_names import BODY, CANONICAL_PARENTS, FAMILIES, JOINTS, LIMBS, SIDES, detect_family, strip_prefix
 
@@ -559,6 +560,14 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
 
     for i in range(len(rig.bones)):
         world(i)
+    # bones between two written body joints with no motion of their own share the chain's rotation (a Mixamo
+    # Spine1 under a source with two spine bones): core.rig_chains
+    body = [b for b, j in joint_of.items() if j in BODY]
+    still = [b for b in rig.bones if b not in joint_of and np.allclose(X_rig[:, index[b]], np.eye(3))]
+    chains = chains_between(rig.bones, parents, body, still)
+    if chains:
+        X = share_chains(X, rig.bones, chains)
+        W = _forward(X, rig.bones, parents)
     rt = None if clip.root_translation is None else clip.root_translation @ H.T
     if rt is not None and mapped.meta.get("root_path") == "hips_legs":
         # the blended hips (leg lengths) -> the rig's root head: hips_path inverted with the blend's rotations
@@ -568,8 +577,14 @@ def onto_rig(clip: Clip, rig: Clip, mapped: Clip) -> Clip:
             raise ShapeSigError(f"clip {rig.name!r}: cannot place its root under the blended hips (no rest skeleton)")
         rt = rt * leg - off
     kept = tuple(b for b in rig.bones if b not in joint_of and not np.allclose(X_rig[:, index[b]], np.eye(3)))
-    meta = dict(rig.meta, kept_bones=kept)
+    meta = dict(rig.meta, kept_bones=kept, chain_bones=tuple(b for c in chains.values() for b in c))
     # the blend's timing and weights (core.blend.feet carries the sources' contacts through them)
     meta.update({k: clip.meta[k] for k in ("weight", "weights", "warp", "time_map", "source_times") if k in clip.meta})
     return replace(rig, name=clip.name, rotations=X, root_translation=rt, frame_start=clip.frame_start,
                    fps=clip.fps, meta=meta)
+
+
+def _forward(X: np.ndarray, bones: Sequence[str], parents: Mapping[str, Optional[str]]) -> np.ndarray:
+    """World rotations ``W_b = W_parent X_b`` of local rotations ``X`` (``world_rotations`` of a bare array)."""
+    clip = Clip(name="", bones=tuple(bones), rotations=X, fps=1.0, meta={"parents": dict(parents)})
+    return world_rotations(clip)

@@ -152,3 +152,77 @@ def test_a_rig_bone_the_clip_does_not_hold_is_skipped_in_the_hierarchy(tmp_path)
     part = rigs.analyse_rig(held, m["parents"], m["rest_heads"], m["rest_tails"])
     assert part.mapping == {b: j for b, j in whole.mapping.items() if b in held}
     assert part.sides == "rest" and not part.refusal
+
+
+def _ik_feet_robot(style):
+    """A robot-like rig (Blender axes: Z up, facing -Y, left at +X) whose feet are IK bones parented to the root,
+    with their rest heads at the lower legs' tails; ``style`` spells the side (``UpperLegL``, ``UpperLeg.L``,
+    ``upperleg_l``)."""
+    def name(word, side):
+        return {"glued": f"{word}{side}", "dot": f"{word}.{side}", "snake": f"{word.lower()}_{side.lower()}"}[style]
+
+    bones = {"Root": (None, (0, 0, 0), (0, 0.3, 0)), "Hips": ("Root", (0, 0, 1.0), (0, 0, 1.1)),
+             "Spine": ("Hips", (0, 0, 1.1), (0, 0, 1.3)), "Chest": ("Spine", (0, 0, 1.3), (0, 0, 1.5)),
+             "Neck": ("Chest", (0, 0, 1.5), (0, 0, 1.6)), "Head": ("Neck", (0, 0, 1.6), (0, 0, 1.8))}
+    for side, x in (("L", 1.0), ("R", -1.0)):
+        bones.update({
+            name("Shoulder", side): ("Chest", (0.05 * x, 0, 1.45), (0.18 * x, 0, 1.45)),
+            name("UpperArm", side): (name("Shoulder", side), (0.18 * x, 0, 1.45), (0.45 * x, 0, 1.45)),
+            name("LowerArm", side): (name("UpperArm", side), (0.45 * x, 0, 1.45), (0.7 * x, 0, 1.45)),
+            name("Hand", side): (name("LowerArm", side), (0.7 * x, 0, 1.45), (0.8 * x, 0, 1.45)),
+            name("UpperLeg", side): ("Hips", (0.1 * x, 0, 0.95), (0.1 * x, 0, 0.5)),
+            name("LowerLeg", side): (name("UpperLeg", side), (0.1 * x, 0, 0.5), (0.1 * x, 0, 0.08)),
+            name("Foot", side): ("Root", (0.1 * x, 0, 0.08), (0.1 * x, -0.15, 0.0)),  # the IK foot
+        })
+    parents = {b: v[0] for b, v in bones.items()}
+    heads = {b: v[1] for b, v in bones.items()}
+    tails = {b: v[2] for b, v in bones.items()}
+    return list(bones), parents, heads, tails, name
+
+
+@pytest.mark.parametrize("style", ["glued", "dot", "snake"])
+def test_ik_feet_parented_to_the_root_are_the_legs_feet(style):
+    """Issue 38: a foot whose parent is not the lower leg is still the foot when its rest head sits at the lower
+    leg's tail; before, the two feet made four legs and the rig was refused ("4 legs found")."""
+    bones, parents, heads, tails, name = _ik_feet_robot(style)
+    report = rigs.analyse_rig(bones, parents, heads, tails)
+    assert not report.refusal and report.sides == "rest"
+    expect = {"Hips": "hips", "Spine": "spine", "Chest": "chest", "Neck": "neck", "Head": "head"}
+    for side in "LR":
+        expect.update({name("Shoulder", side): f"clavicle.{side}", name("UpperArm", side): f"upper_arm.{side}",
+                       name("LowerArm", side): f"forearm.{side}", name("Hand", side): f"hand.{side}",
+                       name("UpperLeg", side): f"thigh.{side}", name("LowerLeg", side): f"shin.{side}",
+                       name("Foot", side): f"foot.{side}"})
+    assert report.mapping == expect
+    assert parents[name("Foot", "L")] == "Root"  # the rig's hierarchy is not changed
+    # a foot control away from the ankle (e.g. on the floor in front of the toes) is not the foot
+    far = dict(heads, **{name("Foot", s): (heads[name("Foot", s)][0], -0.5, 0.0) for s in "LR"})
+    assert name("Foot", "L") not in rigs.analyse_rig(bones, parents, far, tails).mapping
+
+
+def test_rigify_deform_bones_with_twist_segments_map_their_joints():
+    """A Rigify rig's deform skeleton (``control_rigs.deform_parents``: ``DEF-thigh.L`` under ``DEF-spine`` through
+    ``ORG-spine``, two segments per limb bone, palms and fingers under the hand, breasts and pelvis bones): every
+    canonical joint maps to the first segment, the ``.001`` twist segments and helpers stay unmapped."""
+    parents = {"DEF-spine": None, "DEF-spine.001": "DEF-spine", "DEF-spine.002": "DEF-spine.001",
+               "DEF-spine.003": "DEF-spine.002", "DEF-spine.004": "DEF-spine.003", "DEF-spine.005": "DEF-spine.004",
+               "DEF-spine.006": "DEF-spine.005", "DEF-jaw": "DEF-spine.006"}
+    for s in "LR":
+        chain = {"leg": ["thigh", "thigh.001", "shin", "shin.001", "foot", "toe"],
+                 "arm": ["shoulder", "upper_arm", "upper_arm.001", "forearm", "forearm.001", "hand"]}
+        for kind, top in (("leg", "DEF-spine"), ("arm", "DEF-spine.003")):
+            p = top
+            for b in chain[kind]:
+                name = f"DEF-{b.split('.')[0]}.{s}" + (".001" if b.endswith(".001") else "")
+                parents[name], p = p, name
+        parents.update({f"DEF-pelvis.{s}": "DEF-spine", f"DEF-breast.{s}": "DEF-spine.003",
+                        f"DEF-palm.01.{s}": f"DEF-hand.{s}", f"DEF-f_index.01.{s}": f"DEF-palm.01.{s}",
+                        f"DEF-thumb.01.{s}": f"DEF-hand.{s}"})
+    report = rigs.analyse_rig(list(parents), parents)
+    expect = {"DEF-spine": "hips", "DEF-spine.001": "spine", "DEF-spine.002": "spine_mid", "DEF-spine.003": "chest",
+              "DEF-spine.004": "neck", "DEF-spine.006": "head"}
+    for s in "LR":
+        expect.update({f"DEF-{b}.{s}": f"{j}.{s}" for b, j in (
+            ("shoulder", "clavicle"), ("upper_arm", "upper_arm"), ("forearm", "forearm"), ("hand", "hand"),
+            ("thigh", "thigh"), ("shin", "shin"), ("foot", "foot"), ("toe", "toe"))})
+    assert report.mapping == expect and not report.refusal

@@ -276,3 +276,34 @@ def test_same_bones_in_another_rest_pose_are_another_rig(walk):
     assert rigs.other_rigs(raw, a_pose) and rigs.other_rigs(a_pose, raw)
     assert rigs.other_rigs(raw, dataclasses.replace(raw, bones=tuple(reversed(raw.bones))))
     assert not rigs.rests_differ(heads, parents, {}, {})  # no rest skeleton: nothing to tell
+
+
+def test_a_bone_between_two_written_spine_joints_shares_the_chain(walk):
+    """A source without spine_mid written onto a rig that has one (the AMC rig's ``upperback`` between
+    ``lowerback`` and ``thorax``; issue 38's Mixamo ``Spine1``): the bone between takes an equal share of the
+    rotation from the spine to the chest instead of its rest, the chain's composed rotation is the source's (the
+    chest keeps its orientation in the armature) and it is not listed as kept."""
+    mapped, raw = walk
+    by_joint = mapped.meta["bone_map"]
+    src = mapped.select([j for j in mapped.bones if j != "spine_mid"])
+    rest = dataclasses.replace(raw, rotations=np.broadcast_to(np.eye(3), raw.rotations.shape).copy())
+    back = rigs.onto_rig(src, rest, mapped)
+    i = {b: k for k, b in enumerate(raw.bones)}
+    lower, mid, chest = by_joint["spine"], by_joint["spine_mid"], by_joint["chest"]
+    # upperback between the spine and the chest; upperneck between the neck and the head (both at rest here)
+    assert back.meta["chain_bones"] == (mid, "upperneck") and mid not in back.meta["kept_bones"]
+    W_back, W_raw = rigs.world_rotations(back), rigs.world_rotations(raw)
+    # the chest (and the spine) keep the source's orientation: the composed chain is the source's rotation
+    for b in (lower, chest, by_joint["head"]):
+        np.testing.assert_allclose(W_back[:, i[b]], W_raw[:, i[b]], atol=1e-9)
+    composed = back.rotations[:, i[mid]] @ back.rotations[:, i[chest]]
+    np.testing.assert_allclose(composed, raw.rotations[:, i[mid]] @ raw.rotations[:, i[chest]], atol=1e-9)
+    # equal geodesic steps, and the middle bone moves as much as the chest does above it
+    np.testing.assert_allclose(back.rotations[:, i[mid]], back.rotations[:, i[chest]], atol=1e-9)
+    swing = so3.angle(back.rotations[:, i[mid]])
+    assert np.ptp(swing) > np.radians(1.0) and np.ptp(swing) >= 0.3 * np.ptp(so3.angle(composed))
+    # without the chain rule the middle bone kept its rest (the issue's Spine1)
+    full = rigs.onto_rig(mapped, rest, mapped)
+    assert full.meta["chain_bones"] == ("upperneck",)
+    # a bone with motion of its own (a blend onto A's rig keeps A's motion) is not a chain bone
+    assert rigs.onto_rig(src, raw, mapped).meta["chain_bones"] == ()
