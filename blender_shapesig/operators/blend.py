@@ -101,7 +101,8 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         name="More Actions", description="More actions to blend and their weights: NAME=WEIGHT, ... (A's weight "
         "is 1 - B's - theirs; one blend)")
     loop: BoolProperty(
-        name="Loop", description="A seamless cycle: one stride of each action (cycle detection), aligned, closed",
+        name="Loop", description="A seamless cycle: one stride of each action (cycle detection; an action that "
+        "already is one cycle loops as it is), aligned, closed",
         default=False)
     feet: EnumProperty(
         name="Feet", description="Feet planted in the sources stay planted in the blend",
