@@ -58,7 +58,9 @@ def stage(report, title):
             report(f"- {title}: NOT AVAILABLE YET ({exc})")
             return None
         except Exception as exc:  # the demo reports and goes on
-            report(f"- {title}: FAILED: {type(exc).__name__}: {exc}")
+            from blender_shapesig.core.errors import error_line
+
+            report(f"- {title}: FAILED: {error_line(exc)}")
             if os.environ.get("SHAPESIG_DEBUG"):
                 traceback.print_exc()
             return None
@@ -141,11 +143,17 @@ def rank(bpy, imported, query_name, report):
     with quiet_stdout():
         assert bpy.ops.shapesig.build_index() == {"FINISHED"}
         assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    from blender_shapesig.core.measure_words import ENGINES, MEASURES, measure_words
+
     label = {n: lab for n, (_a, lab) in imported.items()}
-    results = list(bpy.context.window_manager.shapesig_results.results)
-    report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by sim^{s.level}, "
-           f"top {s.rerank} re-ranked by elastic distance d_S* (shapesig.build_index + shapesig.rank):")
-    report("  | rank | action | label | sim | d_S* | frames |")
+    res = bpy.context.window_manager.shapesig_results
+    results = list(res.results)
+    checked = f", the best {s.rerank} re-ranked by {MEASURES['elastic'].status}" if res.order_by == "elastic" else ""
+    report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by "
+           f"{measure_words(res.order_by).status} (Similarity: {ENGINES[s.similarity].label}){checked} "
+           f"(shapesig.build_index + shapesig.rank):")
+    first = MEASURES["local" if res.order_by == "local" else "sim"].column
+    report(f"  | rank | action | label | {first} | {MEASURES['elastic'].column} | frames |")
     report("  |---|---|---|---|---|---|")
     for i, r in enumerate(results, 1):
         el = f"{r.elastic:.3f}" if r.has_elastic else ""

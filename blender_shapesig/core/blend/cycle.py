@@ -189,6 +189,9 @@ def one_cycle(clip: Clip, like: Clip = None, period=None) -> Clip:
         try:
             found = find_cycle(clip)
         except ShapeSigError as exc:
+            if closed is None and _duration(clip) < MIN_CYCLE:
+                raise ShapeSigError(f"clip {clip.name!r} lasts {_duration(clip):.2f} s: too short to loop (a loop "
+                                    f"needs a stride of {MIN_CYCLE:g} s or more)") from None
             if closed is None:
                 raise ShapeSigError(f"{exc}; nor does it end where it starts, so it cannot loop as it is "
                                     f"(a loop needs one stride or more of a repeating motion)") from None

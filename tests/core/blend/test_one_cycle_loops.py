@@ -138,14 +138,18 @@ def test_loop_blend_of_one_cycle_clips_and_a_take(fps):
 
 
 def test_a_short_clip_that_is_not_a_cycle_says_so_in_words():
-    part = stride("walk", 100, share=0.3)
+    part = stride("walk", 100, share=0.3)  # 40 frames at 120 fps
+    with pytest.raises(ShapeSigError) as err:
+        one_cycle(part)
+    assert str(err.value) == "clip '07_01' lasts 0.33 s: too short to loop (a loop needs a stride of 0.4 s or more)"
+    part = stride("walk", 100, share=0.45)  # 0.48 s: too short for the cycle finder, and not a cycle
     with pytest.raises(ShapeSigError) as err:
         one_cycle(part)
     text = str(err.value)
-    assert "too short" in text and "does it end where it starts" in text and "loop" in text
+    assert "too short to find a repeating stride" in text and "nor does it end where it starts" in text
     assert "self-distance" not in text and "median" not in text
     half = stride("walk", 100, share=0.7)  # long enough to look for a stride, and not one
-    with pytest.raises(ShapeSigError, match="cannot loop as it is"):
+    with pytest.raises(ShapeSigError, match="does not repeat.*nor does it end where it starts, so it cannot loop"):
         one_cycle(half)
 
 
