@@ -152,12 +152,14 @@ def rank(bpy, imported, query_name, report):
     report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by "
            f"{measure_words(res.order_by).status} (Similarity: {ENGINES[s.similarity].label}){checked} "
            f"(shapesig.build_index + shapesig.rank):")
-    first = MEASURES["local" if res.order_by == "local" else "sim"].column
-    report(f"  | rank | action | label | {first} | {MEASURES['elastic'].column} | frames |")
-    report("  |---|---|---|---|---|---|")
+    columns = [MEASURES["local" if res.order_by == "local" else "sim"].column]
+    if any(r.has_elastic for r in results):
+        columns.append(MEASURES["elastic"].column)
+    report(f"  | rank | action | label | {' | '.join(columns)} | frames |")
+    report("  |---" * (len(columns) + 4) + "|")
     for i, r in enumerate(results, 1):
-        el = f"{r.elastic:.3f}" if r.has_elastic else ""
-        report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {r.distance:.4f} | {el} | {r.frames} |")
+        values = [f"{r.distance:.4f}"] + ([f"{r.elastic:.3f}" if r.has_elastic else ""] if len(columns) > 1 else [])
+        report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {' | '.join(values)} | {r.frames} |")
     if bpy.context.window_manager.shapesig_results.message:
         report(f"  panel says: {bpy.context.window_manager.shapesig_results.message}")
     top = [label.get(r.name) for r in results[:3]]

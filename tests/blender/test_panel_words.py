@@ -2,7 +2,8 @@
 name (issue 38). On the mixed file of ``mixed_scene`` (CMU clips of tests/data on four rigs, the scene at 24 fps):
 Find Similar (Motion and pose, Motion only with the timing check), Moments, Why Different, Assign and Preview of a
 result of another rig, Blend with and without a loop, and refusals (a one-frame query, an out-of-range detail, a
-loop of a pose, a result deleted since the search). Collected: every ``text`` the Motion Search and Bone Map panels
+loop of a pose, a result deleted since the search), and the Bone Map operators (Detect, Clear, Export, a bad map
+file). Collected: every ``text`` the Motion Search and Bone Map panels
 draw (walked with a recording stand-in for ``layout``, each result row's list item included), every operator report
 (Blender prints them to stdout in background mode), the status line and the poll messages. The words come from one
 place (``core.measure_words``): the column headers, the status line and the settings' names are those."""
@@ -111,7 +112,7 @@ def _select(res, source):
     res.results_index = next(i for i, r in enumerate(res.results) if r.source == source)
 
 
-def test_no_text_of_a_session_holds_a_thesis_symbol_or_an_exception_name(session):
+def test_no_text_of_a_session_holds_a_thesis_symbol_or_an_exception_name(session, tmp_path):
     ops, s = bpy.ops.shapesig, bpy.context.scene.shapesig
     res = library.results_of(bpy.context)
     session.panel()  # before any search
@@ -173,10 +174,20 @@ def test_no_text_of_a_session_holds_a_thesis_symbol_or_an_exception_name(session
     assert session.run(ops.assign_result) is None
     assert session.run(ops.explain_result) is None
     session.panel()
+    # the Bone Map panel's operators on the iClone rig, and a map file that is no map
+    activate(bpy.data.objects["002_03"])
+    for op in (ops.bone_map_detect, ops.bone_map_clear):
+        assert session.run(op) == {"FINISHED"}
+        session.panel()
+    assert session.run(ops.bone_map_export, filepath=str(tmp_path / "iclone.json")) == {"FINISHED"}
+    (tmp_path / "bad.json").write_text("{not json")
+    assert session.run(ops.bone_map_import, filepath=str(tmp_path / "bad.json")) is None
+    session.panel()
     # what was read is real: the reports of each kind are there
     reports = " | ".join(session.reports)
     for needle in ("results from", "largest share:", "previewing", "preview stopped", "action", "Blend Actions: created",
-                   "loop of", "same action", "too short to loop", "no longer exists"):
+                   "loop of", "same action", "too short to loop", "no longer exists", "Detect Bone Map:",
+                   "Clear Bone Map:", "bones written to", "Import Bone Map:"):
         assert needle in reports, needle
     assert len(session.texts) > 200 and len(session.reports) >= 15
     bad = _bad(session.texts) + _bad(session.reports)
