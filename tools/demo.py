@@ -156,7 +156,7 @@ def rank(bpy, imported, query_name, report):
     if any(r.has_elastic for r in results):
         columns.append(MEASURES["elastic"].column)
     report(f"  | rank | action | label | {' | '.join(columns)} | frames |")
-    report("  |---" * (len(columns) + 4) + "|")
+    report("  " + "|---" * (len(columns) + 4) + "|")
     for i, r in enumerate(results, 1):
         values = [f"{r.distance:.4f}"] + ([f"{r.elastic:.3f}" if r.has_elastic else ""] if len(columns) > 1 else [])
         report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {' | '.join(values)} | {r.frames} |")
