@@ -156,7 +156,7 @@ def test_assign_preview_stop_and_blends_survive_save_and_reopen(rig, tmp_path):
     ({"weight": math.inf}, "weight"), ({"weight": math.nan}, "weight"),
     ({"inbetweens": 500}, f"in-betweens: expected an integer in 1..{MAX_INBETWEENS}, got 500"),
     ({"inbetweens": MAX_INBETWEENS + 1}, f"1..{MAX_INBETWEENS}"),
-    ({"inbetweens": 0}, "in-betweens"), ({"depth": 0}, "depth"), ({"frames": 1}, "length"),
+    ({"inbetweens": 0}, "in-betweens"), ({"depth": 0}, "timing freedom"), ({"frames": 1}, "length"),
 ])
 def test_blend_refuses_out_of_range_values_and_changes_nothing(rig, kw, needle):
     before, state = _hashes(), _state(rig)
