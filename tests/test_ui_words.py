@@ -82,7 +82,8 @@ UI_MODULES = ("panels", "operators", "results.py", "library.py")
 
 
 def test_the_patterns_find_thesis_symbols_and_exception_names():
-    for text in ("sorted by d_S*", "sim^3 = 1.0817", "sim\u00b3", "metric sim3", "\u03c1 = 0.8", "not in the comparison space"):
+    for text in ("sorted by d_S*", "sim^3 = 1.0817", "sim\u00b3", "metric sim3", "\u03c1 = 0.8",
+                 "not in the comparison space"):
         assert SYMBOL.search(text), text
     for text in ("Similarity = 1.0817, Timing-aligned difference = 8.2126", "similar motion", "simple"):
         assert not SYMBOL.search(text), text

@@ -166,8 +166,9 @@ def _draw_search(layout, context, s):
     sub.prop(s, "depth")
     if signatures and s.level >= library.COSTLY_LEVEL:
         ref = library.COST_REFERENCE
-        _message(layout, f"{OPTIONS['level'].label} {s.level} is costly: {ref['clips']} clips took {ref['seconds']:.0f} s and "
-                         f"{ref['bytes'] / 1e6:.0f} MB of index; indexing asks first with an estimate.", "ERROR")
+        _message(layout, f"{OPTIONS['level'].label} {s.level} is costly: {ref['clips']} clips took "
+                         f"{ref['seconds']:.0f} s and {ref['bytes'] / 1e6:.0f} MB of index; indexing asks first "
+                         f"with an estimate.", "ERROR")
     results = library.results_of(context)
     row = layout.row(align=True)
     if results.running:

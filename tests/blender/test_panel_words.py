@@ -185,7 +185,8 @@ def test_no_text_of_a_session_holds_a_thesis_symbol_or_an_exception_name(session
     session.panel()
     # what was read is real: the reports of each kind are there
     reports = " | ".join(session.reports)
-    for needle in ("results from", "largest share:", "previewing", "preview stopped", "action", "Blend Actions: created",
+    for needle in ("results from", "largest share:", "previewing", "preview stopped", "action",
+                   "Blend Actions: created",
                    "loop of", "same action", "too short to loop", "no longer exists", "Detect Bone Map:",
                    "Clear Bone Map:", "bones written to", "Import Bone Map:"):
         assert needle in reports, needle
