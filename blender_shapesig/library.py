@@ -20,7 +20,8 @@ import bpy
 from . import action_changes, action_io, compat, frame_rates, rigmap, scene_motion, thumbnails
 from .core import index
 from .core.io import sources
-from .core.index.windows import WINDOW_LEVEL, rank_windows
+from .core.index.windows import rank_windows
+from .core.measure_words import OPTIONS
 from .core.metrics import LOCAL
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
 from .core.io.files import skipped_line
@@ -187,10 +188,10 @@ def search_problem(context, settings) -> Optional[str]:
 
 def _check_values(settings):
     """The search settings' integers, refused out of range (they have soft limits only: no silent clamping)."""
-    check_integer(settings.level, "level", 1, maximum=PANEL_MAX_LEVEL)
-    check_integer(settings.rerank, "re-rank", 0)
+    check_integer(settings.level, OPTIONS["level"].status, 1, maximum=PANEL_MAX_LEVEL)
+    check_integer(settings.rerank, OPTIONS["rerank"].status, 0)
     check_integer(settings.top, "show", 0)
-    check_integer(settings.depth, "depth", 1)
+    check_integer(settings.depth, OPTIONS["depth"].status, 1)
     check_integer(settings.crop_start, "crop start", 0)
     _read_options(settings)
 
@@ -448,13 +449,15 @@ def _row_sources(results, items):
     return out
 
 
-ELASTIC_COLUMN, LOCAL_COLUMN = "d_S*", "score"  # score: the local search's (core.index.local.combine)
+# the results' columns, by the measure's key (their words: core.measure_words); local: the local search's score
+# (core.index.local.combine)
+SIM_COLUMN, ELASTIC_COLUMN, LOCAL_COLUMN = "sim", "elastic", "local"
 
 
-def store_results(settings, results, items, query_name, order_by="sim^3", query_bones=0, seconds=0.0):
+def store_results(settings, results, items, query_name, order_by=SIM_COLUMN, query_bones=0, seconds=0.0):
     """Write ranked rows into the window manager's results (``properties.results_of``), in ``results``' order,
-    which is ascending in the column ``order_by`` ("sim^n" or ELASTIC_COLUMN) within each tier (whole-body
-    matches, then partial ones)."""
+    which is ascending in the column ``order_by`` (SIM_COLUMN, ELASTIC_COLUMN or LOCAL_COLUMN) within each tier
+    (whole-body matches, then partial ones)."""
     out = results_of()
     kinds = _row_sources(results, items)
     labels = sources.unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
@@ -619,8 +622,7 @@ class RankJob:
         """Write the rows and the status message; returns the message."""
         entries = self.cache.get(self.query.key, self.level) or []
         q_bones = len(entries[0].bones) if entries else 0
-        level = WINDOW_LEVEL if self.settings.use_windows else self.level
-        column = {"sim": f"sim^{level}", "elastic": ELASTIC_COLUMN, "local": LOCAL_COLUMN}[self.order_by]
+        column = self.order_by  # "sim", "elastic" or "local": the measure's key (core.measure_words)
         store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)
         thumbnails.start_job(self.cache, self.rows, self.by_key, self.query, self.query_name)  # in the background
@@ -632,7 +634,8 @@ class RankJob:
         msg += self.lib.skipped_text()
         msg += f"; {out.seconds:.2f} s"
         if self.rerank:
-            msg += f"; the best {sum(r.elastic is not None for r in self.rows)} by sim^{level} re-ranked"
+            msg += (f"; the best {sum(r.elastic is not None for r in self.rows)} by {column_word(SIM_COLUMN)} "
+                    f"re-ranked by {column_word(ELASTIC_COLUMN)}")
         if self.not_listed:
             msg += f"; {self.not_listed} more not listed (raise Show)"
         # Auto-Pick: saved maps of the maps folder that could not be read were skipped (one line each)

@@ -8,6 +8,7 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        PointerProperty, StringProperty)
 
 from .core.io.registry import extensions_text
+from .core.measure_words import ENGINES, MEASURES, OPTIONS, measure_words
 from .core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, LOCAL
 
 __all__ = ["column_word", "ShapeSigResult", "ShapeSigResults", "ShapeSigSettings", "classes", "settings_of", "results_of", "uses_local",
@@ -22,13 +23,10 @@ PANEL_MAX_LEVEL = 4
 
 
 
-# the results' columns in an animator's words (the thesis' names follow in brackets and the tooltips)
-_COLUMN_WORDS = {"d_S*": "timing-aligned difference (d_S*)", "score": "score"}
-
-
 def column_word(column: str) -> str:
-    """'sim^3' -> 'similarity (sim^3)', 'd_S*' -> 'timing-aligned difference (d_S*)'."""
-    return _COLUMN_WORDS.get(column, f"similarity ({column})" if column.startswith("sim^") else column)
+    """A results column in a sentence ("sorted by ..."): 'sim' -> 'similarity', 'elastic' -> 'timing-aligned
+    difference' (``core.measure_words``; the thesis' symbols are in the tooltips)."""
+    return measure_words(column).status
 
 
 def uses_local(settings) -> bool:
@@ -43,11 +41,8 @@ def index_level(settings) -> int:
 class ShapeSigResult(bpy.types.PropertyGroup):
     """One ranked clip. ``name`` (the item name) is the action's name or the file's base name."""
 
-    distance: FloatProperty(name="Similarity", description="Difference of the motions (0: the same): the "
-                            "normalized log-signature distance sim^n (eq. 9.1)",
-                            precision=4)
-    elastic: FloatProperty(name="Timing-aligned", description="Difference after aligning the timing: the elastic "
-                           "distance d_S* (when checked)", precision=4)
+    distance: FloatProperty(name=MEASURES["sim"].label, description=MEASURES["sim"].tooltip, precision=4)
+    elastic: FloatProperty(name=MEASURES["elastic"].label, description=MEASURES["elastic"].tooltip, precision=4)
     has_elastic: BoolProperty(name="Has Elastic", default=False)
     approximate: BoolProperty(name="Approximate", description="Distance estimated from the sketch (compact index)",
                               default=False)
@@ -108,7 +103,8 @@ class ShapeSigResults(bpy.types.PropertyGroup):
     results_index: IntProperty(name="Result", default=0)
     query_name: StringProperty(name="Query")
     message: StringProperty(name="Message", description="Status of the last index build or ranking")
-    order_by: StringProperty(name="Sorted By", description="The one column the rows are sorted by (ascending)")
+    order_by: StringProperty(name="Sorted By", description="The one column the rows are sorted by (ascending): "
+                             "'sim', 'elastic' or 'local' (core.measure_words)")
     seconds: FloatProperty(name="Seconds", description="Measured time of the last click, start to results")
     query_bones: IntProperty(name="Query Bones", description="Bones of the query")
     query_preview_icon: IntProperty(name="Query Preview Icon", description="Icon id of the query's picture", default=0)
@@ -157,32 +153,19 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     # the Bone Map panel's selected row (its list draws the active armature's bones)
     bone_map_index: IntProperty(name="Bone", default=0)
     # search
-    use_windows: BoolProperty(name="Moments", description="Rank moments inside the clips (the best window of each, "
-                              "refined by the elastic distance with a free start and end); Assign, Preview and "
-                              "Blend use the window", default=False)
+    use_windows: BoolProperty(name=ENGINES["moments"].label, description=ENGINES["moments"].tooltip, default=False)
     similarity: EnumProperty(
-        name="Similarity", description="What Find Similar calls the same motion",
-        items=((LOCAL, "Motion and pose (default)",
-                "The local search: windows of the body's key-point positions and motion, each described by its mean "
-                "pose and its level-2 log-signature normalized part by part (the normalized log-signature "
-                "similarity, eq. 9.1, window by window), then the best 20 re-scored by dynamic time warping of the "
-                "pose; across rigs, crops and start phases; the same take in another file first (its whole-take "
-                "log-signature)"),
-               ("sim", "Motion only (signatures)",
-                "sim^n: the normalized log-signature similarity (eq. 9.1) of the whole clips' joint rotations at "
-                "Level n, optionally re-ranked by the elastic distance d_S* (Re-rank); motion only, whole clips")),
+        name=OPTIONS["similarity"].label, description=OPTIONS["similarity"].tooltip,
+        items=tuple((key, ENGINES[key].label, ENGINES[key].tooltip) for key in (LOCAL, "sim")),
         default=LOCAL)
-    level: IntProperty(name="Detail", description="How fine the motion description is: the log-signature level n "
-                       "of the similarity sim^n (eq. 9.1); higher sees finer detail, costs more", default=DEFAULT_LEVEL,
+    level: IntProperty(name=OPTIONS["level"].label, description=OPTIONS["level"].tooltip, default=DEFAULT_LEVEL,
                        soft_min=1, soft_max=PANEL_MAX_LEVEL)
     # default 10: the evaluation's winner (docs/evaluation.md): a sim^3 shortlist re-ranked by d_S* over the top
     # 10 matched d_S*'s leave-one-out accuracy on every CMU set at a fraction of its cost
-    rerank: IntProperty(name="Timing Check", description="Re-order the best K by the timing-aligned difference "
-                        "(the elastic distance d_S*, 0: off)",
+    rerank: IntProperty(name=OPTIONS["rerank"].label, description=OPTIONS["rerank"].tooltip,
                         default=RERANK_DEFAULT, soft_min=0, soft_max=100)
     top: IntProperty(name="Show", description="Number of results kept (0: all)", default=25, soft_min=0)
-    depth: IntProperty(name="Timing Freedom", description="How far the timing alignment may stretch in one step "
-                       "(the elastic DP search depth)", default=DEFAULT_DEPTH,
+    depth: IntProperty(name=OPTIONS["depth"].label, description=OPTIONS["depth"].tooltip, default=DEFAULT_DEPTH,
                        soft_min=1, soft_max=30)
     # index build / preview state (the preview's is what Stop restores exactly; saved with the file, so a file
     # saved while previewing still restores on Stop)

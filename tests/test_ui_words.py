@@ -64,3 +64,112 @@ def test_no_message_names_a_command_line_flag():
     found = [f"{p.relative_to(PACKAGE)}:{line}: {text!r}" for p in modules
              for line, text in flags_in(p.read_text(encoding="utf-8"))]
     assert not found, "\n".join(found)
+
+
+# ------------------------------------------------------------------ the measures' words: no thesis symbol, one source
+
+from blender_shapesig.core.measure_words import ENGINES, MEASURES, OPTIONS, PANEL_NAME, THESIS_SYMBOLS  # noqa: E402
+
+SYMBOL = re.compile("|".join(THESIS_SYMBOLS))
+# a Python exception's name or a traceback in a text a person reads (tests/blender/test_panel_words.py too)
+EXCEPTION_NAME = re.compile(r"\w*Error\b|\w*Exception\b|Traceback|NoneType|\bErrno\b")
+ALL_WORDS = {f"{table}[{key!r}]": words for table, group in (("ENGINES", ENGINES), ("MEASURES", MEASURES),
+                                                              ("OPTIONS", OPTIONS)) for key, words in group.items()}
+DOCS = PACKAGE.parent / "docs"
+# the modules whose strings a person reads as labels, status lines and reports (tooltips aside: operator docstrings
+# and ``description=`` may name a thesis symbol)
+UI_MODULES = ("panels", "operators", "results.py", "library.py")
+
+
+def test_the_patterns_find_thesis_symbols_and_exception_names():
+    for text in ("sorted by d_S*", "sim^3 = 1.0817", "sim\u00b3", "metric sim3", "\u03c1 = 0.8",
+                 "not in the comparison space"):
+        assert SYMBOL.search(text), text
+    for text in ("Similarity = 1.0817, Timing-aligned difference = 8.2126", "similar motion", "simple"):
+        assert not SYMBOL.search(text), text
+    for text in ("KeyError: 'take'", "ShapeSigError", "Traceback (most recent call last)", "'NoneType' object"):
+        assert EXCEPTION_NAME.search(text), text
+    assert not EXCEPTION_NAME.search("internal error ('take'); the console has the details")
+
+
+def test_labels_columns_and_status_words_hold_no_thesis_symbol():
+    assert not SYMBOL.search(PANEL_NAME) and not EXCEPTION_NAME.search(PANEL_NAME)
+    for where, words in ALL_WORDS.items():
+        for field in ("label", "column", "status"):
+            text = getattr(words, field)
+            assert text and not SYMBOL.search(text), f"{where}.{field}: {text!r}"
+    # the symbols live in the tooltips: each measure's tooltip names its symbol
+    for where in ("MEASURES['sim']", "MEASURES['elastic']", "ENGINES['sim']", "ENGINES['moments']"):
+        words = ALL_WORDS[where]
+        assert words.symbol and words.symbol in words.tooltip, where
+
+
+def test_the_docs_name_each_measure_by_its_words_and_its_symbol():
+    """docs/search.md (the user's guide of the panel) uses the panel's words, each measure with its symbol."""
+    text = (DOCS / "search.md").read_text(encoding="utf-8").replace("\\*", "*")
+    assert f"**{PANEL_NAME}**" in text and "Signature Search" not in text
+    for key in ("sim", "elastic", "local"):
+        assert MEASURES[key].column in text, key
+    for key in ("local", "sim", "moments"):
+        assert ENGINES[key].label.split(" (")[0] in text, key
+    for key in ("sim", "elastic"):
+        assert MEASURES[key].symbol in text, key
+    for key in ("level", "rerank", "depth"):
+        assert f"**{OPTIONS[key].label}**" in text, key
+
+
+def _ui_strings(tree, skip_tooltips=True):
+    """[(line, text)] of the string constants of ``tree`` (the constant parts of f-strings included) a person may
+    read, docstrings and (``skip_tooltips``) ``description=`` values aside."""
+    skip = _docstrings(tree) | _argv_items(tree)
+    if skip_tooltips:
+        for node in ast.walk(tree):
+            if isinstance(node, ast.keyword) and node.arg == "description":
+                skip.update(id(n) for n in ast.walk(node.value))
+    return [(node.lineno, node.value) for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip]
+
+
+def _ui_module_paths():
+    out = []
+    for name in UI_MODULES:
+        path = PACKAGE / name
+        out += sorted(path.rglob("*.py")) if path.is_dir() else [path]
+    return out
+
+
+def test_no_label_or_report_of_the_panel_and_operators_holds_a_thesis_symbol():
+    paths = _ui_module_paths()
+    assert len(paths) >= 10
+    found = [f"{p.relative_to(PACKAGE)}:{line}: {text!r}" for p in paths
+             for line, text in _ui_strings(ast.parse(p.read_text(encoding="utf-8")))
+             if SYMBOL.search(text) or EXCEPTION_NAME.search(text)]
+    assert not found, "\n".join(found)
+
+
+def _names():
+    """Every label and column header of the measure words (and the panel's name)."""
+    return {PANEL_NAME} | {w.label for w in ALL_WORDS.values()} | {w.column for w in ALL_WORDS.values()}
+
+
+def test_one_source_of_the_measure_words():
+    """The engines', measures' and options' names are written once, in core/measure_words.py: no other module of a
+    Blender session (nor the demo's report) spells one as a string of its own, alone or, for names of two words or
+    more, inside a longer text; they read ``ENGINES`` / ``MEASURES`` / ``OPTIONS`` instead. So the panel, the
+    reports, the tooltips and the demo cannot disagree."""
+    names = _names()
+    long_names = {n for n in names if " " in n or "-" in n}
+    modules = [p for p in PACKAGE.rglob("*.py") if p.relative_to(PACKAGE).parts[0] not in COMMAND_LINE_ONLY
+               and p.name != "measure_words.py"] + [PACKAGE.parent / "tools" / "demo.py"]
+    found = []
+    for p in modules:
+        for line, text in _ui_strings(ast.parse(p.read_text(encoding="utf-8")), skip_tooltips=False):
+            if text.strip() in names or any(n in text for n in long_names):
+                found.append(f"{p.relative_to(PACKAGE.parent)}:{line}: {text!r}")
+    assert not found, "\n".join(found)
+
+
+def test_the_one_source_check_finds_a_copy():
+    tree = ast.parse('def f():\n    """Timing-aligned in a docstring"""\n    return label(text="Timing-aligned")')
+    texts = [t for _line, t in _ui_strings(tree, skip_tooltips=False)]
+    assert texts == ["Timing-aligned"] and "Timing-aligned" in _names()

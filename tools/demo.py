@@ -58,7 +58,9 @@ def stage(report, title):
             report(f"- {title}: NOT AVAILABLE YET ({exc})")
             return None
         except Exception as exc:  # the demo reports and goes on
-            report(f"- {title}: FAILED: {type(exc).__name__}: {exc}")
+            from blender_shapesig.core.errors import error_line
+
+            report(f"- {title}: FAILED: {error_line(exc)}")
             if os.environ.get("SHAPESIG_DEBUG"):
                 traceback.print_exc()
             return None
@@ -141,15 +143,23 @@ def rank(bpy, imported, query_name, report):
     with quiet_stdout():
         assert bpy.ops.shapesig.build_index() == {"FINISHED"}
         assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    from blender_shapesig.core.measure_words import ENGINES, MEASURES, measure_words
+
     label = {n: lab for n, (_a, lab) in imported.items()}
-    results = list(bpy.context.window_manager.shapesig_results.results)
-    report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by sim^{s.level}, "
-           f"top {s.rerank} re-ranked by elastic distance d_S* (shapesig.build_index + shapesig.rank):")
-    report("  | rank | action | label | sim | d_S* | frames |")
-    report("  |---|---|---|---|---|---|")
+    res = bpy.context.window_manager.shapesig_results
+    results = list(res.results)
+    checked = f", the best {s.rerank} re-ranked by {MEASURES['elastic'].status}" if res.order_by == "elastic" else ""
+    report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by "
+           f"{measure_words(res.order_by).status} (Similarity: {ENGINES[s.similarity].label}){checked} "
+           f"(shapesig.build_index + shapesig.rank):")
+    columns = [MEASURES["local" if res.order_by == "local" else "sim"].column]
+    if any(r.has_elastic for r in results):
+        columns.append(MEASURES["elastic"].column)
+    report(f"  | rank | action | label | {' | '.join(columns)} | frames |")
+    report("  " + "|---" * (len(columns) + 4) + "|")
     for i, r in enumerate(results, 1):
-        el = f"{r.elastic:.3f}" if r.has_elastic else ""
-        report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {r.distance:.4f} | {el} | {r.frames} |")
+        values = [f"{r.distance:.4f}"] + ([f"{r.elastic:.3f}" if r.has_elastic else ""] if len(columns) > 1 else [])
+        report(f"  | {i} | {r.name} | {label.get(r.name, '?')} | {' | '.join(values)} | {r.frames} |")
     if bpy.context.window_manager.shapesig_results.message:
         report(f"  panel says: {bpy.context.window_manager.shapesig_results.message}")
     top = [label.get(r.name) for r in results[:3]]

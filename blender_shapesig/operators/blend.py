@@ -10,6 +10,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, In
 from ..core.blend import blend_weights
 from ..core.clip.prepare import check_fps
 from ..core.errors import MAX_INBETWEENS, ShapeSigError, check_integer, check_weight
+from ..core.measure_words import OPTIONS
 from ..core.metrics import DEFAULT_DEPTH
 
 __all__ = ["SHAPESIG_OT_blend_actions", "SHAPESIG_OT_bake_blend_timing", "classes", "parse_extra"]
@@ -59,7 +60,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         name="Align", description="Time-align B to A by the elastic (dynamic programming) warp first",
         default=True)
     depth: IntProperty(
-        name="Depth", description="Largest step of the alignment's dynamic programming", default=DEFAULT_DEPTH,
+        name=OPTIONS["depth"].label, description=OPTIONS["depth"].tooltip, default=DEFAULT_DEPTH,
         soft_min=1, soft_max=30)
     inbetweens: IntProperty(
         name="In-betweens",
@@ -101,7 +102,8 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         name="More Actions", description="More actions to blend and their weights: NAME=WEIGHT, ... (A's weight "
         "is 1 - B's - theirs; one blend)")
     loop: BoolProperty(
-        name="Loop", description="A seamless cycle: one stride of each action (cycle detection), aligned, closed",
+        name="Loop", description="A seamless cycle: one stride of each action (cycle detection; an action that "
+        "already is one cycle loops as it is), aligned, closed",
         default=False)
     feet: EnumProperty(
         name="Feet", description="Feet planted in the sources stay planted in the blend",
@@ -252,7 +254,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         """The blend weights; the values a script may set outside the sliders' soft limits are refused here
         (the properties have no hard limits: those would clamp weight=5 to 1 silently)."""
         check_weight(self.weight)
-        check_integer(self.depth, "depth", minimum=1)
+        check_integer(self.depth, OPTIONS["depth"].status, minimum=1)
         if self.frames != 0:
             check_integer(self.frames, "length", minimum=2)
         return blend_weights(self.inbetweens, self.weight)  # in-betweens within 1..MAX_INBETWEENS

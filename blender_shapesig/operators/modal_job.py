@@ -6,7 +6,7 @@ that escapes (``errors_ui``). The operator says what a step is and what the end,
 
 import bpy
 
-from ..core.errors import ShapeSigError
+from ..core.errors import ShapeSigError, error_line
 
 __all__ = ["ModalJob", "tag_redraw", "run_again_confirmed"]
 
@@ -62,9 +62,15 @@ class ModalJob:
         setattr(self._panel(context), self.RUNNING, running)
 
     def _fail(self, context, exc):
-        """A failure in one line ("<label>: <what>"), the running flag off; CANCELLED."""
+        """A failure in one line ("<label>: <what>", ``error_line``: no Python type name; an unexpected one's
+        traceback on the console), the running flag off; CANCELLED."""
+        if not isinstance(exc, ShapeSigError):
+            import sys
+            import traceback
+
+            traceback.print_exception(type(exc), exc, exc.__traceback__, file=sys.stderr)
         self._set_running(context, False)
-        self.report({"ERROR"}, f"{self.bl_label}: {exc}")
+        self.report({"ERROR"}, f"{self.bl_label}: {error_line(exc)}")
         return {"CANCELLED"}
 
     def _begin_modal(self, context):

@@ -13,7 +13,8 @@ from bpy.props import BoolProperty
 from .. import library, results
 from ..core import index
 from ..core.elastic.explain import top_joints
-from ..core.errors import ShapeSigError
+from ..core.measure_words import OPTIONS
+from ..core.errors import ShapeSigError, error_line
 # names kept for scripts and tests written against this module (they live in ``library``)
 from ..library import get_cache
 from ..properties import index_level, uses_local
@@ -47,7 +48,7 @@ def _confirm_cost(op, context, event, settings):
         return None  # execute reports the problem
     if clips == 0:
         return None
-    text = f"Level {settings.level}: {library.cost_text(clips, seconds, nbytes)}"
+    text = f"{OPTIONS['level'].label} {settings.level}: {library.cost_text(clips, seconds, nbytes)}"
     op.confirmed = True
     return context.window_manager.invoke_confirm(op, event, title=op.bl_label, message=text,
                                                  confirm_text="Index", icon="WARNING")
@@ -138,7 +139,8 @@ class SHAPESIG_OT_build_index(_IndexingJob, bpy.types.Operator):
 
 
 class SHAPESIG_OT_rank(_IndexingJob, bpy.types.Operator):
-    """Rank the library by similarity (sim^n) to the query action (Esc cancels a long ranking)"""
+    """Rank the library by how similar each clip's motion is to the query action, as the Similarity choice says
+    (Esc cancels a long ranking)"""
 
     bl_idname = "shapesig.rank"
     bl_label = "Find Similar"
@@ -178,7 +180,7 @@ class SHAPESIG_OT_rank(_IndexingJob, bpy.types.Operator):
         return {"FINISHED"}
 
     def _fail(self, context, exc):
-        library.results_of(context).message = str(exc)
+        library.results_of(context).message = error_line(exc)
         return ModalJob._fail(self, context, exc)
 
     def _cancel(self, context):
@@ -250,8 +252,8 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
 
 
 class SHAPESIG_OT_explain_result(bpy.types.Operator):
-    """Why the selected result differs from the query: each joint's share of the elastic distance and the
-    alignment cost over the query's time"""
+    """Why the selected result differs from the query: each joint's share of the timing-aligned difference (the
+    elastic distance d_S*) and the alignment cost over the query's time"""
 
     bl_idname = "shapesig.explain_result"
     bl_label = "Why Different"

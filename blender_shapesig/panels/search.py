@@ -10,7 +10,9 @@ import bpy
 
 from .. import library
 from ..core.elastic.explain import top_joints
+from ..core.measure_words import MEASURES, OPTIONS, PANEL_NAME, measure_words
 from ..core.metrics import LOCAL
+from ..properties import column_word
 from ..results import expected_hash
 
 # the "Why different" box: bars of the largest shares, and the cost over time in this many cells
@@ -22,8 +24,9 @@ __all__ = ["classes", "SHAPESIG_UL_results", "draw_search"]
 
 
 class SHAPESIG_UL_results(bpy.types.UIList):
-    """Ranked results: unique label, the sort column first (d_S* when re-ranked, else sim^n), the other
-    distance, and the clip's frames / matched window; partial matches greyed with their bones compared."""
+    """Ranked results: unique label, the sort column first (the timing-aligned difference when re-ranked, else the
+    similarity or the local search's score), the other measure, and the clip's frames / matched window; partial
+    matches greyed with their bones compared."""
 
     bl_idname = "SHAPESIG_UL_results"
 
@@ -59,15 +62,10 @@ def _header(layout, results):
     split = row.split(factor=0.45)
     split.label(text="Clip")
     nums = split.row(align=True)
-    nums.label(text=f"{_short(results.order_by)} \u25b2")
-    nums.label(text={library.ELASTIC_COLUMN: "Similarity", library.LOCAL_COLUMN: ""}.get(results.order_by,
-                                                                                        "Timing-aligned"))
+    nums.label(text=f"{measure_words(results.order_by).column} \u25b2")
+    second = {library.ELASTIC_COLUMN: MEASURES["sim"].column, library.LOCAL_COLUMN: ""}
+    nums.label(text=second.get(results.order_by, MEASURES["elastic"].column))
     nums.label(text="Frames")
-
-
-def _short(column):
-    """A column's header in an animator's words (the thesis' names are in the tooltips and the message)."""
-    return {library.ELASTIC_COLUMN: "Timing-aligned", library.LOCAL_COLUMN: "Score"}.get(column, "Similarity")
 
 
 def _progress(row, what, factor):
@@ -168,8 +166,9 @@ def _draw_search(layout, context, s):
     sub.prop(s, "depth")
     if signatures and s.level >= library.COSTLY_LEVEL:
         ref = library.COST_REFERENCE
-        _message(layout, f"Level {s.level} is costly: {ref['clips']} clips took {ref['seconds']:.0f} s and "
-                         f"{ref['bytes'] / 1e6:.0f} MB of index; indexing asks first with an estimate.", "ERROR")
+        _message(layout, f"{OPTIONS['level'].label} {s.level} is costly: {ref['clips']} clips took "
+                         f"{ref['seconds']:.0f} s and {ref['bytes'] / 1e6:.0f} MB of index; indexing asks first "
+                         f"with an estimate.", "ERROR")
     results = library.results_of(context)
     row = layout.row(align=True)
     if results.running:
@@ -193,7 +192,7 @@ def _draw_results(layout, s, res):
     if not res.results:
         layout.label(text="No results yet.", icon="INFO")
         return
-    layout.label(text=f"Similar to {res.query_name}, sorted by {res.order_by} (best first); "
+    layout.label(text=f"Similar to {res.query_name}, sorted by {column_word(res.order_by)} (best first); "
                       f"click took {res.seconds:.2f} s")
     _header(layout, res)
     layout.template_list("SHAPESIG_UL_results", "", res, "results", res, "results_index", rows=6)
@@ -203,10 +202,10 @@ def _draw_results(layout, s, res):
     item = res.results[res.results_index]
     info = layout.column(align=True)
     if res.order_by == library.LOCAL_COLUMN:
-        info.label(text=f"{library.LOCAL_COLUMN} = {item.distance:.4f} (motion and pose)")
+        info.label(text=f"{MEASURES['local'].label} = {item.distance:.4f} (motion and pose)")
     else:
-        info.label(text=f"sim^{s.level} = {item.distance:.4f}" + (f", d_S* = {item.elastic:.4f}"
-                                                                  if item.has_elastic else ""))
+        info.label(text=f"{MEASURES['sim'].label} = {item.distance:.4f}"
+                   + (f", {MEASURES['elastic'].label} = {item.elastic:.4f}" if item.has_elastic else ""))
     window = f"frames {item.frame_first}-{item.frame_last}" if item.frame_last else f"{item.frames} frames"
     info.label(text=f"{window}, compared on {item.shared} bones ({item.coverage:.0%} of the joints both rigs have)")
     if item.partial:
@@ -311,7 +310,7 @@ def draw_search(layout, context):
 
 
 class _SearchPanel:
-    bl_label = "Signature Search"
+    bl_label = PANEL_NAME
     bl_region_type = "UI"
     bl_category = "ShapeSig"
 

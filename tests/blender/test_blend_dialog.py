@@ -11,6 +11,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.blend_actions import TIMING_TRACK, timed_strips  # noqa: E402
 from blender_shapesig.core.blend import pose_steps  # noqa: E402
+from blender_shapesig.core.geometry import so3  # noqa: E402
 
 from test_blend_operator import _angle, _buffer_hash, _import_bvh, _read, _reopen  # noqa: E402
 
@@ -81,6 +82,41 @@ def test_loop(rig):
     assert _angle(R[-1], R[0]) < 1e-4
     steps = pose_steps(R[:-1])
     assert pose_steps(np.stack([R[-2], R[0]]))[0] <= np.median(steps)
+
+
+def _foot_period(clip):
+    """Frames of one gait cycle from the feet alone (apart from the cycle finder): the lag at which both feet's
+    heights repeat best, 0.4 s up to the clip's length less 0.3 s."""
+    from blender_shapesig.core.clip.skeleton import forward_kinematics, up_vector
+
+    heads, _tails, _w = forward_kinematics(clip)
+    z = heads[:, [clip.bones.index("lFoot"), clip.bones.index("rFoot")]] @ up_vector(clip)
+    lags = np.arange(int(0.4 * clip.fps), clip.frames - int(0.3 * clip.fps))
+    return int(lags[np.argmin([np.mean((z[lag:] - z[:-lag]) ** 2) for lag in lags])])
+
+
+def _joint_steps(R):
+    """Per frame step and joint, the rotation angle (radians)."""
+    return np.linalg.norm(so3.log(R[1:] @ np.swapaxes(R[:-1], -1, -2)), axis=-1)
+
+
+def test_loop_of_exactly_one_stride_each(rig):
+    """A and B cropped by their ranges to exactly one stride (the period of the feet, found apart): Loop takes each
+    range whole as its cycle (it used to find no cycle in a clip of one) and the seam steps no more than the
+    sources' largest joint step + 5 degrees (issue 38)."""
+    walk, run = _read("walk", rig), _read("run", rig)
+    pa, pb = _foot_period(walk), _foot_period(run)
+    assert 125 <= pa <= 135 and 85 <= pb <= 95
+    ra, rb = (100, 100 + pa), (20, 20 + pb)
+    assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, loop=True, range_a=ra,
+                                          range_b=rb) == {"FINISHED"}
+    got = _read("walk_x_run_0.50", rig)
+    R = got.rotations
+    assert _angle(R[-1], R[0]) < 1e-4 and got.frames - 1 == round(0.5 * pa + 0.5 * pb)  # both strides whole
+    largest = max(_joint_steps(c.crop(*r).rotations).max() for c, r in ((walk, ra), (run, rb)))
+    seam = np.linalg.norm(so3.log(R[0] @ np.swapaxes(R[-2], -1, -2)), axis=-1).max()
+    assert seam <= largest + np.radians(5.0)
+    assert pose_steps(np.stack([R[-2], R[0]]))[0] <= np.median(pose_steps(R[:-1]))
 
 
 def test_mask_keeps_the_legs_of_a(rig):

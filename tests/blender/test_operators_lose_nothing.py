@@ -156,7 +156,7 @@ def test_assign_preview_stop_and_blends_survive_save_and_reopen(rig, tmp_path):
     ({"weight": math.inf}, "weight"), ({"weight": math.nan}, "weight"),
     ({"inbetweens": 500}, f"in-betweens: expected an integer in 1..{MAX_INBETWEENS}, got 500"),
     ({"inbetweens": MAX_INBETWEENS + 1}, f"1..{MAX_INBETWEENS}"),
-    ({"inbetweens": 0}, "in-betweens"), ({"depth": 0}, "depth"), ({"frames": 1}, "length"),
+    ({"inbetweens": 0}, "in-betweens"), ({"depth": 0}, "timing freedom"), ({"frames": 1}, "length"),
 ])
 def test_blend_refuses_out_of_range_values_and_changes_nothing(rig, kw, needle):
     before, state = _hashes(), _state(rig)
@@ -173,8 +173,8 @@ def test_blend_properties_have_soft_not_hard_limits(addon):
 
 
 @pytest.mark.parametrize("prop, value, needle", [
-    ("level", 7, "level: expected an integer in 1..4, got 7"), ("level", 0, "level"),
-    ("rerank", -5, "re-rank: expected an integer >= 0"), ("top", -1, "show"), ("depth", 0, "depth"),
+    ("level", 7, "detail: expected an integer in 1..4, got 7"), ("level", 0, "detail"),
+    ("rerank", -5, "timing check: expected an integer >= 0"), ("top", -1, "show"), ("depth", 0, "timing freedom"),
     ("crop_start", -2, "crop start"),
 ])
 def test_search_settings_out_of_range_are_refused_not_clamped(rig, prop, value, needle):
@@ -218,12 +218,12 @@ def test_rows_follow_one_named_sort_column(rig):
     s.rerank, s.top = 0, 0
     assert bpy.ops.shapesig.rank() == {"FINISHED"}  # the default, Similarity: Motion and pose
     scores = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
-    assert res.order_by == "score" and scores == sorted(scores) and "sorted by score" in res.message
+    assert res.order_by == "local" and scores == sorted(scores) and "sorted by score" in res.message
     assert "Score \u25b2" in _draw().labels()
     s.similarity = "sim"
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     sims = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
-    assert res.order_by == "sim^3" and sims == sorted(sims) and "sorted by similarity (sim^3)" in res.message
+    assert res.order_by == "sim" and sims == sorted(sims) and "sorted by similarity;" in res.message
     # Show lists as many as it says: the re-ranked first, then the next by sim^3
     s.rerank, s.top = 2, 0
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
@@ -231,8 +231,9 @@ def test_rows_follow_one_named_sort_column(rig):
     assert len(rows) == 3 and [r.has_elastic for r in rows] == [True, True, False]
     s.rerank, s.top = 2, 2
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert res.order_by == "d_S*" and "sorted by timing-aligned difference (d_S*)" in res.message
-    assert "the best 2 by sim^3 re-ranked; 1 more not listed (raise Show)" in res.message
+    assert res.order_by == "elastic" and "sorted by timing-aligned difference;" in res.message
+    assert ("the best 2 by similarity re-ranked by timing-aligned difference; 1 more not listed (raise Show)"
+            in res.message)
     el = [r.elastic for r in bpy.context.window_manager.shapesig_results.results]
     assert len(el) == 2 and all(r.has_elastic for r in bpy.context.window_manager.shapesig_results.results) and el == sorted(el)
     # the same d_S* and order as the core's own re-rank of the best two

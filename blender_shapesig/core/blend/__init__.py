@@ -14,7 +14,7 @@ from .combine import (  # noqa: F401
     identity_warp,
     mean_start,
 )
-from .cycle import close_loop, crop_range, find_cycle, one_cycle, parse_range, pose_steps
+from .cycle import apply_cycle, close_loop, closed_cycle, crop_range, find_cycle, one_cycle, parse_range, pose_steps
 from .mask import GROUPS, bone_weights, parse_groups, parse_mask
 from .make import FEET_MODES, editable_timing, make_blends, sample_at
 from .mix import blend_clip_series, blend_clips, blend_fps, blend_many
@@ -40,6 +40,8 @@ __all__ = [
     "crop_range",
     "find_cycle",
     "one_cycle",
+    "closed_cycle",
+    "apply_cycle",
     "close_loop",
     "pose_steps",
     "make_blends",

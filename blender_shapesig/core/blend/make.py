@@ -13,7 +13,7 @@ from ..geometry.curves import geodesic_interpolate, uniform_times
 from ..errors import ShapeSigError
 from ..metrics import DEFAULT_DEPTH
 from ..errors import check_weights
-from .cycle import close_loop, crop_range, one_cycle
+from .cycle import apply_cycle, close_loop, crop_range, one_cycle
 from ..progress import check as check_progress
 from .mix import blend_clip_series, blend_many
 
@@ -48,7 +48,9 @@ def _select(own, mapped, ranges, loop):
             info = cyc.meta["cycle"]
             notes[i]["cycle"] = {k: info[k] for k in ("start", "end", "period")}
             notes[i]["cycle"]["seconds"] = info["period"] / float(cyc.fps)
-            own[i] = own[i].crop(info["start"], info["end"])
+            if info.get("whole"):  # the clip already is one cycle: looped as it is
+                notes[i]["cycle"]["whole"] = True
+            own[i] = apply_cycle(own[i], info)
             if mapped is not None:
                 mapped[i] = cyc
     return own, mapped, notes

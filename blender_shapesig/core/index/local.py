@@ -131,7 +131,8 @@ def rig_positions(clip: Clip):
     joints with the rig's own rest offsets. ``clip`` must be in the comparison space (``rigs.to_comparison_space``,
     what ``sources.read`` gives with a bone map)."""
     if clip.meta.get("rotation_space") != "comparison":
-        raise ShapeSigError(f"clip {clip.name!r} is not in the comparison space (read it with a bone map)")
+        raise ShapeSigError(f"clip {clip.name!r} is not mapped to body joints (map its bones in the Bone Map panel "
+                            f"or with a bone map file)")
     joints = [j for j in _ORDER if j in clip.bones]
     index = {b: i for i, b in enumerate(clip.bones)}
     h, t = _rest_offsets(clip, joints)

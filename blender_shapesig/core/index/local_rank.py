@@ -13,6 +13,7 @@ import numpy as np
 from ..clip.clip import Clip
 from ..clip.trim import trim_record
 from ..errors import ShapeSigError, error_line
+from ..measure_words import ENGINES, OPTIONS
 from ..io.sources import LibraryItem, as_items, clip_item
 from ..progress import wants_cancel
 from . import local
@@ -74,7 +75,8 @@ def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> d
         raise ShapeSigError(f"query {item.name!r} holds {len(got)} clips; choose one")
     if got[0].get("refused"):
         raise ShapeSigError(f"the local search cannot read the query ({got[0]['refused']}); "
-                            f"rank it by signatures instead (metric sim3; in the panel, Similarity: Motion only)")
+                            f"rank it by {ENGINES['sim'].status} instead (in the panel, {OPTIONS['similarity'].label}: "
+                            f"{ENGINES['sim'].label}; on the command line, a signature metric)")
     return got[0]
 
 

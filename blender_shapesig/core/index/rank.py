@@ -15,6 +15,7 @@ import numpy as np
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
+from ..measure_words import ENGINES
 from ..progress import wants_cancel
 from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, DEFAULT_METRIC, LOCAL, curve_distance, parse_metric
 from ..rigs import below_minimum, coverage_from
@@ -344,7 +345,7 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
     results = full + part
     if refused:
         warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1]['name']}: "
-                        f"{refused[0][1]['refused']}) are ranked after the others by sim{DEFAULT_LEVEL}")
+                        f"{refused[0][1]['refused']}) are ranked after the others by {ENGINES['sim'].status}")
     if refused and (top is None or len(results) < top):  # their rows only when they can be kept
         qs = _query_entry(query, DEFAULT_LEVEL, store)
         names = {(item.key, e["name"]) for item, e in refused}

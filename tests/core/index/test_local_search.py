@@ -237,7 +237,7 @@ def test_index_entry_is_compact_and_refuses_clips_outside_the_comparison_space(l
     clips, full = library
     assert all(ls.entry_bytes(e) <= 50 * 1024 for e in full.values())
     assert all(e["windows"].dtype == np.float16 and e["windows"].shape[1] == ls.DIM for e in full.values())
-    with pytest.raises(ShapeSigError, match="comparison space"):
+    with pytest.raises(ShapeSigError, match="not mapped to body joints .map its bones in the Bone Map panel"):
         ls.features(clips["07_01.amc"])
     # a long clip keeps its entry under the cap (a longer hop, a lower rate for the sequence)
     T = 60 * int(ls.RATE)
