@@ -14,7 +14,9 @@ from .core.clip.clip import Clip
 from .core.clip.prepare import retime
 from .core.clip.skeleton import from_world_axes, to_world_axes
 
-__all__ = ["read_motion", "write_motion", "at_scene_rate", "in_world", "in_armature_axes"]
+__all__ = ["read_motion", "write_motion", "at_scene_rate", "in_world", "in_armature_axes", "timing_text"]
+
+SOURCE_RATE = "shapesig_source_fps"  # the rate a written action's motion had before it was keyed at the scene's
 
 
 def in_world(clip: Clip, armature) -> Clip:
@@ -64,5 +66,26 @@ def write_motion(clip: Clip, armature, name=None, *, fake_user=True, assign=Fals
         action.use_fake_user = bool(fake_user)
         if assign:
             action_io.assign_action(armature, action)
-        return action
-    return action_io.write_action(clip, armature=armature, name=name, fake_user=fake_user, assign=assign)
+    else:
+        action = action_io.write_action(clip, armature=armature, name=name, fake_user=fake_user, assign=assign)
+    if "source_fps" in clip.meta:
+        action[SOURCE_RATE] = float(clip.meta["source_fps"])
+    return action
+
+
+def timing_text(action, scene=None) -> str:
+    """How ``action`` plays in the scene, for a report line: "33 frames at the scene's 24 fps, 1.33 s (resampled
+    from 120 fps)"; for an action keyed at another rate (assigned as it is), how much slower or faster it plays."""
+    first, last = action.frame_range
+    frames = int(round(last - first)) + 1
+    here = frame_rates.scene_rate(scene)
+    fps, known = frame_rates.rate_of(action)[:2]
+    if abs(fps - here) > 1e-6 * here:
+        speed = f"{fps / here:.2g}x slower" if fps > here else f"{here / fps:.2g}x faster"
+        return (f"{frames} frames keyed at {frame_rates.rate_text(fps)}{'' if known else ' (assumed)'}: it plays "
+                f"{speed} in this {frame_rates.rate_text(here)} scene")
+    text = f"{frames} frames at the scene's {frame_rates.rate_text(here)}, {(frames - 1) / here:.2f} s"
+    source = action.get(SOURCE_RATE)
+    if isinstance(source, float) and abs(source - here) > 1e-6 * here:
+        text += f" (resampled from {frame_rates.rate_text(source)})"
+    return text

@@ -351,11 +351,13 @@ def _summary(result):
     """The report line: the new actions, bones that kept A's motion, planted feet and loops."""
     names = ", ".join(act.name for act in result.actions)
     text = f"created {len(result.actions)} action(s): {names}"
-    if result.clips:
-        from ..frame_rates import rate_text
-
+    if result.strips and result.clips:
         clip = result.clips[0]
-        text += f" ({clip.frames} frames, {(clip.frames - 1) / clip.fps:.2f} s at {rate_text(clip.fps)})"
+        text += f" ({(clip.frames - 1) / clip.fps:.2f} s)"
+    elif result.actions:
+        from ..scene_motion import timing_text
+
+        text += f" ({timing_text(result.actions[0])})"
     if result.strips:
         from ..blend_actions import TIMING_TRACK
 

@@ -19,6 +19,7 @@ from ..core.errors import ShapeSigError, error_line
 from ..library import get_cache
 from ..properties import index_level, uses_local
 from .modal_job import ModalJob, tag_redraw
+from ..scene_motion import timing_text
 
 __all__ = ["classes"]
 
@@ -222,7 +223,8 @@ class SHAPESIG_OT_assign_result(bpy.types.Operator):
 
     def execute(self, context):
         obj, action, note = results.assign_result(context, library.settings_of(context))
-        self.report({"INFO"}, f"{obj.name}: action {action.name!r}{_kept_text(action)}{'; ' + note if note else ''}")
+        self.report({"INFO"}, f"{obj.name}: action {action.name!r} ({timing_text(action)}){_kept_text(action)}"
+                              f"{'; ' + note if note else ''}")
         return {"FINISHED"}
 
 
@@ -246,8 +248,8 @@ class SHAPESIG_OT_preview_result(bpy.types.Operator):
             return {"FINISHED"}
         action = results.preview_result(context, settings)
         start, end = (int(v) for v in action.frame_range)
-        self.report({"INFO"}, f"previewing {action.name!r} (frames {start}-{end}){_kept_text(action)}; run again "
-                              f"to stop")
+        self.report({"INFO"}, f"previewing {action.name!r} (frames {start}-{end}: {timing_text(action)})"
+                              f"{_kept_text(action)}; run again to stop")
         return {"FINISHED"}
 
 

@@ -255,6 +255,7 @@ def _scene_seconds(action):
 @pytest.mark.parametrize("scene_fps", [24, 30])
 def test_assigned_clips_play_at_their_true_speed(scene24, tmp_path, scene_fps):
     from blender_shapesig.core.io import sources
+    from blender_shapesig.scene_motion import timing_text
 
     bpy.context.scene.render.fps = scene_fps
     lib = tmp_path / "rates"
@@ -272,6 +273,10 @@ def test_assigned_clips_play_at_their_true_speed(scene24, tmp_path, scene_fps):
         clip = sources.read_one(sources.ClipSpec(row.spec or row.source))
         true = (clip.frames - 1) / clip.fps
         assert abs(got / true - 1.0) <= 0.05, (row.source, got, true)
+        # the report line says it (Assign's and Preview's)
+        said = timing_text(arm.animation_data.action)
+        assert f"at the scene's {scene_fps} fps" in said, said
+        assert (f"resampled from {int(clip.fps)} fps" in said) == (int(clip.fps) != scene_fps), said
 
 
 @pytest.mark.parametrize("scene_fps", [24, 30])
