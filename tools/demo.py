@@ -184,10 +184,11 @@ def blend(bpy, imported, name_a, name_b, report):
     frames = {int(round(a.frame_range[1] - a.frame_range[0])) + 1 for a in (bpy.data.actions[name_a],
                                                                                bpy.data.actions[name_b])}
     from blender_shapesig.core.metrics import DEFAULT_DEPTH
+    from blender_shapesig.scene_motion import timing_text
 
     report(f"- blended {name_a!r} with {name_b!r} at weight 0.5, time-aligned (D = {DEFAULT_DEPTH}; source lengths "
-           f"{sorted(frames)} frames): new action {action.name!r}, frames {first}..{last}, assigned to "
-           f"{arm.name!r} (shapesig.blend_actions)")
+           f"{sorted(frames)} frames): new action {action.name!r}, frames {first}..{last} "
+           f"({timing_text(action)}), assigned to {arm.name!r} (shapesig.blend_actions)")
     return action
 
 
