@@ -22,7 +22,7 @@ from .core.io.files import check_frames
 from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
 
 __all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions", "to_armature_space", "to_pose_space",
-           "object_matrix", "EULER_MODES", "SPACES"]
+           "object_matrix", "world_matrix", "EULER_MODES", "SPACES"]
 
 SPACES = ("pose", "armature")
 
@@ -349,13 +349,19 @@ def _rest_frames(bones, armature):
     return B, heads
 
 
+def world_matrix(obj):
+    """``obj``'s world matrix (mathutils): ``matrix_world`` for an object of a scene; for one loaded from a
+    library into no scene (a reader's), whose ``matrix_world`` was never evaluated here, its own transform
+    composed with its parents' (``parent world @ matrix_parent_inverse @ matrix_basis``; an object parent)."""
+    if obj.users_scene or obj.parent is None:
+        return obj.matrix_world if obj.users_scene else obj.matrix_basis
+    return world_matrix(obj.parent) @ obj.matrix_parent_inverse @ obj.matrix_basis
+
+
 def object_matrix(armature):
     """The armature object's world matrix (4x4 numpy; rotation, scale, parents), or None when it is the identity
-    (then nothing is re-expressed: the numbers stay exactly those of the armature's own axes). An object in no
-    scene (loaded from a library by a reader) without a parent: its own transform (``matrix_basis``), since its
-    ``matrix_world`` was never evaluated here."""
-    world = armature.matrix_basis if (armature.parent is None and not armature.users_scene) else armature.matrix_world
-    M = np.array(world, dtype=np.float64)
+    (then nothing is re-expressed: the numbers stay exactly those of the armature's own axes); ``world_matrix``."""
+    M = np.array(world_matrix(armature), dtype=np.float64)
     return None if np.array_equal(M, np.eye(4)) else M
 
 

@@ -148,7 +148,6 @@ def rig_of(arm):
             "local_location": b.use_local_location, "deform": b.use_deform,
             "rotation_mode": pb.rotation_mode if pb is not None else "QUATERNION",
         })
-    # unparented: its own transform (an appended object's matrix_world is as stale as the file saved it)
-    world = arm.matrix_basis if arm.parent is None else arm.matrix_world
+    world = action_io.world_matrix(arm)  # an appended object's matrix_world is not evaluated: composed here
     return {"object": arm.name, "data": arm.data.name, "matrix_world": [list(r) for r in world],
             "bones": bones}

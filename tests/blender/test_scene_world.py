@@ -149,6 +149,13 @@ def test_find_similar_from_a_turned_character_lists_what_the_command_line_lists(
     assert run.returncode == 0, run.stderr
     out = json.loads(run.stdout)
     assert [pathlib.Path(r["path"]).name for r in out["results"][:5]] == [n for n, _d in got[:5]]
+    # the saved file's turned character on the command line (read in a child, its object's transform applied)
+    saved = folder.parent / "turned.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(saved), copy=True)
+    run = subprocess.run([sys.executable, "-m", "blender_shapesig", "rank", f"{saved}#lying", str(folder), "--top",
+                          "5", "--json", "--no-cache"], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert [pathlib.Path(r["path"]).name for r in json.loads(run.stdout)["results"]] == [n for n, _d in got[:5]]
 
 
 def _world_pose(arm, frames, tails=False):

@@ -112,6 +112,8 @@ class ClipSpec:
         extra = (f"asf={file_key(skeleton) if skeleton else ''}|action={self.action}|start={self.start}"
                  f"|end={self.end}|fps={self.fps}|{trim_key(self.trim)}")
         extra += f"|bone_map={bone_map_key(self.bone_map)}"
+        if self.ext == ".blend":
+            extra += "|axes=world"  # actions read in the world's axes (the armature object's matrix) since wave 4
         return file_key(self.path, extra)
 
 
