@@ -1,0 +1,184 @@
+"""A bridge from the library (motion matching for an offline tool): the library segment whose first frame matches
+the last known pose (pose relative to the root in its heading frame, joint and root velocities) and whose last
+frame matches the target's, with the root's displacement and turn between them matching the gap's, among segment
+lengths of 0.8 to 1.25 times the gap (a uniform time warp of the segment onto it); the segment is turned and moved
+onto the last known pose and offset (per joint on SO(3), the root linearly, faded with smoothstep weights) so it
+meets both ends exactly (``Bridges.fill``). See docs/transitions.md, "Bridge from the library".
+"""
+
+import os
+from dataclasses import replace
+
+import numpy as np
+
+from ..errors import ShapeSigError
+from ..geometry import so3
+from .body import Body, aligned_and_root, on_rig, resample, same_rig
+
+__all__ = ["Bridges", "as_bridges", "STRETCHES"]
+
+STRETCHES = (0.8, 0.9, 1.0, 1.1, 1.25)  # segment lengths tried, times the gap
+VELOCITY_SECONDS = 0.1   # velocities weigh as the displacement over this time
+MOVE_WEIGHT = 1.0        # weight of the root displacement over the gap (leg lengths)
+TURN_WEIGHT = 0.5        # weight of the turn over the gap (radians)
+STRETCH_WEIGHT = 0.02    # cost of a stretch r away from 1: this times log(r)^2
+
+
+def _features(body, joints):
+    """(frames, d): per frame, the joints relative to the root in the root's heading frame, their velocities and
+    the root's velocity in that frame (times VELOCITY_SECONDS), and the root's height (leg lengths)."""
+    idx = [body.joints.index(j) for j in joints]
+    rel = body.points[:, idx] - body.root[:, None]
+    c, s = np.cos(body.yaw), np.sin(body.yaw)
+    x = c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1]
+    y = -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1]
+    pose = np.stack([x, y, rel[..., 2]], axis=-1).reshape(body.frames, -1)
+    dv = np.gradient(pose, axis=0) if body.frames > 1 else np.zeros_like(pose)
+    dr = np.gradient(body.root, axis=0) if body.frames > 1 else np.zeros_like(body.root)
+    rv = np.stack([c * dr[:, 0] + s * dr[:, 1], -s * dr[:, 0] + c * dr[:, 1], dr[:, 2]], axis=1)
+    k = VELOCITY_SECONDS * body.fps
+    return np.concatenate([pose, k * dv, k * rv, body.root[:, 2:3]], axis=1)
+
+
+def _seam_feature(body, joints, at_end):
+    """The feature of a clip's last (``at_end``) or first frame with velocities from the two frames there."""
+    f = _features(body, joints)
+    if body.frames < 2:
+        return f[-1 if at_end else 0]
+    return f[-1] if at_end else f[0]
+
+
+def _displacement(body, i, j):
+    """(3,) root displacement from frame i to j in frame i's heading frame, and the turn (radians)."""
+    d = body.root[j] - body.root[i]
+    c, s = np.cos(body.yaw[i]), np.sin(body.yaw[i])
+    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]]), body.yaw[j] - body.yaw[i]
+
+
+class Bridges:
+    """A bridge library: clips (``Clip``s) at one frame rate with their bodies (``body.Body``); features per joint
+    set are computed once."""
+
+    def __init__(self, clips, fps):
+        self.fps = float(fps)
+        self.clips = [resample(c, fps) for c in clips if c.frames >= 2]
+        self.bodies = []
+        for c in self.clips:
+            try:
+                self.bodies.append(Body(c))
+            except ShapeSigError:
+                self.bodies.append(None)
+        self._cache = {}
+
+    def _table(self, joints):
+        key = tuple(joints)
+        if key not in self._cache:
+            rows = []
+            for k, b in enumerate(self.bodies):
+                if b is not None and all(j in b.joints for j in joints):
+                    rows.append((k, _features(b, joints)))
+            self._cache[key] = rows
+        return self._cache[key]
+
+    def search(self, before, after, frames, joints):
+        """(clip index, start frame, length in frames, cost) of the best segment for a gap of ``frames`` between
+        bodies ``before`` (last frame) and ``after`` (first frame); None when no library clip has the joints."""
+        q0, q1 = _seam_feature(before, joints, True), _seam_feature(after, joints, False)
+        move = after.root[0] - before.root[-1]
+        c, s = np.cos(before.yaw[-1]), np.sin(before.yaw[-1])
+        dq = np.array([c * move[0] + s * move[1], -s * move[0] + c * move[1], move[2]])
+        dyaw = after.yaw[0] - before.yaw[-1]
+        best = None
+        lengths = sorted({max(1, int(round((frames + 1) * r))) for r in STRETCHES})
+        for k, F in self._table(joints):
+            body = self.bodies[k]
+            start_cost = np.sum((F - q0) ** 2, axis=1)
+            end_cost = np.sum((F - q1) ** 2, axis=1)
+            for L in lengths:
+                n = body.frames - L
+                if n <= 0:
+                    continue
+                i = np.arange(n)
+                d = body.root[i + L] - body.root[i]
+                cy, sy = np.cos(body.yaw[i]), np.sin(body.yaw[i])
+                local = np.stack([cy * d[:, 0] + sy * d[:, 1], -sy * d[:, 0] + cy * d[:, 1], d[:, 2]], axis=1)
+                turn = np.angle(np.exp(1j * (body.yaw[i + L] - body.yaw[i] - dyaw)))
+                cost = (start_cost[:n] + end_cost[L:] + MOVE_WEIGHT * np.sum((local - dq) ** 2, axis=1)
+                        + TURN_WEIGHT * turn ** 2 + STRETCH_WEIGHT * np.log(L / (frames + 1.0)) ** 2)
+                m = int(np.argmin(cost))
+                if best is None or cost[m] < best[3]:
+                    best = (k, m, L, float(cost[m]))
+        return best
+
+    def fill(self, before, after, frames):
+        """(X (frames, bones, 3, 3), root (frames, 3), info) on ``before``'s skeleton (``after`` already on it): the
+        module docstring's bridge; None when the library has no clip with the joints of ``before``."""
+        from .make import sample_at
+
+        bb, ba = Body(before), Body(after)
+        joints = [j for j in bb.joints if j in ba.joints]
+        found = self.search(bb, ba, frames, joints)
+        if found is None:
+            return None
+        k, start, length, cost = found
+        src = self.clips[k]
+        seg = sample_at(src, np.linspace(start, start + length, frames + 2))
+        scale = bb.leg / self.bodies[k].leg
+        if same_rig(before, src):
+            X, root = aligned_and_root(seg)
+            root = root * scale
+        else:
+            X, root = aligned_and_root(on_rig(replace(seg, fps=before.fps), before))
+        X0, p0 = aligned_and_root(before)
+        X1, p1 = aligned_and_root(after)
+        X, root = _meet(before, X, root, X0[-1], p0[-1], X1[0], p1[0])
+        info = {"clip": src.name, "source": src.source, "start": int(start), "frames": int(length),
+                "cost": round(cost, 6)}
+        return X[1:-1], root[1:-1], info
+
+
+def _meet(rig, X, root, X0, p0, X1, p1):
+    """The segment (frames + 2 poses) turned about up and moved so its first pose's root heading and position are
+    the last known pose's, then offset to meet X0, p0 and X1, p1 exactly (smoothstep fade)."""
+    from ..clip.skeleton import rest_of, up_vector
+
+    rest = rest_of(rig)
+    up = up_vector(rig)
+    tops = np.flatnonzero(rest.ancestor < 0)
+    r = rest.root if rest.root is not None else int(tops[0])
+    angle = float(so3.heading(X0[r], up) - so3.heading(X[0, r], up))
+    T = so3.exp(angle * up)
+    X = X.copy()
+    X[:, tops] = T[None, None] @ X[:, tops]
+    root = (root - root[0]) @ T.T + p0
+    n = len(X)
+    s = np.arange(n) / float(n - 1)
+    w = s * s * (3.0 - 2.0 * s)
+    d0 = so3.log(np.swapaxes(X[0], -1, -2) @ X0)
+    d1 = so3.log(np.swapaxes(X[-1], -1, -2) @ X1)
+    X = X @ so3.exp((1.0 - w)[:, None, None] * d0[None] + w[:, None, None] * d1[None])
+    root = root + (1.0 - w)[:, None] * (p0 - root[0]) + w[:, None] * (p1 - root[-1])
+    return X, root
+
+
+def as_bridges(library, fps):
+    """``library`` as ``Bridges`` at ``fps``: a ``Bridges`` (re-used when at that rate), clips, or paths of clip files
+    and folders (read on their own rigs, ``core.io.sources``; unreadable files skipped)."""
+    if isinstance(library, Bridges):
+        return library if abs(library.fps - fps) < 1e-9 else Bridges(library.clips, fps)
+    if isinstance(library, (str, os.PathLike)):
+        library = [library]
+    items = list(library)
+    clips = [x for x in items if not isinstance(x, (str, os.PathLike))]
+    paths = [x for x in items if isinstance(x, (str, os.PathLike))]
+    if paths:
+        from ..io.sources import discover, read
+
+        for spec in discover(paths):
+            try:
+                clips.extend(read(spec, bone_map="none"))
+            except ShapeSigError:
+                continue
+    if not clips:
+        raise ShapeSigError("the bridge library holds no clip")
+    return Bridges(clips, fps)
