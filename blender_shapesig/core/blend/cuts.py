@@ -13,7 +13,7 @@ from scipy.ndimage import minimum_filter
 
 from ..errors import ShapeSigError
 
-__all__ = ["Cut", "CUT_FPS", "WINDOW", "CONTACT_WEIGHT", "cut_costs", "rank_cuts", "ground_fit", "shared_joints"]
+__all__ = ["Cut", "CUT_FPS", "WINDOW", "CONTACT_WEIGHT", "cut_costs", "rank_cuts", "pair_cost", "ground_fit", "shared_joints"]
 
 CUT_FPS = 30.0         # the grid of the cost matrix (samples per second of each clip)
 WINDOW = 9             # samples of the window (at CUT_FPS: 0.3 s, centred on the cut)
@@ -135,6 +135,12 @@ def rank_cuts(ba, bb, top=5):
             break
     out.sort(key=lambda x: x.cost)
     return out[:top]
+
+
+def pair_cost(ba, bb, a_frame, b_frame):
+    """The cost of one pair of frames (windows reaching outside a clip hold its end frames)."""
+    joints = shared_joints(ba, bb)
+    return float(_cost(_windows(ba, [a_frame], joints), _windows(bb, [b_frame], joints))[0, 0])
 
 
 def ground_fit(ba, bb, a_frame, b_frame):

@@ -14,7 +14,7 @@ from ..clip.skeleton import from_aligned, rest_of, root_translation_from_heads, 
 from ..errors import ShapeSigError, check_integer
 from ..geometry import so3
 from .body import Body, aligned_and_root, on_rig
-from .cuts import Cut, ground_fit, rank_cuts
+from .cuts import Cut, ground_fit, pair_cost, rank_cuts
 from .inbetween import geodesic_gap, seam_velocities
 
 __all__ = ["Cut", "best_cuts", "inbetween", "transition", "DEFAULT_SECONDS", "MAX_FRAMES"]
@@ -123,7 +123,7 @@ def transition(a, b, *, cut=None, frames=None, library=None):
         chosen = found[0]
     else:
         i, j = _check_cut(cut, a, b)
-        chosen = Cut(i, j, float("nan"))
+        chosen = Cut(i, j, pair_cost(Body(a), Body(b), i, j))
     i, j = chosen.a_frame, chosen.b_frame
     if frames is None:
         frames = max(1, int(round(DEFAULT_SECONDS * a.fps)))
