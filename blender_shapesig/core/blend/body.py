@@ -55,6 +55,8 @@ class Body:
         self.root = (heads[:, root] @ self.basis.T) / self.leg
         self.contacts = np.zeros((clip.frames, 4))
         try:
+            if clip.frames < 3:
+                raise ShapeSigError("too short for contacts")
             from .feet import find_contacts, legs_of
 
             legs = legs_of(clip)

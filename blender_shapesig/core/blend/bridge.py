@@ -22,6 +22,10 @@ VELOCITY_SECONDS = 0.1   # velocities weigh as the displacement over this time
 MOVE_WEIGHT = 1.0        # weight of the root displacement over the gap (leg lengths)
 TURN_WEIGHT = 0.5        # weight of the turn over the gap (radians)
 STRETCH_WEIGHT = 0.02    # cost of a stretch r away from 1: this times log(r)^2
+HISTORY = (3, 6, 9)      # frames before the seam matched too (the motion leading into the gap)
+HISTORY_WEIGHT = 0.5
+BRIDGES = 10             # the best segments (of as many clips) averaged, weighted 1 / (cost + COST_FLOOR)
+COST_FLOOR = 0.1
 
 
 def _features(body, joints):
@@ -41,11 +45,14 @@ def _features(body, joints):
 
 
 def _seam_feature(body, joints, at_end):
-    """The feature of a clip's last (``at_end``) or first frame with velocities from the two frames there."""
+    """(feature, mask) of a clip's last (``at_end``) or first frame, velocities from the two frames there; the
+    mask leaves the velocities out of a one-frame clip (unknown)."""
     f = _features(body, joints)
+    mask = np.ones(f.shape[1])
     if body.frames < 2:
-        return f[-1 if at_end else 0]
-    return f[-1] if at_end else f[0]
+        n = 3 * len(joints)
+        mask[n:2 * n + 3] = 0.0
+    return (f[-1] if at_end else f[0]), mask
 
 
 def _displacement(body, i, j):
@@ -80,20 +87,27 @@ class Bridges:
             self._cache[key] = rows
         return self._cache[key]
 
-    def search(self, before, after, frames, joints):
-        """(clip index, start frame, length in frames, cost) of the best segment for a gap of ``frames`` between
-        bodies ``before`` (last frame) and ``after`` (first frame); None when no library clip has the joints."""
-        q0, q1 = _seam_feature(before, joints, True), _seam_feature(after, joints, False)
+    def search(self, before, after, frames, joints, count=1):
+        """[(clip index, start frame, length in frames, cost)] of the best segments (one per clip, the ``count``
+        best clips, best first) for a gap of ``frames`` between bodies ``before`` (last frame) and ``after`` (first
+        frame); empty when no library clip has the joints."""
+        (q0, m0), (q1, m1) = _seam_feature(before, joints, True), _seam_feature(after, joints, False)
+        past = _features(before, joints) if before.frames > 1 else None
+        history = [d for d in HISTORY if past is not None and d < before.frames]
         move = after.root[0] - before.root[-1]
         c, s = np.cos(before.yaw[-1]), np.sin(before.yaw[-1])
         dq = np.array([c * move[0] + s * move[1], -s * move[0] + c * move[1], move[2]])
         dyaw = after.yaw[0] - before.yaw[-1]
-        best = None
+        found = []
         lengths = sorted({max(1, int(round((frames + 1) * r))) for r in STRETCHES})
         for k, F in self._table(joints):
             body = self.bodies[k]
-            start_cost = np.sum((F - q0) ** 2, axis=1)
-            end_cost = np.sum((F - q1) ** 2, axis=1)
+            start_cost = (F - q0) ** 2 @ m0
+            for d in history:  # the last known frames before the seam, against the frames before the segment
+                back = F[np.maximum(np.arange(len(F)) - d, 0)]
+                start_cost = start_cost + HISTORY_WEIGHT * np.sum((back - past[-1 - d]) ** 2, axis=1)
+            end_cost = (F - q1) ** 2 @ m1
+            best = None
             for L in lengths:
                 n = body.frames - L
                 if n <= 0:
@@ -108,7 +122,10 @@ class Bridges:
                 m = int(np.argmin(cost))
                 if best is None or cost[m] < best[3]:
                     best = (k, m, L, float(cost[m]))
-        return best
+            if best is not None:
+                found.append(best)
+        found.sort(key=lambda x: x[3])
+        return found[:count]
 
     def fill(self, before, after, frames):
         """(X (frames, bones, 3, 3), root (frames, 3), info) on ``before``'s skeleton (``after`` already on it): the
@@ -117,23 +134,30 @@ class Bridges:
 
         bb, ba = Body(before), Body(after)
         joints = [j for j in bb.joints if j in ba.joints]
-        found = self.search(bb, ba, frames, joints)
-        if found is None:
+        found = self.search(bb, ba, frames, joints, BRIDGES)
+        if not found:
             return None
-        k, start, length, cost = found
-        src = self.clips[k]
-        seg = sample_at(src, np.linspace(start, start + length, frames + 2))
-        scale = bb.leg / self.bodies[k].leg
-        if same_rig(before, src):
-            X, root = aligned_and_root(seg)
-            root = root * scale
-        else:
-            X, root = aligned_and_root(on_rig(replace(seg, fps=before.fps), before))
         X0, p0 = aligned_and_root(before)
         X1, p1 = aligned_and_root(after)
-        X, root = _meet(before, X, root, X0[-1], p0[-1], X1[0], p1[0])
-        info = {"clip": src.name, "source": src.source, "start": int(start), "frames": int(length),
-                "cost": round(cost, 6)}
+        rots, roots = [], []
+        for k, start, length, _cost in found:
+            src = self.clips[k]
+            seg = sample_at(src, np.linspace(start, start + length, frames + 2))
+            if same_rig(before, src):
+                X, root = aligned_and_root(seg)
+                root = root * (bb.leg / self.bodies[k].leg)
+            else:
+                X, root = aligned_and_root(on_rig(replace(seg, fps=before.fps), before))
+            X, root = _meet(before, X, root, X0[-1], p0[-1], X1[0], p1[0])
+            rots.append(X)
+            roots.append(root)
+        w = np.array([1.0 / (c + COST_FLOOR) for *_x, c in found])
+        w /= w.sum()
+        X = so3.nearest_rotation(np.einsum("k,k...->...", w, np.array(rots))) if len(rots) > 1 else rots[0]
+        root = np.einsum("k,k...->...", w, np.array(roots))
+        k, start, length, cost = found[0]
+        info = {"clip": self.clips[k].name, "source": self.clips[k].source, "start": int(start),
+                "frames": int(length), "cost": round(cost, 6), "segments": len(found)}
         return X[1:-1], root[1:-1], info
 
 

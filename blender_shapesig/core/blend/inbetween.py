@@ -32,9 +32,9 @@ def _damped(t, T, tau):
 
 def seam_velocities(X, root, fps, at_end):
     """(omega (bones, 3) body angular velocities in rad/s, v (3,) root velocity) of a clip's last (``at_end``) or
-    first two frames (zeros for a one-frame clip)."""
+    first two frames; (None, None) for a one-frame clip (its velocity is unknown: the geodesic's is taken)."""
     if len(X) < 2:
-        return np.zeros(X.shape[1:-2] + (3,)), np.zeros(3)
+        return None, None
     a, b = (X[-2], X[-1]) if at_end else (X[0], X[1])
     pa, pb = (root[-2], root[-1]) if at_end else (root[0], root[1])
     return so3.log(np.swapaxes(a, -1, -2) @ b) * fps, (pb - pa) * fps
@@ -43,15 +43,18 @@ def seam_velocities(X, root, fps, at_end):
 def geodesic_gap(X0, p0, w0, v0, X1, p1, w1, v1, frames, fps, tau=TAU):
     """(X (frames, bones, 3, 3), root (frames, 3)): the module docstring's in-between from pose X0 (bones, 3, 3) at
     root p0 with body velocities w0 (bones, 3) and root velocity v0 to X1, p1, w1, v1 over ``frames`` generated
-    frames at ``fps`` (the target is frame ``frames + 1``)."""
+    frames at ``fps`` (the target is frame ``frames + 1``); a velocity given as None is the geodesic's (nothing
+    carried)."""
     t, T = gap_times(frames, fps)
     s = t / T
     D = so3.log(np.swapaxes(X0, -1, -2) @ X1)
+    dp = p1 - p0
+    w0, w1 = (D / T if w is None else w for w in (w0, w1))
+    v0, v1 = (dp / T if v is None else v for v in (v0, v1))
     f0, f1 = _damped(t, T, tau)
     geo = X0[None] @ so3.exp(s[:, None, None] * D[None])
     off = f0[:, None, None] * (w0 - D / T)[None] + f1[:, None, None] * (w1 - D / T)[None]
     X = geo @ so3.exp(off)
-    dp = p1 - p0
     root = p0[None] + s[:, None] * dp[None] + f0[:, None] * (v0 - dp / T)[None] + f1[:, None] * (v1 - dp / T)[None]
     return X, root
 

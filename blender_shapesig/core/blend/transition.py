@@ -66,7 +66,23 @@ def inbetween(before, after, frames, *, library=None):
         w1, v1 = seam_velocities(X1, p1, before.fps, False)
         X, root = geodesic_gap(X0[-1], p0[-1], w0, v0, X1[0], p1[0], w1, v1, frames, before.fps)
         made = {"generator": "geodesic"}
+    X = _planted(before, X0, p0, X, root, X1, p1)
     return _clip_from(before, X, root, f"{before.name}_to_{after.name}", before.frame_end + 1, {"inbetween": made})
+
+
+KNOWN_SECONDS = 0.5  # known frames on each side the planted feet look at
+
+
+def _planted(rig, X0, p0, X, root, X1, p1):
+    """The generated rotations X with the heels planted where they are down (``plant.plant_gap``), looking at up
+    to KNOWN_SECONDS of the known frames on each side."""
+    from .plant import plant_gap
+
+    k = max(1, int(round(KNOWN_SECONDS * rig.fps)))
+    X0, p0, X1, p1 = X0[-k:], p0[-k:], X1[:k], p1[:k]
+    seq = np.concatenate([X0, X, X1])
+    path = np.concatenate([p0, root, p1])
+    return plant_gap(rig, seq, path, len(X0), len(X0) + len(X) - 1)[len(X0):len(X0) + len(X)]
 
 
 def _check_cut(cut, a, b):
