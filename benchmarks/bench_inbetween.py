@@ -225,6 +225,64 @@ def split_cuts(clips, overlap=0.5):
             "misses": [r for r in rows if not r["hit"]][:20]}
 
 
+def _steps(clip):
+    heads = forward_kinematics(clip)[0]
+    r = clip.bones.index(clip.root_bone)
+    return (np.linalg.norm(np.diff(heads[:, r], axis=0), axis=1),
+            np.degrees(np.linalg.norm(so3.relative_rotvecs(clip.rotations), axis=-1)).max(axis=1))
+
+
+def joins(pairs, frames=None):
+    """Transitions across takes (``A:B`` pairs of clip files, read on their own rigs): per pair the largest root
+    step at the seams (from 2 frames before the cut to 2 after B starts) over the sources' largest, the largest
+    joint step there minus the sources' largest (degrees), and the largest stance drift (cm) of a heel or ball
+    contact run touching the generated frames (``feet.find_contacts`` on the joined clip)."""
+    from blender_shapesig.core.blend import feet
+    from blender_shapesig.core.blend.feet import POINTS, find_contacts, stance_drift
+    from blender_shapesig.core.blend.transition import transition
+
+    rows = []
+    for pair in pairs:
+        pa, pb = pair.split(":")
+        a, b = read(pa, bone_map="none")[0], read(pb, bone_map="none")[0]
+        t0 = time.perf_counter()
+        joined = transition(a, b, frames=frames)
+        ms = (time.perf_counter() - t0) * 1e3
+        info = joined.meta["transition"]
+        i, n = info["cut"]["a_frame"], info["frames"]
+        rj, jj = _steps(joined)
+        seam = slice(max(i - 2, 0), i + n + 3)
+        ra, ja = _steps(a)
+        rb, jb = _steps(b)
+        src_root = max(rj[:i].max(), rj[i + n + 1:].max())  # A, and B as placed on A's rig (A's units)
+        legs = legs_of(joined)
+        contacts = find_contacts(joined, legs)
+        pos = feet_positions(joined, legs)
+        unit = unit_meters(joined, [(t, f) for t, _s, f in legs.values()])
+        drift = 0.0
+        for side in contacts:
+            for point in POINTS:
+                mask = contacts[side][point].copy()
+                keep = np.zeros_like(mask)
+                for s_, e_ in _runs_of(mask):
+                    if e_ >= i + 1 and s_ <= i + n:
+                        keep[s_:e_ + 1] = True
+                d = stance_drift(pos[side][point], keep)
+                drift = max([drift] + [x * unit * 100 for x in d])
+        src_drift = max(max(feet.source_drifts(a), default=0.0), max(feet.source_drifts(b), default=0.0)) * 100
+        rows.append({"pair": [a.name, b.name], "cut": info["cut"], "frames": n,
+                     "root_step_ratio": float(rj[seam].max() / max(src_root, 1e-12)),
+                     "joint_step_excess_deg": float(jj[seam].max() - max(ja.max(), jb.max())),
+                     "drift_cm": drift, "source_drift_cm": src_drift, "ms": ms})
+    return rows
+
+
+def _runs_of(mask):
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
+    d = np.diff(m.astype(np.int8))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
+
+
 def _tiled(clip, seconds):
     from dataclasses import replace
 
@@ -260,6 +318,8 @@ def main(argv=None):
     p.add_argument("--test-match", default="")
     p.add_argument("--json", metavar="OUT.json")
     p.add_argument("--no-speed", action="store_true")
+    p.add_argument("--joins", nargs="*", default=(), metavar="A:B",
+                   help="also join these takes (clip files A:B) and measure the seams")
     args = p.parse_args(argv)
     train_own = load(args.train, [m for m in args.train_match.split(",") if m])
     test_own = load(args.test, [m for m in args.test_match.split(",") if m])
@@ -283,6 +343,13 @@ def main(argv=None):
     results["cuts"] = split_cuts(test_own)
     print(f"best cuts on split takes: {results['cuts']['first_cut_true']} of {results['cuts']['takes']} first cuts "
           f"true (+-2 frames)")
+    if args.joins:
+        results["joins"] = joins(args.joins)
+        for r in results["joins"]:
+            print(f"join {r['pair'][0]} -> {r['pair'][1]}: cut {r['cut']['a_frame']}:{r['cut']['b_frame']}, root step "
+                  f"x{r['root_step_ratio']:.2f} of A's largest, joint step {r['joint_step_excess_deg']:+.1f} deg over "
+                  f"the sources', contact drift {r['drift_cm']:.1f} cm (sources' largest {r['source_drift_cm']:.1f}), "
+                  f"{r['ms']:.0f} ms")
     if not args.no_speed:
         results["speed"] = speed(test, train, sw)
         print("speed (ms, ratio to interpolation):",

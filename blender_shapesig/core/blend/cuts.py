@@ -100,18 +100,35 @@ def cut_costs(ba, bb):
     return _cost(_windows(ba, ca, joints), _windows(bb, cb, joints)), ca, cb
 
 
-def _refine(ba, bb, joints, fa, fb):
-    """The A frame within +-half a grid step of ``fa`` (whole frames, window inside A) of least cost against B at
-    ``fb``: (frame, cost)."""
+def _pair_costs(wa, wb):
+    """(n,) ``_cost`` of the pairs (window k of A, window k of B)."""
+    Ha, Za, Ca = wa
+    Hb, Zb, Cb = wb
+    C = np.sum(Ha * Hb, axis=(1, 2))
+    S = np.sum(Ha[..., 1] * Hb[..., 0] - Ha[..., 0] * Hb[..., 1], axis=1)
+    sq = (np.sum(Ha ** 2, axis=(1, 2)) + np.sum(Hb ** 2, axis=(1, 2)) - 2.0 * np.sqrt(C * C + S * S)
+          + np.sum((Za - Zb) ** 2, axis=1))
+    cost = np.sqrt(np.maximum(sq, 0.0) / Ha.shape[1])
+    if Ca.shape[1]:
+        cost = cost + CONTACT_WEIGHT * np.sum(np.abs(Ca - Cb), axis=1) / Ca.shape[1]
+    return cost
+
+
+def _refine(ba, bb, joints, pairs):
+    """Per (A centre, B frame) pair: the A frame within +-half a grid step of the centre (whole frames, window
+    inside A) of least cost against B at that frame; [(A frame, cost)], all pairs in one batch."""
     half = (WINDOW - 1) // 2 * ba.fps / CUT_FPS
     reach = int(np.ceil(ba.fps / CUT_FPS / 2.0)) + 1
-    cands = np.arange(int(round(fa)) - reach, int(round(fa)) + reach + 1)
-    cands = cands[(cands >= np.ceil(half - 1e-9)) & (cands <= ba.frames - 1 - half + 1e-9)]
-    if not len(cands):
-        cands = np.array([int(round(fa))])
-    costs = _cost(_windows(ba, cands, joints), _windows(bb, [fb], joints))[:, 0]
-    k = int(np.argmin(costs))
-    return int(cands[k]), float(costs[k])
+    lo, hi = np.ceil(half - 1e-9), ba.frames - 1 - half + 1e-9
+    fa = np.array([int(round(a)) for a, _b in pairs])
+    cands = fa[:, None] + np.arange(-reach, reach + 1)[None]
+    ok = (cands >= lo) & (cands <= hi)
+    cands = np.where(ok, cands, fa[:, None])
+    fb = np.repeat([b for _a, b in pairs], cands.shape[1])
+    costs = _pair_costs(_windows(ba, cands.ravel(), joints), _windows(bb, fb, joints)).reshape(cands.shape)
+    k = np.argmin(costs, axis=1)
+    rows = np.arange(len(pairs))
+    return [(int(a), float(c)) for a, c in zip(cands[rows, k], costs[rows, k])]
 
 
 def rank_cuts(ba, bb, top=5):
@@ -122,17 +139,15 @@ def rank_cuts(ba, bb, top=5):
     low = minimum_filter(cost, size=NEIGHBOURS, mode="nearest")
     ii, jj = np.nonzero(cost <= low + 1e-12)
     order = np.argsort(cost[ii, jj], kind="stable")
-    out, seen = [], set()
-    for k in order:
+    pairs = []
+    for k in order[:4 * top]:
         fb = int(round(cb[jj[k]]))
-        fb = min(max(fb, int(np.ceil(cb[0] - 1e-9))), int(np.floor(cb[-1] + 1e-9)))
-        fa, c = _refine(ba, bb, joints, ca[ii[k]], fb)
-        if (fa, fb) in seen:
-            continue
-        seen.add((fa, fb))
-        out.append(Cut(fa, fb, c))
-        if len(out) >= 4 * top:
-            break
+        pairs.append((ca[ii[k]], min(max(fb, int(np.ceil(cb[0] - 1e-9))), int(np.floor(cb[-1] + 1e-9)))))
+    out, seen = [], set()
+    for (fa, c), (_a, fb) in zip(_refine(ba, bb, joints, pairs) if pairs else [], pairs):
+        if (fa, fb) not in seen:
+            seen.add((fa, fb))
+            out.append(Cut(fa, fb, c))
     out.sort(key=lambda x: x.cost)
     return out[:top]
 
