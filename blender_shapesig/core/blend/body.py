@@ -59,7 +59,7 @@ class Body:
                 raise ShapeSigError("too short for contacts")
             from .feet import find_contacts, legs_of
 
-            legs = legs_of(clip)
+            legs = legs_of(clip, mapping)
             found = find_contacts(clip, legs, (heads, _tails, W))
             cols = [found[s][p] if s in found else np.zeros(clip.frames, bool)
                     for s in ("L", "R") for p in ("heel", "ball")]

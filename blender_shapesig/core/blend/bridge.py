@@ -44,6 +44,10 @@ def _features(body, joints):
     return np.concatenate([pose, k * dv, k * rv, body.root[:, 2:3]], axis=1)
 
 
+def key_of(joints):
+    return tuple(joints)
+
+
 def _seam_feature(body, joints, at_end):
     """(feature, mask) of a clip's last (``at_end``) or first frame, velocities from the two frames there; the
     mask leaves the velocities out of a one-frame clip (unknown)."""
@@ -53,13 +57,6 @@ def _seam_feature(body, joints, at_end):
         n = 3 * len(joints)
         mask[n:2 * n + 3] = 0.0
     return (f[-1] if at_end else f[0]), mask
-
-
-def _displacement(body, i, j):
-    """(3,) root displacement from frame i to j in frame i's heading frame, and the turn (radians)."""
-    d = body.root[j] - body.root[i]
-    c, s = np.cos(body.yaw[i]), np.sin(body.yaw[i])
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]]), body.yaw[j] - body.yaw[i]
 
 
 class Bridges:
@@ -78,54 +75,81 @@ class Bridges:
         self._cache = {}
 
     def _table(self, joints):
+        """The library's frames as one table for ``joints``: features (n, d), root (n, 3), yaw (n,), clip index and
+        the table row of its clip's first frame (n,); None when no clip has the joints."""
         key = tuple(joints)
         if key not in self._cache:
-            rows = []
-            for k, b in enumerate(self.bodies):
-                if b is not None and all(j in b.joints for j in joints):
-                    rows.append((k, _features(b, joints)))
-            self._cache[key] = rows
+            rows = [(k, b) for k, b in enumerate(self.bodies) if b is not None and all(j in b.joints for j in joints)]
+            if not rows:
+                self._cache[key] = None
+            else:
+                starts = np.cumsum([0] + [b.frames for _k, b in rows])[:-1]
+                self._cache[key] = (np.concatenate([_features(b, joints) for _k, b in rows]),
+                                    np.concatenate([b.root for _k, b in rows]),
+                                    np.concatenate([b.yaw for _k, b in rows]),
+                                    np.concatenate([np.full(b.frames, k) for k, b in rows]),
+                                    np.concatenate([np.full(b.frames, s0) for s0, (_k, b) in zip(starts, rows)]))
         return self._cache[key]
+
+    def _distances(self, key, F, q, mask):
+        """(n,) squared distances of the table's rows to ``q`` over the features ``mask`` keeps (0/1 weights):
+        ``|F|^2 m - 2 F (m q) + |q|^2 m`` with the rows' squared norms computed once per mask (a product, not a
+        difference of every row)."""
+        norms = self._cache.setdefault(("norms",) + key, {})
+        mk = mask.tobytes()
+        if mk not in norms:
+            norms[mk] = (F * F) @ mask
+        mq = mask * q
+        return np.maximum(norms[mk] - 2.0 * (F @ mq) + float(q @ mq), 0.0)
 
     def search(self, before, after, frames, joints, count=1):
         """[(clip index, start frame, length in frames, cost)] of the best segments (one per clip, the ``count``
         best clips, best first) for a gap of ``frames`` between bodies ``before`` (last frame) and ``after`` (first
-        frame); empty when no library clip has the joints."""
+        frame); empty when no library clip has the joints. Every clip, start and length at once on the table."""
+        table = self._table(joints)
+        if table is None:
+            return []
+        F, root, yaw, clip, first = table
         (q0, m0), (q1, m1) = _seam_feature(before, joints, True), _seam_feature(after, joints, False)
-        past = _features(before, joints) if before.frames > 1 else None
-        history = [d for d in HISTORY if past is not None and d < before.frames]
+        start_cost = self._distances(key_of(joints), F, q0, m0)
+        if before.frames > 1:
+            past = _features(before, joints)
+            rows = np.arange(len(F))
+            ones = np.ones(F.shape[1])
+            for d in (d for d in HISTORY if d < before.frames):  # the known frames before the seam
+                near = self._distances(key_of(joints), F, past[-1 - d], ones)
+                start_cost = start_cost + HISTORY_WEIGHT * near[np.maximum(rows - d, first)]
+        end_cost = self._distances(key_of(joints), F, q1, m1)
         move = after.root[0] - before.root[-1]
         c, s = np.cos(before.yaw[-1]), np.sin(before.yaw[-1])
         dq = np.array([c * move[0] + s * move[1], -s * move[0] + c * move[1], move[2]])
         dyaw = after.yaw[0] - before.yaw[-1]
-        found = []
         lengths = sorted({max(1, int(round((frames + 1) * r))) for r in STRETCHES})
-        for k, F in self._table(joints):
-            body = self.bodies[k]
-            start_cost = (F - q0) ** 2 @ m0
-            for d in history:  # the last known frames before the seam, against the frames before the segment
-                back = F[np.maximum(np.arange(len(F)) - d, 0)]
-                start_cost = start_cost + HISTORY_WEIGHT * np.sum((back - past[-1 - d]) ** 2, axis=1)
-            end_cost = (F - q1) ** 2 @ m1
-            best = None
-            for L in lengths:
-                n = body.frames - L
-                if n <= 0:
-                    continue
-                i = np.arange(n)
-                d = body.root[i + L] - body.root[i]
-                cy, sy = np.cos(body.yaw[i]), np.sin(body.yaw[i])
-                local = np.stack([cy * d[:, 0] + sy * d[:, 1], -sy * d[:, 0] + cy * d[:, 1], d[:, 2]], axis=1)
-                turn = np.angle(np.exp(1j * (body.yaw[i + L] - body.yaw[i] - dyaw)))
-                cost = (start_cost[:n] + end_cost[L:] + MOVE_WEIGHT * np.sum((local - dq) ** 2, axis=1)
-                        + TURN_WEIGHT * turn ** 2 + STRETCH_WEIGHT * np.log(L / (frames + 1.0)) ** 2)
-                m = int(np.argmin(cost))
-                if best is None or cost[m] < best[3]:
-                    best = (k, m, L, float(cost[m]))
-            if best is not None:
-                found.append(best)
-        found.sort(key=lambda x: x[3])
-        return found[:count]
+        costs = np.full((len(lengths), len(F)), np.inf)
+        for row, L in enumerate(lengths):
+            if L >= len(F):
+                continue
+            i = np.arange(len(F) - L)
+            same = clip[i] == clip[i + L]
+            d = root[i + L] - root[i]
+            cy, sy = np.cos(yaw[i]), np.sin(yaw[i])
+            local = np.stack([cy * d[:, 0] + sy * d[:, 1], -sy * d[:, 0] + cy * d[:, 1], d[:, 2]], axis=1)
+            turn = np.angle(np.exp(1j * (yaw[i + L] - yaw[i] - dyaw)))
+            cost = (start_cost[i] + end_cost[i + L] + MOVE_WEIGHT * np.sum((local - dq) ** 2, axis=1)
+                    + TURN_WEIGHT * turn ** 2 + STRETCH_WEIGHT * np.log(L / (frames + 1.0)) ** 2)
+            costs[row, :len(i)] = np.where(same, cost, np.inf)
+        best = np.min(costs, axis=0)
+        starts = np.flatnonzero(np.r_[True, clip[1:] != clip[:-1]])
+        ends = np.r_[starts[1:], len(F)]
+        per_clip = np.minimum.reduceat(best, starts)
+        found = []
+        for c in np.argsort(per_clip, kind="stable")[:count]:
+            if not np.isfinite(per_clip[c]):
+                break
+            i = starts[c] + int(np.argmin(best[starts[c]:ends[c]]))
+            L = lengths[int(np.argmin(costs[:, i]))]
+            found.append((int(clip[i]), int(i - first[i]), L, float(best[i])))
+        return found
 
     def fill(self, before, after, frames):
         """(X (frames, bones, 3, 3), root (frames, 3), info) on ``before``'s skeleton (``after`` already on it): the
@@ -134,7 +158,10 @@ class Bridges:
 
         bb, ba = Body(before), Body(after)
         joints = [j for j in bb.joints if j in ba.joints]
-        found = self.search(bb, ba, frames, joints, BRIDGES)
+        from ..blas import one_blas_thread
+
+        with one_blas_thread():  # matrix-vector products: OpenBLAS's threads only cost here
+            found = self.search(bb, ba, frames, joints, BRIDGES)
         if not found:
             return None
         X0, p0 = aligned_and_root(before)

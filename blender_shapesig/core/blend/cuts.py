@@ -74,12 +74,15 @@ def _cost(wa, wb):
     Ha, Za, Ca = wa
     Hb, Zb, Cb = wb
     n = Ha.shape[1]
-    ax, ay, bx, by = Ha[..., 0], Ha[..., 1], Hb[..., 0], Hb[..., 1]
-    C = ax @ bx.T + ay @ by.T
-    S = ay @ bx.T - ax @ by.T
+    # three products in single precision (the grid's ranking; the ranked cuts' costs are recomputed in double)
+    A = np.concatenate([Ha[..., 0], Ha[..., 1]], axis=1).astype(np.float32)
+    A90 = np.concatenate([Ha[..., 1], -Ha[..., 0]], axis=1).astype(np.float32)
+    B = np.concatenate([Hb[..., 0], Hb[..., 1]], axis=1).astype(np.float32).T
+    C, S = (A @ B).astype(np.float64), (A90 @ B).astype(np.float64)
+    ZZ = (Za.astype(np.float32) @ Zb.astype(np.float32).T).astype(np.float64)
     sq = (np.sum(Ha ** 2, axis=(1, 2))[:, None] + np.sum(Hb ** 2, axis=(1, 2))[None]
           - 2.0 * np.sqrt(C * C + S * S)
-          + np.sum(Za ** 2, axis=1)[:, None] + np.sum(Zb ** 2, axis=1)[None] - 2.0 * Za @ Zb.T)
+          + np.sum(Za ** 2, axis=1)[:, None] + np.sum(Zb ** 2, axis=1)[None] - 2.0 * ZZ)
     cost = np.sqrt(np.maximum(sq, 0.0) / n)
     m = Ca.shape[1]
     if m:
@@ -155,7 +158,7 @@ def rank_cuts(ba, bb, top=5):
 def pair_cost(ba, bb, a_frame, b_frame):
     """The cost of one pair of frames (windows reaching outside a clip hold its end frames)."""
     joints = shared_joints(ba, bb)
-    return float(_cost(_windows(ba, [a_frame], joints), _windows(bb, [b_frame], joints))[0, 0])
+    return float(_pair_costs(_windows(ba, [a_frame], joints), _windows(bb, [b_frame], joints))[0])
 
 
 def ground_fit(ba, bb, a_frame, b_frame):

@@ -26,8 +26,11 @@ MAX_FRAMES = 10_000
 def best_cuts(a, b, *, top=5):
     """The ``top`` best places where clip ``a`` can hand over to clip ``b``, best first: ``Cut``s with ``a_frame``,
     ``b_frame`` (0-based frame indices of each clip) and ``cost`` (leg lengths; ``cuts`` module)."""
+    from ..blas import one_blas_thread
+
     top = check_integer(top, "top", 1)
-    return rank_cuts(Body(a), Body(b), top)
+    with one_blas_thread():  # a few mid-sized products: OpenBLAS's threads only cost here
+        return rank_cuts(Body(a), Body(b), top)
 
 
 def _clip_from(rig, X, root, name, frame_start, meta):
