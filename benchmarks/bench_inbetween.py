@@ -347,7 +347,7 @@ def main(argv=None):
         results["joins"] = joins(args.joins)
         for r in results["joins"]:
             print(f"join {r['pair'][0]} -> {r['pair'][1]}: cut {r['cut']['a_frame']}:{r['cut']['b_frame']}, root step "
-                  f"x{r['root_step_ratio']:.2f} of A's largest, joint step {r['joint_step_excess_deg']:+.1f} deg over "
+                  f"x{r['root_step_ratio']:.2f} of the sources' largest, joint step {r['joint_step_excess_deg']:+.1f} deg over "
                   f"the sources', contact drift {r['drift_cm']:.1f} cm (sources' largest {r['source_drift_cm']:.1f}), "
                   f"{r['ms']:.0f} ms")
     if not args.no_speed:
