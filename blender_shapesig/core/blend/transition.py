@@ -33,12 +33,13 @@ def best_cuts(a, b, *, top=5):
         return rank_cuts(Body(a), Body(b), top)
 
 
-def _clip_from(rig, X, root, name, frame_start, meta):
-    """A clip on ``rig``'s skeleton from world-aligned rotations and root heads."""
+def _clip_from(rig, X, root, name, frame_start, meta, translated=None):
+    """A clip on ``rig``'s skeleton from world-aligned rotations and root heads (a root translation when ``rig`` has
+    one, or ``translated``)."""
     rest = rest_of(rig)
     R = from_aligned(rig, X)
     rt = None
-    if rig.root_translation is not None and rest.root is not None:
+    if (rig.root_translation is not None if translated is None else translated) and rest.root is not None:
         rt = root_translation_from_heads(rig, rest, root)
     base = {k: v for k, v in rig.meta.items() if k not in ("frame_numbers", "trim", "range", "cycle")}
     return replace(rig, name=name, rotations=R, root_translation=rt, frame_start=frame_start, meta=dict(base, **meta))
@@ -124,7 +125,7 @@ def place(a, b, i, j, frames):
 
     travel = 0.5 * (ground_velocity(ra, i) + ground_velocity(root, j)) * (frames + 1)
     root = root + travel
-    out = _clip_from(b, X, root, b.name, b.frame_start, {})
+    out = _clip_from(b, X, root, b.name, b.frame_start, {}, translated=a.root_translation is not None)
     return out, {"turn_degrees": round(float(np.degrees(angle)), 4),
                  "moved": [round(float(x), 6) for x in (root[j] - aligned_and_root(b)[1][j])]}
 

@@ -146,6 +146,18 @@ def test_same_rig_b_keeps_its_local_motion_and_timing(walk):
     assert np.ptp(yaw) < 1e-6
 
 
+def test_b_without_root_translation_stands_where_a_goes(walk, run):
+    """B with no root channels (an in-place clip): the joined clip still has A's root translation throughout, and
+    B's part stands at the root where A's travel leads (its height B's rest height)."""
+    still = replace(run, root_translation=None)
+    joined = transition(walk, still, cut=(200, 40), frames=10)
+    assert joined.root_translation is not None and joined.root_translation.shape == (joined.frames, 3)
+    tail = joined.root_translation[200 + 11:]
+    assert np.ptp(tail[:, :2], axis=0).max() < 1e-9  # B does not move: its root stays put on the ground
+    assert np.linalg.norm(tail[0, :2] - walk.root_translation[200, :2]) < 5 * np.linalg.norm(
+        walk.root_translation[201, :2] - walk.root_translation[200, :2]) * 11
+
+
 def test_bad_requests_are_refused(walk, run):
     with pytest.raises(ShapeSigError, match="outside clip"):
         transition(walk, run, cut=(10, run.frames + 5))
