@@ -35,6 +35,9 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
         default="GEODESIC")
     assign: BoolProperty(name="Assign Result", description="Make the transition the armature's active action",
                          default=True)
+    cuts_for: StringProperty(name="Cuts For", description="The ranked places found when the dialog opened: the "
+                             "other action's name, then leave/enter frames and costs, tab-separated",
+                             options={"HIDDEN", "SKIP_SAVE"})
 
     @classmethod
     def poll(cls, context):
@@ -54,13 +57,36 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
         current = context.active_object.animation_data.action
         if not self.action_b or self.action_b == current.name:
             self.action_b = next((a.name for a in bpy.data.actions if a != current), "")
+        self._rank(context.active_object, current)
         return context.window_manager.invoke_props_dialog(self, width=340)
+
+    def _rank(self, obj, current):
+        """The ranked places for the chosen action, shown in the dialog (the first two preset the frames)."""
+        from ..transitions import ranked_cuts
+
+        other = bpy.data.actions.get(self.action_b) if self.action_b else None
+        if other is None or other == current:
+            return
+        try:
+            cuts = ranked_cuts(obj, current, other)
+        except ShapeSigError:
+            return
+        if cuts:
+            self.frame_a, self.frame_b = int(cuts[0][0]), int(cuts[0][1])
+        self.cuts_for = "\t".join([other.name] + [f"{a}:{b}:{c:.3f}" for a, b, c in cuts])
 
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
         layout.prop_search(self, "action_b", bpy.data, "actions")
         layout.prop(self, "best_cut")
+        parts = self.cuts_for.split("\t")
+        if len(parts) > 1 and parts[0] == self.action_b:
+            box = layout.box()
+            box.label(text="Best places (leave at, enter at, difference):", icon="INFO")
+            for k, text in enumerate(parts[1:]):
+                a, b, c = text.split(":")
+                box.label(text=f"{k + 1}. frame {a} to frame {b}  ({float(c):.2f})")
         col = layout.column()
         col.enabled = not self.best_cut
         col.prop(self, "frame_a")

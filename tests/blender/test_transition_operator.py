@@ -136,3 +136,23 @@ def test_refusals_are_one_line_and_create_nothing(rig, kw, match):
 
 def test_poll_says_why(empty_file):
     assert not bpy.ops.shapesig.transition.poll()
+
+
+def test_dialog_lists_the_ranked_places(rig):
+    """The dialog's ranking (invoke) holds the five best places of the chosen action in scene frames, best first,
+    and presets the frames to the first (the cut ``core.blend.transition.best_cuts`` finds)."""
+    from blender_shapesig.core.blend.transition import best_cuts
+    from blender_shapesig.operators.transition import SHAPESIG_OT_transition
+
+    class Op:  # the operator's own methods on a stand-in for its properties
+        action_b, cuts_for, frame_a, frame_b = "run", "", 0, 0
+
+    op = Op()
+    SHAPESIG_OT_transition._rank(op, rig, bpy.data.actions["walk"])
+    parts = op.cuts_for.split("\t")
+    assert parts[0] == "run" and len(parts) == 6
+    walk, run = _read("walk", rig), _read("run", rig)
+    first = best_cuts(walk, run)[0]
+    assert (op.frame_a, op.frame_b) == (first.a_frame + walk.frame_start, first.b_frame + run.frame_start)
+    costs = [float(p.split(":")[2]) for p in parts[1:]]
+    assert costs == sorted(costs)
