@@ -8,10 +8,10 @@ import json
 import sys
 import traceback
 
-from . import blend, dedupe, distance, evaluate, index, matrix, rank
+from . import blend, dedupe, distance, evaluate, index, matrix, rank, transition
 from .common import EXIT_ERROR, PROG, CommandError, _Parser, load_many, load_one, stdout_to_stderr
 
-COMMANDS = (distance, rank, blend, matrix, evaluate, dedupe, index)
+COMMANDS = (distance, rank, blend, matrix, evaluate, dedupe, index, transition)
 
 __all__ = ["main", "build_parser", "CommandError", "PROG", "EXIT_ERROR", "load_one", "load_many"]
 

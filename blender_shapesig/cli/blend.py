@@ -45,8 +45,10 @@ def parse_weights(args, count):
 
 def _check_out(args):
     out_path = os.path.abspath(args.out)
-    if not out_path.lower().endswith(".blend"):
-        raise c.CommandError(f"--out must be a .blend file, got {args.out}")
+    if not out_path.lower().endswith((".blend", ".bvh")):
+        raise c.CommandError(f"--out must be a .blend or .bvh file, got {args.out}")
+    if out_path.lower().endswith(".bvh") and os.path.lexists(out_path):
+        raise c.CommandError(f"--out {args.out} exists: not replaced (choose another name)")
     if not os.path.isdir(os.path.dirname(out_path)):
         raise c.CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
     if args.frames is not None and args.frames < 2:
@@ -118,9 +120,9 @@ def run(args):
     for report in info["feet"] or ():
         if "skipped" in report:
             sys.stderr.write(f"{c.PROG}: note: feet not planted: {report['skipped']}\n")
-    from ..write_blend_file import write_blend
+    from .transition import write_clips
 
-    names = write_blend(c.clip_spec(args.a, args.asf), blended, out_path)
+    names = write_clips(c.clip_spec(args.a, args.asf), blended, out_path, own[0])  # .bvh: one clip, A's skeleton
     out = {
         "out": out_path,
         "actions": list(names),
@@ -192,6 +194,7 @@ def add_parser(sub):
     p.add_argument("--group", action="append", metavar="NAME=JOINT+JOINT",
                    help="a custom group for --mask (joints or bone names; repeatable)")
     p.add_argument("--name", help="name of the new action (default <A>_x_<B>_<weight>)")
-    p.add_argument("--out", required=True, metavar="FILE.blend", help="the .blend file to write")
+    p.add_argument("--out", required=True, metavar="FILE.blend|FILE.bvh",
+                   help="the .blend file to write, or a .bvh file (one blend, on A's skeleton)")
     c.add_common(p)
     p.set_defaults(func=run)

@@ -241,6 +241,10 @@ def _draw_results(layout, s, res):
     elif not item.is_action:
         layout.label(text="Assign a file result to blend it.", icon="INFO")
     op.expect_b = expected_hash(item, op.action_b)  # a B replaced since the search is refused
+    if item.is_action and not item.frame_last:
+        row = layout.row()
+        row.enabled = bool(query)
+        row.operator("shapesig.transition", icon="NEXT_KEYFRAME", text="Transition to this").action_b = item.source
 
 
 def _strip(values, cells):

@@ -40,10 +40,11 @@ FADE_SPAN = 0.08        # ... over this fraction of the leg
 
 # ------------------------------------------------------------------------------------------------ legs
 
-def legs_of(clip):
+def legs_of(clip, mapping=None):
     """``{side: (thigh, shin, foot)}`` bone indices of the clip's legs (sides "L", "R") through the canonical joints
-    (``rigs.resolve_map`` "auto": CMU ASF, Daz BVH, Mixamo, Rigify, ...); ShapeSigError without any leg."""
-    mapping = resolve_map("auto", clip) or {}
+    (``mapping`` {bone: joint}, default ``rigs.resolve_map`` "auto": CMU ASF, Daz BVH, Mixamo, Rigify, ...);
+    ShapeSigError without any leg."""
+    mapping = (resolve_map("auto", clip) if mapping is None else mapping) or {}
     by_joint = {j: b for b, j in mapping.items()}
     legs = {}
     for side in ("L", "R"):

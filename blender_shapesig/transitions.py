@@ -1,0 +1,96 @@
+"""Transitions in Blender, the Blender half of ``core.blend.transition``: ``ranked_cuts`` and ``make_transition``
+read action A with the armature the user works on and action B with the armature that owns it (``library``), at
+their frame rates (``frame_rates``), join them on A's rig and write one new action (``write_transition``: the
+one place a transition is written). Sources are never modified; on any error nothing is created. See
+docs/transitions.md.
+"""
+
+from dataclasses import dataclass, field
+
+from . import action_io, frame_rates
+from .core.errors import ShapeSigError
+
+__all__ = ["TransitionResult", "read_pair", "ranked_cuts", "make_transition", "write_transition", "GENERATORS"]
+
+GENERATORS = ("geodesic", "library")
+
+
+@dataclass
+class TransitionResult:
+    """The new action, the joined clip and its ``meta["transition"]`` with the cut in scene frames."""
+
+    action: object
+    clip: object
+    info: dict = field(default_factory=dict)
+
+
+def _read(action, armature, fps):
+    return action_io.read_action(action, armature=armature, exclude_unkeyed=True, space="armature", fps=fps)
+
+
+def read_pair(armature, action_a, action_b, rates=(None, None)):
+    """(A, B) as clips in armature space on their own rigs, at ``rates`` (None: each action's own rate)."""
+    from .library import owner_armature
+
+    if action_a == action_b:
+        raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
+    fa = rates[0] or frame_rates.rate_of(action_a)[0]
+    fb = rates[1] or frame_rates.rate_of(action_b)[0]
+    return _read(action_a, armature, fa), _read(action_b, owner_armature(action_b, armature), fb)
+
+
+def ranked_cuts(armature, action_a, action_b, top=5):
+    """The ``top`` best cuts as (A frame, B frame, cost) in each action's own scene frames."""
+    from .core.blend.transition import best_cuts
+
+    a, b = read_pair(armature, action_a, action_b)
+    return [(c.a_frame + a.frame_start, c.b_frame + b.frame_start, c.cost) for c in best_cuts(a, b, top=top)]
+
+
+def _library(armature, exclude):
+    """Every other action of the file that can be read on its owner's rig (the bridge library)."""
+    import bpy
+
+    from .library import owner_armature
+
+    clips = []
+    for act in bpy.data.actions:
+        if act in exclude:
+            continue
+        try:
+            clips.append(_read(act, owner_armature(act, armature), frame_rates.rate_of(act)[0]))
+        except ShapeSigError:
+            continue
+    if not clips:
+        raise ShapeSigError("the file holds no other action to bridge from: choose the geodesic in-between")
+    return clips
+
+
+def make_transition(armature, action_a, action_b, *, cut=None, frames=None, generator="geodesic", name=None):
+    """Join ``action_a`` (on ``armature``) into ``action_b`` at ``cut`` ((A frame, B frame) in the actions' own
+    scene frames; None: the best cut) with ``frames`` generated frames (None: 0.3 s) made by ``generator``
+    ("geodesic", or "library": a bridge from the file's other actions); one new action on ``armature``."""
+    from .blend_actions import unique_action_name
+    from .core.blend.transition import transition
+
+    if generator not in GENERATORS:
+        raise ShapeSigError(f"generator: expected one of {', '.join(GENERATORS)}, got {generator!r}")
+    a, b = read_pair(armature, action_a, action_b)
+    index = None
+    if cut is not None:
+        index = (int(cut[0]) - a.frame_start, int(cut[1]) - b.frame_start)
+        if not 0 <= index[0] < a.frames:
+            raise ShapeSigError(f"frame {cut[0]} is outside {action_a.name!r} ({a.frame_start}-{a.frame_end})")
+        if not 0 <= index[1] < b.frames:
+            raise ShapeSigError(f"frame {cut[1]} is outside {action_b.name!r} ({b.frame_start}-{b.frame_end})")
+    library = _library(armature, (action_a, action_b)) if generator == "library" else None
+    clip = transition(a, b, cut=index, frames=frames, library=library)
+    info = dict(clip.meta["transition"])
+    info["cut_frames"] = (info["cut"]["a_frame"] + a.frame_start, info["cut"]["b_frame"] + b.frame_start)
+    act = write_transition(clip, armature, unique_action_name(name or clip.name))
+    return TransitionResult(act, clip, info)
+
+
+def write_transition(clip, armature, name):
+    """Write the joined clip as a new action on ``armature`` (the one place: re-routed with the action writer)."""
+    return action_io.write_action(clip, armature=armature, name=name, fake_user=True)
