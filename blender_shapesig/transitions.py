@@ -7,7 +7,7 @@ docs/transitions.md.
 
 from dataclasses import dataclass, field
 
-from . import action_io, frame_rates
+from . import frame_rates, scene_motion
 from .core.errors import ShapeSigError
 
 __all__ = ["TransitionResult", "read_pair", "ranked_cuts", "make_transition", "write_transition", "GENERATORS"]
@@ -25,7 +25,7 @@ class TransitionResult:
 
 
 def _read(action, armature, fps):
-    return action_io.read_action(action, armature=armature, exclude_unkeyed=True, space="armature", fps=fps)
+    return scene_motion.read_motion(action, armature, fps=fps)  # the world's axes; control rigs' deform bones
 
 
 def read_pair(armature, action_a, action_b, rates=(None, None)):
@@ -92,5 +92,6 @@ def make_transition(armature, action_a, action_b, *, cut=None, frames=None, gene
 
 
 def write_transition(clip, armature, name):
-    """Write the joined clip as a new action on ``armature`` (the one place: re-routed with the action writer)."""
-    return action_io.write_action(clip, armature=armature, name=name, fake_user=True)
+    """Write the joined clip as a new action on ``armature``, keyed at the scene's frame rate
+    (``scene_motion.write_motion``: through the object's world matrix; a Rigify rig's controls)."""
+    return scene_motion.write_motion(clip, armature, name=name)

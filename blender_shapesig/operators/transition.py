@@ -8,6 +8,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from ..core.errors import ShapeSigError, check_integer
+from ..scene_motion import timing_text
 
 __all__ = ["SHAPESIG_OT_transition", "classes"]
 
@@ -118,7 +119,7 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
         fa, fb = result.info["cut_frames"]
         self.report({"INFO"}, f"Transition: created {result.action.name}: {act_a.name} to frame {fa}, "
                               f"{result.info['frames']} frames between, {act_b.name} from frame {fb} "
-                              f"({result.clip.frames} frames)")
+                              f"({timing_text(result.action)})")
         return {"FINISHED"}
 
 
