@@ -322,14 +322,7 @@ def load_bvh(path, name: Optional[str] = None):
         angles = np.radians(values[:, cols]).reshape(frames, len(idx), 3)
         E = matrix_from_euler(angles, order[::-1])
         R[:, idx] = E[..., _PERM, :][..., _PERM] * _SIGNS  # A E A^T: A is a signed permutation
-    A = BVH_TO_BLENDER
-    root_translation = None
-    pos = joints[0].columns("position")
-    if pos:
-        p = np.zeros((frames, 3))
-        for axis, col in pos.items():
-            p[:, "xyz".index(axis)] = values[:, col]
-        root_translation = p @ A.T
+    root_translation, carrier = _root_motion(joints, values, R)
     fps = 1.0 / frame_time
     if abs(fps - round(fps)) < 1e-3:
         fps = float(round(fps))  # "Frame Time: 0.00833333" means 120 fps
@@ -337,11 +330,69 @@ def load_bvh(path, name: Optional[str] = None):
                 rotations=R, fps=fps, frame_start=1, root_translation=root_translation, root_bone=joints[0].name,
                 rotation_modes=tuple(modes), source=path,
                 meta={"missing_rotation_bones": tuple(missing), "rotation_space": "armature", "up_axis": "Z",
-                      "format": "bvh",
+                      "format": "bvh", **({"root_motion_bone": carrier} if carrier else {}),
                       # the hierarchy (core.rigs composes world rotations down it for the comparison space)
                       "parents": {j.name: (joints[j.parent].name if j.parent >= 0 else None) for j in joints},
                       **_rest_skeleton(joints)})
     return clip
+
+
+# a joint's position channels carry the root motion when they move by at least this share of the most moving ones
+_CARRIER_SHARE = 0.1
+
+
+def _positions(joint, values):
+    """(frames, 3) a joint's position channels (BVH axes; a missing axis reads 0, as in Blender's importer), or
+    None without any."""
+    pos = joint.columns("position")
+    if not pos:
+        return None
+    p = np.zeros((values.shape[0], 3))
+    for axis, col in pos.items():
+        p[:, "xyz".index(axis)] = values[:, col]
+    return p
+
+
+def _root_motion(joints, values, R):
+    """(root translation, carrier): the ROOT's translation (armature axes) that puts the **carrier**'s head where
+    Blender's importer plays it, and the carrier's name (None when it is the ROOT).
+
+    Blender's importer keys the position channels of every joint: a joint's head is its parent's head plus the
+    parent's pose applied to the channels (they replace the joint's OFFSET). Exports with a static reference ROOT
+    and six channels on every joint (Unity, MotionBuilder) carry the walk in ``Hips`` below it. The carrier is the
+    deepest joint whose position channels move (by ``_CARRIER_SHARE`` of the most moving ones) and whose subtree
+    holds more than half of the joints; the translations on the way down to it fold into the ROOT's path, so
+    forward kinematics with the rest offsets puts the carrier and every joint below it where Blender does (the
+    ROOT's own head moves with them). Position channels elsewhere (below the carrier, off its chain) are bone
+    stretches this reader leaves out; in these exports they equal the OFFSETs."""
+    A = BVH_TO_BLENDER
+    locs = [_positions(j, values) for j in joints]
+    ranges = np.array([0.0 if p is None else float(np.ptp(p, axis=0).max()) for p in locs])
+    size = np.ones(len(joints), dtype=int)
+    depth = np.zeros(len(joints), dtype=int)
+    for j, joint in enumerate(joints):
+        if joint.parent >= 0:
+            depth[j] = depth[joint.parent] + 1
+    for j in range(len(joints) - 1, 0, -1):  # a joint's parent comes before it in the file
+        if joints[j].parent >= 0:
+            size[joints[j].parent] += size[j]
+    moving = [j for j in range(len(joints)) if ranges[j] > 0 and ranges[j] >= _CARRIER_SHARE * ranges.max()
+              and 2 * size[j] > len(joints)]
+    carrier = max(moving, key=lambda j: depth[j]) if moving else 0
+    if carrier == 0 or depth[carrier] == 0:
+        return (None if locs[0] is None else locs[0] @ A.T), None
+    chain = [carrier]
+    while joints[chain[-1]].parent >= 0:
+        chain.append(joints[chain[-1]].parent)
+    chain.reverse()  # ROOT ... carrier
+    root = chain[0]
+    p = (locs[root] if locs[root] is not None else np.tile(joints[root].offset, (values.shape[0], 1))) @ A.T
+    W = R[:, root]
+    for parent, j in zip(chain, chain[1:]):
+        if locs[j] is not None:
+            p = p + np.einsum("fij,fj->fi", W, (locs[j] - np.asarray(joints[j].offset)) @ A.T)
+        W = W @ R[:, j]
+    return p, joints[carrier].name
 
 
 def _rest_skeleton(joints):
