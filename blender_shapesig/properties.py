@@ -157,9 +157,8 @@ class ShapeSigSettings(bpy.types.PropertyGroup):
     # the Bone Map panel's selected row (its list draws the active armature's bones)
     bone_map_index: IntProperty(name="Bone", default=0)
     # search
-    use_windows: BoolProperty(name="Moments", description="Rank moments inside the clips (the best window of each, "
-                              "refined by the elastic distance with a free start and end); Assign, Preview and "
-                              "Blend use the window", default=False)
+    use_windows: BoolProperty(name="Moments", description="Rank moments inside the clips (every place a take does "
+                              "the motion, by pose and motion); Assign, Preview and Blend use the window", default=False)
     similarity: EnumProperty(
         name="Similarity", description="What Find Similar calls the same motion",
         items=((LOCAL, "Motion and pose (default)",
