@@ -7,7 +7,9 @@ The 20 clips of ``experiments/rank_across_rigs.py`` (10 CMU takes, each in two f
 iClone and Daz BVH, AMC and MotionBuilder BVH; bone maps automatic) go through ``dedupe_library`` (the command's
 code). Printed: which same-take pairs share a cluster (and how many of the 20 clips are clustered with their twin),
 every cluster holding two different takes (a file's take: the CMU trial in its name), and each near miss with the test it failed. ``--all``: the library is
-every readable shared clip (``experiments/dedupe_check.py``'s), the same counts over the 20.
+every readable shared clip (``experiments/dedupe_check.py``'s), the same counts over the 20. ``--set CSV``: the
+library is an evaluation set instead (``tools/eval_sets/*.csv``: file, label, skeleton), e.g. cmu_mixed_format
+(its one take in two files: 16_15 as AMC and as MotionBuilder BVH).
 """
 
 import argparse
@@ -37,12 +39,19 @@ def main(argv=None):
     ap.add_argument("--data", required=True)
     ap.add_argument("--all", action="store_true")
     ap.add_argument("--out", default=None)
+    ap.add_argument("--set", help="an evaluation set's CSV instead of the 20 clips")
     args = ap.parse_args(argv)
     specs, take_of = [], {}
-    for fmt, take, path, asf in takes():
+    rows = takes()
+    if args.set:
+        import csv
+
+        with open(args.set, newline="", encoding="utf-8") as f:
+            rows = [("set", None, r["file"], r.get("skeleton") or None) for r in csv.DictReader(f)]
+    for fmt, take, path, asf in rows:
         full = os.path.realpath(os.path.join(args.data, path))
         specs.append(ClipSpec(full, asf=None if asf is None else os.path.join(args.data, asf), bone_map="auto"))
-        take_of[full] = take
+        take_of[full] = take or trial(full)
     if args.all:
         import pathlib
 
@@ -65,10 +74,11 @@ def main(argv=None):
             if os.path.realpath(m) in take_of and sum(label_take.get(x) == label_take[m] for x in members) >= 2:
                 clustered.add(m)
     print(f"rule: {rep['rule']}")
-    print(f"{len(clustered)} of 20 clips clustered with their twin; clusters: {len(rep['clusters'])}")
+    twins = sum(sum(t == u for u in take_of.values()) == 2 for t in take_of.values())
+    print(f"{len(clustered)} of {twins} clips with a twin clustered with it; clusters: {len(rep['clusters'])}")
     print(f"clusters: {len(rep['clusters'])}, of {rep['clips']} clips")
-    for t in sorted({t for t in take_of.values()}):
-        both = [m for m in clustered if label_take[m] == trial(t)]
+    for t in sorted({t for t in take_of.values() if list(take_of.values()).count(t) == 2}, key=str):
+        both = [m for m in clustered if label_take[m] == (t if isinstance(t, tuple) else trial(t))]
         print(f"  {t}: {'clustered' if both else 'NOT clustered'}")
     print(f"clusters holding different takes: {len(merged)}")
     for m in merged:
