@@ -54,3 +54,27 @@ def test_hips_world_path_equals_blender_importer(empty_file, tmp_path, data_dir,
     assert travel > 3  # the walk goes somewhere (Blender's hips cross several leg lengths)
     err = np.abs(heads[:, 1:] - got[:, 1:]).max() / leg  # every joint below the static ROOT
     assert err < 1e-5, err
+
+
+def test_the_imported_action_reads_the_same_root_motion(empty_file, tmp_path, data_dir):
+    """The action Blender's importer made (read by ``action_io.read_action``, as Find Similar reads the file's
+    actions) carries the hips' walk too: forward kinematics of the read clip equals Blender's pose heads below the
+    static ROOT, and its root path equals the bpy-free reader's."""
+    from blender_shapesig import action_io
+
+    path = tmp_path / "reference_root.bvh"
+    path.write_text(reference_root_layout((data_dir / "bvh" / "07_01.bvh").read_text(),
+                                          reference=(12.5, 0, -7.0, 0, 0, 30.0)))
+    ours = load_bvh(path)
+    got = _blender_heads(path, ours.bones, ours.frames)
+    obj = next(o for o in bpy.data.objects if o.type == "ARMATURE")
+    for space in ("armature", "pose"):
+        clip = action_io.read_action(obj.animation_data.action, armature=obj, space=space)
+        assert clip.meta["root_motion_bone"] == "hip"
+        heads = forward_kinematics(clip)[0]
+        leg = np.mean([np.linalg.norm(np.subtract(ours.meta[REST_HEADS][f"{s}Thigh"], ours.meta[REST_HEADS][f"{s}Foot"]))
+                       for s in "lr"])
+        idx = [clip.bones.index(b) for b in ours.bones[1:]]
+        assert np.abs(heads[:, idx] - got[:, 1:]).max() / leg < 1e-5
+    armature = action_io.read_action(obj.animation_data.action, armature=obj, space="armature")
+    assert np.abs(armature.root_translation - ours.root_translation).max() / leg < 1e-5

@@ -337,10 +337,6 @@ def load_bvh(path, name: Optional[str] = None):
     return clip
 
 
-# a joint's position channels carry the root motion when they move by at least this share of the most moving ones
-_CARRIER_SHARE = 0.1
-
-
 def _positions(joint, values):
     """(frames, 3) a joint's position channels (BVH axes; a missing axis reads 0, as in Blender's importer), or
     None without any."""
@@ -354,45 +350,23 @@ def _positions(joint, values):
 
 
 def _root_motion(joints, values, R):
-    """(root translation, carrier): the ROOT's translation (armature axes) that puts the **carrier**'s head where
-    Blender's importer plays it, and the carrier's name (None when it is the ROOT).
+    """(root translation, carrier name or None): the ROOT's path in armature axes, with the position channels of
+    the joints below it folded in as Blender's importer plays them (``skeleton.fold_root_motion``: its channels
+    replace a joint's OFFSET, so its head moves by A (channels - OFFSET) in its parent's frame). Position channels
+    below the carrier or off its chain (bone stretches) are left out; these exporters write them equal to the
+    OFFSETs."""
+    from ..clip.skeleton import fold_root_motion
 
-    Blender's importer keys the position channels of every joint: a joint's head is its parent's head plus the
-    parent's pose applied to the channels (they replace the joint's OFFSET). Exports with a static reference ROOT
-    and six channels on every joint (Unity, MotionBuilder) carry the walk in ``Hips`` below it. The carrier is the
-    deepest joint whose position channels move (by ``_CARRIER_SHARE`` of the most moving ones) and whose subtree
-    holds more than half of the joints; the translations on the way down to it fold into the ROOT's path, so
-    forward kinematics with the rest offsets puts the carrier and every joint below it where Blender does (the
-    ROOT's own head moves with them). Position channels elsewhere (below the carrier, off its chain) are bone
-    stretches this reader leaves out; in these exports they equal the OFFSETs."""
     A = BVH_TO_BLENDER
     locs = [_positions(j, values) for j in joints]
-    ranges = np.array([0.0 if p is None else float(np.ptp(p, axis=0).max()) for p in locs])
-    size = np.ones(len(joints), dtype=int)
-    depth = np.zeros(len(joints), dtype=int)
-    for j, joint in enumerate(joints):
-        if joint.parent >= 0:
-            depth[j] = depth[joint.parent] + 1
-    for j in range(len(joints) - 1, 0, -1):  # a joint's parent comes before it in the file
-        if joints[j].parent >= 0:
-            size[joints[j].parent] += size[j]
-    moving = [j for j in range(len(joints)) if ranges[j] > 0 and ranges[j] >= _CARRIER_SHARE * ranges.max()
-              and 2 * size[j] > len(joints)]
-    carrier = max(moving, key=lambda j: depth[j]) if moving else 0
-    if carrier == 0 or depth[carrier] == 0:
+    moves = {j: (loc - np.asarray(joints[j].offset)) @ A.T for j, loc in enumerate(locs) if loc is not None and j}
+    root = locs[0] if locs[0] is not None else np.tile(joints[0].offset, (values.shape[0], 1))
+    if locs[0] is not None:
+        moves[0] = locs[0] @ A.T  # the ROOT's own path takes part in the carrier's choice (the largest, it stays)
+    path, carrier = fold_root_motion([j.parent for j in joints], R, root @ A.T, moves)
+    if carrier in (None, 0):
         return (None if locs[0] is None else locs[0] @ A.T), None
-    chain = [carrier]
-    while joints[chain[-1]].parent >= 0:
-        chain.append(joints[chain[-1]].parent)
-    chain.reverse()  # ROOT ... carrier
-    root = chain[0]
-    p = (locs[root] if locs[root] is not None else np.tile(joints[root].offset, (values.shape[0], 1))) @ A.T
-    W = R[:, root]
-    for parent, j in zip(chain, chain[1:]):
-        if locs[j] is not None:
-            p = p + np.einsum("fij,fj->fi", W, (locs[j] - np.asarray(joints[j].offset)) @ A.T)
-        W = W @ R[:, j]
-    return p, joints[carrier].name
+    return path, joints[carrier].name
 
 
 def _rest_skeleton(joints):
