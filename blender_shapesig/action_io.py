@@ -336,16 +336,22 @@ def _fold_below_root(armature, names, channels, frames, start, co_cache, R, root
     BVH import with a static reference root above the hips; ``loc`` and None when no bone below the root carries
     the motion."""
     index = {b: i for i, b in enumerate(names)}
-    below = [b for b in names if b != root and "location" in channels.get(b, {})]
-    if not below:
-        return loc, None
-    B, heads = _rest_frames(names, armature)
-    parents = []
+    parents, size = [], np.ones(len(names), dtype=int)
     for b in names:
         p = armature.data.bones[b].parent
         while p is not None and p.name not in index:
             p = p.parent
         parents.append(index[p.name] if p is not None else -1)
+    for j in range(len(names)):
+        a = parents[j]
+        while a >= 0:
+            size[a] += 1
+            a = parents[a]
+    # only bones holding most of the skeleton can carry the motion (a few: the chain from the root to the hips)
+    below = [b for b in names if b != root and "location" in channels.get(b, {}) and 2 * size[index[b]] > len(names)]
+    if not below:
+        return loc, None
+    B, heads = _rest_frames(names, armature)
     r = index[root]
     moves = {index[b]: _sample_prop(channels[b], "location", frames, start, co_cache) @ B[index[b]].T for b in below}
     head = heads[r] + (np.zeros((len(frames), 3)) if loc is None else loc @ B[r].T)

@@ -214,6 +214,7 @@ CARRIER_SHARE = 0.1
 def fold_root_motion(parents, X, root_path, moves):
     """(root path, carrier): the root bone's head path (frames, 3, world-aligned axes) that puts the **carrier**'s
     head where translations of bones below the root put it, and the carrier's index (None: the root's path as given).
+    Only bones whose subtree holds more than half of the bones take part (hands, props and IK targets never do).
 
     Exports with a static reference root above the hips (Unity, MotionBuilder: six BVH channels on every joint) move
     the body by the hips' translations. The carrier is the deepest bone whose translations move (by
@@ -231,9 +232,10 @@ def fold_root_motion(parents, X, root_path, moves):
             size[a] += 1
             depth[j] += 1
             a = parents[a]
-    ranges = {j: float(np.ptp(np.asarray(d), axis=0).max()) for j, d in moves.items() if len(d)}
+    # the bones holding most of the skeleton (the chain from the root to where it branches) and how far they move
+    ranges = {j: float(np.ptp(np.asarray(d), axis=0).max()) for j, d in moves.items() if len(d) and 2 * size[j] > n}
     most = max(ranges.values(), default=0.0)
-    moving = [j for j, r in ranges.items() if r > 0 and r >= CARRIER_SHARE * most and 2 * size[j] > n]
+    moving = [j for j, r in ranges.items() if r > 0 and r >= CARRIER_SHARE * most]
     if not moving:
         return root_path, None
     carrier = max(moving, key=lambda j: (depth[j], -j))

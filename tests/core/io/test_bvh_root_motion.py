@@ -53,3 +53,22 @@ def test_the_search_sees_the_direction_of_travel(walks, turn):
     want = index.clip_items([walks[turn][0]])[0].key
     assert rows[0].key == want and rows[0].distance < 0.01
     assert min(r.distance for r in rows[1:]) > 100 * rows[0].distance
+
+
+def test_only_a_bone_holding_most_of_the_skeleton_carries_the_motion():
+    """``skeleton.fold_root_motion`` on a chain root - hips - (spine, leg, leg, arm): a moving hand (a small subtree)
+    is never the carrier, the hips are, and their displacement enters the root's path turned by the root's pose."""
+    from blender_shapesig.core.clip.skeleton import fold_root_motion
+    from blender_shapesig.core.geometry import so3
+
+    parents = [-1, 0, 1, 1, 1, 4]  # root, hips, leg.L, leg.R, spine, hand
+    frames = 5
+    X = np.tile(np.eye(3), (frames, len(parents), 1, 1))
+    X[:, 0] = so3.exp(np.array([0.0, 0.0, np.pi / 2]))  # the root turned a quarter about Z
+    root = np.zeros((frames, 3))
+    walk = np.outer(np.arange(frames), [1.0, 0.0, 0.0])
+    path, carrier = fold_root_motion(parents, X, root, {5: 10 * walk})
+    assert carrier is None and path is root
+    path, carrier = fold_root_motion(parents, X, root, {1: walk, 5: 10 * walk})
+    assert carrier == 1
+    np.testing.assert_allclose(path, np.outer(np.arange(frames), [0.0, 1.0, 0.0]), atol=1e-12)
