@@ -287,10 +287,12 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
     """Rank the moments of ``library`` (Clips or LibraryItems) that look like ``query`` (a Clip), best first.
 
     Every clip contributes every window the non-maximum suppression keeps (none holds a better window's centre:
-    each occurrence of the motion in a long take is a result); the first ``rerank`` moments (default ``REFINE``;
-    0: signatures only) are refined by the free-window elastic DP around their window, which sets their window
-    and ``elastic``, and come first, ordered by it (a refined moment landing on a better refined one of its clip
-    is dropped). ``explain``: refined results get ``explain`` (``core.elastic.explain.explain_path`` of
+    each occurrence of the motion in a long take is a result), found by pose and motion (``position_windows``;
+    stats ``"metric"``: ``POSE_METRIC``) or, for a query without legs, by signatures. The first ``rerank`` moments
+    (default ``REFINE``; 0: none) get the free-window elastic DP (``_refine_head``), which sets their ``elastic``:
+    inside their window, in their order, for moments by pose and motion; around it, moving the window and first
+    by it, for moments by signatures (a refined moment landing on a better refined one of its clip is dropped).
+    Stats ``"order_by"``: "local" (by pose and motion), "elastic" or "sim". ``explain``: refined results get ``explain`` (``core.elastic.explain.explain_path`` of
     their DP path). ``top``: keep the first ``top``. ``exclude``: item keys or names to leave out. Clips sharing
     few of the query's moving joints are ``partial`` and ranked after the others; with ``allow_partial=False``
     clips below ``rigs.MIN_COVERAGE`` are skipped with a warning. ``progress(done, total)``: over the library's
@@ -324,8 +326,8 @@ def rank_windows(query, library, level=WINDOW_LEVEL, rerank=None, top=None, *, d
     results = head + [r for r, _ in found[rerank:]]
     if top is not None:
         results = results[:int(top)]
-    stats = {"compared": compared, "library": len(items), "refined": sum(r.elastic is not None for r in head), "moments": len(found),
-             "metric": ROTATION_METRIC if q.seq is None else POSE_METRIC,
+    stats = {"compared": compared, "library": len(items), "refined": sum(r.elastic is not None for r in head),
+             "moments": len(found), "metric": ROTATION_METRIC if q.seq is None else POSE_METRIC,
              "order_by": "local" if q.seq is not None else ("elastic" if rerank else "sim"),
              "seconds": time.perf_counter() - t0}
     return RankList(results, warnings, skipped, stats)
