@@ -16,7 +16,7 @@ from .action_hashes import action_hash, read_hash
 from .bone_channels import PROPS as _PROPS, bone_channels
 from .core.clip.clip import Clip
 from .core.errors import ShapeSigError, check_frame_range
-from .core.clip.skeleton import from_world_axes, rest_meta, to_world_axes
+from .core.clip.skeleton import fold_root_motion, from_world_axes, rest_meta, to_world_axes
 from .core.io.files import check_frames
 # the rotation maths is core.geometry.so3's; the channel conversions are re-exported here, where callers know them
 from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
@@ -289,6 +289,10 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     root_translation = None
     if root is not None and "location" in channels.get(root, {}):
         root_translation = _sample_prop(channels[root], "location", frames, start, co_cache)
+    carrier = None
+    if armature is not None and root in names:
+        root_translation, carrier = _fold_below_root(armature, names, channels, frames, start, co_cache, R, root,
+                                                     root_translation)
     source = action.name_full
     if getattr(action, "library", None) is not None:
         source = f"{action.library.filepath}#{action.name}"
@@ -307,6 +311,7 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
             "slot": getattr(slot, "identifier", None),
             "missing_rotation_bones": tuple(unkeyed),
             "fcurve_hash": _content_hash(action, co_cache),
+            **({"root_motion_bone": carrier} if carrier else {}),
         },
     )
     clip.meta["still_bones"] = clip.still_bones()
@@ -323,6 +328,42 @@ def read_action(action, armature=None, bones=None, frame_range=None, exclude_unk
     if space == "armature":
         return to_armature_space(clip, armature)
     return clip
+
+
+def _fold_below_root(armature, names, channels, frames, start, co_cache, R, root, loc):
+    """(root location, carrier): the root's pose location with the location curves of the bones below it folded in
+    as Blender plays them (``skeleton.fold_root_motion``: a bone's head moves by B loc in its parent's frame), e.g. a
+    BVH import with a static reference root above the hips; ``loc`` and None when no bone below the root carries
+    the motion."""
+    index = {b: i for i, b in enumerate(names)}
+    parents, size = [], np.ones(len(names), dtype=int)
+    for b in names:
+        p = armature.data.bones[b].parent
+        while p is not None and p.name not in index:
+            p = p.parent
+        parents.append(index[p.name] if p is not None else -1)
+    for j in range(len(names)):
+        a = parents[j]
+        while a >= 0:
+            size[a] += 1
+            a = parents[a]
+    # only bones holding most of the skeleton can carry the motion (a few: the chain from the root to the hips)
+    below = [b for b in names if b != root and "location" in channels.get(b, {}) and 2 * size[index[b]] > len(names)]
+    if not below:
+        return loc, None
+    B, heads = _rest_frames(names, armature)
+    r = index[root]
+    moves = {index[b]: _sample_prop(channels[b], "location", frames, start, co_cache) @ B[index[b]].T for b in below}
+    head = heads[r] + (np.zeros((len(frames), 3)) if loc is None else loc @ B[r].T)
+    moves[r] = head
+    X = B[None] @ R @ np.swapaxes(B, -1, -2)[None]
+    path, carrier = fold_root_motion(parents, X, head, moves)
+    top = carrier
+    while top is not None and parents[top] >= 0:
+        top = parents[top]
+    if carrier in (None, r) or top != r:
+        return loc, None
+    return (path - heads[r]) @ B[r], names[carrier]
 
 
 def up_in_bone_frame(armature, bone_name):

@@ -608,7 +608,10 @@ class RankJob:
         r.elastic = next((x.distance for x in one if x.name == r.name), float("nan"))
 
     def _order(self):
-        if self.rerank:
+        if self.settings.use_windows:  # moments come in their search's order (stats: by pose and motion, or d_S*)
+            self.rows = list(self.ranked)
+            self.order_by = self.ranked.stats.get("order_by", "elastic" if self.rerank else "sim")
+        elif self.rerank:
             head = [r for r in self.ranked if r.elastic is not None]
             rest = [r for r in self.ranked if r.elastic is None][:max((self.top or len(self.ranked)) - len(head), 0)]
             self.rows = sorted(head, key=lambda r: (r.partial, r.elastic, r.distance, r.name)) + rest  # then by sim
@@ -633,7 +636,7 @@ class RankJob:
             msg += f", {len(self.failed)} could not be read"
         msg += self.lib.skipped_text()
         msg += f"; {out.seconds:.2f} s"
-        if self.rerank:
+        if self.rerank and self.order_by == ELASTIC_COLUMN:
             msg += (f"; the best {sum(r.elastic is not None for r in self.rows)} by {column_word(SIM_COLUMN)} "
                     f"re-ranked by {column_word(ELASTIC_COLUMN)}")
         if self.not_listed:

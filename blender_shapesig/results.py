@@ -16,7 +16,8 @@ from .core.errors import ShapeSigError
 from .properties import results_of
 
 __all__ = ["selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result",
-           "window_action", "explain_result", "expected_hash", "check_action", "changed_error"]
+           "window_action", "explain_result", "expected_hash", "check_action", "changed_error", "take_moments",
+           "moment_problem", "step_moment"]
 
 
 def changed_error(label):
@@ -309,3 +310,43 @@ def _release_query_range(settings, before, action):
         return ""
     settings.use_frame_range, settings.frame_start, settings.frame_end = False, 0, 0
     return f"the query is now all of {action.name!r} (its frame range was for {before.name!r})" if before else ""
+
+
+def take_moments(rows, index):
+    """The indices of the result rows that are moments of the same take as row ``index`` (Moments lists every
+    occurrence in a take), in the take's frame order; [] when that row is not a moment."""
+    if not 0 <= index < len(rows) or not rows[index].frame_last:
+        return []
+    same = [i for i, r in enumerate(rows) if r.frame_last and r.source == rows[index].source]
+    return sorted(same, key=lambda i: (rows[i].frame_first, i))
+
+
+def moment_problem(context, settings):
+    """Why the panel cannot step to another moment of the selected result's take, in one line, or None."""
+    problem = library.result_problem(context, settings)
+    if problem is not None:
+        return problem
+    res = results_of()
+    order = take_moments(res.results, res.results_index)
+    if not order:
+        return "the selected result is a whole clip, not a moment (tick Moments and search again)"
+    if len(order) < 2:
+        return "the selected moment is the only one found in its take"
+    return None
+
+
+def step_moment(context, settings, step):
+    """Select the next (``step`` 1) or previous (-1) moment of the selected result's take along its timeline
+    (frame order, round from the last to the first); a running preview plays it instead. Returns (row, its place,
+    the take's moments)."""
+    library.check_problem(moment_problem(context, settings))
+    res = results_of()
+    order = take_moments(res.results, res.results_index)
+    place = (order.index(res.results_index) + step) % len(order)
+    playing = bool(settings.preview_object)
+    if playing:
+        stop_preview(context, settings)
+    res.results_index = order[place]
+    if playing:
+        preview_result(context, settings)
+    return res.results[order[place]], place + 1, len(order)

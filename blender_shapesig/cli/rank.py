@@ -182,8 +182,8 @@ def run(args):
             rows[-1]["explain"] = _explanation(query, item, r, args)
     if args.thumbnails:
         out_thumbs = _thumbnails(args.thumbnails, query_item, by_key, results, rows, cache)
-    label = "sim2 windows" if args.windows else metric_label(base, level)
     stats = dict(getattr(results, "stats", {}) or {})
+    label = stats.get("metric", "sim2 windows") if args.windows else metric_label(base, level)
     notes = [trim_note(query)] + [trim_note(r.name, r.trimmed) for r in results]
     out = {"query": query.name, "metric": label, "results": rows, "query_trim": trimmed_range(query)["frames"],
            "query_trimmed": trimmed_range(query)["cut"],

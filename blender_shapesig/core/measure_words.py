@@ -37,8 +37,9 @@ ENGINES = {
         "optionally re-ranked by the elastic distance d_S* (Timing Check); motion only, whole clips", "sim^n"),
     "moments": Words(
         "Moments", "Similarity", "moments",
-        "Rank moments inside the clips (the best window of each by the level-2 signature similarity sim^2, refined "
-        "by the elastic distance with a free start and end); Assign, Preview and Blend use the window", "sim^2"),
+        "Rank moments inside the clips: every place a take does the motion, by pose and motion (a free-window DTW "
+        "of the local search's key points, refined by the elastic distance d_S* inside each window; clips without "
+        "legs: the level-2 signature similarity sim^2); Assign, Preview and Blend use the window", "sim^2"),
 }
 
 # the numbers in the results' columns

@@ -66,9 +66,14 @@ def _cluster_png(members, entries, labels):
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _pair_row(e, labels, result):
-    return {"a": labels[e.i], "b": labels[e.j], "sim": _num(e.sim), "elastic": _num(e.elastic),
-            "relative": _num(e.relative), "confirmed": bool(result.confirmed(e))}
+def _pair_row(e, labels, result, clustered=True):
+    """A checked pair: its distances, whether it passed, and else which test it failed (``DedupeResult.failed``;
+    a pair that passed but sits in two clusters failed the complete linkage)."""
+    row = {"a": labels[e.i], "b": labels[e.j], "sim": _num(e.sim), "elastic": _num(e.elastic),
+           "relative": _num(e.relative), "take": _num(e.take), "confirmed": bool(result.confirmed(e))}
+    row["failed"] = result.failed(e) or ("" if clustered else "complete linkage: a member of the other's cluster "
+                                                              "differs from it")
+    return row
 
 
 def _num(x):
@@ -106,7 +111,10 @@ def write_report(out_dir, pairs, entries, result, info, plots=True, store=None):
                          "keep": {"clip": labels[members[keeper]], "reasons": reasons},
                          "facts": [copy_facts(entries[n]) for n in members]})
     checked = sorted(pair_of.values(), key=lambda e: (e.relative, e.sim))
-    misses = [_pair_row(e, labels, result) for e in checked if not result.confirmed(e)][:NEAR_MISSES]
+    cluster_of = {n: c for c, members in enumerate(result.clusters) for n in members}
+    together = {(e.i, e.j): cluster_of.get(e.i, -1 - e.i) == cluster_of.get(e.j, -2 - e.j) for e in checked}
+    misses = [_pair_row(e, labels, result, together[(e.i, e.j)]) for e in checked
+              if not together[(e.i, e.j)]][:NEAR_MISSES]
     biggest = max((len(c) for c in result.clusters), default=0)
     out = {"clusters": [c["members"] for c in clusters], "report": html_path,
            "json": os.path.join(out_dir, "report.json"), "clips": len(entries), "all_clips": labels,
@@ -146,11 +154,12 @@ def _shortener(labels):
 
 
 def _table(rows, short):
-    head = ("<tr><th>a</th><th>b</th><th>sim</th><th>d_S*</th><th>relative d_S*</th>"
+    head = ("<tr><th>a</th><th>b</th><th>sim</th><th>d_S*</th><th>relative d_S*</th><th>take distance</th>"
             "<th>near-duplicate</th></tr>")
     body = "".join(f"<tr><td>{html.escape(short(r['a']))}</td><td>{html.escape(short(r['b']))}</td>"
                    f"<td>{_fmt(r['sim'])}</td><td>{_fmt(r['elastic'])}</td><td>{_fmt(r['relative'])}</td>"
-                   f"<td>{'yes' if r['confirmed'] else 'no'}</td></tr>" for r in rows)
+                   f"<td>{_fmt(r.get('take'))}</td><td>{'yes' if r['confirmed'] and not r.get('failed') else 'no'}"
+                   f"{(': ' + html.escape(r['failed'])) if r.get('failed') else ''}</td></tr>" for r in rows)
     return f"<table>{head}{body}</table>"
 
 

@@ -6,9 +6,9 @@ line, its ``cleanup`` runs and the traceback goes to the console."""
 import bpy
 
 from ..errors_ui import guard_operator
-from . import blend, import_acclaim, rates, rigmap, search, transition
+from . import blend, import_acclaim, moments, rates, rigmap, search, transition
 
-_MODULES = (import_acclaim, blend, search, rigmap, rates, transition)
+_MODULES = (import_acclaim, blend, search, moments, rigmap, rates, transition)
 classes = tuple(guard_operator(cls) for module in _MODULES for cls in module.classes)
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
 

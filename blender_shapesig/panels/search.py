@@ -13,7 +13,7 @@ from ..core.elastic.explain import top_joints
 from ..core.measure_words import MEASURES, OPTIONS, PANEL_NAME, measure_words
 from ..core.metrics import LOCAL
 from ..properties import column_word
-from ..results import expected_hash
+from ..results import expected_hash, take_moments
 
 # the "Why different" box: bars of the largest shares, and the cost over time in this many cells
 EXPLAIN_BARS = 5
@@ -66,6 +66,17 @@ def _header(layout, results):
     second = {library.ELASTIC_COLUMN: MEASURES["sim"].column, library.LOCAL_COLUMN: ""}
     nums.label(text=second.get(results.order_by, MEASURES["elastic"].column))
     nums.label(text="Frames")
+
+
+def _draw_moment_steps(layout, res):
+    """For a moment: its place among the take's moments and buttons to step along the take's timeline."""
+    order = take_moments(res.results, res.results_index)
+    if len(order) < 2:
+        return
+    row = layout.row(align=True)
+    row.label(text=f"Moment {order.index(res.results_index) + 1} of {len(order)} in this take", icon="SEQUENCE")
+    row.operator("shapesig.step_moment", icon="TRIA_LEFT", text="").step = -1
+    row.operator("shapesig.step_moment", icon="TRIA_RIGHT", text="").step = 1
 
 
 def _progress(row, what, factor):
@@ -208,6 +219,7 @@ def _draw_results(layout, s, res):
                    + (f", {MEASURES['elastic'].label} = {item.elastic:.4f}" if item.has_elastic else ""))
     window = f"frames {item.frame_first}-{item.frame_last}" if item.frame_last else f"{item.frames} frames"
     info.label(text=f"{window}, compared on {item.shared} bones ({item.coverage:.0%} of the joints both rigs have)")
+    _draw_moment_steps(layout, res)
     if item.partial:
         info.label(text="Partial match: ranked after the whole-body matches", icon="ERROR")
     if item.unmapped:

@@ -164,3 +164,35 @@ def test_find_similar_after_assigning_a_moment(take):
         assert assigned.name not in names and names[0] == "take"
     window = tuple(int(v) for v in assigned.frame_range)  # the moment found again where it came from
     assert _iou((_rows()[0].frame_first, _rows()[0].frame_last), window) >= 0.8
+
+
+def test_every_moment_of_the_take_is_listed_and_stepped_through(take):
+    """Moments lists every occurrence in a take (non-overlapping windows); the panel says which of them the
+    selected one is and steps along the take's timeline, previewing each when a preview plays."""
+    from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
+
+    s = bpy.context.scene.shapesig
+    s.use_windows = True
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    res = bpy.context.window_manager.shapesig_results
+    mine = sorted((r.frame_first, r.frame_last, i) for i, r in enumerate(_rows()) if r.name == "take")
+    assert len(mine) >= 2 and res.order_by == "local"
+    assert all(e0 < (a1 + e1) / 2 for (_, e0, _), (a1, e1, _) in zip(mine, mine[1:]))  # none holds another's centre
+    res.results_index = mine[0][2]
+    lay = FakeLayout()
+    SHAPESIG_PT_search_view3d.draw(type("P", (), {"layout": lay})(), bpy.context)
+    assert f"Moment 1 of {len(mine)} in this take" in lay.labels()
+    assert lay.operators().count("shapesig.step_moment") == 2
+    assert bpy.ops.shapesig.step_moment(step=1) == {"FINISHED"}
+    assert res.results_index == mine[1][2]
+    assert bpy.ops.shapesig.step_moment(step=-1) == {"FINISHED"} and res.results_index == mine[0][2]
+    assert bpy.ops.shapesig.step_moment(step=-1) == {"FINISHED"} and res.results_index == mine[-1][2]  # round
+    assert bpy.ops.shapesig.preview_result() == {"FINISHED"}  # while a preview plays, a step plays the next one
+    assert bpy.ops.shapesig.step_moment(step=1) == {"FINISHED"} and res.results_index == mine[0][2]
+    playing = take.animation_data.action
+    assert tuple(round(v) for v in playing.frame_range) == mine[0][:2] and playing.name.startswith("take[")
+    assert bpy.ops.shapesig.preview_result() == {"FINISHED"}
+    assert take.animation_data.action.name == "query"
+    other = next(i for i, r in enumerate(_rows()) if r.name == "other")
+    res.results_index = other  # a clip with one moment: nothing to step to, said in one line
+    assert not bpy.ops.shapesig.step_moment.poll()

@@ -150,7 +150,7 @@ def test_no_text_of_a_session_holds_a_thesis_symbol_or_an_exception_name(session
     s.use_windows = True
     assert session.run(ops.rank) == {"FINISHED"}
     drawn = session.panel()
-    assert res.results and res.order_by in ("sim", "elastic") and res.results[0].frame_last
+    assert res.results and res.order_by in ("local", "sim", "elastic") and res.results[0].frame_last
     assert session.run(ops.explain_result) == {"FINISHED"}
     assert session.run(ops.assign_result) == {"FINISHED"}
     session.panel()

@@ -16,7 +16,7 @@ from ..errors import ShapeSigError
 
 __all__ = ["REST_HEADS", "REST_TAILS", "UNIT_METERS", "Rest", "rest_meta", "map_rest_meta", "to_world_axes", "from_world_axes", "rest_of",
            "aligned_rotations", "from_aligned", "root_heads", "root_translation_from_heads",
-           "forward_kinematics", "chain_offset", "up_vector", "root_up", "parse_up", "estimate_up_axis", "unit_meters", "LEG_METERS"]
+           "forward_kinematics", "chain_offset", "CARRIER_SHARE", "fold_root_motion", "up_vector", "root_up", "parse_up", "estimate_up_axis", "unit_meters", "LEG_METERS"]
 
 REST_HEADS = "rest_heads"
 REST_TAILS = "rest_tails"
@@ -225,6 +225,51 @@ def chain_offset(clip: Clip, W: np.ndarray, bone: str) -> Optional[np.ndarray]:
         off += W[:, index[p]] @ (np.asarray(heads[b], dtype=np.float64) - np.asarray(heads[p], dtype=np.float64))
         b = p
     return off
+
+
+# a bone's translations carry the root motion when they move by at least this share of the most moving ones
+CARRIER_SHARE = 0.1
+
+
+def fold_root_motion(parents, X, root_path, moves):
+    """(root path, carrier): the root bone's head path (frames, 3, world-aligned axes) that puts the **carrier**'s
+    head where translations of bones below the root put it, and the carrier's index (None: the root's path as given).
+    Only bones whose subtree holds more than half of the bones take part (hands, props and IK targets never do).
+
+    Exports with a static reference root above the hips (Unity, MotionBuilder: six BVH channels on every joint) move
+    the body by the hips' translations. The carrier is the deepest bone whose translations move (by
+    ``CARRIER_SHARE`` of the most moving ones) and whose subtree holds more than half of the bones; the translations
+    on the way down to it fold into the root's path: forward kinematics with the rest offsets then puts the carrier
+    and every bone below it where they are played (the root's own head moves with them). ``parents``: each bone's
+    parent index (-1 for a root); ``X``: the aligned local rotations (frames, bones,
+    3, 3); ``root_path``: the root's head as its own channels place it; ``moves``: {bone: (frames, 3) its head's
+    displacement from its rest offset, in its parent's aligned frame}."""
+    n = len(parents)
+    size, depth = np.ones(n, dtype=int), np.zeros(n, dtype=int)
+    for j in range(n):
+        a = parents[j]
+        while a >= 0:  # every ancestor's subtree holds j
+            size[a] += 1
+            depth[j] += 1
+            a = parents[a]
+    # the bones holding most of the skeleton (the chain from the root to where it branches) and how far they move
+    ranges = {j: float(np.ptp(np.asarray(d), axis=0).max()) for j, d in moves.items() if len(d) and 2 * size[j] > n}
+    most = max(ranges.values(), default=0.0)
+    moving = [j for j, r in ranges.items() if r > 0 and r >= CARRIER_SHARE * most]
+    if not moving:
+        return root_path, None
+    carrier = max(moving, key=lambda j: (depth[j], -j))
+    chain = [carrier]
+    while parents[chain[-1]] >= 0:
+        chain.append(parents[chain[-1]])
+    chain.reverse()  # root ... carrier
+    p = np.array(root_path, dtype=np.float64)
+    W = X[:, chain[0]]
+    for j in chain[1:]:
+        if j in moves:
+            p = p + np.einsum("fij,fj->fi", W, np.asarray(moves[j], dtype=np.float64))
+        W = W @ X[:, j]
+    return p, carrier
 
 
 _AXES = {"X": 0, "Y": 1, "Z": 2}

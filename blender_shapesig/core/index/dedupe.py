@@ -1,7 +1,9 @@
 """Near-duplicate clusters of a library, the pure logic of ``dedupe`` (never imports bpy, dask or matplotlib): a
-signature k-NN graph on a common bone tuple (``common_entry``, ``knn_graph``), the elastic check of its candidate
-pairs on the comparison time base (``check_pairs``), the threshold (``relative_threshold``) and complete-linkage
-``clusters``, and which copy of a cluster to keep (``choose_keeper``). See docs/search.md, "Library report (dedupe)".
+signature k-NN graph on a common bone tuple (``common_entry``, ``knn_graph``; ``pair_sim`` is ``rank``'s sim^n), the
+elastic check of its candidate pairs on the comparison time base (``check_pairs``), the thresholds
+(``relative_threshold``), the same take in another file (``take_vector``, ``is_conversion``: the search's twin test),
+complete-linkage ``clusters``, which test a near miss failed (``DedupeResult.failed``) and which copy of a cluster to
+keep (``choose_keeper``). See docs/search.md, "Library report (dedupe)".
 """
 
 import time
@@ -14,11 +16,13 @@ import numpy as np
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
 from .entry import IndexEntry, curve_from_increments, entry_distance, pair_increments
+from . import take as take_mod
 from .words import word_codes
 from ..geometry import so3
 from ..metrics import DEFAULT_DEPTH, clip_distance, time_base_smoothing
 from ..clip.prepare import prepare_clip
 from ..rigs import JOINTS
+from ..signatures.signatures import ZERO_NORM
 
 __all__ = ["DEFAULT_K", "SIM_RATIO", "THRESHOLD_RATIO", "Edge", "DedupeResult", "common_entry", "pair_sim", "knn_graph",
            "pair_curves", "prepared_pair", "time_map", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
@@ -46,6 +50,8 @@ class Edge:
     sim: float
     elastic: Optional[float] = None
     relative: Optional[float] = None  # d_S* / sqrt(|q_i|^2 + |q_j|^2) (``elastic_check``)
+    take: Optional[float] = None  # the whole takes' distance (``take.take_distances``) when ``is_conversion``
+    length: float = 0.0  # |log| of the ratio of the two durations
 
 
 @dataclass
@@ -53,7 +59,8 @@ class DedupeResult:
     """``clusters``: lists of entry indices (two or more members, largest first); ``edges``: the k-NN graph
     (checked pairs carry d_S*); ``sim_threshold``, ``threshold``: the two gates (sim^n, relative d_S*);
     ``rule``: how they were set; ``extra``: pairs checked on demand by the linkage; ``components``: the
-    connected components of the confirmed pairs (what chaining would give, for the report)."""
+    connected components of the confirmed pairs (what chaining would give, for the report); ``take_threshold``:
+    the take distance under which two files of other skeletons or formats of one length are one take."""
 
     clusters: List[List[int]]
     edges: List[Edge]
@@ -62,9 +69,38 @@ class DedupeResult:
     rule: str
     extra: List[Edge] = field(default_factory=list)
     components: List[List[int]] = field(default_factory=list)
+    take_threshold: float = 0.0
+
+    def copy(self, e: Edge) -> bool:
+        """The copy test: both gates (sim^n, relative d_S*)."""
+        return e.relative is not None and e.sim <= self.sim_threshold and e.relative <= self.threshold
+
+    def twin(self, e: Edge) -> bool:
+        """The same take in another file (``is_conversion``): one length, the takes near, the relative d_S* gate."""
+        return (e.take is not None and e.relative is not None and e.length <= take_mod.SAME_LENGTH
+                and e.take <= self.take_threshold and e.relative <= self.threshold)
 
     def confirmed(self, e: Edge) -> bool:
-        return (e.relative is not None and e.sim <= self.sim_threshold and e.relative <= self.threshold)
+        return self.copy(e) or self.twin(e)
+
+    def failed(self, e: Edge) -> str:
+        """Which test a pair failed, in one line ('' when it passed): the copy test's first failed gate, and for
+        files of other skeletons or formats the same-take test's."""
+        if self.confirmed(e):
+            return ""
+        if e.relative is None:
+            return "not checked"
+        copy = (f"sim {e.sim:.3g} > {self.sim_threshold:.3g}" if e.sim > self.sim_threshold
+                else f"relative d_S* {e.relative:.3g} > {self.threshold:.3g}")
+        if e.take is None:
+            return f"copy test: {copy}; same-take test: one skeleton and format (only copies)"
+        if e.length > take_mod.SAME_LENGTH:
+            twin = f"lengths differ by {np.expm1(e.length):.0%}"
+        elif e.take > self.take_threshold:
+            twin = f"take distance {e.take:.3g} > {self.take_threshold:.3g}"
+        else:
+            twin = f"relative d_S* {e.relative:.3g} > {self.threshold:.3g}"
+        return f"copy test: {copy}; same-take test: {twin}"
 
 
 # ---------------------------------------------------------------------------------------- stage 1
@@ -112,19 +148,91 @@ def _word_positions(n_bones, moving, level) -> np.ndarray:
     return order[np.searchsorted(full[order], word_codes(n_bones, moving, level))]
 
 
+@lru_cache(maxsize=1024)
+def _letter_positions(n_bones, moving, letters, level) -> np.ndarray:
+    """Where the words over ``letters`` (a subset of ``moving``, joint indices in order) sit among the log-signature
+    coordinates of ``moving``: its path on those joints alone has the same coordinates there."""
+    full = word_codes(n_bones, moving, level)
+    order = np.argsort(full, kind="stable")
+    return order[np.searchsorted(full[order], word_codes(n_bones, letters, level))]
+
+
 def pair_sim(a: IndexEntry, b: IndexEntry) -> float:
-    """sim^n of two entries of one bone tuple, equal to ``index.entry_distance``. Entries with other moving
-    joints are compared by scattering both directions into the coordinates of all joints (one subtraction,
-    positions cached per moving tuple) instead of intersecting their word codes per pair (tens of ms at
-    22 joints, level 3): the k-NN graph of a library of several rigs compares thousands of such pairs."""
-    if a.moving == b.moving or a.norm == 0.0 or b.norm == 0.0 or a.bones != b.bones:
-        return entry_distance(a, b)
-    n = len(a.bones)
-    pa, pb = _word_positions(n, a.moving, a.level), _word_positions(n, b.moving, b.level)
-    diff = np.zeros(len(word_codes(n, tuple(range(n)), a.level)))
-    diff[pa] = a.direction
-    diff[pb] -= b.direction
-    return float(np.linalg.norm(diff))
+    """sim^n of two entries as ``rank_clips`` computes it. One bone tuple: ``index.entry_distance`` (entries with
+    other moving joints by scattering both directions into the coordinates of all joints: one subtraction,
+    positions cached per moving tuple, instead of intersecting word codes per pair). Rigs with other canonical
+    joints (``common_entry``): on the joints both rigs have, as ``rank_clips`` compares other skeletons
+    (``sim_from_increments`` of ``pair_increments`` on the shared bones; equal, tested): each direction's
+    coordinates on the words of its shared moving joints (a Lyndon word over a subset of the letters is one over
+    all, and its coordinate is the restricted path's), renormalized. inf for two skeletons without canonical
+    joints."""
+    if a.bones == b.bones:
+        if a.moving == b.moving or a.norm == 0.0 or b.norm == 0.0:
+            return entry_distance(a, b)
+        return _scattered(len(a.bones), a.level, a.direction, b.direction, a.moving, b.moving)
+    pa, pb = _canonical_positions(a.bones), _canonical_positions(b.bones)
+    if pa is None or pb is None or a.level != b.level:
+        return float("inf")
+    n, shared = len(JOINTS), set(pa) & set(pb)
+    ma, mb = tuple(pa[j] for j in a.moving), tuple(pb[j] for j in b.moving)  # on the common tuple
+    la, lb = tuple(m for m in ma if m in shared), tuple(m for m in mb if m in shared)
+    u = (np.asarray(a.direction, np.float64)[_letter_positions(n, ma, la, a.level)] if a.norm > 0 and la
+         else np.zeros(0))
+    v = (np.asarray(b.direction, np.float64)[_letter_positions(n, mb, lb, b.level)] if b.norm > 0 and lb
+         else np.zeros(0))
+    nu, nv = _norm(u), _norm(v)
+    zu, zv = not nu > ZERO_NORM, not nv > ZERO_NORM
+    if zu or zv:
+        return 0.0 if (zu and zv) else 1.0  # as signatures.normalized_difference
+    return _scattered(n, a.level, u / nu, v / nv, la, lb)
+
+
+def _scattered(n, level, u, v, ma, mb) -> float:
+    """|u - v| for directions ``u`` on the words of joints ``ma`` and ``v`` on those of ``mb`` (of ``n`` joints)."""
+    pa, pb = _word_positions(n, tuple(ma), level), _word_positions(n, tuple(mb), level)
+    diff = np.zeros(len(word_codes(n, tuple(range(n)), level)))
+    diff[pa] = u
+    diff[pb] -= v
+    return _norm(diff)
+
+
+def _norm(x) -> float:
+    """|x| without BLAS (``np.linalg.norm``'s dot of 100,000 numbers took 27 ms among busy BLAS threads)."""
+    return float(np.sqrt((x * x).sum())) if len(x) else 0.0
+
+
+def take_vector(e: IndexEntry) -> Optional[dict]:
+    """The whole take's signature of an entry (``take.take_entry``'s, from the entry's increments: the same curve
+    on the same time base), or None for an entry without canonical joints."""
+    pos = _canonical_positions(e.bones)
+    if pos is None or e.increments is None:
+        return None
+    inc = np.asarray(e.increments, np.float64)
+    dx = np.zeros((max(inc.shape[0], 1), take_mod.CHANNELS))
+    for k, j in enumerate(e.moving):
+        dx[:inc.shape[0], 3 * pos[j]:3 * pos[j] + 3] = inc[:, k]
+    mask = np.zeros(len(JOINTS), np.uint8)
+    mask[list(pos)] = 1
+    from ..signatures.signatures import increments_log_signature
+
+    return {"take": increments_log_signature(dx, 2), "take_mask": mask,
+            "seconds": max(e.frames - 1, 1) / float(e.fps or 1.0)}
+
+
+def is_conversion(a: IndexEntry, b: IndexEntry) -> bool:
+    """Two files that may hold one take converted (another format or skeleton): other mapped joints, or other
+    file types. Two files of one skeleton and format are near-duplicates only as copies (the gates)."""
+    ext = [str(e.source or e.name).rsplit(".", 1)[-1].split("#")[0].lower() for e in (a, b)]
+    return a.bones != b.bones or tuple(a.rig_joints or ()) != tuple(b.rig_joints or ()) or ext[0] != ext[1]
+
+
+def with_take(e: Edge, a: IndexEntry, b: IndexEntry, ta, tb) -> Edge:
+    """``e`` with its takes' distance and length ratio when the pair ``is_conversion`` (``ta``/``tb``: their
+    ``take_vector``s)."""
+    if ta is None or tb is None or not is_conversion(a, b):
+        return e
+    length = abs(float(np.log(max(ta["seconds"], 1e-9) / max(tb["seconds"], 1e-9))))
+    return replace(e, take=float(take_mod.take_distances(ta, [tb])[0]), length=length)
 
 
 def knn_graph(entries: Sequence[IndexEntry], k=DEFAULT_K, pool=None) -> List[Edge]:
@@ -147,7 +255,7 @@ def knn_graph(entries: Sequence[IndexEntry], k=DEFAULT_K, pool=None) -> List[Edg
         short = _sketch_shortlist([common[n] for n in members], pool)
         for a, row in enumerate(short):
             i = members[a]
-            dist = sorted((pair_sim(common[i], common[members[b]]), members[b]) for b in row)
+            dist = sorted((pair_sim(entries[i], entries[members[b]]), members[b]) for b in row)
             for d, j in dist[:k]:
                 best[(min(i, j), max(i, j))] = d
     return sorted((Edge(i, j, d) for (i, j), d in best.items()), key=lambda e: (e.sim, e.i, e.j))
@@ -300,11 +408,14 @@ def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, 
     a dict that receives the seconds of the three stages ("graph", "checks", "linkage")."""
     timings = {} if timings is None else timings
     t0 = time.perf_counter()
-    edges = knn_graph(entries, k)
+    takes = [take_vector(e) for e in entries]
+    edges = [with_take(e, entries[e.i], entries[e.j], takes[e.i], takes[e.j]) for e in knn_graph(entries, k)]
     timings["graph"] = time.perf_counter() - t0
     sim_tau = relative_threshold([e.sim for e in edges], sim_ratio)
+    take_tau = relative_threshold([e.take for e in edges if e.take is not None], take_mod.TWIN_RATIO)
     picked = sample_edges(edges, sample)
-    todo = {(e.i, e.j): e for e in edges if e.sim <= CHECK_FACTOR * sim_tau}
+    todo = {(e.i, e.j): e for e in edges if e.sim <= CHECK_FACTOR * sim_tau
+            or (e.take is not None and e.take <= CHECK_FACTOR * take_tau and e.length <= take_mod.SAME_LENGTH)}
     todo.update(((e.i, e.j), e) for e in picked)
     todo = sorted(todo.values(), key=lambda e: (e.sim, e.i, e.j))
     tasks = [([(_slim(entries[e.i]), _slim(entries[e.j])) for e in todo[s:s + chunk]], depth)
@@ -322,19 +433,20 @@ def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, 
     else:
         tau = float(threshold)
         rule = f"sim <= {sim_ratio:g} x median over the k-NN edges ({sim_tau:.4g}); relative d_S* <= {tau:g} (given)"
-    out = DedupeResult([], edges, sim_tau, tau, rule)
+    rule += (f"; or, for files of other skeletons or formats, one length (within "
+             f"{np.expm1(take_mod.SAME_LENGTH):.0%}), take distance <= {take_mod.TWIN_RATIO:g} x median over the "
+             f"k-NN edges ({take_tau:.4g}) and the relative d_S* gate")
+    out = DedupeResult([], edges, sim_tau, tau, rule, take_threshold=take_tau)
     known = {(e.i, e.j): out.confirmed(e) for e in edges if e.relative is not None}
-    common = {}
 
     def linked(i, j):
         key = (min(i, j), max(i, j))
-        if key not in known:  # not a candidate: checked now (both gates)
-            for x in key:
-                common.setdefault(x, common_entry(entries[x]))
-            a, b = common[key[0]], common[key[1]]
-            sim = pair_sim(a, b) if a.bones == b.bones else float("inf")
-            d, r = elastic_check(entries[key[0]], entries[key[1]], depth) if sim <= sim_tau else (None, None)
-            e = Edge(key[0], key[1], sim, d, r)
+        if key not in known:  # not a candidate: checked now (both tests)
+            a, b = entries[key[0]], entries[key[1]]
+            e = with_take(Edge(key[0], key[1], pair_sim(a, b)), a, b, takes[key[0]], takes[key[1]])
+            if e.sim <= sim_tau or (e.take is not None and e.take <= take_tau and e.length <= take_mod.SAME_LENGTH):
+                d, r = elastic_check(a, b, depth)
+                e = replace(e, elastic=d, relative=r)
             out.extra.append(e)
             known[key] = out.confirmed(e)
         return known[key]

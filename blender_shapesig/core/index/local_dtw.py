@@ -1,7 +1,8 @@
 """The local search's second stage (``local.rerank``): dynamic time warping of two pose sequences with a
 Sakoe-Chiba band and open ends (``dtw``), compiled by numba when numba is loaded already (``_kernel``), else by numpy
 anti-diagonals (``_dtw_numpy``), and a shortlist's DTWs by numpy all at once (``_dtw_many``: the same numbers as one
-at a time). Pure numpy (numba optional); no bpy.
+at a time); ``subsequence_dtw``, the query against every window of a long take at once (the moments). Pure numpy
+(numba optional); no bpy.
 """
 
 import math
@@ -11,7 +12,7 @@ from typing import Optional
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-__all__ = ["dtw"]
+__all__ = ["dtw", "subsequence_dtw"]
 
 _COMPILED = []  # the compiled DTW kernel, once numba is loaded (``_kernel``)
 
@@ -163,3 +164,27 @@ def dtw(a, b, band: Optional[int] = None, free_a: int = 0, free_b: int = 0) -> f
     fa, fb = max(0, min(int(free_a), len(a) - 1)), max(0, min(int(free_b), len(b) - 1))
     kernel = _kernel()
     return float(kernel(a, b, bw, fa, fb)) if kernel is not None else _dtw_numpy(a, b, bw, fa, fb)
+
+
+def subsequence_dtw(a, b):
+    """(cost (len(b),), start (len(b),)): for every end j of ``b``, the least sum of squared Euclidean distances
+    over DTW paths of the whole of ``a`` against b[s..j], s free (open begin and end in ``b``), and that start s.
+    One pass of len(a) numpy rows: a row's horizontal steps are a running minimum, D[i, j] = C[j] + min over
+    k <= j of (min(D[i-1, k-1], D[i-1, k]) - C[k-1]), C the row's cumulative cost."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    n = len(b)
+    at = np.arange(n)
+    D = ((b - a[0]) ** 2).sum(axis=1)
+    S = at.copy()
+    for i in range(1, len(a)):
+        cost = np.cumsum(((b - a[i]) ** 2).sum(axis=1))
+        diag = np.concatenate([[np.inf], D[:-1]])
+        take_diag = diag < D
+        X = np.where(take_diag, diag, D)
+        XS = np.where(take_diag, np.concatenate([[0], S[:-1]]), S)
+        v = X - np.concatenate([[0.0], cost[:-1]])
+        run = np.minimum.accumulate(v)
+        where = np.maximum.accumulate(np.where(v <= run, at, 0))
+        D, S = cost + run, XS[where]
+    return D, S

@@ -322,14 +322,7 @@ def load_bvh(path, name: Optional[str] = None):
         angles = np.radians(values[:, cols]).reshape(frames, len(idx), 3)
         E = matrix_from_euler(angles, order[::-1])
         R[:, idx] = E[..., _PERM, :][..., _PERM] * _SIGNS  # A E A^T: A is a signed permutation
-    A = BVH_TO_BLENDER
-    root_translation = None
-    pos = joints[0].columns("position")
-    if pos:
-        p = np.zeros((frames, 3))
-        for axis, col in pos.items():
-            p[:, "xyz".index(axis)] = values[:, col]
-        root_translation = p @ A.T
+    root_translation, carrier = _root_motion(joints, values, R)
     fps = 1.0 / frame_time
     if abs(fps - round(fps)) < 1e-3:
         fps = float(round(fps))  # "Frame Time: 0.00833333" means 120 fps
@@ -337,11 +330,43 @@ def load_bvh(path, name: Optional[str] = None):
                 rotations=R, fps=fps, frame_start=1, root_translation=root_translation, root_bone=joints[0].name,
                 rotation_modes=tuple(modes), source=path,
                 meta={"missing_rotation_bones": tuple(missing), "rotation_space": "armature", "up_axis": "Z",
-                      "format": "bvh",
+                      "format": "bvh", **({"root_motion_bone": carrier} if carrier else {}),
                       # the hierarchy (core.rigs composes world rotations down it for the comparison space)
                       "parents": {j.name: (joints[j.parent].name if j.parent >= 0 else None) for j in joints},
                       **_rest_skeleton(joints)})
     return clip
+
+
+def _positions(joint, values):
+    """(frames, 3) a joint's position channels (BVH axes; a missing axis reads 0, as in Blender's importer), or
+    None without any."""
+    pos = joint.columns("position")
+    if not pos:
+        return None
+    p = np.zeros((values.shape[0], 3))
+    for axis, col in pos.items():
+        p[:, "xyz".index(axis)] = values[:, col]
+    return p
+
+
+def _root_motion(joints, values, R):
+    """(root translation, carrier name or None): the ROOT's path in armature axes, with the position channels of
+    the joints below it folded in as Blender's importer plays them (``skeleton.fold_root_motion``: its channels
+    replace a joint's OFFSET, so its head moves by A (channels - OFFSET) in its parent's frame). Position channels
+    below the carrier or off its chain (bone stretches) are left out; these exporters write them equal to the
+    OFFSETs."""
+    from ..clip.skeleton import fold_root_motion
+
+    A = BVH_TO_BLENDER
+    locs = [_positions(j, values) for j in joints]
+    moves = {j: (loc - np.asarray(joints[j].offset)) @ A.T for j, loc in enumerate(locs) if loc is not None and j}
+    root = locs[0] if locs[0] is not None else np.tile(joints[0].offset, (values.shape[0], 1))
+    if locs[0] is not None:
+        moves[0] = locs[0] @ A.T  # the ROOT's own path takes part in the carrier's choice (the largest, it stays)
+    path, carrier = fold_root_motion([j.parent for j in joints], R, root @ A.T, moves)
+    if carrier in (None, 0):
+        return (None if locs[0] is None else locs[0] @ A.T), None
+    return path, joints[carrier].name
 
 
 def _rest_skeleton(joints):

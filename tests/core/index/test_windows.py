@@ -187,7 +187,8 @@ def test_cli_rank_windows_json(folders, capsys):
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     rows = out["results"]
-    assert len(rows) == 2
+    assert {r["clip"] for r in rows} == {"07_02", "16_15"} and out["metric"] == "pose windows"
+    assert len(rows) == 2  # a whole walk as the query: one walk's length fits each take once
     for r in rows:
         assert isinstance(r["start"], int) and r["start"] <= r["end"] and r["elastic"] is not None
     assert rows[0]["path"].endswith(".amc")
