@@ -354,6 +354,8 @@ def test_a_real_mixamo_character_imported_by_blender(scene24, folder):
     heads, _rots = _world_pose(arm, _frames(arm.animation_data.action))
     assert (heads[:, head, 2] > heads[:, hip, 2]).all()
     assert np.abs(heads[:, hip, 2] / stance - 1.0).max() <= 0.25, (heads[:, hip, 2].min(), stance)
+    rest = (np.array(arm.matrix_world) @ np.append(np.array(arm.data.bones["mixamorig:Hips"].head_local), 1.0))[2]
+    assert np.abs(heads[:, hip, 2] / rest - 1.0).max() <= 0.25, (heads[:, hip, 2].min(), rest)  # its rest height
     # a blend with a CMU walk (Blender's BVH import, another rig)
     bpy.context.scene.frame_set(1)
     cmu = import_bvh(WALK, "cmu_walk")
