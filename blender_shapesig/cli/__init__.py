@@ -60,6 +60,17 @@ def _with_flags(line):
     return line
 
 
+def _stop_children():
+    """Kill the reading children (a signal, an interrupt) and close the shared one (its temp folder removed)."""
+    from ..readers import child, guard
+
+    guard.kill_all()
+    try:
+        child.close()
+    except Exception:  # noqa: BLE001 - on the way out: what is left is killed already
+        pass
+
+
 def main(argv=None):
     """Run the command line; returns the exit code (0, or 2 on errors)."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -74,12 +85,15 @@ def main(argv=None):
     if not getattr(args, "command", None):
         names = ", ".join(m.__name__.rsplit(".", 1)[-1] for m in COMMANDS)
         return _error(f"no command given: choose one of {names} (see --help)", False)
-    try:
-        with stdout_to_stderr():
+    from ..readers import guard
+
+    try:  # SIGTERM / SIGHUP / SIGINT end the reading children and remove their temp folders
+        with guard.on_signals(), stdout_to_stderr():
             out, text = args.func(args)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, guard.Terminated) as exc:
+        _stop_children()
         sys.stderr.write(f"{PROG}: interrupted\n")
-        return 130
+        return 128 + getattr(exc, "signum", 2)
     except Exception as exc:  # every failure: one line (and the traceback with --debug)
         from ..core.errors import error_line
 

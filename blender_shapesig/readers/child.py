@@ -22,6 +22,7 @@ from ..core.clip.clip import Clip
 from ..core.errors import ParseError
 from ._blend_file_child import read_result
 from ._child_main import PREFIX
+from .guard import forget, guard_args, spawn
 
 __all__ = ["read_in_child", "read_timeout", "close", "child_command", "CHILD_TIMEOUT", "IDLE_SECONDS", "MAX_FILES",
            "starts"]
@@ -50,13 +51,13 @@ class _Child:
     def __init__(self):
         package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
         args = json.dumps({"package_dir": os.path.dirname(package_root), "package": os.path.basename(package_root),
-                           "sys_path": [p for p in sys.path if p]})
+                           "sys_path": [p for p in sys.path if p], **guard_args()})
         self.tmp = tempfile.TemporaryDirectory(prefix="shapesig_child_")
         self.log = open(os.path.join(self.tmp.name, "stderr.txt"), "w+b")
         script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_child_main.py")
         try:
-            self.proc = subprocess.Popen(child_command(script, args), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=self.log, bufsize=0)
+            self.proc = spawn(child_command(script, args), self.tmp.name, stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, stderr=self.log, bufsize=0)
         except OSError as exc:
             self.log.close()
             self.tmp.cleanup()
@@ -122,6 +123,7 @@ class _Child:
         if kill and self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
+        forget(self.proc)
         self.log.close()
         self.tmp.cleanup()
 
