@@ -22,7 +22,8 @@ def run(args):
                              asf=args.asf or None, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
     finally:
         c.report_skipped(unreadable)  # the report's "skipped" lists them with the other sources left out
-    for w in out.get("warnings", ()):
+    told = {str(e) for e in unreadable}
+    for w in [s for s in out.get("skipped", ()) if s not in told] + list(out.get("warnings", ())):
         sys.stderr.write(f"{c.PROG}: warning: {w}\n")
     lines = [f"{out['clips']} clips, {len(out['clusters'])} near-duplicate clusters; report: {out['report']}"]
     for n, members in enumerate(out["clusters"], 1):

@@ -226,7 +226,16 @@ def read(spec, **options) -> List[Clip]:
     ``spec``: a ClipSpec or the text of one (``options`` then fill its other fields)."""
     spec = spec if isinstance(spec, ClipSpec) else ClipSpec.parse(spec, **options)
     spec.check()
-    clips = list(reader_for(spec.ext)(spec))
+    reader = reader_for(spec.ext)
+    try:
+        clips = list(reader(spec))
+    except (ShapeSigError, KeyboardInterrupt, SystemExit):
+        raise
+    except MemoryError:  # a file no cap caught: this file only, one line
+        raise ParseError("the file needs more memory than this machine gives", spec.path) from None
+    except Exception as exc:  # noqa: BLE001 - any other failure of a reader is one line for this file
+        text = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise ParseError(f"could not read the file ({text})", spec.path) from None
     if not clips:
         raise ParseError("no armature action found" if spec.action is None else f"no action {spec.action!r}",
                          spec.path)
