@@ -8,13 +8,12 @@ import json
 import os
 import subprocess
 import sys
-import tempfile
 
 from ..core.clip.clip import Clip
 from ..core.errors import ParseError
 from . import _blend_file_child
 from .child import child_command
-from .guard import forget, guard_args, spawn
+from .guard import forget, guard_args, spawn, temp_folder
 
 __all__ = ["read_blend_isolated", "BLEND_IN_PROCESS_ENV", "BLEND_CHILD_TIMEOUT"]
 
@@ -33,7 +32,7 @@ def read_blend_isolated(path, action_name=None, space="armature", rig=False):
     """``blend_file.read_blend_here`` in a child process: a .blend that crashes Blender gives a ParseError, not a
     crash (the file's structure is the caller's to check first: ``core.io.blend_file.check_blend``)."""
     package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    with tempfile.TemporaryDirectory(prefix="shapesig_blend_") as tmp:
+    with temp_folder("blend") as tmp:
         out = os.path.join(tmp, "clips.npz")
         args = json.dumps({"path": os.path.abspath(path), "action": action_name, "space": space, "rig": rig, "out": out,
                            "package_dir": os.path.dirname(package_root),

@@ -14,7 +14,6 @@ import os
 import queue
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 
@@ -22,7 +21,7 @@ from ..core.clip.clip import Clip
 from ..core.errors import ParseError
 from ._blend_file_child import read_result
 from ._child_main import PREFIX
-from .guard import forget, guard_args, spawn
+from .guard import forget, guard_args, spawn, temp_folder
 
 __all__ = ["read_in_child", "read_timeout", "close", "child_command", "CHILD_TIMEOUT", "IDLE_SECONDS", "MAX_FILES",
            "starts"]
@@ -52,7 +51,7 @@ class _Child:
         package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
         args = json.dumps({"package_dir": os.path.dirname(package_root), "package": os.path.basename(package_root),
                            "sys_path": [p for p in sys.path if p], **guard_args()})
-        self.tmp = tempfile.TemporaryDirectory(prefix="shapesig_child_")
+        self.tmp = temp_folder("child")
         self.log = open(os.path.join(self.tmp.name, "stderr.txt"), "w+b")
         script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_child_main.py")
         try:

@@ -13,10 +13,56 @@ import sys
 import threading
 import time
 
-__all__ = ["spawn", "forget", "kill_all", "stopping", "guard_self", "guard_args", "on_signals", "Terminated"]
+__all__ = ["spawn", "forget", "kill_all", "stopping", "guard_self", "guard_args", "on_signals", "Terminated",
+           "temp_folder", "sweep"]
 
 _LIVE = {}  # pid -> Popen
-_STATE = {"stopping": False}
+_STATE = {"stopping": False, "swept": False}
+_TEMP_PREFIX = "shapesig_"  # shapesig_KIND_PID_XXXX: a folder of the process PID
+
+
+def temp_folder(kind):
+    """A ``tempfile.TemporaryDirectory`` for one child (``kind``: "child", "blend") named after this process, so
+    that ``sweep`` can tell the folders of processes that died by SIGKILL (nothing of theirs ran) from live ones."""
+    import tempfile
+
+    if not _STATE["swept"]:
+        _STATE["swept"] = True
+        sweep()
+    return tempfile.TemporaryDirectory(prefix=f"{_TEMP_PREFIX}{kind}_{os.getpid()}_")
+
+
+def sweep(folder=None):
+    """Remove the children's temp folders (``temp_folder``) left in ``folder`` (default: the temp folder) by
+    processes of this user that no longer run. Returns how many were removed."""
+    import re
+    import shutil
+    import stat
+    import tempfile
+
+    folder = folder or tempfile.gettempdir()
+    removed = 0
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return 0
+    for name in names:
+        m = re.fullmatch(_TEMP_PREFIX + r"(?:child|blend)_(\d+)_\w+", name)
+        if not m or int(m.group(1)) == os.getpid():
+            continue
+        full = os.path.join(folder, name)
+        try:
+            st = os.lstat(full)
+            if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid():
+                continue
+            os.kill(int(m.group(1)), 0)
+            continue  # its process runs
+        except ProcessLookupError:
+            shutil.rmtree(full, ignore_errors=True)
+            removed += 1
+        except OSError:
+            continue
+    return removed
 _PR_SET_PDEATHSIG = 1
 
 
