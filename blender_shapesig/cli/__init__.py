@@ -9,7 +9,8 @@ import sys
 import traceback
 
 from . import blend, dedupe, distance, evaluate, index, matrix, rank
-from .common import EXIT_ERROR, PROG, CommandError, _Parser, load_many, load_one, stdout_to_stderr
+from .common import (EXIT_ERROR, PROG, CommandError, _Parser, load_many, load_one, shown, stdout_to_stderr,
+                     write_text)
 
 COMMANDS = (distance, rank, blend, matrix, evaluate, dedupe, index)
 
@@ -29,20 +30,18 @@ def build_parser():
 
 def _emit(args, out, text):
     if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out) + "\n")
+        write_text(sys.stdout, json.dumps(out) + "\n")  # ASCII: names that are not UTF-8 as \udcNN escapes
     elif text:
-        sys.stdout.write(text + "\n")
-    sys.stdout.flush()
+        write_text(sys.stdout, text + "\n")
 
 
 def _error(message, debug):
     if debug:
         traceback.print_exc(file=sys.stderr)
-    line = " ".join(str(message).split()) or "error"
+    line = shown(" ".join(str(message).split()) or "error")
     if not line.startswith(PROG):
         line = f"{PROG}: error: {line}"
-    sys.stderr.write(line + "\n")
-    sys.stderr.flush()
+    write_text(sys.stderr, line + "\n")
     return EXIT_ERROR
 
 

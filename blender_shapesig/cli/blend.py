@@ -3,7 +3,6 @@ ranges, loops, masks and planted feet (``core.blend.make_blends``)."""
 
 import math
 import os
-import sys
 
 from . import common as c
 
@@ -43,12 +42,18 @@ def parse_weights(args, count):
         raise c.CommandError(str(exc)) from None
 
 
-def _check_out(args):
+def _sources(paths):
+    """The files of the CLIP arguments (``FILE#ACTION`` names FILE)."""
+    return [c.clip_spec(p).path for p in paths]
+
+
+def _check_out(args, paths=()):
     out_path = os.path.abspath(args.out)
     if not out_path.lower().endswith(".blend"):
-        raise c.CommandError(f"--out must be a .blend file, got {args.out}")
+        raise c.CommandError(f"--out must be a .blend file, got {c.shown(args.out)}")
     if not os.path.isdir(os.path.dirname(out_path)):
-        raise c.CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
+        raise c.CommandError(f"folder of --out does not exist: {c.shown(os.path.dirname(out_path))}")
+    c.check_outputs([out_path], args, _sources(paths))  # never a source; an existing file only with --overwrite
     if args.frames is not None and args.frames < 2:
         raise c.CommandError("--frames must be 2 or more")
     return out_path
@@ -92,7 +97,7 @@ def run(args):
 
     paths = [args.a, args.b] + list(args.more or ())
     weights = parse_weights(args, len(paths))
-    out_path = _check_out(args)
+    out_path = _check_out(args, paths)
     ranges = [parse_range(args.range_a, "--range-a"), parse_range(args.range_b, "--range-b")]
     mask = parse_mask(args.mask) if args.mask else None
     groups = parse_groups(args.group) if args.group else None
@@ -109,7 +114,7 @@ def run(args):
     if kept:
         more = len(kept) - _KEPT_SHOWN
         shown = ", ".join(kept[:_KEPT_SHOWN]) + (f", and {more} more (--json lists all)" if more > 0 else "")
-        sys.stderr.write(f"{c.PROG}: note: {len(kept)} bone(s) without a counterpart keep A's motion: {shown}\n")
+        c.say("note", f"{len(kept)} bone(s) without a counterpart keep A's motion: {shown}")
     for clip in blended:
         # The blend lives in A's rotation space (pose or armature axes); write_action converts by it.
         if "rotation_space" in ref.meta:
@@ -117,10 +122,18 @@ def run(args):
     _names(args, blended, own, weights)
     for report in info["feet"] or ():
         if "skipped" in report:
-            sys.stderr.write(f"{c.PROG}: note: feet not planted: {report['skipped']}\n")
+            c.say("note", f"feet not planted: {report['skipped']}")
     from ..write_blend_file import write_blend
 
-    names = write_blend(c.clip_spec(args.a, args.asf), blended, out_path)
+    tmp = c.temp_beside(out_path, ".blend")  # complete or absent: saved under a temporary name, then renamed
+    try:
+        names = write_blend(c.clip_spec(args.a, args.asf), blended, tmp)
+        c.check_outputs([out_path], args, _sources(paths))  # (again: the folder may have changed meanwhile)
+        os.replace(tmp, out_path)
+    finally:
+        for leftover in (tmp, tmp + "1", tmp + "@"):  # Blender's backup and partial names
+            if os.path.exists(leftover):
+                os.remove(leftover)
     out = {
         "out": out_path,
         "actions": list(names),
@@ -193,5 +206,6 @@ def add_parser(sub):
                    help="a custom group for --mask (joints or bone names; repeatable)")
     p.add_argument("--name", help="name of the new action (default <A>_x_<B>_<weight>)")
     p.add_argument("--out", required=True, metavar="FILE.blend", help="the .blend file to write")
+    c.add_overwrite(p)
     c.add_common(p)
     p.set_defaults(func=run)

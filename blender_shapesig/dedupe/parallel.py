@@ -43,7 +43,7 @@ def scheduler(name=None):
         return
     from distributed import Client
 
-    client = Client(name, set_as_default=False)
+    client = Client(name, set_as_default=False, timeout="10s")
     try:
         yield client
     finally:

@@ -211,8 +211,14 @@ def picture_bytes(item, store, name: Optional[str] = None, window=None, count: i
     now (a memory-only store)."""
     if store is not None and store.path is not None:
         path, _made = thumbnail(item, store, name, window, count)
-        with open(path, "rb") as f:
-            return f.read()
+        from ..io.files import open_regular
+
+        try:
+            with open_regular(path, cap=False) as f:  # a regular file only (a FIFO put there would hang)
+                return f.read()
+        except ShapeSigError:
+            pass  # drawn again below
+        store._discard(path)
     name = name if name is not None else item.name
     return png_bytes(entry_strip(local_entry_of(item, store, name), count, window))
 
