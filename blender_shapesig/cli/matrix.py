@@ -27,7 +27,7 @@ def run(args):
         D, seconds = clip_distance_matrix(clips, label, depth=args.depth, workers=args.workers, progress=bar)
     # the output folder is made only once there is something to write into it; the files appear when complete
     with c.Staged(args.out, args) as stage:
-        paths = evaluation.write_matrix(D, names, stage.path)
+        paths = evaluation.write_matrix(D, [c.shown(n) for n in names], stage.path)  # names as data
         figures = []
         if not args.no_figures and len(clips) >= 3:
             shown = [c.plot_text(n) for n in names]  # names are data: no mathtext, no control characters

@@ -30,7 +30,7 @@ MAPPED_FILES_LOCKED = os.name == "nt"
 def hashed_name(text: str) -> str:
     """The cache's file name of an entry's description (its SHA-1), remembered: a click asks for every library
     item's file names (``contains``), and 1,000 hashes a click were a tenth of a warm click."""
-    return hashlib.sha1(text.encode()).hexdigest()
+    return hashlib.sha1(text.encode("utf-8", "surrogateescape")).hexdigest()
 
 
 def _meta(e):
