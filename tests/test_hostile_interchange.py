@@ -178,3 +178,13 @@ def test_a_signal_ends_the_reading_child_and_leaves_no_temp_folder(separate, tmp
     if sig == signal.SIGKILL:  # nothing of the command line ran: its folders go at the next run's first child
         assert guard.sweep(str(tmp)) >= 1
     assert left_in(tmp) == []
+
+
+def test_animation_keys_over_the_budget_are_refused_from_the_accessors(separate):
+    doc = json.loads((separate / "w.gltf").read_text())
+    sampler = doc["animations"][0]["samplers"][0]
+    doc["accessors"][sampler["output"]]["count"] = 30_000_000  # 480 MB of quaternions claimed
+    path = separate / "keys.gltf"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(UnreadableFileError, match="animation keys .* MB budget"):
+        check_interchange(path)

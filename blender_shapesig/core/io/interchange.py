@@ -258,8 +258,32 @@ def _gltf_facts(path, doc, binary) -> dict:
         if not isinstance(anim, dict):
             raise ParseError(f"damaged glTF file: animation {i} is not an object", path)
         names.append(str(anim.get("name") or ""))
+    files.check_budget(_animation_bytes(doc) * _FBX_UNPACKED_COST, path, "its animation keys")
     return {"format": "gltf", "version": version, "animations": names,
             "rate": key_rate(doc, binary, path) if animations else None}
+
+
+_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_TYPE_COUNT = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def _animation_bytes(doc) -> int:
+    """The bytes of every animation sampler's input and output accessors (what the importer turns into keys),
+    from the accessors' counts and types; counted like an FBX's arrays against the memory budget."""
+    accessors = doc.get("accessors") if isinstance(doc.get("accessors"), list) else []
+    used = set()
+    for anim in doc.get("animations") or []:
+        samplers = anim.get("samplers") if isinstance(anim, dict) else None
+        for sampler in samplers if isinstance(samplers, list) else []:
+            if isinstance(sampler, dict):
+                used.update(i for i in (sampler.get("input"), sampler.get("output")) if isinstance(i, int))
+    total = 0
+    for i in used:
+        acc = accessors[i] if 0 <= i < len(accessors) and isinstance(accessors[i], dict) else {}
+        count = acc.get("count")
+        if isinstance(count, int) and count > 0:
+            total += count * _COMPONENT_BYTES.get(acc.get("componentType"), 4) * _TYPE_COUNT.get(acc.get("type"), 1)
+    return total
 
 
 def key_rate(doc, binary, path) -> float:
