@@ -258,9 +258,9 @@ def _gltf_facts(path, doc, binary) -> dict:
         if not isinstance(anim, dict):
             raise ParseError(f"damaged glTF file: animation {i} is not an object", path)
         names.append(str(anim.get("name") or ""))
+    rate = key_rate(doc, binary, path) if animations else None  # (a count past its buffer is named first)
     files.check_budget(_animation_bytes(doc) * _FBX_UNPACKED_COST, path, "its animation keys")
-    return {"format": "gltf", "version": version, "animations": names,
-            "rate": key_rate(doc, binary, path) if animations else None}
+    return {"format": "gltf", "version": version, "animations": names, "rate": rate}
 
 
 _COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
