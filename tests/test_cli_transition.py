@@ -89,8 +89,8 @@ def test_blend_writes_bvh(tmp_path, capsys):
     (["--cut", "5:999"], "outside clip"),
     (["--cut", "a:b"], "--cut: expected I:J"),
     (["--frames", "0"], "--frames"),
-    (["--out-exists"], "exists: not replaced"),
-    (["--out-source"], "a source that exists"),
+    (["--out-exists"], "exists: give --overwrite to replace it"),
+    (["--out-source"], "is one of the source files"),
     (["--out-txt"], "must be a .blend or .bvh"),
 ])
 def test_refusals_are_one_line_and_create_nothing(tmp_path, capsys, extra, message):
@@ -117,4 +117,4 @@ def test_blend_never_replaces_a_bvh(tmp_path, capsys):
     out = tmp_path / "mine.bvh"
     out.write_text("mine")
     code = cli.main(["blend", str(WALK), str(CC_RUN), "--weight", "0.5", "--out", str(out), "--no-progress"])
-    assert code == 2 and "not replaced" in capsys.readouterr().err and out.read_text() == "mine"
+    assert code == 2 and "give --overwrite" in capsys.readouterr().err and out.read_text() == "mine"

@@ -5,6 +5,7 @@
     .venv/bin/python tools/fuzz_readers.py --cases 300 --seed 7 --targets bvh,blend --batch 50 --keep /tmp/fails
     .venv/bin/python tools/fuzz_readers.py --cases 300 --targets fbx,glb --batch 75
     .venv/bin/python tools/fuzz_readers.py --cases 500 --targets npz
+    .venv/bin/python tools/fuzz_readers.py --cases 3000 --targets gltf_uri,deflate_bomb --seed 39
 
 Each case takes a real CMU file from ``tests/data`` (ASF, AMC, BVH, or a .blend written from an AMC take),
 applies one mutation (``KINDS``: truncation, garbage bytes, dropped / repeated / swapped lines, wrong
@@ -17,7 +18,13 @@ CR or CRLF line ends, empty / whitespace / binary files, the wrong format) and r
   .blend (or ``fbx`` / ``glb``: an FBX or GLB written by Blender's exporters, read by its importers in the
   reading child), and ``import_op``: the ``shapesig.import_acclaim`` operator on a mutated ASF/AMC - each in worker
   processes (``--batch`` cases each) so that a crash or a hang of Blender is detected and reported with the
-  case that caused it (the worker is restarted after it).
+  case that caused it (the worker is restarted after it);
+* ``gltf_uri``: a glTF written by Blender with one buffer or image uri made hostile (``GLTF_URI_KINDS``: absolute,
+  ``../``, %-encoded, a scheme, a device, a FIFO, a link out, a folder, over the budget, ...) and
+  ``deflate_bomb``: FBX and .npz files that unpack to far more than they hold (``BOMB_KINDS``), both read through
+  ``core.io.sources.read`` in this process (the reading child reads what passes the checks). A uri that leads
+  outside must be refused (following it is a failure: a valid copy of the data lies there), a valid one must
+  read; a bomb must be refused without this process growing by more than 256 MB.
 
 A case passes when it ends in a valid Clip (finite rotations that are rotation matrices, finite root
 translation) or in one of our errors (``ShapeSigError``: ``ParseError`` / ``CurveError``) whose message is
@@ -597,6 +604,176 @@ def npz_case(rng, kind, folder, i):
     return outcome, detail, "amass"
 
 
+# -------------------------------------------------------------- hostile libraries: glTF uris, deflate bombs
+
+# a buffer (or image) uri of a separate glTF: (kind, uri template, must it be refused?). {outside}: a folder beside
+# the glTF's holding a valid copy of its .bin (so a reader that follows the uri would succeed: reading it is the
+# failure), {sentinel}: a file outside; FIFOs, links and big files are made in the glTF's folder
+GLTF_URI_KINDS = (
+    ("own", "base.bin", False), ("own_encoded", "base%2Ebin", False), ("data_uri", "{data}", False),
+    ("absolute", "{outside}/base.bin", True), ("dotdot", "../outside/base.bin", True),
+    ("encoded_dotdot", "..%2Foutside%2Fbase.bin", True), ("double_encoded", "..%252Foutside%252Fbase.bin", True),
+    ("backslash", "..\\outside\\base.bin", True), ("nested_dotdot", "a/b/../../../outside/base.bin", True),
+    ("file_scheme", "file://{outside}/base.bin", True), ("http", "http://127.0.0.1:9/base.bin", True),
+    ("device", "/dev/zero", True), ("encoded_device", "%2Fdev%2Fzero", True), ("sentinel", "{sentinel}", True),
+    ("fifo", "pipe.bin", True), ("link_out", "link_out.bin", True), ("link_device", "link_zero.bin", True),
+    ("folder", ".", True), ("missing", "nowhere.bin", True), ("nul", "base.bin%00.png", True),
+    ("over_budget", "big.bin", True), ("long", "x" * 5000, True), ("not_text", 12, True),
+)
+GLTF_URI_WHERE = ("buffer", "image")
+# names of files that do not exist inside the folder: a missing image is the importer's to report (it reads nothing)
+_MISSING_IMAGE_OK = ("missing", "long", "double_encoded")
+BOMB_KINDS = ("fbx_one", "fbx_many", "fbx_wide", "fbx_under", "npz_poses", "npz_extra", "npz_members")
+_BOMBS = {}  # (values, level) -> zlib bytes of that many zero doubles
+
+
+def _zeros_deflated(values):
+    if values not in _BOMBS:
+        import zlib
+
+        comp, left, chunk, parts = zlib.compressobj(9), values * 8, bytes(1 << 22), []
+        while left:
+            n = min(left, len(chunk))
+            parts.append(comp.compress(chunk[:n]))
+            left -= n
+        parts.append(comp.flush())
+        _BOMBS[values] = b"".join(parts)
+    return _BOMBS[values]
+
+
+def fbx_bomb_bytes(arrays, version=7400):
+    """A binary FBX of one top-level record per array (``arrays``: value counts of zlib-compressed zero doubles)
+    whose lengths are all right: only a memory budget refuses it."""
+    import struct
+
+    wide = version >= 7500
+    fmt, sentinel = ("<QQQB", 25) if wide else ("<IIIB", 13)
+    out, pos = [], 27
+    for k, values in enumerate(arrays):
+        packed = _zeros_deflated(values)
+        prop = b"d" + struct.pack("<III", values, 1, len(packed)) + packed
+        name = f"Curve{k}".encode()
+        end = pos + struct.calcsize(fmt) + len(name) + len(prop)
+        out.append(struct.pack(fmt, end, 1, len(prop), len(name)) + name + prop)
+        pos = end
+    head = b"Kaydara FBX Binary  \x00\x1a\x00" + struct.pack("<I", version)
+    return head + b"".join(out) + bytes(sentinel) + bytes(160)
+
+
+def _npz_bomb(kind, rng):
+    """An .npz whose arrays unpack to far more than the file (``np.savez_compressed`` of zeros; made once per
+    kind and size)."""
+    frames = rng.choice((200_000, 1_000_000, 4_000_000))
+    members = rng.choice((300, 2000))
+    key = (kind, frames if kind != "npz_members" else members)
+    if key not in _BOMBS:
+        _BOMBS[key] = _npz_bomb_bytes(kind, frames, members)
+    return _BOMBS[key]
+
+
+def _npz_bomb_bytes(kind, frames, members):
+    import io
+
+    arrays = {"mocap_framerate": np.array(120.0), "trans": np.zeros((10, 3))}
+    if kind == "npz_poses":
+        arrays["poses"] = np.zeros((frames, 72), np.float32)
+    elif kind == "npz_extra":  # a small body, a huge array beside it
+        arrays["poses"] = np.zeros((10, 72))
+        arrays["dmpls"] = np.zeros((frames, 64))
+    else:  # many members
+        arrays["poses"] = np.zeros((10, 72))
+        for m in range(members):
+            arrays[f"m{m}"] = np.zeros(1)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    return buf.getvalue()
+
+
+def bomb_case(rng, kind, folder, i):
+    """One deflate bomb (FBX or .npz) read through the front door: our one-line error, the file refused from its
+    headers (no allocation: this process's peak stays put), or a clip within the budget."""
+    import resource
+
+    from blender_shapesig.core.io.sources import read as read_clips
+
+    if kind.startswith("fbx"):
+        version = rng.choice((7400, 7500))
+        if kind == "fbx_one":
+            arrays = [rng.choice((40_000_000, 120_000_000, 300_000_000))]
+        elif kind == "fbx_many":  # many arrays, each small, together over the budget
+            arrays = [rng.choice((1_000_000, 3_000_000))] * rng.choice((20, 60))
+        elif kind == "fbx_wide":
+            arrays = [rng.choice((2_000_000, 8_000_000))] * 4
+        else:  # under the budget: then Blender's importer reads it (and finds no armature)
+            arrays = [rng.choice((1_000, 50_000))]
+        data, ext = fbx_bomb_bytes(arrays, version), "fbx"
+    else:
+        data, ext = _npz_bomb(kind, rng), "npz"
+    path = os.path.join(folder, f"{i}.{ext}")
+    pathlib.Path(path).write_bytes(data)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    outcome, detail = run_case(lambda: read_clips(path)[0], None, 120)
+    grown = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
+    if outcome != "FAIL" and grown > 256:
+        outcome, detail = "FAIL", f"this process grew by {grown:.0f} MB reading a {len(data) / 2 ** 20:.1f} MB file"
+    return outcome, detail, f"{len(data) / 2 ** 20:.2f} MB"
+
+
+def gltf_uri_case(rng, kind, base, folder, i):
+    """The separate glTF ``base`` (``base.gltf`` + ``base.bin``) with one buffer or image uri made hostile
+    (``GLTF_URI_KINDS``), read through the front door in a folder of its own. A uri that leads outside the
+    glTF's folder or to anything but a regular file within the budget must be refused; the others read."""
+    import base64
+    import shutil
+
+    from blender_shapesig.core.io.sources import read as read_clips
+
+    _, template, must_refuse = next(k for k in GLTF_URI_KINDS if k[0] == kind)
+    where = rng.choice(GLTF_URI_WHERE) if kind not in ("own", "own_encoded", "data_uri") else "buffer"
+    case = os.path.join(folder, f"case{i}")
+    lib, outside = os.path.join(case, "lib"), os.path.join(case, "outside")
+    os.makedirs(lib)
+    os.makedirs(outside)
+    shutil.copy(os.path.join(base, "base.bin"), os.path.join(lib, "base.bin"))
+    shutil.copy(os.path.join(base, "base.bin"), os.path.join(outside, "base.bin"))
+    sentinel = os.path.join(outside, "secret.txt")
+    pathlib.Path(sentinel).write_text("not yours")
+    os.mkfifo(os.path.join(lib, "pipe.bin"))
+    os.symlink(os.path.join(outside, "base.bin"), os.path.join(lib, "link_out.bin"))
+    os.symlink("/dev/zero", os.path.join(lib, "link_zero.bin"))
+    with open(os.path.join(lib, "big.bin"), "wb") as f:
+        f.truncate(1 << 31)  # sparse: 2 GB, over the budget
+    data = "data:application/octet-stream;base64," + base64.b64encode(
+        pathlib.Path(base, "base.bin").read_bytes()).decode()
+    uri = template.format(outside=outside, sentinel=sentinel, data=data) if isinstance(template, str) else template
+    doc = json.loads(pathlib.Path(base, "base.gltf").read_text())
+    if where == "buffer":
+        doc["buffers"][0]["uri"] = uri
+    else:
+        doc.setdefault("images", []).append({"uri": uri, "name": "skin"})
+    path = os.path.join(lib, "take.gltf")
+    pathlib.Path(path).write_text(json.dumps(doc))
+    outcome, detail = run_case(lambda: read_clips(path)[0], None, 120)
+    if outcome == "ok" and must_refuse and not (where == "image" and kind in _MISSING_IMAGE_OK):
+        outcome, detail = "FAIL", f"a {where} uri of kind {kind} was followed"
+    elif outcome == "error" and not must_refuse:
+        outcome, detail = "FAIL", f"a valid {where} uri was refused: {detail}"
+    return outcome, detail, f"{where}:{kind}"
+
+
+def _make_separate_gltf(folder):
+    """``folder/base.gltf`` + ``base.bin``: the 09_02 BVH's first 60 frames written by Blender's exporter."""
+    code = (
+        "import bpy\n"
+        "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
+        "bpy.ops.import_anim.bvh(filepath=%r, update_scene_fps=True)\n"
+        "sc = bpy.context.scene; sc.frame_start, sc.frame_end = 1, 60\n"
+        "bpy.ops.export_scene.gltf(filepath=%r, export_format='GLTF_SEPARATE', export_frame_range=True)\n"
+    ) % (str(DATA / "bvh/09_02.bvh"), os.path.join(folder, "base.gltf"))
+    subprocess.run([sys.executable, "-c", code], check=True, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL, cwd=str(ROOT))
+
+
 # ----------------------------------------------------------------------------- Blender workers (subprocess)
 
 
@@ -753,10 +930,11 @@ def main(argv=None):
     p.add_argument("--cases", type=int, default=500, help="number of cases (split over the targets)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--targets", default="acclaim,bvh,blend,import_op",
-                   help="comma-separated: acclaim, bvh, blend, import_op, fbx, glb (default: the first four)")
+                   help="comma-separated: acclaim, npz, bvh, blend, import_op, fbx, glb, gltf_uri, deflate_bomb "
+                        "(default: acclaim, bvh, blend, import_op)")
     p.add_argument("--batch", type=int, default=40, help="cases per Blender worker process")
     p.add_argument("--timeout", type=int, default=30, help="seconds per case before it counts as a hang")
-    p.add_argument("--weights", default="acclaim=6,bvh=2,blend=1,import_op=1,fbx=1,glb=1",
+    p.add_argument("--weights", default="acclaim=6,bvh=2,blend=1,import_op=1,fbx=1,glb=1,gltf_uri=1,deflate_bomb=1",
                    help="share of the cases per target")
     p.add_argument("--worker", nargs=3, metavar=("TARGET", "CASES", "RESULTS"), help=argparse.SUPPRESS)
     p.add_argument("--json", action="store_true", help="also print the summary as one JSON object")
@@ -769,16 +947,16 @@ def main(argv=None):
     targets = [t.strip() for t in args.targets.split(",") if t.strip()]
     weights = dict(kv.split("=") for kv in args.weights.split(","))
     for t in targets:
-        if t not in ("acclaim", "npz", "bvh", "blend", "import_op") + INTERCHANGE_TARGETS:
+        if t not in ("acclaim", "npz", "bvh", "blend", "import_op", "gltf_uri", "deflate_bomb") + INTERCHANGE_TARGETS:
             p.error(f"unknown target {t!r}")
     import importlib.util
 
     have_bpy = importlib.util.find_spec("bpy") is not None  # the workers import it, not this process
     if not have_bpy:
-        dropped = [t for t in targets if t not in ("acclaim", "npz")]
+        dropped = [t for t in targets if t not in ("acclaim", "npz", "deflate_bomb")]
         if dropped:
             print(f"bpy is not importable: skipping {', '.join(dropped)}", file=sys.stderr)
-        targets = [t for t in targets if t in ("acclaim", "npz")]
+        targets = [t for t in targets if t in ("acclaim", "npz", "deflate_bomb")]
     total_w = sum(float(weights.get(t, 1)) for t in targets)
     counts = {t: int(round(args.cases * float(weights.get(t, 1)) / total_w)) for t in targets}
     rng = random.Random(args.seed)
@@ -817,6 +995,27 @@ def main(argv=None):
                 if outcome == "FAIL":
                     log(f"  npz {kind}: {detail}")
                     keep(os.path.join(folder, f"{i}.npz"), f"npz-{i}-{kind}.npz")
+        for target, kinds, make in (("deflate_bomb", BOMB_KINDS, None),
+                                    ("gltf_uri", [k[0] for k in GLTF_URI_KINDS], _make_separate_gltf)):
+            if not counts.get(target):
+                continue
+            folder = os.path.join(tmp, target)
+            os.makedirs(folder)
+            if make is not None:
+                make(folder)
+            for i in range(counts[target]):
+                kind = kinds[i % len(kinds)] if i < len(kinds) else rng.choice(kinds)
+                if target == "gltf_uri":
+                    outcome, detail, src = gltf_uri_case(rng, kind, folder, os.path.join(folder, "cases"), i)
+                    import shutil
+
+                    shutil.rmtree(os.path.join(folder, "cases", f"case{i}"), ignore_errors=True)
+                else:
+                    outcome, detail, src = bomb_case(rng, kind, folder, i)
+                    os.remove(os.path.join(folder, f"{i}.{'fbx' if kind.startswith('fbx') else 'npz'}"))
+                rows.append((target, kind, outcome, detail, src))
+                if outcome == "FAIL":
+                    log(f"  {target} {kind} {src}: {detail}")
         for target in ("bvh", "blend", "import_op") + INTERCHANGE_TARGETS:
             n = counts.get(target, 0)
             if not n:

@@ -9,7 +9,8 @@ import sys
 import traceback
 
 from . import blend, dedupe, distance, evaluate, index, matrix, rank, transition
-from .common import EXIT_ERROR, PROG, CommandError, _Parser, load_many, load_one, stdout_to_stderr
+from .common import (EXIT_ERROR, PROG, CommandError, _Parser, load_many, load_one, shown, stdout_to_stderr,
+                     write_text)
 
 COMMANDS = (distance, rank, blend, matrix, evaluate, dedupe, index, transition)
 
@@ -29,20 +30,18 @@ def build_parser():
 
 def _emit(args, out, text):
     if getattr(args, "json", False):
-        sys.stdout.write(json.dumps(out) + "\n")
+        write_text(sys.stdout, json.dumps(out) + "\n")  # ASCII: names that are not UTF-8 as \udcNN escapes
     elif text:
-        sys.stdout.write(text + "\n")
-    sys.stdout.flush()
+        write_text(sys.stdout, text + "\n")
 
 
 def _error(message, debug):
     if debug:
         traceback.print_exc(file=sys.stderr)
-    line = " ".join(str(message).split()) or "error"
+    line = shown(" ".join(str(message).split()) or "error")
     if not line.startswith(PROG):
         line = f"{PROG}: error: {line}"
-    sys.stderr.write(line + "\n")
-    sys.stderr.flush()
+    write_text(sys.stderr, line + "\n")
     return EXIT_ERROR
 
 
@@ -60,6 +59,17 @@ def _with_flags(line):
     return line
 
 
+def _stop_children():
+    """Kill the reading children (a signal, an interrupt) and close the shared one (its temp folder removed)."""
+    from ..readers import child, guard
+
+    guard.kill_all()
+    try:
+        child.close()
+    except Exception:  # noqa: BLE001 - on the way out: what is left is killed already
+        pass
+
+
 def main(argv=None):
     """Run the command line; returns the exit code (0, or 2 on errors)."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -74,12 +84,15 @@ def main(argv=None):
     if not getattr(args, "command", None):
         names = ", ".join(m.__name__.rsplit(".", 1)[-1] for m in COMMANDS)
         return _error(f"no command given: choose one of {names} (see --help)", False)
-    try:
-        with stdout_to_stderr():
+    from ..readers import guard
+
+    try:  # SIGTERM / SIGHUP / SIGINT end the reading children and remove their temp folders
+        with guard.on_signals(), stdout_to_stderr():
             out, text = args.func(args)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, guard.Terminated) as exc:
+        _stop_children()
         sys.stderr.write(f"{PROG}: interrupted\n")
-        return 130
+        return 128 + getattr(exc, "signum", 2)
     except Exception as exc:  # every failure: one line (and the traceback with --debug)
         from ..core.errors import error_line
 

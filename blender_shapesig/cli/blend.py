@@ -3,7 +3,6 @@ ranges, loops, masks and planted feet (``core.blend.make_blends``)."""
 
 import math
 import os
-import sys
 
 from . import common as c
 
@@ -43,14 +42,18 @@ def parse_weights(args, count):
         raise c.CommandError(str(exc)) from None
 
 
-def _check_out(args):
+def _sources(paths):
+    """The files of the CLIP arguments (``FILE#ACTION`` names FILE)."""
+    return [c.clip_spec(p).path for p in paths]
+
+
+def _check_out(args, paths=()):
     out_path = os.path.abspath(args.out)
     if not out_path.lower().endswith((".blend", ".bvh")):
-        raise c.CommandError(f"--out must be a .blend or .bvh file, got {args.out}")
-    if out_path.lower().endswith(".bvh") and os.path.lexists(out_path):
-        raise c.CommandError(f"--out {args.out} exists: not replaced (choose another name)")
+        raise c.CommandError(f"--out must be a .blend or .bvh file, got {c.shown(args.out)}")
     if not os.path.isdir(os.path.dirname(out_path)):
-        raise c.CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
+        raise c.CommandError(f"folder of --out does not exist: {c.shown(os.path.dirname(out_path))}")
+    c.check_outputs([out_path], args, _sources(paths))  # never a source; an existing file only with --overwrite
     if args.frames is not None and args.frames < 2:
         raise c.CommandError("--frames must be 2 or more")
     return out_path
@@ -94,7 +97,7 @@ def run(args):
 
     paths = [args.a, args.b] + list(args.more or ())
     weights = parse_weights(args, len(paths))
-    out_path = _check_out(args)
+    out_path = _check_out(args, paths)
     ranges = [parse_range(args.range_a, "--range-a"), parse_range(args.range_b, "--range-b")]
     mask = parse_mask(args.mask) if args.mask else None
     groups = parse_groups(args.group) if args.group else None
@@ -111,7 +114,7 @@ def run(args):
     if kept:
         more = len(kept) - _KEPT_SHOWN
         shown = ", ".join(kept[:_KEPT_SHOWN]) + (f", and {more} more (--json lists all)" if more > 0 else "")
-        sys.stderr.write(f"{c.PROG}: note: {len(kept)} bone(s) without a counterpart keep A's motion: {shown}\n")
+        c.say("note", f"{len(kept)} bone(s) without a counterpart keep A's motion: {shown}")
     for clip in blended:
         # The blend lives in A's rotation space (pose or armature axes); write_action converts by it.
         if "rotation_space" in ref.meta:
@@ -119,10 +122,19 @@ def run(args):
     _names(args, blended, own, weights)
     for report in info["feet"] or ():
         if "skipped" in report:
-            sys.stderr.write(f"{c.PROG}: note: feet not planted: {report['skipped']}\n")
+            c.say("note", f"feet not planted: {report['skipped']}")
     from .transition import write_clips
 
-    names = write_clips(c.clip_spec(args.a, args.asf), blended, out_path, own[0])  # .bvh: one clip, A's skeleton
+    # complete or absent: saved under a temporary name, then renamed; .bvh: one clip, A's skeleton
+    tmp = c.temp_beside(out_path, os.path.splitext(out_path)[1].lower())
+    try:
+        names = write_clips(c.clip_spec(args.a, args.asf), blended, tmp, own[0])
+        c.check_outputs([out_path], args, _sources(paths))  # (again: the folder may have changed meanwhile)
+        os.replace(tmp, out_path)
+    finally:
+        for leftover in (tmp, tmp + "1", tmp + "@"):  # Blender's backup and partial names
+            if os.path.exists(leftover):
+                os.remove(leftover)
     out = {
         "out": out_path,
         "actions": list(names),
@@ -196,5 +208,6 @@ def add_parser(sub):
     p.add_argument("--name", help="name of the new action (default <A>_x_<B>_<weight>)")
     p.add_argument("--out", required=True, metavar="FILE.blend|FILE.bvh",
                    help="the .blend file to write, or a .bvh file (one blend, on A's skeleton)")
+    c.add_overwrite(p)
     c.add_common(p)
     p.set_defaults(func=run)

@@ -70,6 +70,20 @@ def stdout_to_stderr():
             os.close(saved_fd)
 
 
+def say(kind, text):
+    """One line on stderr: ``blender_shapesig: KIND: TEXT`` with the text's names as data (``shown``: a newline in a
+    file name shows as ``\\n``, never as a line of its own)."""
+    write_text(sys.stderr, f"{PROG}: {kind}: {shown(text)}\n")
+
+
+def write_text(stream, text):
+    """``text`` on ``stream`` whatever its encoding (what it cannot encode, e.g. a name that is not UTF-8, is
+    written as a ``\\x`` escape instead of failing)."""
+    encoding = getattr(stream, "encoding", None) or "utf-8"
+    stream.write(text.encode(encoding, "backslashreplace").decode(encoding, "strict"))
+    stream.flush()
+
+
 def finite(x):
     """A float for JSON: NaN / inf become None (JSON has no NaN)."""
     if x is None:
@@ -151,7 +165,7 @@ def report_skipped(skipped):
     from ..core.io.files import skipped_line
 
     if skipped:
-        sys.stderr.write(f"{PROG}: warning: {skipped_line(skipped)}\n")
+        say("warning", skipped_line(skipped))
     return [str(e) for e in skipped]
 
 
@@ -163,11 +177,125 @@ def cache_dir(args, search):
     """The signature cache folder of ``rank`` and ``dedupe``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the
     per-user cache (``core.index.default_cache_dir``); None (memory only) with --no-cache. The cache makes its own
     subfolder there; when it cannot, it goes on in memory only with one warning (``SignatureCache.warning``)."""
-    if args.no_cache:
+    if getattr(args, "no_cache", False):
         if args.cache:
             raise CommandError("--cache and --no-cache contradict each other")
         return None
+    if args.cache:  # a folder the user names: one that cannot be used is an error (docs/cli.md)
+        probe = search.SignatureCache(args.cache)
+        if probe.warning:
+            raise CommandError(f"--cache {shown(args.cache)}: {probe.warning.split(' (', 1)[-1].rsplit(');', 1)[0]}")
     return args.cache or search.default_cache_dir()
+
+
+# ---------------------------------------------------------------------------------------------
+# Output files: never a source, never replacing a file without --overwrite, complete or absent
+
+
+def check_outputs(paths, args, sources=()):
+    """Refuse (CommandError, before any work) an output that is one of the ``sources`` or that exists already
+    without ``--overwrite``."""
+    for out in paths:
+        for src in sources:
+            try:
+                same = os.path.samefile(out, src)
+            except (OSError, ValueError):
+                same = False
+            if same:
+                raise CommandError(f"{shown(out)} is one of the source files: give another output")
+        if os.path.lexists(out) and not getattr(args, "overwrite", False):
+            raise CommandError(f"{shown(out)} exists: give --overwrite to replace it")
+
+
+def temp_beside(path, suffix=".tmp"):
+    """A temporary name in ``path``'s folder (a rename onto ``path`` is then atomic)."""
+    folder, base = os.path.split(os.path.abspath(path))
+    return os.path.join(folder, f".{base}.shapesig-{os.getpid()}{suffix}")
+
+
+def write_output(path, data, args=None):
+    """Write ``data`` (bytes) to ``path`` through a temporary file renamed when complete (a full disk leaves no
+    truncated file); ``args``: refused when ``path`` exists without ``--overwrite`` (``check_outputs``)."""
+    if args is not None:
+        check_outputs([path], args)
+    tmp = temp_beside(path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.remove(tmp)
+        raise
+
+
+def shown(name) -> str:
+    """A file name for a message (``core.io.text.shown_name``: a newline shows as ``\\n``)."""
+    from ..core.io.text import shown_name
+
+    return shown_name(name)
+
+
+class Staged:
+    """``with Staged(folder, args) as stage:`` a command writes its outputs into ``stage.path`` (a temporary folder
+    inside ``folder``); when the block ends without error they are moved into ``folder`` (a file that exists there
+    is refused without ``--overwrite``, before any is moved), else removed: a failed run (a full disk) leaves no
+    half of its outputs. ``stage.moved(value)``: ``value`` with the staging folder in its paths replaced."""
+
+    def __init__(self, folder, args):
+        self.folder, self.args, self.path = os.path.abspath(folder), args, None
+        self._made = not os.path.isdir(self.folder)
+
+    def __enter__(self):
+        import tempfile
+
+        os.makedirs(self.folder, exist_ok=True)
+        self.path = tempfile.mkdtemp(prefix=".shapesig-", suffix=".tmp", dir=self.folder)
+        return self
+
+    def __exit__(self, kind, _exc, _tb):
+        import shutil
+
+        try:
+            if kind is None:
+                self._move()
+        finally:
+            shutil.rmtree(self.path, ignore_errors=True)
+            if kind is not None and self._made:
+                with contextlib.suppress(OSError):
+                    os.rmdir(self.folder)  # made for this run and empty
+        return False
+
+    def _move(self):
+        pairs = []
+        for root, _dirs, names in os.walk(self.path):
+            for name in names:
+                src = os.path.join(root, name)
+                pairs.append((src, os.path.join(self.folder, os.path.relpath(src, self.path))))
+        check_outputs([dst for _src, dst in pairs], self.args)
+        for src, dst in pairs:
+            os.makedirs(os.path.dirname(dst), exist_ok=True)
+            os.replace(src, dst)
+
+    def moved(self, value):
+        if isinstance(value, str):
+            return value.replace(self.path, self.folder)
+        if isinstance(value, dict):
+            return {k: self.moved(v) for k, v in value.items()}
+        if isinstance(value, (list, tuple)):
+            return type(value)(self.moved(v) for v in value)
+        return value
+
+
+def plot_text(name) -> str:
+    """A name as matplotlib draws it literally (``core.io.text.plot_name``)."""
+    from ..core.io.text import plot_name
+
+    return plot_name(name)
+
+
+def add_overwrite(p):
+    p.add_argument("--overwrite", action="store_true", help="replace outputs that exist (default: refuse them)")
 
 
 SCHEDULER_HELP = ("run on Dask (optional package): a cluster's scheduler address (tcp://host:8786) or a local Dask "
@@ -175,14 +303,55 @@ SCHEDULER_HELP = ("run on Dask (optional package): a cluster's scheduler address
 
 
 def check_scheduler(name):
-    """``--scheduler``'s value, refused in one line when it is neither a local Dask scheduler nor an address (the
-    optional packages are checked by ``dedupe.parallel.require_dask`` before any clip is read)."""
-    from ..dedupe.parallel import LOCAL_SCHEDULERS
+    """``--scheduler``'s value, checked before any clip is read (one line, exit 2, within 10 s): a local Dask
+    scheduler (threads, processes, sync) or a ``tcp://host:port`` address where a Dask scheduler answers; the
+    optional packages it needs (``dedupe.parallel.require_dask``)."""
+    from ..dedupe.parallel import LOCAL_SCHEDULERS, require_dask
 
-    if name and name not in LOCAL_SCHEDULERS and "://" not in name and ":" not in name:
-        raise CommandError(f"--scheduler {name!r}: give {', '.join(LOCAL_SCHEDULERS)} or an address "
-                           f"(tcp://host:8786)")
+    if not name:
+        return name
+    inproc = name.startswith("inproc://")  # a scheduler of this very process (Dask's LocalCluster in a program)
+    if name not in LOCAL_SCHEDULERS and not inproc:
+        import re
+
+        m = re.fullmatch(r"tcp://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):(\d{1,5})", name)
+        if m is None or not 0 < int(m.group(2)) < 65536:
+            raise CommandError(f"--scheduler {shown(name)!r}: give {', '.join(LOCAL_SCHEDULERS)} or a Dask "
+                               f"scheduler's address tcp://host:port (e.g. tcp://127.0.0.1:8786)")
+    try:
+        require_dask(name)
+    except Exception as exc:  # noqa: BLE001 - a missing package: one line
+        raise CommandError(str(exc)) from None
+    if name not in LOCAL_SCHEDULERS and not inproc:
+        _probe_scheduler(name, m.group(1).strip("[]"), int(m.group(2)))
     return name
+
+
+_PROBE_SECONDS = 4.0
+
+
+def _probe_scheduler(name, host, port):
+    """A Dask scheduler speaks first on a new connection (a frame whose 8-byte length is small): anything else (no
+    answer, an HTTP server, a closed port) is refused before ``distributed`` reads its answer as a frame."""
+    import socket
+    import struct
+
+    try:
+        sock = socket.create_connection((host, port), timeout=_PROBE_SECONDS)
+    except OSError as exc:
+        raise CommandError(f"--scheduler {name}: cannot reach it ({exc.strerror or exc})") from None
+    head = b""
+    with sock:
+        try:
+            while len(head) < 8:
+                got = sock.recv(8 - len(head))
+                if not got:
+                    break
+                head += got
+        except OSError:
+            pass  # no answer in time
+    if len(head) < 8 or not 0 < struct.unpack("<Q", head)[0] < (1 << 26):
+        raise CommandError(f"--scheduler {name}: what answers there is not a Dask scheduler")
 
 
 def add_common(p, asf=True, crop=True):

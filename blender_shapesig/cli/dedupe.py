@@ -1,6 +1,5 @@
 """Near-duplicate clusters of a library: ``dedupe CLIP_OR_FOLDER... --out DIR [--threshold x] [--scheduler ADDRESS]``."""
 
-import sys
 
 from . import common as c
 
@@ -14,6 +13,9 @@ def run(args):
     if args.threshold is not None and not args.threshold >= 0:
         raise c.CommandError("--threshold must be 0 or more")
     sched = c.check_scheduler(args.scheduler)
+    import os
+
+    c.check_outputs([os.path.join(args.out, n) for n in ("report.json", "report.html")], args)
     unreadable = []
     try:
         out = dedupe_library(args.paths, args.out, args.threshold, sched, k=args.k,
@@ -22,11 +24,12 @@ def run(args):
                              asf=args.asf or None, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
     finally:
         c.report_skipped(unreadable)  # the report's "skipped" lists them with the other sources left out
-    for w in out.get("warnings", ()):
-        sys.stderr.write(f"{c.PROG}: warning: {w}\n")
-    lines = [f"{out['clips']} clips, {len(out['clusters'])} near-duplicate clusters; report: {out['report']}"]
+    told = {str(e) for e in unreadable}
+    for w in [s for s in out.get("skipped", ()) if s not in told] + list(out.get("warnings", ())):
+        c.say("warning", w)
+    lines = [f"{out['clips']} clips, {len(out['clusters'])} near-duplicate clusters; report: {c.shown(out['report'])}"]
     for n, members in enumerate(out["clusters"], 1):
-        lines.append(f"{n:3d}. " + "  ".join(members))
+        lines.append(f"{n:3d}. " + "  ".join(map(c.shown, members)))
     return out, "\n".join(lines)
 
 
@@ -40,6 +43,7 @@ def add_parser(sub):
     )
     p.add_argument("paths", metavar="CLIP_OR_FOLDER", nargs="+", help=c.CLIP_HELP + ", or a folder of them")
     p.add_argument("--out", required=True, metavar="DIR", help="folder for report.html and report.json")
+    c.add_overwrite(p)
     p.add_argument("--threshold", type=float, metavar="X",
                    help="relative d_S* gate (default: half its median over a sample of the k-NN pairs)")
     p.add_argument("--scheduler", metavar="ADDRESS", help=c.SCHEDULER_HELP)

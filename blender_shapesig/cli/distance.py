@@ -20,7 +20,8 @@ def run(args):
     # the frames compared (scene numbers, inclusive) and what trimming cut (core.clip.trim)
     out["trim"] = {"a": trimmed_range(a)["frames"], "b": trimmed_range(b)["frames"]}
     out["trimmed"] = {"a": trimmed_range(a)["cut"], "b": trimmed_range(b)["cut"]}
-    text = "\n".join([f"{label}({a.name}, {b.name}) = {d:.6g}"] + [n for n in map(trim_note, (a, b)) if n])
+    text = "\n".join([f"{label}({c.shown(a.name)}, {c.shown(b.name)}) = {d:.6g}"]
+                     + [c.shown(n) for n in map(trim_note, (a, b)) if n])
     return out, text
 
 

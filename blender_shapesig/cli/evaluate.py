@@ -13,6 +13,7 @@ def run(args):
         raise c.CommandError(f"index file not found: {args.index}")
     if not os.path.isdir(args.data):
         raise c.CommandError(f"data folder not found: {args.data}")
+    c.check_outputs([os.path.join(args.out, n) for n in ("summary.json", "report.md")], args)
     metrics = evaluation.DEFAULT_METRICS if not args.metrics else tuple(
         m.strip() for m in args.metrics.split(",") if m.strip()
     )
@@ -26,20 +27,22 @@ def run(args):
     read = dict(asf=args.asf, fps=args.fps, trim=args.trim, bone_map=args.bone_map)
     crops = ({side: evaluation.entry_loader(args.data, cut=(side, evaluation.CROP_FRACTION), **read)
               for side in ("start", "end")} if args.crops else None)
-    summary = evaluation.evaluate(
-        entries,
-        evaluation.entry_loader(args.data, **read),
-        metrics,
-        args.out,
-        depth=args.depth,
-        workers=args.workers,
-        figures=not args.no_figures,
-        progress=None if args.no_progress else "tqdm",
-        repeat=args.repeat,
-        groups=groups,
-        crops=crops,
-    )
-    summary = dict(summary, skipped=skipped, group=args.group)
+    stage = c.Staged(args.out, args)
+    with stage:  # the outputs appear in --out when complete
+        summary = evaluation.evaluate(
+            entries,
+            evaluation.entry_loader(args.data, **read),
+            metrics,
+            stage.path,
+            depth=args.depth,
+            workers=args.workers,
+            figures=not args.no_figures,
+            progress=None if args.no_progress else "tqdm",
+            repeat=args.repeat,
+            groups=groups,
+            crops=crops,
+        )
+    summary = dict(stage.moved(summary), skipped=skipped, group=args.group)
     lines = [f"{summary['clips']} clips; wrote {os.path.join(args.out, 'summary.json')}"]
     for name, row in summary["metrics"].items():
         crop = f"  crops {row['crops']['start']}+{row['crops']['end']}/{row['crops']['of']}" if "crops" in row else ""
@@ -58,6 +61,7 @@ def add_parser(sub):
     p.add_argument("--index", required=True, metavar="CSV", help="the index CSV")
     p.add_argument("--data", required=True, metavar="DIR", help="folder the CSV paths are relative to")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    c.add_overwrite(p)
     p.add_argument(
         "--metrics",
         help="comma-separated metric names (default: l2,elastic,group3,concat3,linear3,sim2,sim3); "

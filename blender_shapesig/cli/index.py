@@ -1,6 +1,5 @@
 """Fill the cache for a library: ``index CLIP_OR_FOLDER... [--cache DIR] [--scheduler ADDRESS]``."""
 
-import sys
 import time
 
 from . import common as c
@@ -14,12 +13,12 @@ def run(args):
     sched = c.check_scheduler(args.scheduler)
     t0 = time.perf_counter()
     items, _skipped = library_or_refuse(args.paths, args, "index")
-    cache = index.SignatureCache(args.cache or index.default_cache_dir())
+    cache = index.SignatureCache(c.cache_dir(args, index))
     with parallel.scheduler(sched) as s, c.progress_bar(args, "indexing") as bar:
         clips, computed, errors = parallel.index_items(items, cache, s, bar)
     warnings = ([cache.warning] if cache.warning else []) + errors
     for w in warnings:
-        sys.stderr.write(f"{c.PROG}: warning: {w}\n")
+        c.say("warning", w)
     out = {"clips": clips, "computed": computed, "seconds": time.perf_counter() - t0}
     return out, f"{clips} clips indexed ({computed} files computed) in {out['seconds']:.1f} s"
 

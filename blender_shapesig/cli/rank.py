@@ -86,7 +86,7 @@ def _explanation(query, item, result, args):
     return None if clip is None else explain_clips(query, clip, window, depth=args.depth)
 
 
-def _thumbnails(folder, query_item, by_key, results, rows, cache):
+def _thumbnails(folder, query_item, by_key, results, rows, cache, args=None):
     """``--thumbnails DIR``: the query's and every row's picture of key poses (``core.index.thumbnails``, made once
     in the cache folder) written into DIR as ``query.png``, ``01_<clip>.png``, ...; each row's ``"thumbnail"`` is
     its file (null with a warning when the clip has no key points, e.g. no legs). Returns the query's file."""
@@ -96,24 +96,28 @@ def _thumbnails(folder, query_item, by_key, results, rows, cache):
     from ..core.errors import ShapeSigError
     from ..core.index.thumbnails import frame_window, picture_bytes
 
-    os.makedirs(folder, exist_ok=True)
+    pictures = {}  # path -> PNG bytes, every one made before any is written
 
-    def write(item, name, window, file_name):
+    def picture(item, name, window, file_name):
         try:
             data = picture_bytes(item, cache, name, window)
         except ShapeSigError as exc:
-            sys.stderr.write(f"{c.PROG}: warning: {exc}\n")
+            c.say("warning", str(exc))
             return None
         path = os.path.join(folder, re.sub(r"[^\w.+-]+", "_", file_name) + ".png")
-        with open(path, "wb") as f:
-            f.write(data)
+        pictures[path] = data
         return path
 
     for i, (r, row) in enumerate(zip(results, rows), 1):
         item = (by_key.get(r.key) or [None])[0]
         window = frame_window(r.start, r.end, r.frames, r.trimmed)
-        row["thumbnail"] = None if item is None else write(item, r.name, window, f"{i:02d}_{r.name}")
-    return write(query_item, query_item.name, None, "query")
+        row["thumbnail"] = None if item is None else picture(item, r.name, window, f"{i:02d}_{r.name}")
+    query = picture(query_item, query_item.name, None, "query")
+    c.check_outputs(list(pictures), args)  # an existing picture is replaced only with --overwrite
+    os.makedirs(folder, exist_ok=True)
+    for path, data in pictures.items():
+        c.write_output(path, data)  # complete or absent (a full disk leaves no 0-byte PNG)
+    return query
 
 
 def run(args):
@@ -156,7 +160,7 @@ def run(args):
     if cache.warning and cache.warning not in warnings:  # --windows reads no signature cache, but says so
         warnings.insert(0, cache.warning)
     for w in warnings:
-        sys.stderr.write(f"{c.PROG}: warning: {w}\n")
+        c.say("warning", w)
     # each result maps back to the argument it came from: "path" as given, "action" for a clip of a file that holds
     # several (a .blend, a .glb: sources.clip_address)
     by_key, seen = {}, {}
@@ -181,7 +185,7 @@ def run(args):
         if args.explain and len(rows) <= args.explain:
             rows[-1]["explain"] = _explanation(query, item, r, args)
     if args.thumbnails:
-        out_thumbs = _thumbnails(args.thumbnails, query_item, by_key, results, rows, cache)
+        out_thumbs = _thumbnails(args.thumbnails, query_item, by_key, results, rows, cache, args)
     stats = dict(getattr(results, "stats", {}) or {})
     label = stats.get("metric", "sim2 windows") if args.windows else metric_label(base, level)
     notes = [trim_note(query)] + [trim_note(r.name, r.trimmed) for r in results]
@@ -192,19 +196,19 @@ def run(args):
         out["query_thumbnail"] = out_thumbs
     if sched:
         out["computed"] = computed  # library files whose entries the scheduler computed
-    lines = [f"query: {query.name}  metric: {label}"]
+    lines = [f"query: {c.shown(query.name)}  metric: {label}"]
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
         if r.get("metric") and r["metric"] != label:
             el += f"  ({r['metric']})"
         dist = "nan" if r["distance"] is None else f"{r['distance']:.6g}"
         win = f"  frames {r['start']}-{r['end']}" if "start" in r else ""
-        lines.append(f"{i:3d}. {r['clip']}{win}  {dist}{el}")
+        lines.append(f"{i:3d}. {c.shown(r['clip'])}{win}  {dist}{el}")
         if "explain" in r:
             from ..core.elastic.explain import top_joints
 
             lines.append("       " + ", ".join(f"{n} {v:.0%}" for n, v in top_joints(r["explain"], 4)))
-    lines += [n for n in notes if n]
+    lines += [c.shown(n) for n in notes if n]
     return out, "\n".join(lines)
 
 
@@ -240,6 +244,7 @@ def add_parser(sub):
                    help="compute the entries the cache lacks on Dask (optional package) first, as the index "
                    "command does: a cluster's scheduler address (tcp://host:8786) or a local Dask scheduler: "
                    "threads, processes, sync (default: computed here, one clip after another)")
+    c.add_overwrite(p)
     p.add_argument("--thumbnails", metavar="DIR",
                    help="write a picture of each result's key poses (and the query's) into DIR as PNG files; each "
                    "JSON row adds \"thumbnail\" (its file)")

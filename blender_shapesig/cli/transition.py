@@ -25,17 +25,16 @@ def parse_cut(text):
     return i, j
 
 
-def check_out(path, sources=()):
-    """The absolute --out path: a .blend or .bvh in an existing folder, not a file that exists (never replaced:
-    neither a source nor an earlier output)."""
-    out_path = os.path.abspath(path)
+def check_out(args, sources=()):
+    """The absolute --out path: a .blend or .bvh in an existing folder, never a source, an existing file only with
+    ``--overwrite`` (``common.check_outputs``)."""
+    out_path = os.path.abspath(args.out)
     if not out_path.lower().endswith((".blend", ".bvh")):
-        raise c.CommandError(f"--out must be a .blend or .bvh file, got {path}")
+        raise c.CommandError(f"--out must be a .blend or .bvh file, got {c.shown(args.out)}")
     if not os.path.isdir(os.path.dirname(out_path)):
-        raise c.CommandError(f"folder of --out does not exist: {os.path.dirname(out_path)}")
-    if os.path.lexists(out_path):
-        what = "a source" if any(os.path.abspath(str(s).split("#")[0]) == out_path for s in sources) else "a file"
-        raise c.CommandError(f"--out {path} is {what} that exists: not replaced (choose another name)")
+        raise c.CommandError(f"folder of --out does not exist: {c.shown(os.path.dirname(out_path))}")
+    files = [c.clip_spec(s).path for s in sources if os.path.isfile(c.clip_spec(s).path)]
+    c.check_outputs([out_path], args, files)
     return out_path
 
 
@@ -69,7 +68,7 @@ def run(args):
     from ..core.blend.transition import best_cuts, transition
 
     cut = parse_cut(args.cut)
-    out_path = check_out(args.out, [args.a, args.b] + list(args.bridge or ()))
+    out_path = check_out(args, [args.a, args.b] + list(args.bridge or ()))
     if args.frames is not None and args.frames < 1:
         raise c.CommandError("--frames must be 1 or more")
     crop = (None, None, c.crop_of(args)[2], args.trim or "auto")
@@ -84,7 +83,14 @@ def run(args):
     chosen = info["cut"]
     if args.name:
         joined.name = args.name
-    names = write_clips(c.clip_spec(args.a, args.asf), [joined], out_path)
+    tmp = c.temp_beside(out_path, os.path.splitext(out_path)[1].lower())  # complete or absent, then renamed
+    try:
+        names = write_clips(c.clip_spec(args.a, args.asf), [joined], tmp)
+        os.replace(tmp, out_path)
+    finally:
+        for leftover in (tmp, tmp + "1", tmp + "@"):  # Blender's backup and partial names
+            if os.path.exists(leftover):
+                os.remove(leftover)
     out = {"cut": chosen, "cuts": [x.as_dict() for x in cuts], "frames": int(info["frames"]),
            "seconds": (joined.frames - 1) / float(joined.fps), "out": out_path, "action": names[0],
            "total_frames": int(joined.frames), "fps": float(joined.fps), "generator": info["inbetween"],
@@ -113,6 +119,7 @@ def add_parser(sub):
     p.add_argument("--bridge", nargs="+", metavar="CLIP_OR_FOLDER",
                    help="make the generated frames from the library segment that best bridges the gap")
     p.add_argument("--name", help="name of the new action (default <A>_to_<B>)")
-    p.add_argument("--out", required=True, metavar="FILE.blend|FILE.bvh", help="the file to write (never replaced)")
+    p.add_argument("--out", required=True, metavar="FILE.blend|FILE.bvh", help="the file to write")
+    c.add_overwrite(p)
     c.add_common(p, crop=False)
     p.set_defaults(func=run)

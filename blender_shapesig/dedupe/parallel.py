@@ -43,7 +43,7 @@ def scheduler(name=None):
         return
     from distributed import Client
 
-    client = Client(name, set_as_default=False)
+    client = Client(name, set_as_default=False, timeout="10s")
     try:
         yield client
     finally:
@@ -61,8 +61,11 @@ def thread_mapper(workers=None):
         tasks = list(tasks)
         if workers == 1 or len(tasks) < 2:
             return [fn(t) for t in tasks]
-        with ThreadPoolExecutor(max_workers=workers) as pool:
+        pool = ThreadPoolExecutor(max_workers=workers)
+        try:
             return list(pool.map(fn, tasks))
+        finally:  # interrupted (a signal): the tasks not started are dropped, not run to the end
+            pool.shutdown(wait=True, cancel_futures=True)
 
     return mapper
 

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.index.dedupe import choose_keeper, copy_facts
 from ..core.io.sources import clip_address
+from ..core.io.text import plot_name
 
 __all__ = ["write_report", "clip_label", "speed_trace"]
 
@@ -47,7 +48,7 @@ def _cluster_png(members, entries, labels):
     first = members[0]
     for n in members:
         t, s = speed_trace(entries[n])
-        line, = ax.plot(t, s, lw=1.0, label=os.path.basename(labels[n])[:40])
+        line, = ax.plot(t, s, lw=1.0, label=plot_name(os.path.basename(labels[n])[:40]))
         try:
             ta, tb = time_map(entries[first], entries[n])
         except ShapeSigError:
@@ -56,7 +57,7 @@ def _cluster_png(members, entries, labels):
     ax.set_xlabel("seconds")
     ax.set_ylabel("joint speed (rad/s)")
     ax.legend(fontsize=7, loc="upper right")
-    bx.set_xlabel(f"seconds of {os.path.basename(labels[first])[:24]}")
+    bx.set_xlabel(f"seconds of {plot_name(os.path.basename(labels[first])[:24])}")
     bx.set_ylabel("matched seconds")
     bx.set_title("time map (elastic alignment)", fontsize=8)
     fig.tight_layout()
@@ -124,13 +125,24 @@ def write_report(out_dir, pairs, entries, result, info, plots=True, store=None):
            "chain_components": [[labels[n] for n in c] for c in result.components],
            "cluster_pairs": [c["pairs"] for c in clusters], "keep": [c["keep"] for c in clusters],
            "near_misses": misses, **info}
-    with open(out["json"], "w", encoding="utf-8") as f:
-        json.dump(out, f, indent=1)
     images = [_cluster_png(m, entries, labels) if plots else None for m in result.clusters]
     for c, members in zip(clusters, result.clusters):  # a strip of key poses per clip (data URIs)
         c["strips"] = [_strip_uri(pairs[n][0], entries[n].name, store) for n in members]
-    with open(html_path, "w", encoding="utf-8") as f:
-        f.write(_html(out, clusters, images, labels))
+    # both files complete under temporary names, then renamed: never a report.json without its report.html
+    # (names that are not UTF-8 are kept as \udcNN escapes in both files)
+    written = []
+    try:
+        for path, text in ((out["json"], json.dumps(out, indent=1)), (html_path, _html(out, clusters, images, labels))):
+            tmp = os.path.join(out_dir, f".{os.path.basename(path)}.shapesig-{os.getpid()}.tmp")
+            written.append((tmp, path))
+            with open(tmp, "w", encoding="utf-8", errors="backslashreplace") as f:
+                f.write(text)
+        for tmp, path in written:
+            os.replace(tmp, path)
+    finally:
+        for tmp, _path in written:
+            if os.path.exists(tmp):
+                os.remove(tmp)
     return out
 
 

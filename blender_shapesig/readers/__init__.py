@@ -13,10 +13,24 @@ def read_bvh(spec):
 
 
 def read_blend(spec):
-    """The clips of a ``.blend`` ClipSpec: every action, or ``spec.action`` (``blend.read_blend_file``)."""
-    from .blend_file import read_blend_file
+    """The clips of a ``.blend`` ClipSpec: every action, or ``spec.action``, read in a child process
+    (``blend_isolated``: no bpy in this process, so a thread pool may call this); in this process
+    (``blend_file.read_blend_file``) with ``SHAPESIG_BLEND_IN_PROCESS=1`` when bpy is already imported or this is
+    the main thread (bpy imported first in another thread crashes the process at exit)."""
+    import os
+    import sys
+    import threading
 
-    return read_blend_file(spec.path, spec.action)
+    from ..core.io.blend_file import check_blend
+    from .blend_isolated import BLEND_IN_PROCESS_ENV, read_blend_isolated
+
+    if os.environ.get(BLEND_IN_PROCESS_ENV) == "1" and (
+            "bpy" in sys.modules or threading.current_thread() is threading.main_thread()):
+        from .blend_file import read_blend_file
+
+        return read_blend_file(spec.path, spec.action)
+    check_blend(spec.path)
+    return read_blend_isolated(spec.path, spec.action)
 
 
 _KINDS = {".fbx": "FBX", ".glb": "glTF", ".gltf": "glTF", ".vrma": "VRM animation"}

@@ -67,6 +67,7 @@ def main(argv):
     for p in [args["package_dir"]] + list(args["sys_path"]):
         if p not in sys.path:
             sys.path.append(p)
+    importlib.import_module(f"{args['package']}.readers.guard").guard_self(args)
     reader = importlib.import_module(f"{args['package']}.readers.blend_file")
     errors = importlib.import_module(f"{args['package']}.core.errors")
     try:

@@ -42,6 +42,7 @@ def main(argv):
     for p in [args["package_dir"]] + list(args["sys_path"]):
         if p not in sys.path:
             sys.path.append(p)
+    importlib.import_module(f"{args['package']}.readers.guard").guard_self(args)
     proto = os.fdopen(os.dup(1), "wb", buffering=0)  # the replies; fd 1 itself now goes to stderr
     os.dup2(2, 1)
     sys.stdout = sys.stderr

@@ -4,11 +4,7 @@ structure is checked first (``core.io.blend_file.check_blend``). ``SHAPESIG_BLEN
 process. See docs/dev/blender_layer.md.
 """
 
-import json
 import os
-import subprocess
-import sys
-import tempfile
 
 import bpy
 
@@ -18,17 +14,12 @@ from ..core.clip.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
 from ..core.io.files import check_file
 from ..core.io.blend_file import check_blend
-from . import _blend_file_child
-from .child import child_command
+from .blend_isolated import BLEND_CHILD_TIMEOUT, BLEND_IN_PROCESS_ENV, read_blend_isolated  # noqa: F401
 from ..owners import find_owner
 from .scratch import id_snapshot, remove_new_ids
 
 __all__ = ["read_blend_file", "read_blend_here", "rig_of", "BLEND_IN_PROCESS_ENV"]
 
-# "1": read .blend clip files in this process (faster by the start-up of a child; a damaged file can then crash
-# this process). Default: a child process reads them (see readers._blend_file_child).
-BLEND_IN_PROCESS_ENV = "SHAPESIG_BLEND_IN_PROCESS"
-BLEND_CHILD_TIMEOUT = 600.0
 
 
 def read_blend_file(path, action_name=None, space="armature", rig=False):
@@ -38,39 +29,7 @@ def read_blend_file(path, action_name=None, space="armature", rig=False):
     check_blend(path)
     if os.environ.get(BLEND_IN_PROCESS_ENV) == "1":
         return read_blend_here(path, action_name, space, rig)
-    return _read_isolated(path, action_name, space, rig)
-
-
-def _child_command(args_json):
-    """The command that runs _blend_file_child (``child.child_command``)."""
-    return child_command(os.path.join(os.path.dirname(os.path.abspath(__file__)), "_blend_file_child.py"), args_json)
-
-
-def _read_isolated(path, action_name, space, rig=False):
-    """read_blend_here in a child process: a .blend that crashes Blender gives a ParseError, not a crash."""
-    package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    with tempfile.TemporaryDirectory(prefix="shapesig_blend_") as tmp:
-        out = os.path.join(tmp, "clips.npz")
-        args = json.dumps({"path": os.path.abspath(path), "action": action_name, "space": space, "rig": rig, "out": out,
-                           "package_dir": os.path.dirname(package_root),
-                           "package": os.path.basename(package_root), "sys_path": [p for p in sys.path if p]})
-        try:
-            proc = subprocess.run(_child_command(args), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                  stderr=subprocess.PIPE, timeout=BLEND_CHILD_TIMEOUT)
-        except subprocess.TimeoutExpired:
-            raise ParseError(f"reading the .blend file took more than {BLEND_CHILD_TIMEOUT:.0f} s", path) from None
-        except OSError as exc:
-            raise ParseError(f"cannot start a process to read the .blend file: {exc}", path) from None
-        if not os.path.isfile(out):
-            if proc.returncode < 0 or proc.returncode > 128:
-                raise ParseError("corrupt .blend file: Blender crashed reading it (damaged data)", path)
-            last = [ln for ln in proc.stderr.decode("utf-8", "replace").splitlines() if ln.strip()]
-            raise ParseError(f"could not read the .blend file ({last[-1] if last else f'exit {proc.returncode}'})",
-                             path)
-        clips, error = _blend_file_child.read_result(out, Clip)
-    if error is not None:
-        raise ParseError(error)
-    return clips
+    return read_blend_isolated(path, action_name, space, rig)
 
 
 def read_blend_here(path, action_name=None, space="armature", rig=False):

@@ -14,7 +14,6 @@ import os
 import queue
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 
@@ -22,6 +21,7 @@ from ..core.clip.clip import Clip
 from ..core.errors import ParseError
 from ._blend_file_child import read_result
 from ._child_main import PREFIX
+from .guard import forget, guard_args, spawn, temp_folder
 
 __all__ = ["read_in_child", "read_timeout", "close", "child_command", "CHILD_TIMEOUT", "IDLE_SECONDS", "MAX_FILES",
            "starts"]
@@ -50,13 +50,13 @@ class _Child:
     def __init__(self):
         package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
         args = json.dumps({"package_dir": os.path.dirname(package_root), "package": os.path.basename(package_root),
-                           "sys_path": [p for p in sys.path if p]})
-        self.tmp = tempfile.TemporaryDirectory(prefix="shapesig_child_")
+                           "sys_path": [p for p in sys.path if p], **guard_args()})
+        self.tmp = temp_folder("child")
         self.log = open(os.path.join(self.tmp.name, "stderr.txt"), "w+b")
         script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_child_main.py")
         try:
-            self.proc = subprocess.Popen(child_command(script, args), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                         stderr=self.log, bufsize=0)
+            self.proc = spawn(child_command(script, args), self.tmp.name, stdin=subprocess.PIPE,
+                              stdout=subprocess.PIPE, stderr=self.log, bufsize=0)
         except OSError as exc:
             self.log.close()
             self.tmp.cleanup()
@@ -122,6 +122,7 @@ class _Child:
         if kill and self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
+        forget(self.proc)
         self.log.close()
         self.tmp.cleanup()
 

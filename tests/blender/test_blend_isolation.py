@@ -14,6 +14,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_io  # noqa: E402
 from blender_shapesig.core.io.sources import read  # noqa: E402
 from blender_shapesig.readers import blend_file as blend_reader  # noqa: E402
+from blender_shapesig.readers import blend_isolated  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ParseError  # noqa: E402
 
@@ -50,7 +51,7 @@ def test_child_result_equals_reading_in_process(small_blend, monkeypatch):
 def test_a_crashing_reader_is_a_parse_error(small_blend, monkeypatch):
     path, _ = small_blend
     crash = "import os, signal; os.kill(os.getpid(), signal.SIGSEGV)"
-    monkeypatch.setattr(blend_reader, "_child_command", lambda args: [sys.executable, "-c", crash])
+    monkeypatch.setattr(blend_isolated, "_child_command", lambda args: [sys.executable, "-c", crash])
     before = {a.name for a in bpy.data.actions}, {o.name for o in bpy.data.objects}
     with pytest.raises(ParseError, match="Blender crashed reading it") as info:
         read(path)

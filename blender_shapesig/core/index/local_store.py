@@ -11,6 +11,7 @@ import hashlib
 import io
 import json
 import os
+import stat
 
 import numpy as np
 
@@ -29,7 +30,7 @@ MAPPED_FILES_LOCKED = os.name == "nt"
 def hashed_name(text: str) -> str:
     """The cache's file name of an entry's description (its SHA-1), remembered: a click asks for every library
     item's file names (``contains``), and 1,000 hashes a click were a tenth of a warm click."""
-    return hashlib.sha1(text.encode()).hexdigest()
+    return hashlib.sha1(text.encode("utf-8", "surrogateescape")).hexdigest()
 
 
 def _meta(e):
@@ -80,6 +81,8 @@ class LocalEntries:
         self._lpack, self._lib = {}, None
         fn = os.path.join(self.path, LOCAL_PACK)
         try:
+            if not stat.S_ISREG(os.lstat(fn).st_mode):
+                raise ValueError("not a regular file")
             lib = open_library(fn)
         except FileNotFoundError:
             return
@@ -139,8 +142,11 @@ class LocalEntries:
     def _read_local(self, key, settings_key):
         fn = self.local_file_for(key, settings_key)
         try:
-            st = os.stat(fn)
+            st = os.lstat(fn)
         except OSError:
+            return None
+        if not stat.S_ISREG(st.st_mode):  # a FIFO would hang np.load: never opened
+            self._discard(fn)
             return None
         if self._lpack is None:
             self._load_local_pack()

@@ -106,6 +106,42 @@ def _check_private(path):
         raise _Refused(f"{path} is writable by other users")
 
 
+def _check_own_folder(folder):
+    """The cache's own folder: a real folder (not a symbolic link: the files would be written where it points) of
+    this user, not writable by other users; _Refused (or NotADirectoryError) otherwise."""
+    st = os.lstat(folder)
+    if stat.S_ISLNK(st.st_mode):
+        raise _Refused(f"{folder} is a symbolic link")
+    if not stat.S_ISDIR(st.st_mode):
+        raise NotADirectoryError(errno.ENOTDIR, "not a folder", folder)
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        raise _Refused(f"{folder} belongs to another user")
+    if st.st_mode & 0o002:
+        raise _Refused(f"{folder} is writable by every user")
+
+
+_STALE_SECONDS = 600.0  # a temporary file older than this was left by a process that died writing it
+
+
+def _sweep(folder):
+    """Remove what has one of the cache's own names but is not a regular file (a FIFO would hang ``np.load``, a
+    link would be read where it points) and the temporary files of writes that never finished."""
+    import time
+
+    now = time.time()
+    for n in os.listdir(folder):
+        if not _OWN_FILE.fullmatch(n):
+            continue
+        fn = os.path.join(folder, n)
+        try:
+            st = os.lstat(fn)
+            stale = n.startswith(_TMP_PREFIX) and n.endswith(_TMP_SUFFIX) and now - st.st_mtime > _STALE_SECONDS
+            if not stat.S_ISREG(st.st_mode) or stale:
+                os.remove(fn)
+        except OSError:
+            pass
+
+
 def _marked(folder) -> bool:
     """True when ``folder`` holds the marker this cache writes."""
     try:
@@ -184,16 +220,16 @@ class SignatureCache(LocalEntries):
             _check_private(self.root)
         os.makedirs(self.root, exist_ok=True)
         try:
-            os.mkdir(folder)
+            os.mkdir(folder, 0o755)
         except FileExistsError:
             pass
-        if not os.path.isdir(folder):
-            raise NotADirectoryError(errno.ENOTDIR, "not a folder", folder)
+        _check_own_folder(folder)
         self.path = folder
         if not _marked(folder):
             if os.listdir(folder):
                 raise _Refused(f"{folder} holds files the cache did not write (it has no {_TAG})")
             self._atomic_write(os.path.join(folder, _TAG), _TAG_TEXT.encode("utf-8"))
+        _sweep(folder)
         self._check_manifest()
 
     def _memory_only(self, exc):
@@ -293,8 +329,11 @@ class SignatureCache(LocalEntries):
         meta and sketches only (directions and increments are read by ``heavy`` when needed)."""
         fn = self.file_for(key, level)
         try:
-            st = os.stat(fn)
+            st = os.lstat(fn)
         except OSError:
+            return None
+        if not stat.S_ISREG(st.st_mode):  # put there since the folder was opened: never opened
+            self._discard(fn)
             return None
         if light:
             packed = self._packed(fn, st, key, level)
@@ -340,6 +379,8 @@ class SignatureCache(LocalEntries):
     def _load_pack(self):
         self._pack = {}
         try:
+            if not stat.S_ISREG(os.lstat(os.path.join(self.path, _PACK)).st_mode):
+                return
             with np.load(os.path.join(self.path, _PACK), allow_pickle=False) as z:
                 index = json.loads(bytes(z["index"]).decode("utf-8"))
                 sketches = np.asarray(z["sketches"], np.float32)

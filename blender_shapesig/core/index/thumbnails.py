@@ -8,7 +8,6 @@ the window. ``thumbnail`` makes a picture once and keeps it in the signature cac
 entries (same key; ``SignatureCache`` deletes it with them). See docs/search.md, "Pictures".
 """
 
-import hashlib
 import os
 from typing import Optional, Sequence, Tuple
 
@@ -18,6 +17,7 @@ from ..errors import ShapeSigError
 from ..raster import Canvas, png_bytes
 from . import local
 from .local_rank import item_local_entries
+from .local_store import hashed_name
 
 __all__ = ["POSES", "SCALE", "HEIGHT", "SLOT", "THUMB_VERSION", "key_times", "poses_of", "draw_strip",
            "entry_strip", "figure_mask", "thumbnail_file", "thumbnail", "local_entry_of", "warped_times", "picture_bytes",
@@ -173,7 +173,7 @@ def thumbnail_file(store, key: str, name: str, window=None, count: int = POSES) 
     if store is None or store.path is None:
         return None
     text = f"{key}|THUMB|{name}|{_window_text(window)}|{count}|V{THUMB_VERSION}|{local.settings_key()}|F{store.FORMAT}"
-    return os.path.join(store.path, hashlib.sha1(text.encode()).hexdigest() + ".png")
+    return os.path.join(store.path, hashed_name(text) + ".png")
 
 
 def local_entry_of(item, store, name: Optional[str] = None):
@@ -211,8 +211,14 @@ def picture_bytes(item, store, name: Optional[str] = None, window=None, count: i
     now (a memory-only store)."""
     if store is not None and store.path is not None:
         path, _made = thumbnail(item, store, name, window, count)
-        with open(path, "rb") as f:
-            return f.read()
+        from ..io.files import open_regular
+
+        try:
+            with open_regular(path, cap=False) as f:  # a regular file only (a FIFO put there would hang)
+                return f.read()
+        except ShapeSigError:
+            pass  # drawn again below
+        store._discard(path)
     name = name if name is not None else item.name
     return png_bytes(entry_strip(local_entry_of(item, store, name), count, window))
 

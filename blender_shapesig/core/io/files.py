@@ -2,7 +2,9 @@
 Only regular files are opened (``check_file``: a link to one is fine; a FIFO, socket, device, dangling or looping
 link is refused before any ``open``). Clip files have caps, checked before reading: the size
 (``$SHAPESIG_MAX_FILE_MB``; ``$SHAPESIG_MAX_BLEND_MB`` for .blend files), a text line's length (``MAX_LINE_BYTES``)
-and a clip's frames (``$SHAPESIG_MAX_FRAMES``). A refused file raises ``UnreadableFileError`` (one line naming the
+and a clip's frames (``$SHAPESIG_MAX_FRAMES``); ``$SHAPESIG_MAX_FILE_MB`` is also the memory budget of one file
+(``check_budget``: what a compressed file unpacks to, a clip's rotations), checked from headers before any
+allocation. A refused file raises ``UnreadableFileError`` (one line naming the
 file); libraries skip such files and report them once (``skipped_line``). The caps and why: docs/robustness.md.
 """
 
@@ -17,7 +19,7 @@ from ..errors import ParseError, ShapeSigError, UnreadableFileError
 
 __all__ = ["MAX_FILE_MB_ENV", "MAX_BLEND_MB_ENV", "MAX_FRAMES_ENV", "DEFAULT_MAX_FILE_MB", "DEFAULT_MAX_BLEND_MB", "DEFAULT_MAX_FRAMES", "MAX_LINE_BYTES",
            "max_file_bytes", "max_frames", "file_problem", "check_file", "open_regular", "read_bytes",
-           "check_frames", "skipped_line"]
+           "check_frames", "skipped_line", "memory_budget", "check_budget"]
 
 MAX_FILE_MB_ENV = "SHAPESIG_MAX_FILE_MB"
 MAX_BLEND_MB_ENV = "SHAPESIG_MAX_BLEND_MB"
@@ -52,6 +54,21 @@ def max_file_bytes(path="") -> int:
     if os.fspath(path).lower().endswith(".blend"):
         return int(_env_number(MAX_BLEND_MB_ENV, DEFAULT_MAX_BLEND_MB, float) * 2 ** 20)
     return int(_env_number(MAX_FILE_MB_ENV, DEFAULT_MAX_FILE_MB, float) * 2 ** 20)
+
+
+def memory_budget() -> int:
+    """The memory one clip file may take in bytes (``$SHAPESIG_MAX_FILE_MB``, default 128 MB): its decompressed
+    arrays (an FBX's, an .npz's) and its clip's rotations (frames x joints x 72 bytes)."""
+    return int(_env_number(MAX_FILE_MB_ENV, DEFAULT_MAX_FILE_MB, float) * 2 ** 20)
+
+
+def check_budget(nbytes, path, what="its data"):
+    """UnreadableFileError (the file is skipped by a library) when ``nbytes`` of ``what`` exceed
+    ``memory_budget``; checked before the allocation."""
+    limit = memory_budget()
+    if nbytes > limit:
+        raise UnreadableFileError(f"{what} would take {_mb(nbytes)} MB of memory, over the {_mb(limit)} MB budget "
+                                  f"of a clip file (${MAX_FILE_MB_ENV} raises it)", path)
 
 
 def max_frames() -> int:

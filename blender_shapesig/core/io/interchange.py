@@ -18,7 +18,7 @@ from ..errors import ParseError
 from . import files
 
 __all__ = ["INTERCHANGE_EXTENSIONS", "FBX_MAGIC", "GLB_MAGIC", "check_interchange", "gltf_json", "key_rate",
-           "ASCII_FBX_MESSAGE"]
+           "ASCII_FBX_MESSAGE", "check_resources", "resource_path"]
 
 INTERCHANGE_EXTENSIONS = (".fbx", ".glb", ".gltf", ".vrma")
 FBX_MAGIC = b"Kaydara FBX Binary  \x00"
@@ -78,6 +78,9 @@ def _check_fbx(path, head, fh) -> dict:
 _FBX_FIXED = {ord("Y"): 2, ord("C"): 1, ord("I"): 4, ord("F"): 4, ord("D"): 8, ord("L"): 8}
 _FBX_ARRAYS = {ord("f"): 4, ord("i"): 4, ord("d"): 8, ord("l"): 8, ord("b"): 1}
 _ZLIB_MAX_RATIO = 1032  # deflate expands at most ~1032:1
+# the budget counts each unpacked array byte 8 times: Blender's importer (Python arrays and lists, then its own
+# copies) took 646 MB at its peak for 12.8 MB of arrays (a 4,000-frame take of 30 bones); docs/robustness.md
+_FBX_UNPACKED_COST = 8
 
 
 def _walk_fbx(data, version, path):
@@ -92,7 +95,7 @@ def _walk_fbx(data, version, path):
     def bad(what, at):
         raise ParseError(f"damaged FBX file: {what} at byte {at:,}", path)
 
-    stack, pos = [size], 27
+    stack, pos, unpacked = [size], 27, 0
     while stack:
         end = stack[-1]
         if pos + head.size > end:
@@ -122,6 +125,8 @@ def _walk_fbx(data, version, path):
                 if (encoding == 0 and raw != packed) or (encoding == 1 and raw > packed * _ZLIB_MAX_RATIO + 64) \
                         or encoding > 1:
                     bad(f"an array of {length:,} values does not fit its {packed:,} bytes", at)
+                unpacked += raw  # the importer unpacks every array: the budget bounds them whatever the ratio
+                files.check_budget(unpacked * _FBX_UNPACKED_COST, path, "its arrays")
                 at += 12 + packed
             elif kind in (ord("S"), ord("R")) and at + 4 <= stop:
                 at += 4 + struct.unpack_from("<I", data, at)[0]
@@ -180,6 +185,55 @@ def gltf_json(path) -> dict:
         return _parse_json(fh.read(), path)
 
 
+def resource_path(uri, path):
+    """The file a glTF's ``uri`` names as Blender's importer resolves it (``\\`` as ``/``, %-decoded, normalised,
+    beside the glTF), or the one-line reason it is refused: a scheme (``file:``, ``http:``), an absolute path, a
+    way out of the glTF's folder (``..``, a link pointing elsewhere) or a NUL byte."""
+    from urllib.parse import unquote, urlsplit
+
+    try:
+        scheme = urlsplit(uri).scheme
+    except ValueError:
+        scheme = "?"
+    if scheme:
+        return None, "is not a file beside the glTF (it has a scheme)"
+    name = os.path.normpath(unquote(uri.replace("\\", "/")))
+    if "\x00" in name or os.path.isabs(name) or name == ".." or name.startswith(".." + os.sep) or \
+            os.path.splitdrive(name)[0]:
+        return None, "is not a file in the glTF's folder"
+    folder = os.path.realpath(os.path.dirname(os.path.abspath(path)))
+    full = os.path.join(os.path.dirname(os.path.abspath(path)), name)
+    if os.path.commonpath([folder, os.path.realpath(full)]) != folder:
+        return None, "leads out of the glTF's folder"
+    return full, None
+
+
+def check_resources(doc, path):
+    """Every file a glTF makes its importer open (``buffers[]`` and ``images[]`` uris), checked before Blender
+    sees them: inside the file (a GLB chunk, a ``data:`` uri) or a regular file in the glTF's own folder, all of
+    them within the memory budget (``files.check_budget``); a missing image is the importer's to report (it reads
+    nothing), a missing buffer is refused here. ParseError naming the uri otherwise."""
+    total = 0
+    for key in ("buffers", "images"):
+        for i, item in enumerate(_list(doc, key, path)):
+            uri = item.get("uri") if isinstance(item, dict) else None
+            if uri is None:
+                continue
+            if not isinstance(uri, str):
+                raise ParseError(f"damaged glTF file: the uri of {key[:-1]} {i} is not text", path)
+            if uri.startswith("data:"):
+                continue
+            shown = uri if len(uri) <= 60 else uri[:57] + "..."
+            full, problem = resource_path(uri, path)
+            if problem is None and (key == "buffers" or os.path.lexists(full)):
+                problem = files.file_problem(full)
+            if problem is not None:
+                raise ParseError(f"its {key[:-1]} {shown!r} {problem}", path)
+            if full is not None and os.path.lexists(full):
+                total += os.stat(full).st_size
+    files.check_budget(total, path, "the files it refers to")
+
+
 def _list(doc, key, path):
     value = doc.get(key, [])
     if not isinstance(value, list):
@@ -197,14 +251,39 @@ def _gltf_facts(path, doc, binary) -> dict:
     version = str(asset.get("version", "")) if isinstance(asset, dict) else ""
     if not version.startswith("2"):
         raise ParseError(f"glTF version {version or '(none)'} is not supported (glTF 2.0 only)", path)
+    check_resources(doc, path)
     animations = _list(doc, "animations", path)
     names = []
     for i, anim in enumerate(animations):
         if not isinstance(anim, dict):
             raise ParseError(f"damaged glTF file: animation {i} is not an object", path)
         names.append(str(anim.get("name") or ""))
-    return {"format": "gltf", "version": version, "animations": names,
-            "rate": key_rate(doc, binary, path) if animations else None}
+    rate = key_rate(doc, binary, path) if animations else None  # (a count past its buffer is named first)
+    files.check_budget(_animation_bytes(doc) * _FBX_UNPACKED_COST, path, "its animation keys")
+    return {"format": "gltf", "version": version, "animations": names, "rate": rate}
+
+
+_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_TYPE_COUNT = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+
+
+def _animation_bytes(doc) -> int:
+    """The bytes of every animation sampler's input and output accessors (what the importer turns into keys),
+    from the accessors' counts and types; counted like an FBX's arrays against the memory budget."""
+    accessors = doc.get("accessors") if isinstance(doc.get("accessors"), list) else []
+    used = set()
+    for anim in doc.get("animations") or []:
+        samplers = anim.get("samplers") if isinstance(anim, dict) else None
+        for sampler in samplers if isinstance(samplers, list) else []:
+            if isinstance(sampler, dict):
+                used.update(i for i in (sampler.get("input"), sampler.get("output")) if isinstance(i, int))
+    total = 0
+    for i in used:
+        acc = accessors[i] if 0 <= i < len(accessors) and isinstance(accessors[i], dict) else {}
+        count = acc.get("count")
+        if isinstance(count, int) and count > 0:
+            total += count * _COMPONENT_BYTES.get(acc.get("componentType"), 4) * _TYPE_COUNT.get(acc.get("type"), 1)
+    return total
 
 
 def key_rate(doc, binary, path) -> float:
@@ -290,10 +369,9 @@ def _buffer(doc, index, binary, path) -> bytes:
             return base64.b64decode(uri.partition(",")[2], validate=True)
         except ValueError:
             raise ParseError("damaged glTF file: a buffer's data uri is not base64", path) from None
-    from urllib.parse import unquote
-
-    name = os.path.join(os.path.dirname(os.path.abspath(path)), unquote(uri))
-    problem = files.file_problem(name)
+    name, problem = resource_path(uri, path)
+    if problem is None:
+        problem = files.file_problem(name)
     if problem is not None:
         raise ParseError(f"its buffer {uri!r} {problem}", path)
     with files.open_regular(name) as fh:

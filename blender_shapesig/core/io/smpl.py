@@ -12,6 +12,7 @@ import numpy as np
 
 from ..clip.clip import Clip
 from ..clip.skeleton import rest_meta
+from ..geometry import so3
 from ..errors import ParseError
 from . import files
 
@@ -40,6 +41,47 @@ def _array(z, key, path):
         return np.asarray(z[key])
     except Exception as exc:  # noqa: BLE001 - numpy's archive and header parsers raise many kinds on damaged bytes
         raise ParseError(f"cannot read {key!r} of the SMPL file ({str(exc).splitlines()[0][:80]})", path) from None
+
+
+_MAX_MEMBERS = 256  # an AMASS file has about 10 arrays
+
+
+def _headers(fh, path):
+    """``{key: (shape, dtype)}`` of the archive's arrays, from the zip directory and each array's .npy header
+    (no array read: what loading it would allocate is known first)."""
+    import zipfile
+
+    with zipfile.ZipFile(fh) as zf:
+        members = [i for i in zf.infolist() if i.filename.endswith(".npy")]
+        if len(zf.infolist()) > _MAX_MEMBERS:
+            raise ParseError(f"the archive holds {len(zf.infolist())} members, no SMPL file", path)
+        out = {}
+        for info in members:
+            with zf.open(info) as member:
+                version = np.lib.format.read_magic(member)
+                read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else \
+                    np.lib.format.read_array_header_2_0
+                shape, _fortran, dtype = read_header(member)
+            out[info.filename[:-4]] = (tuple(int(n) for n in shape), np.dtype(dtype))
+    fh.seek(0)
+    return out
+
+
+def _check_headers(heads, path):
+    """Refuse, before loading, arrays of the wrong kind or shape, more frames than the cap and clips over the
+    memory budget (``files.check_budget``)."""
+    for key in ("poses", "root_orient", "pose_body", "trans"):
+        if key in heads and heads[key][1].kind not in "fiu":
+            raise ParseError(f"{key!r} holds {heads[key][1]} values, not numbers", path)
+    shape = heads["poses"][0] if "poses" in heads else heads.get("root_orient", ((),))[0]
+    if not shape:
+        return
+    frames = shape[0]
+    if frames < 1 or frames > files.max_frames():
+        raise ParseError(f"the SMPL file holds {frames} frames (at most {files.max_frames()})", path)
+    wanted = sum(int(np.prod(heads[k][0], dtype=np.float64)) * heads[k][1].itemsize
+                 for k in ("poses", "root_orient", "pose_body", "trans") if k in heads)
+    files.check_budget(wanted + frames * len(BODY_JOINTS) * 72 * 2, path, "its poses and rotations")
 
 
 def _poses(z, path):
@@ -72,16 +114,19 @@ def _rate(z, path):
     raise ParseError("the SMPL file has no frame rate ('mocap_framerate' or 'mocap_frame_rate')", path)
 
 
-def _rotations(aa):
-    """(..., 3) axis-angle -> (..., 3, 3) (Rodrigues)."""
-    theta = np.linalg.norm(aa, axis=-1)[..., None, None]
-    safe = np.where(theta > 1e-12, theta, 1.0)
-    k = aa / safe[..., 0]
-    K = np.zeros(aa.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -k[..., 2], k[..., 1], -k[..., 0]
-    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = k[..., 2], -k[..., 1], k[..., 0]
-    I = np.broadcast_to(np.eye(3), K.shape)
-    return I + np.sin(theta) * K + (1.0 - np.cos(theta)) * (K @ K)
+def _blender_rotations(aa):
+    """(F, 22, 3) axis-angle -> (F, 22, 3, 3) rotations in Blender's axes (module docstring), in chunks of frames
+    (one float64 array of the result, no full-size temporaries)."""
+    out = np.empty(aa.shape[:2] + (3, 3))
+    for f0 in range(0, len(aa), _CHUNK):
+        R = so3.exp(aa[f0:f0 + _CHUNK])
+        X = _C[None, None] @ R @ _C.T[None, None]  # the body frame's rotations in Blender's axes
+        X[:, 0] = R[:, 0] @ _C.T  # the root: from the rest (standing in Blender's axes) to the file's world
+        out[f0:f0 + _CHUNK] = X
+    return out
+
+
+_CHUNK = 4096
 
 
 def load_smpl(path) -> Clip:
@@ -90,10 +135,12 @@ def load_smpl(path) -> Clip:
     metres. One-line ParseError for anything else (not a zip of arrays, other keys, bad shapes or numbers)."""
     path = str(path)
     try:
-        with files.open_regular(path) as fh, np.load(fh, allow_pickle=False) as z:
-            aa, model = _poses(z, path)
-            fps = _rate(z, path)
-            trans = _array(z, "trans", path) if "trans" in z.files else None
+        with files.open_regular(path) as fh:
+            _check_headers(_headers(fh, path), path)
+            with np.load(fh, allow_pickle=False) as z:
+                aa, model = _poses(z, path)
+                fps = _rate(z, path)
+                trans = _array(z, "trans", path) if "trans" in z.files else None
     except ParseError:
         raise
     except Exception as exc:  # noqa: BLE001 - zipfile, zlib, numpy's header tokenizer: any damage is one line
@@ -105,9 +152,7 @@ def load_smpl(path) -> Clip:
         raise ParseError("the SMPL poses hold numbers that are not finite", path)
     if trans is not None and (trans.shape != (frames, 3) or not np.all(np.isfinite(trans))):
         raise ParseError(f"'trans' has shape {trans.shape}; expected ({frames}, 3) finite numbers", path)
-    R = _rotations(aa.astype(np.float64))
-    X = _C[None, None] @ R @ _C.T[None, None]  # the body frame's rotations in Blender's axes
-    X[:, 0] = R[:, 0] @ _C.T  # the root: from the rest (standing in Blender's axes) to the file's world
+    X = _blender_rotations(aa)
     heads = np.zeros((22, 3))
     for j, p in enumerate(BODY_PARENTS):
         heads[j] = (heads[p] if p >= 0 else 0.0) + (_C @ REST_OFFSETS[j] if p >= 0 else 0.0)

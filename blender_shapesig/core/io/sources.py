@@ -61,11 +61,13 @@ class ClipSpec:
 
     @classmethod
     def parse(cls, text, **options) -> "ClipSpec":
-        """``FILE.blend#ACTION`` (any type of ``NAMED_CLIPS``) -> path and action; any other text is a path.
-        ``options``: the other fields."""
+        """``FILE.blend#ACTION`` (any type of ``NAMED_CLIPS``) -> path and action; any other text is a path, and so
+        is a text naming a clip file that exists (a file named ``walk.glb#copy.glb`` is that file, not the
+        animation ``copy.glb`` of ``walk.glb``). ``options``: the other fields."""
         text = os.fspath(text)
         path, sep, action = text.rpartition("#")
-        if sep and path.lower().endswith(NAMED_CLIPS):
+        if sep and path.lower().endswith(NAMED_CLIPS) and not (text.lower().endswith(EXTENSIONS)
+                                                                  and os.path.lexists(text)):
             return cls(path, action or None, **options)
         return cls(text, None, **options)
 
@@ -228,7 +230,16 @@ def read(spec, **options) -> List[Clip]:
     ``spec``: a ClipSpec or the text of one (``options`` then fill its other fields)."""
     spec = spec if isinstance(spec, ClipSpec) else ClipSpec.parse(spec, **options)
     spec.check()
-    clips = list(reader_for(spec.ext)(spec))
+    reader = reader_for(spec.ext)
+    try:
+        clips = list(reader(spec))
+    except (ShapeSigError, KeyboardInterrupt, SystemExit):
+        raise
+    except MemoryError:  # a file no cap caught: this file only, one line
+        raise ParseError("the file needs more memory than this machine gives", spec.path) from None
+    except Exception as exc:  # noqa: BLE001 - any other failure of a reader is one line for this file
+        text = " ".join(str(exc).split())[:160] or type(exc).__name__
+        raise ParseError(f"could not read the file ({text})", spec.path) from None
     if not clips:
         raise ParseError("no armature action found" if spec.action is None else f"no action {spec.action!r}",
                          spec.path)
@@ -302,7 +313,7 @@ def file_key(path, extra="") -> str:
 def clip_key(clip: Clip) -> str:
     """SHA-1 of a clip's bones and rotations (what every distance depends on)."""
     h = hashlib.sha1()
-    h.update("\x1f".join(clip.bones).encode())
+    h.update("\x1f".join(clip.bones).encode("utf-8", "surrogateescape"))
     R = np.ascontiguousarray(clip.rotations, dtype=np.float64)
     h.update(str(R.shape).encode())
     h.update(R.tobytes())

@@ -1,4 +1,5 @@
-"""Text and numbers of motion files, shared by the format parsers (ASF, AMC, BVH)."""
+"""Text and numbers of motion files, shared by the format parsers (ASF, AMC, BVH), and file names as data
+(``shown_name`` for a terminal or a message, ``plot_name`` for matplotlib)."""
 
 import math
 import os
@@ -6,7 +7,22 @@ import os
 from ..errors import ParseError
 from .files import read_bytes
 
-__all__ = ["decode_text", "read_text", "finite_float"]
+__all__ = ["decode_text", "read_text", "finite_float", "shown_name", "plot_name"]
+
+
+def shown_name(name) -> str:
+    """A file name for a terminal, a message or a report: control characters escaped (a newline shows as
+    ``\\n``, an escape sequence as ``\\x1b``), bytes that are not UTF-8 (decoded with ``surrogateescape``) as
+    ``\\xNN``; the rest as is."""
+    text = os.fsdecode(name) if isinstance(name, bytes) else str(name)
+    text = text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    return "".join(ch if ch.isprintable() or ch == " " else ch.encode("unicode_escape").decode("ascii")
+                   for ch in text)
+
+
+def plot_name(name) -> str:
+    """A name as matplotlib draws it literally: ``shown_name`` with ``$`` escaped (no mathtext)."""
+    return shown_name(name).replace("$", r"\$")
 
 
 def decode_text(data: bytes) -> str:

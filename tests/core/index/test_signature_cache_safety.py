@@ -104,7 +104,8 @@ def _cli_rank(args, env_extra=None):
 
 def test_cli_rank_keeps_a_users_files_in_the_cache_folder(tmp_path):
     """``rank A B --cache DIR`` and ``$SHAPESIG_CACHE_DIR`` used to delete DIR/keep.npz; the ranking is the
-    --no-cache one; a cache folder that is a file gives the same ranking and one warning line."""
+    --no-cache one; a cache folder that is a file is an error with --cache, and with $SHAPESIG_CACHE_DIR gives the
+    same ranking and one warning line."""
     import json
 
     named = tmp_path / "named"
@@ -126,10 +127,14 @@ def test_cli_rank_keeps_a_users_files_in_the_cache_folder(tmp_path):
     results = json.loads(off.stdout)["results"]
     for p in (first, again, by_env):
         assert json.loads(p.stdout)["results"] == results and "warning" not in p.stderr
-    # the named folder is a file: the ranking without a cache, one warning line, the file unchanged
+    # the folder is a file: named by --cache, an error (docs/cli.md: exit 2, one line); named by
+    # $SHAPESIG_CACHE_DIR, the ranking without a cache and one warning line; the file unchanged either way
     a_file = tmp_path / "cache_is_a_file"
     a_file.write_bytes(b"a user's file")
     p = _cli_rank(["--cache", str(a_file)])
+    lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
+    assert p.returncode == 2 and len(lines) == 1 and lines[0].startswith("blender_shapesig: error: --cache"), p.stderr
+    p = _cli_rank([], {"SHAPESIG_CACHE_DIR": str(a_file)})
     assert p.returncode == 0 and json.loads(p.stdout)["results"] == results
     lines = [ln for ln in p.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("blender_shapesig: warning: signature cache off"), p.stderr
