@@ -53,7 +53,9 @@ def source_armature(spec: ClipSpec):
 
     .blend: the armature that owns the action (``owners.find_owner``, in the child process), rebuilt;
     .bvh: Blender's importer (``readers.bvh.import_armature``), its imported action removed;
-    .amc: the Acclaim armature builder (``readers.acclaim.import_acclaim``), its action removed.
+    .amc: the Acclaim armature builder (``readers.acclaim.import_acclaim``), its action removed;
+    .fbx, .glb, .gltf: Blender's importer (``readers.interchange.import_armature_of``: the character with its
+    meshes, the imported actions removed); any other format has no armature (ShapeSigError).
     """
     if spec.ext == ".blend":
         clip = read_blend_file(spec.path, spec.action, rig=True)[0]
@@ -65,8 +67,15 @@ def source_armature(spec: ClipSpec):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if spec.ext == ".bvh":
         arm, _frame_time = import_armature(spec.path)
-    else:
+    elif spec.ext in (".fbx", ".glb", ".gltf"):
+        from .readers.interchange import import_armature_of
+
+        return import_armature_of(spec.path, spec.action)  # the character as Blender's importer brings it
+    elif spec.ext in (".amc",):
         arm, _actions = import_acclaim(bpy.context, spec.skeleton(), [spec.path])
+    else:
+        raise ShapeSigError(f"{spec.path}: a {spec.ext} clip has no armature to carry the result: give a .bvh, "
+                            f".amc, .fbx, .glb or .blend clip first, or write --out FILE.bvh")
     ad = arm.animation_data
     if ad is not None and ad.action is not None:
         old = ad.action

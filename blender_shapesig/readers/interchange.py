@@ -119,3 +119,30 @@ def _clips(path, found, animation, fps, fmt, space):
     if not clips:
         raise ParseError("the file's animations move no bone of its armature", path)
     return clips
+
+
+def import_armature_of(path, animation=None):
+    """Blender's importer on the FBX / glTF ``path`` into the current scene (``check_interchange``'s pre-checks
+    first): the armature object that plays ``animation`` (default: the first that plays one), with everything else
+    the file brings (meshes, the nodes above it) kept and every imported action removed (the command line's
+    ``blend`` and ``transition`` write their own actions onto it). ParseError in one line."""
+    path = os.path.abspath(os.fspath(path))
+    info = check_interchange(path)
+    before_obj = {o.as_pointer() for o in bpy.data.objects}
+    before_act = {a.as_pointer() for a in bpy.data.actions}
+    _import(path, info)
+    armatures = [o for o in bpy.data.objects if o.as_pointer() not in before_obj and o.type == "ARMATURE"]
+    actions = [a for a in bpy.data.actions if a.as_pointer() not in before_act]
+    owned = [(a, find_owner(a, armatures)) for a in actions if bone_channels(compat.all_action_fcurves(a))]
+    owned = [(a, o) for a, o in owned if o is not None]
+    pick = [o for a, o in owned if animation is None or animation_name(a, o, info) == animation]
+    if not pick:
+        raise ParseError("the file has no animation of an armature" if animation is None else
+                         f"no animation {animation!r} in the file", path)
+    for obj in armatures:
+        if obj.animation_data is not None:
+            obj.animation_data.action = None
+    for action in actions:
+        compat.remove_action(action)
+    bpy.context.view_layer.update()
+    return pick[0]

@@ -23,7 +23,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import frame_rates, library  # noqa: E402
+from blender_shapesig import compat, frame_rates, library  # noqa: E402
 from blender_shapesig.core import index as search  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -76,8 +76,6 @@ def turned(path, name, how):
 
 
 def _scale_location_keys(action, factor):
-    from blender_shapesig import compat  # only to list the action's F-curves in every Blender version
-
     for fc in compat.all_action_fcurves(action):
         if fc.data_path.endswith(".location"):
             for k in fc.keyframe_points:
@@ -356,28 +354,46 @@ def test_a_real_mixamo_character_imported_by_blender(scene24, folder):
     assert np.abs(heads[:, hip, 2] / stance - 1.0).max() <= 0.25, (heads[:, hip, 2].min(), stance)
     rest = (np.array(arm.matrix_world) @ np.append(np.array(arm.data.bones["mixamorig:Hips"].head_local), 1.0))[2]
     assert np.abs(heads[:, hip, 2] / rest - 1.0).max() <= 0.25, (heads[:, hip, 2].min(), rest)  # its rest height
-    # a blend with a CMU walk (Blender's BVH import, another rig)
+    # a blend with a CMU walk (Blender's BVH import, another rig), its first frame (the converter's rest pose) and
+    # ramp left out; the CMU walk in metres (the BVH is in centimetres: the importer scales by 0.01), so heights of
+    # both sources and the blend compare in one unit
     bpy.context.scene.frame_set(1)
-    cmu = import_bvh(WALK, "cmu_walk")
-    feet = FEET | MIXAMO_FEET
-    low_a, step_a = _lowest_and_step_of(arm, bpy.data.actions["mixamo_walk"], feet, 1)
-    low_b, step_b = _lowest_and_step_of(cmu, cmu.animation_data.action, feet, 5)
+    _quiet(bpy.ops.import_anim.bvh, filepath=str(WALK), global_scale=0.01)
+    cmu = bpy.context.view_layer.objects.active
+    cmu.animation_data.action.name = "cmu_walk"
+    ankles = {"mixamorig:LeftFoot", "mixamorig:RightFoot", "lFoot", "rFoot"}
+    low_a, step_a = _lowest_and_step_of(arm, bpy.data.actions["mixamo_walk"], ankles, 1, with_tails=False)
+    low_b, step_b = _lowest_and_step_of(cmu, cmu.animation_data.action, ankles, 5, with_tails=False)
     _select_only(arm)
     assert bpy.ops.shapesig.blend_actions(action_a="mixamo_walk", action_b="cmu_walk", weight=0.5, fps_a=24.0,
-                                          fps_b=120.0, assign=True) == {"FINISHED"}
-    low, step = _lowest_and_step_of(arm, arm.animation_data.action, feet, 1)
+                                          fps_b=120.0, range_b=(7, 317), assign=True) == {"FINISHED"}
+    blend = arm.animation_data.action
+    low, step = _lowest_and_step_of(arm, blend, ankles, 1, with_tails=False)
+    assert -0.1 < min(low_a, low_b) < 0.2, (low_a, low_b)  # both on the floor, in metres
     assert low >= min(low_a, low_b) - 0.02, (low, low_a, low_b)
     assert step <= max(step_a, step_b) + 5.0, (step, step_a, step_b)
+    # the same blend after Apply Rotation & Scale (what an animator had to do before): the same world motion
+    turned_heads, _r = _world_pose(arm, _frames(blend))
+    _select_only(arm)
+    compat.assign_action(arm, bpy.data.actions["mixamo_walk"])
+    _quiet(bpy.ops.object.transform_apply, location=False, rotation=True, scale=True)
+    _scale_location_keys(bpy.data.actions["mixamo_walk"], 0.01)
+    assert bpy.ops.shapesig.blend_actions(action_a="mixamo_walk", action_b="cmu_walk", weight=0.5, fps_a=24.0,
+                                          fps_b=120.0, range_b=(7, 317), assign=True) == {"FINISHED"}
+    applied_heads, _r = _world_pose(arm, _frames(arm.animation_data.action))
+    np.testing.assert_allclose(turned_heads, applied_heads, atol=1e-3)
 
 
-def _lowest_and_step_of(arm, action, feet, step):
-    from blender_shapesig import compat
-
+def _lowest_and_step_of(arm, action, feet, step, with_tails=True):
+    """The lowest foot joint (heads of the foot bones; a bone's tail only where it is the end of the file's
+    skeleton: a BVH End Site, not the tail Blender's FBX importer makes up for a leaf such as Toe_End) and the
+    largest joint step."""
     compat.assign_action(arm, action)
     heads, rots = _world_pose(arm, _frames(action, step))
-    tails, _ = _world_pose(arm, _frames(action, step), tails=True)
+    tails = _world_pose(arm, _frames(action, step), tails=True)[0] if with_tails else heads
     idx = _bone_index(arm, feet)
-    return min(heads[:, idx, 2].min(), tails[:, idx, 2].min()), _largest_step_deg(rots)
+    ends = [i for i in idx if not arm.pose.bones[i].name.endswith("_End")] if with_tails else []
+    return min(heads[:, idx, 2].min(), tails[:, ends, 2].min(initial=np.inf)), _largest_step_deg(rots)
 
 
 @pytest.mark.parametrize("how", ["fbx", "empty"])
