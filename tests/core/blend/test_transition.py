@@ -98,7 +98,8 @@ def test_bridge_from_a_library_holding_the_take_gives_its_frames(walk, run):
     assert np.delete(err, legs).max() < 0.5  # the legs: the heels held where the take lets them slide a little
     assert err.max() < 5.0
     np.testing.assert_allclose(gap.root_translation, walk.root_translation[120:120 + frames], atol=0.05)
-    # among other clips the take is found first and weighs the most (segments averaged by 1 / (cost + floor))
+    # among other clips the take is found first and weighs the most (segments and the geodesic averaged by
+    # 1 / (cost + floor))
     gap = inbetween(before, after, frames, library=[run, walk])
     assert gap.meta["inbetween"]["clip"] == walk.name and gap.meta["inbetween"]["segments"] == 2
     err = np.degrees(so3.angle(np.swapaxes(gap.rotations, -1, -2) @ truth)).max(axis=0)
