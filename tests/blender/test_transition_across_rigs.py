@@ -119,3 +119,44 @@ def test_amc_walk_into_a_turned_cc_run_in_a_24_fps_scene(scene, tmp_path):
     got = json.loads(p.stdout.strip().splitlines()[-1])
     assert got["action"] == out.name and got["fps"] == 24
     np.testing.assert_allclose(np.array(got["heads"]), here, atol=1e-4)
+
+
+def test_as_nla_strips_plays_what_the_action_plays(scene):
+    """With As NLA Strips the transition plays from a new track as three strips of the new action (A's part, the
+    frames between, B's part) meeting end to end over the action's range; the active action is cleared and the
+    one it was keeps a user; Blender's evaluation through the NLA gives the same world root path as the action
+    assigned directly; one undo step takes it back."""
+    walk, run = scene
+    walk_name, act_a, act_b = walk.name, walk.animation_data.action.name, run.animation_data.action.name
+    before = _hashes()
+    names = sorted(bpy.data.actions.keys())
+    bpy.ops.ed.undo_push(message="before transition")
+    assert bpy.ops.shapesig.transition("EXEC_DEFAULT", True, action_b=act_b, frames=FRAMES, strips=True) \
+        == {"FINISHED"}
+    walk = bpy.data.objects[walk_name]
+    out = next(bpy.data.actions[n] for n in bpy.data.actions.keys() if n not in names)
+    assert {k: v for k, v in _hashes().items() if k in before} == before
+    ad = walk.animation_data
+    assert ad.action is None
+    assert bpy.data.actions[act_a].users + int(bpy.data.actions[act_a].use_fake_user) >= 1
+    track = next(t for t in ad.nla_tracks if t.name == out.name)
+    strips = list(track.strips)
+    assert len(strips) == 3 and all(s.action == out for s in strips)
+    first, last = out.frame_range
+    assert strips[0].frame_start == first and strips[-1].frame_end == last
+    for s0, s1 in zip(strips, strips[1:]):
+        assert s0.frame_end == s1.frame_start
+    for s in strips:
+        assert (s.action_frame_start, s.action_frame_end) == (s.frame_start, s.frame_end)
+    frames = [int(f) for f in np.linspace(first, last, 15)]
+    through_nla = world_heads(walk, frames)[:, 0]
+    track.mute = True
+    compat.assign_action(walk, out)
+    direct = world_heads(walk, frames)[:, 0]
+    assert np.linalg.norm(direct[-1] - direct[0]) > 0.3 * np.linalg.norm(np.ptp(direct, axis=0))  # it travels
+    np.testing.assert_allclose(through_nla, direct, atol=1e-5)
+    compat.assign_action(walk, None)
+    bpy.ops.ed.undo()
+    assert sorted(bpy.data.actions.keys()) == names
+    walk = bpy.data.objects[walk_name]
+    assert walk.animation_data.action.name == act_a and not len(walk.animation_data.nla_tracks)
