@@ -270,11 +270,40 @@ def joins(pairs, frames=None):
                 d = stance_drift(pos[side][point], keep)
                 drift = max([drift] + [x * unit * 100 for x in d])
         src_drift = max(max(feet.source_drifts(a), default=0.0), max(feet.source_drifts(b), default=0.0)) * 100
+        gap_drift, low_slide = _made_slides(joined, contacts, pos, unit, i, n)
         rows.append({"pair": [a.name, b.name], "cut": info["cut"], "frames": n,
                      "root_step_ratio": float(rj[seam].max() / max(src_root, 1e-12)),
                      "joint_step_excess_deg": float(jj[seam].max() - max(ja.max(), jb.max())),
-                     "drift_cm": drift, "source_drift_cm": src_drift, "ms": ms})
+                     "drift_cm": drift, "source_drift_cm": src_drift, "gap_drift_cm": gap_drift,
+                     "low_slide_cm": low_slide, "ms": ms})
     return rows
+
+
+def _made_slides(joined, contacts, pos, unit, i, n):
+    """What the transition itself makes of the feet, over its frames i .. i + n + 1 (A's last frame, the
+    generated ones, B's first): ``gap_drift`` the largest slide (cm) of a heel or ball contact (``find_contacts``)
+    there, and ``low_slide`` the largest horizontal travel (cm) of a point that stays within 2 cm of its lowest
+    height over that span and half a second on each side (low, whatever its speed: a foot pushed over the floor
+    is no contact by the speed rule, but slides)."""
+    from blender_shapesig.core.blend.feet import POINTS, stance_drift
+
+    up = up_vector(joined)
+    lo, hi = i, min(i + n + 1, joined.frames - 1)
+    half = int(round(0.5 * joined.fps))
+    gap_drift = low_slide = 0.0
+    for side in contacts:
+        for point in POINTS:
+            p = pos[side][point]
+            keep = np.zeros(len(p), bool)
+            keep[lo:hi + 1] = contacts[side][point][lo:hi + 1]
+            gap_drift = max([gap_drift] + [d * unit * 100 for d in stance_drift(p, keep)])
+            h = (p @ up) * unit
+            near = h[max(lo - half, 0):hi + half + 1]
+            low = np.zeros(len(p), bool)
+            low[lo:hi + 1] = h[lo:hi + 1] < near.min() + 0.02
+            flat = p - np.outer(p @ up, up)
+            low_slide = max([low_slide] + [d * unit * 100 for d in stance_drift(flat, low)])
+    return gap_drift, low_slide
 
 
 def _runs_of(mask):
@@ -348,7 +377,8 @@ def main(argv=None):
         for r in results["joins"]:
             print(f"join {r['pair'][0]} -> {r['pair'][1]}: cut {r['cut']['a_frame']}:{r['cut']['b_frame']}, root step "
                   f"x{r['root_step_ratio']:.2f} of the sources' largest, joint step {r['joint_step_excess_deg']:+.1f} deg over "
-                  f"the sources', contact drift {r['drift_cm']:.1f} cm (sources' largest {r['source_drift_cm']:.1f}), "
+                  f"the sources', contact drift {r['drift_cm']:.1f} cm (sources' largest {r['source_drift_cm']:.1f}; "
+                  f"over the transition's frames {r['gap_drift_cm']:.1f}, low-foot slide {r['low_slide_cm']:.1f}), "
                   f"{r['ms']:.0f} ms")
     if not args.no_speed:
         results["speed"] = speed(test, train, sw)

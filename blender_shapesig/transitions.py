@@ -10,7 +10,8 @@ from dataclasses import dataclass, field
 from . import frame_rates, scene_motion
 from .core.errors import ShapeSigError
 
-__all__ = ["TransitionResult", "read_pair", "ranked_cuts", "make_transition", "write_transition", "GENERATORS"]
+__all__ = ["TransitionResult", "read_pair", "ranked_cuts", "make_transition", "write_transition", "place_as_strips",
+           "GENERATORS"]
 
 GENERATORS = ("geodesic", "library")
 
@@ -95,3 +96,36 @@ def write_transition(clip, armature, name):
     """Write the joined clip as a new action on ``armature``, keyed at the scene's frame rate
     (``scene_motion.write_motion``: through the object's world matrix; a Rigify rig's controls)."""
     return scene_motion.write_motion(clip, armature, name=name)
+
+
+def place_as_strips(armature, result):
+    """Play ``result``'s action from a new NLA track of ``armature`` as three strips of it: A's part, the
+    generated frames, B's part (each can then be moved or scaled in the NLA editor), split halfway between their
+    frames at the scene's rate; the bones take the action's rotation modes and the armature's active action is
+    cleared so the track plays (the one it had is stashed when it would lose its last user). Returns the track."""
+    from . import action_io, compat
+
+    act, clip, info = result.action, result.clip, result.info
+    first, last = (float(x) for x in act.frame_range)
+    per = frame_rates.scene_rate() / float(clip.fps)  # scene frames per frame of the joined clip
+    b1 = min(max(first + round((info["a_frames"] - 0.5) * per), first + 1), last - 1)
+    b2 = min(max(first + round((info["a_frames"] + info["frames"] - 0.5) * per), b1 + 1), last)
+    ad = armature.animation_data or armature.animation_data_create()
+    track = ad.nla_tracks.new()
+    track.name = act.name
+    try:
+        parts = [("A", first, b1), ("between", b1, b2), ("B", b2, last)]
+        for label, lo, hi in parts:
+            if hi <= lo:
+                continue
+            strip = track.strips.new(f"{act.name} {label}", int(lo), act)
+            if hasattr(strip, "action_slot") and strip.action_slot is None and len(getattr(act, "slots", ())):
+                strip.action_slot = act.slots[0]
+            strip.action_frame_start, strip.action_frame_end = lo, hi
+            strip.frame_start, strip.frame_end = lo, hi
+    except BaseException:
+        ad.nla_tracks.remove(track)
+        raise
+    action_io.assign_action(armature, act)  # the bones take its rotation modes; the previous action is kept
+    compat.assign_action(armature, None)
+    return track

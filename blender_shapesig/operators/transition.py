@@ -36,6 +36,9 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
         default="GEODESIC")
     assign: BoolProperty(name="Assign Result", description="Make the transition the armature's active action",
                          default=True)
+    strips: BoolProperty(name="As NLA Strips", description="Play the transition from a new NLA track as three "
+                         "strips (the active action's part, the frames between, the other action's part) instead "
+                         "of as the active action", default=False)
     cuts_for: StringProperty(name="Cuts For", description="The ranked places found when the dialog opened: the "
                              "other action's name, then leave/enter frames and costs, tab-separated",
                              options={"HIDDEN", "SKIP_SAVE"})
@@ -94,10 +97,13 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
         col.prop(self, "frame_b")
         layout.prop(self, "frames")
         layout.prop(self, "generator", expand=True)
-        layout.prop(self, "assign")
+        layout.prop(self, "strips")
+        row = layout.row()
+        row.enabled = not self.strips
+        row.prop(self, "assign")
 
     def execute(self, context):
-        from .. import action_io
+        from .. import action_io, compat
         from ..transitions import make_transition
 
         obj = context.active_object
@@ -114,12 +120,21 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
         except ShapeSigError as exc:
             self.report({"ERROR"}, f"Transition: {exc}")
             return {"CANCELLED"}
-        if self.assign:
+        if self.strips:
+            from ..transitions import place_as_strips
+
+            try:
+                place_as_strips(obj, result)
+            except (ShapeSigError, RuntimeError):
+                compat.remove_action(result.action)
+                self.report({"ERROR"}, "Transition: the NLA strips could not be made; nothing was created")
+                return {"CANCELLED"}
+        elif self.assign:
             action_io.assign_action(obj, result.action)
         fa, fb = result.info["cut_frames"]
         self.report({"INFO"}, f"Transition: created {result.action.name}: {act_a.name} to frame {fa}, "
                               f"{result.info['frames']} frames between, {act_b.name} from frame {fb} "
-                              f"({timing_text(result.action)})")
+                              f"({timing_text(result.action)}){', as NLA strips' if self.strips else ''}")
         return {"FINISHED"}
 
 

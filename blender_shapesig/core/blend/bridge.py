@@ -3,7 +3,9 @@ the last known pose (pose relative to the root in its heading frame, joint and r
 frame matches the target's, with the root's displacement and turn between them matching the gap's, among segment
 lengths of 0.8 to 1.25 times the gap (a uniform time warp of the segment onto it); the segment is turned and moved
 onto the last known pose and offset (per joint on SO(3), the root linearly, faded with smoothstep weights) so it
-meets both ends exactly (``Bridges.fill``). See docs/transitions.md, "Bridge from the library".
+meets both ends exactly; the best segments (one per clip) and the velocity-carrying geodesic (``inbetween``, as a
+candidate of cost GEODESIC_COST: it takes over when no segment is close) are averaged with weights
+1 / (cost + COST_FLOOR) (``Bridges.fill``). See docs/transitions.md, "Bridge from the library".
 """
 
 import os
@@ -25,7 +27,8 @@ STRETCH_WEIGHT = 0.02    # cost of a stretch r away from 1: this times log(r)^2
 HISTORY = (3, 6, 9)      # frames before the seam matched too (the motion leading into the gap)
 HISTORY_WEIGHT = 0.5
 BRIDGES = 10             # the best segments (of as many clips) averaged, weighted 1 / (cost + COST_FLOOR)
-COST_FLOOR = 0.1
+COST_FLOOR = 0.01
+GEODESIC_COST = 1.0      # the velocity-carrying geodesic joins the average as a candidate of this cost
 
 
 def _features(body, joints):
@@ -176,16 +179,26 @@ class Bridges:
             else:
                 X, root = aligned_and_root(on_rig(replace(seg, fps=before.fps), before))
             X, root = _meet(before, X, root, X0[-1], p0[-1], X1[0], p1[0])
+            rots.append(X[1:-1])
+            roots.append(root[1:-1])
+        costs = [c for *_x, c in found]
+        if GEODESIC_COST is not None:
+            from .inbetween import geodesic_gap, seam_velocities
+
+            w0, v0 = seam_velocities(X0, p0, before.fps, True)
+            w1, v1 = seam_velocities(X1, p1, before.fps, False)
+            X, root = geodesic_gap(X0[-1], p0[-1], w0, v0, X1[0], p1[0], w1, v1, frames, before.fps)
             rots.append(X)
             roots.append(root)
-        w = np.array([1.0 / (c + COST_FLOOR) for *_x, c in found])
+            costs.append(GEODESIC_COST)
+        w = np.array([1.0 / (c + COST_FLOOR) for c in costs])
         w /= w.sum()
         X = so3.nearest_rotation(np.einsum("k,k...->...", w, np.array(rots))) if len(rots) > 1 else rots[0]
         root = np.einsum("k,k...->...", w, np.array(roots))
         k, start, length, cost = found[0]
         info = {"clip": self.clips[k].name, "source": self.clips[k].source, "start": int(start),
                 "frames": int(length), "cost": round(cost, 6), "segments": len(found)}
-        return X[1:-1], root[1:-1], info
+        return X, root, info
 
 
 def _meet(rig, X, root, X0, p0, X1, p1):

@@ -2,9 +2,10 @@
 lowest it is over the known frames on both sides and the gap) during the gap, it is held where it came down — on
 the last known frame's spot when it was down there, and easing onto the target's spot when it is down there — by
 the two-bone leg IK of ``feet`` (the foot keeps its rotation); the corrections fade in and out over RAMP and are
-zero at both seams. See
-docs/transitions.md, "Planted feet".
-"""
+zero at both seams. With ``steps``, a foot the gap drags over the floor (its heel or ball moving more than STEP on
+the ground while down) steps instead: its heel held on the last known spot, swung over the gap's middle (lifted
+up to STEP_LIFT) onto the target's spot; one leg, and only when the swing can last MIN_SWING. See
+docs/transitions.md, "Planted feet"."""
 
 import numpy as np
 
@@ -13,9 +14,13 @@ from ..errors import ShapeSigError
 
 __all__ = ["plant_gap", "CONTACT_HEIGHT"]
 
-CONTACT_HEIGHT = 0.025  # m above the heel's lowest
-RAMP = 0.1              # s
-UPRIGHT = 0.45          # a leg is standing from this height of the hip above the heel (times the leg) + 0.15
+CONTACT_HEIGHT = 0.025 # m above the heel's lowest
+RAMP = 0.1             # s
+STEP = 0.05            # m: a foot dragged further than this over the floor steps instead
+STEP_LIFT = 0.08       # m: the highest a stepping heel is lifted (at most a quarter of the step's length)
+SWING_MARGIN = 0.15    # share of the gap at each end where a stepping foot is still held
+MIN_SWING = 0.2        # s: no step swings faster (a sprinter's swing); a shorter gap eases the heel over
+UPRIGHT = 0.45         # a leg is standing from this height of the hip above the heel (times the leg) + 0.15
 
 
 def _smooth(x):
@@ -23,7 +28,68 @@ def _smooth(x):
     return x * x * (3.0 - 2.0 * x)
 
 
-def plant_gap(rig, X, root, first, last):
+def _drag(points, up, unit, first, last):
+    """The longest way (rig units) a foot point moves on the ground while it stays down (within CONTACT_HEIGHT of
+    its lowest over the sequence) from the last known frame to the target, and whether it is down at the last
+    known frame."""
+    from .feet import _runs
+
+    h = (points @ up) * unit
+    down = h < h.min() + CONTACT_HEIGHT
+    flat = points - np.outer(points @ up, up)
+    longest = 0.0
+    for a, b in _runs(down[first - 1:last + 2]):
+        q = flat[first - 1 + a:first + b]
+        longest = max(longest, float(np.max(np.linalg.norm(q[:, None] - q[None], axis=-1))))
+    return longest, bool(down[first - 1])
+
+
+def _steps(legs, heads, tails, up, unit, fps, first, last):
+    """{side: (start, end, lift)} for the leg whose heel or ball the gap drags more than STEP over the ground
+    (``_drag``; a foot down at the last known frame only when still there (feet.CONTACT_SPEED) or dragged faster
+    than that; of two such legs the one dragged further: the gap is too short for two steps): the frames
+    (fractional) over which the heel swings from the last known spot to the target's, and its lift (rig units)."""
+    from .feet import CONTACT_SPEED
+
+    span = last + 2 - first  # from the last known frame to the target
+    if (1.0 - 2.0 * SWING_MARGIN) * span / fps < MIN_SWING:
+        return {}
+    found = []
+    for side, leg in legs.items():
+        heel = heads[:, leg[2]]
+        drags = [_drag(p, up, unit, first, last) for p in (heel, tails[:, leg[2]])]
+        way = max(d for d, _down in drags)
+        if way * unit <= STEP:
+            continue
+        if any(down for _d, down in drags) and first >= 2:
+            v = heel[first - 1] - heel[first - 2]
+            if (np.linalg.norm(v - (v @ up) * up) * unit * fps > CONTACT_SPEED
+                    and way * unit * fps / span <= CONTACT_SPEED):
+                continue  # a foot already sliding at the last known frame, no faster in the gap: the motion's own
+        reach = heel[last + 1] - heel[first - 1]
+        reach -= (reach @ up) * up
+        found.append((way, side, min(STEP_LIFT / unit, 0.25 * float(np.linalg.norm(reach)))))
+    if not found:
+        return {}
+    margin = SWING_MARGIN * span
+    _d, side, lift = max(found)
+    return {side: (first - 1 + margin, last + 1 - margin, lift)}
+
+
+def _step_target(heel, up, first, last, step, frames):
+    """(target (frames, 3), weight (frames,)): the heel held on its last known spot, swung (smoothstep on the
+    ground, lifted by ``lift`` sin^2) over ``step``'s frames onto the target's spot, held there."""
+    s0, s1, lift = step
+    s = np.clip((frames - s0) / max(s1 - s0, 1e-9), 0.0, 1.0)
+    pin = heel[first - 1][None] + _smooth(s)[:, None] * (heel[last + 1] - heel[first - 1])[None]
+    off = pin - heel
+    off -= np.outer(off @ up, up)
+    off += np.outer(lift * np.sin(np.pi * s) ** 2, up)
+    w = ((frames >= first) & (frames <= last)).astype(np.float64)
+    return heel + off, w
+
+
+def plant_gap(rig, X, root, first, last, steps=True):
     """X (frames, bones, 3, 3) aligned rotations, ``root`` (frames, 3) heads of a sequence on ``rig``'s skeleton
     whose frames ``first``..``last`` (inclusive) are generated (the others known); returns X with the legs of
     the generated frames solved so the planted heels stay put (module docstring). Unchanged without legs."""
@@ -34,14 +100,15 @@ def plant_gap(rig, X, root, first, last):
     except ShapeSigError:
         return X
     rest = rest_of(rig)
-    heads, _tails, W = forward_kinematics(rig, rest, X, root)
+    heads, tails, W = forward_kinematics(rig, rest, X, root)
     up = up_vector(rig)
     unit = unit_meters(rig, [(t, f) for t, _s, f in legs.values()])
     X = X.copy()
     n = len(X)
     ramp = max(RAMP * rig.fps, 1.0)
     frames = np.arange(n)
-    for leg in legs.values():
+    steps = _steps(legs, heads, tails, up, unit, rig.fps, first, last) if steps else {}
+    for side, leg in legs.items():
         heel = heads[:, leg[2]]
         h = (heel @ up) * unit
         length = (np.linalg.norm(rest.heads[leg[1]] - rest.heads[leg[0]])
@@ -54,7 +121,7 @@ def plant_gap(rig, X, root, first, last):
         total = np.zeros(n)
         acc = np.zeros((n, 3))
         fade_in, fade_out = _smooth((frames - (first - 1)) / ramp), _smooth(((last + 1) - frames) / ramp)
-        for a, b in _runs(down):
+        for a, b in _runs(down) if side not in steps else ():
             lo, hi = max(a, first), min(b, last)
             if lo > hi:
                 continue
@@ -73,6 +140,9 @@ def plant_gap(rig, X, root, first, last):
             w = _smooth(1.0 - dist / ramp) * seam * upright
             acc += w[:, None] * off[np.clip(frames, lo, hi)]
             total += w
+        if side in steps:  # down at the target far from where it was: a step, not a slide
+            pinned, w = _step_target(heel, up, first, last, steps[side], frames)
+            acc, total = (pinned - heel) * (w * upright)[:, None], w * upright
         w = np.minimum(total, 1.0)
         w[:first] = 0.0
         w[last + 1:] = 0.0

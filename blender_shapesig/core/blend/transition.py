@@ -70,23 +70,24 @@ def inbetween(before, after, frames, *, library=None):
         w1, v1 = seam_velocities(X1, p1, before.fps, False)
         X, root = geodesic_gap(X0[-1], p0[-1], w0, v0, X1[0], p1[0], w1, v1, frames, before.fps)
         made = {"generator": "geodesic"}
-    X = _planted(before, X0, p0, X, root, X1, p1)
+    X = _planted(before, X0, p0, X, root, X1, p1, steps=made["generator"] == "geodesic")
     return _clip_from(before, X, root, f"{before.name}_to_{after.name}", before.frame_end + 1, {"inbetween": made})
 
 
 KNOWN_SECONDS = 0.5  # known frames on each side the planted feet look at
 
 
-def _planted(rig, X0, p0, X, root, X1, p1):
-    """The generated rotations X with the heels planted where they are down (``plant.plant_gap``), looking at up
-    to KNOWN_SECONDS of the known frames on each side."""
+def _planted(rig, X0, p0, X, root, X1, p1, steps=True):
+    """The generated rotations X with the heels planted where they are down (``plant.plant_gap``; with ``steps``
+    a heel the gap would slide over the floor steps: the geodesic's, which cannot step; a bridge's frames step as
+    its library does), looking at up to KNOWN_SECONDS of the known frames on each side."""
     from .plant import plant_gap
 
     k = max(1, int(round(KNOWN_SECONDS * rig.fps)))
     X0, p0, X1, p1 = X0[-k:], p0[-k:], X1[:k], p1[:k]
     seq = np.concatenate([X0, X, X1])
     path = np.concatenate([p0, root, p1])
-    return plant_gap(rig, seq, path, len(X0), len(X0) + len(X) - 1)[len(X0):len(X0) + len(X)]
+    return plant_gap(rig, seq, path, len(X0), len(X0) + len(X) - 1, steps)[len(X0):len(X0) + len(X)]
 
 
 def _check_cut(cut, a, b):
@@ -104,7 +105,9 @@ def _check_cut(cut, a, b):
 def place(a, b, i, j, frames):
     """``b`` (on ``a``'s rig and rate) turned about up and moved on the ground so that its window at frame ``j``
     lies on ``a``'s at ``i`` (``cuts.ground_fit``), then on by the root's travel over the ``frames + 1`` steps of
-    the gap (the mean of both roots' ground velocities there): B continues where A goes. Returns (clip, info)."""
+    the gap (the mean of both roots' ground velocities there): B continues where A goes. When one of them stands
+    (its root slower than STANDING) and a heel is down at both cut frames, B is moved on so that heel comes down on
+    A's spot instead (``_planted_shift``: standing into a walk keeps the standing foot). Returns (clip, info)."""
     ba, bb = Body(a), Body(b)
     angle, shift = ground_fit(ba, bb, i, j)
     up = up_vector(a)
@@ -123,11 +126,39 @@ def place(a, b, i, j, frames):
         v = (path[k1] - path[k0]) / max(k1 - k0, 1)
         return v - (v @ up) * up
 
-    travel = 0.5 * (ground_velocity(ra, i) + ground_velocity(root, j)) * (frames + 1)
+    va, vb = ground_velocity(ra, i), ground_velocity(root, j)
+    travel = 0.5 * (va + vb) * (frames + 1)
+    translated = a.root_translation is not None
+    out = _clip_from(b, X, root, b.name, b.frame_start, {}, translated=translated)
+    if min(np.linalg.norm(va), np.linalg.norm(vb)) * a.fps < STANDING * ba.leg:  # one of them stands
+        shared = _planted_shift(a, out, i, j, ba, bb, up)
+        if shared is not None:
+            travel = shared
     root = root + travel
-    out = _clip_from(b, X, root, b.name, b.frame_start, {}, translated=a.root_translation is not None)
+    out = _clip_from(b, X, root, b.name, b.frame_start, {}, translated=translated)
     return out, {"turn_degrees": round(float(np.degrees(angle)), 4),
                  "moved": [round(float(x), 6) for x in (root[j] - aligned_and_root(b)[1][j])]}
+
+
+STANDING = 0.25  # leg lengths per second: a root slower than this on the ground stands
+
+
+def _planted_shift(a, b, i, j, ba, bb, up):
+    """The ground move that puts ``b``'s heels down at frame ``j`` on ``a``'s heels down at frame ``i`` (the mean
+    over the feet down in both, ``Body.contacts``); None when no heel is down in both or the move is longer than
+    half a leg (then not the same stance)."""
+    from .feet import feet_positions, legs_of
+
+    down = [side for side, col in (("L", 0), ("R", 2)) if ba.contacts[i, col] and bb.contacts[j, col]]
+    if not down:
+        return None
+    try:
+        pa, pb = feet_positions(a, legs_of(a)), feet_positions(b, legs_of(b))
+    except ShapeSigError:
+        return None
+    d = np.mean([pa[side]["heel"][i] - pb[side]["heel"][j] for side in down], axis=0)
+    d = d - (d @ up) * up
+    return d if np.linalg.norm(d) <= 0.5 * ba.leg else None
 
 
 def transition(a, b, *, cut=None, frames=None, library=None):

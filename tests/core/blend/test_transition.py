@@ -98,7 +98,8 @@ def test_bridge_from_a_library_holding_the_take_gives_its_frames(walk, run):
     assert np.delete(err, legs).max() < 0.5  # the legs: the heels held where the take lets them slide a little
     assert err.max() < 5.0
     np.testing.assert_allclose(gap.root_translation, walk.root_translation[120:120 + frames], atol=0.05)
-    # among other clips the take is found first and weighs the most (segments averaged by 1 / (cost + floor))
+    # among other clips the take is found first and weighs the most (segments and the geodesic averaged by
+    # 1 / (cost + floor))
     gap = inbetween(before, after, frames, library=[run, walk])
     assert gap.meta["inbetween"]["clip"] == walk.name and gap.meta["inbetween"]["segments"] == 2
     err = np.degrees(so3.angle(np.swapaxes(gap.rotations, -1, -2) @ truth)).max(axis=0)
@@ -194,3 +195,56 @@ def test_a_heel_down_across_the_gap_stays_put(walk):
     along = p @ d / (d @ d)
     across = np.linalg.norm(p - np.outer(along, d), axis=1)
     assert across.max() < 0.005 and along.min() > -0.1 and along.max() < 1.1
+
+
+def _heels(clip):
+    """{side: (frames, 3)} heel positions in metres (``feet.feet_positions``; the rig's up is Z or Y)."""
+    from blender_shapesig.core.blend.feet import feet_positions
+    from blender_shapesig.core.clip.skeleton import unit_meters, up_vector
+
+    legs = legs_of(clip)
+    unit = unit_meters(clip, [(t, f) for t, _s, f in legs.values()])
+    up = up_vector(clip)
+    basis = Body(clip).basis  # ground x, ground y, up
+    return {s: (p["heel"] * unit) @ basis.T for s, p in feet_positions(clip, legs).items()}, up
+
+
+@pytest.mark.parametrize("a_name,b_name", [("bvh/07_01.bvh", "bvh/09_02.bvh"), ("bvh/09_02.bvh", "bvh/07_01.bvh")])
+def test_a_heel_the_gap_would_drag_over_the_floor_steps(a_name, b_name):
+    """Walk into run and back at the best cut, 0.3 s between: the geodesic keeps both stance poses' heels low while
+    the root travels on, which drags a heel over the floor (60-70 cm before the step was made); now no heel moves
+    more than 5 cm on the ground while it stays within 2 cm of its floor (its lowest over the transition's frames
+    and half a second either side), and a heel down at both seams is lifted in between."""
+    a, b = _read(a_name), _read(b_name)
+    joined = transition(a, b)
+    info = joined.meta["transition"]
+    i, n = info["cut"]["a_frame"], info["frames"]
+    heels, _up = _heels(joined)
+    lifted = False
+    for side, p in heels.items():
+        span = p[i:i + n + 2]
+        half = int(round(0.5 * joined.fps))  # the floor: the heel's lowest over the span and 0.5 s either side
+        low = span[:, 2] < p[max(i - half, 0):i + n + 2 + half, 2].min() + 0.02
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], low.astype(int), [0]])))
+        for s, e in zip(edges[::2], edges[1::2]):  # each stretch of frames the heel stays low
+            flat = span[s:e, :2]
+            assert np.linalg.norm(flat[:, None] - flat[None], axis=-1).max() < 0.05
+        lifted |= bool(span[:, 2].max() > span[:, 2].min() + 0.03 and low[0] and low[-1])
+    assert lifted
+
+
+def test_from_standing_b_is_placed_on_the_planted_heel():
+    """Standing (13_32's end, the root still) into a walk whose first frames stand on the same heel: B is placed
+    so that heel is down on A's spot, and it stays there through the generated frames (before, B's placement by
+    the whole body's fit and the root's travel put it 22 cm away and the heel slid over the floor)."""
+    a, b = _read("bvh/13_32.bvh"), _read("bvh/07_01.bvh")
+    joined = transition(a, b)
+    info = joined.meta["transition"]
+    i, n = info["cut"]["a_frame"], info["frames"]
+    ba, bb = Body(a), Body(_read("bvh/07_01.bvh"))
+    shared = [s for s, col in (("L", 0), ("R", 2)) if ba.contacts[i, col] and bb.contacts[info["cut"]["b_frame"], col]]
+    assert shared
+    heels, _up = _heels(joined)
+    for side in shared:
+        span = heels[side][i:i + n + 2, :2]
+        assert np.linalg.norm(span - span[0], axis=1).max() < 0.02
