@@ -424,21 +424,8 @@ def menu_func(self, context):
     self.layout.operator(SHAPESIG_OT_blend_actions.bl_idname, text="Blend Actions (ShapeSig)")
 
 
-_MENUS = ("VIEW3D_MT_object_animation", "VIEW3D_MT_pose")
-
-
-def menu_register():
-    for name in _MENUS:
-        menu = getattr(bpy.types, name, None)
-        if menu is not None:
-            menu.append(menu_func)
-
-
-def menu_unregister():
-    for name in _MENUS:
-        menu = getattr(bpy.types, name, None)
-        if menu is not None:
-            menu.remove(menu_func)
+# the 3D Viewport menus the entry joins (Object > Animation, Pose): operators/__init__.py registers them
+menus = (("VIEW3D_MT_object_animation", menu_func), ("VIEW3D_MT_pose", menu_func))
 
 
 classes = (SHAPESIG_OT_blend_actions, SHAPESIG_OT_bake_blend_timing)

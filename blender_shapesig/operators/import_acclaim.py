@@ -87,12 +87,7 @@ def _menu_func(self, context):
     self.layout.operator(SHAPESIG_OT_import_acclaim.bl_idname, text="Acclaim Motion (.asf/.amc)")
 
 
-def menu_register():
-    bpy.types.TOPBAR_MT_file_import.append(_menu_func)
-
-
-def menu_unregister():
-    bpy.types.TOPBAR_MT_file_import.remove(_menu_func)
+menus = (("TOPBAR_MT_file_import", _menu_func),)  # File > Import (operators/__init__.py registers it)
 
 
 classes = (SHAPESIG_OT_import_acclaim,)
