@@ -92,3 +92,19 @@ def format_row(set_name, name, r):
     crop = " ".join(f"{k} {v[0]}->{v[1]}/{r['n']}" for k, v in c.items())
     return (f"{set_name:10s} {name:24s} stage1 1-NN {r['stage1'][0]:.3f} mAP {r['stage1'][1]:.3f} | two-stage "
             f"1-NN {r['two_stage'][0]:.3f} mAP {r['two_stage'][1]:.3f} | crops {crop} | {r['bytes'] / 1024:.1f} KB")
+
+# issue 41: the action part (local_action) and the active windows
+for _w in (0.25, 0.5, 1.0, 2.0):
+    add(f"act{_w}", action_weight=_w)
+for _a in (0.2, 0.35, 0.5):
+    add(f"active{_a}", active=_a)
+    for _w in (0.5, 1.0):
+        add(f"act{_w}_active{_a}", action_weight=_w, active=_a)
+for _w in (4.0, 8.0):
+    add(f"act{_w}", action_weight=_w)
+for _w in (1.0, 2.0, 4.0):
+    add(f"act{_w}_seqpose", action_weight=_w, sequence="pose_only")
+    add(f"act{_w}_mix2", action_weight=_w, mix=2.0)
+for _w in (4.0, 8.0):
+    for _a in (0.35, 0.5):
+        add(f"act{_w}_active{_a}", action_weight=_w, active=_a)

@@ -26,7 +26,7 @@ import numpy as np
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
-from . import local_dtw, take
+from . import local_action, local_dtw, take
 from .local_dtw import dtw
 
 
@@ -74,15 +74,19 @@ class Settings:
 
     def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
                  turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
-                 scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE):
+                 scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE,
+                 action_weight=0.0, active=0.0):
         self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
         self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
         self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
+        # issue 41 (``local_action``): the action part's weight, the share of the largest window energy kept
+        self.action_weight, self.active = float(action_weight), float(active)
 
     def key(self):
-        return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+        extra = (self.action_weight, self.active) if (self.action_weight or self.active) else ()
+        return extra + (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
                 self.global_weight, self.max_windows, self.max_sequence)
 
@@ -296,6 +300,7 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
     motion[:, 3] *= settings.turn_weight
     X = np.column_stack([pose, motion])
     cP = np.concatenate([np.zeros((1, pose.shape[1])), np.cumsum(pose, axis=0)])
+    act = local_action.action_channels(feat) if settings.action_weight else None
     out = []
     for k, window in enumerate(settings.windows):
         starts, w = _windows(len(X), float(feat["rate"]), window, settings.hop * window, settings.max_windows)
@@ -310,8 +315,13 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
             lvl2 = _unit_rows(lvl2, 0.25)
         scale = np.zeros((len(starts), len(settings.windows)))
         scale[:, k] = settings.scale_weight
-        out.append(np.column_stack([settings.pose_weight * base, settings.motion_weight * lvl1,
-                                    settings.motion_weight * lvl2, scale]))
+        parts = [settings.pose_weight * base, settings.motion_weight * lvl1, settings.motion_weight * lvl2, scale]
+        if act is not None:
+            parts.append(settings.action_weight * local_action.window_action(act, starts, w))
+        V = np.column_stack(parts)
+        if settings.active:
+            V = V[local_action.active_rows(local_action.window_energy(feat, starts, w), settings.active)]
+        out.append(V)
     return np.concatenate(out)
 
 
@@ -330,6 +340,8 @@ def _sequence(feat, settings):
     seq = feat["pose"]
     if settings.sequence == "centered":
         seq = seq - seq.mean(axis=0)
+    if settings.action_weight and settings.sequence != "pose_only":
+        seq = np.column_stack([seq, settings.action_weight * local_action.sequence_channels(feat)])
     if settings.velocity_weight:
         vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
         seq = np.column_stack([seq, settings.velocity_weight * vel])
