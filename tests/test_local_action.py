@@ -1,0 +1,64 @@
+"""The local search's action part (issue 41, ``core.index.local_action``): what it measures on features built here
+with known answers (a body rising off the ground, a walk forward and the same walk backward), and that the default
+recipe does not change with it."""
+
+import numpy as np
+
+from blender_shapesig.core.index import local, local_action
+
+RATE = 30.0
+
+
+def _features(T=61, speed=0.0, lift=0.0):
+    """A still standing pose (ankles 1 leg length below the pelvis) travelling ``speed`` leg lengths per second
+    along the body frame's second axis, the pelvis rising ``lift`` leg lengths in a half sine (feet with it)."""
+    pose = np.zeros((T, len(local.POINTS), 3))
+    pose[:, local.POINTS.index("ankle.L")] = (0.2, 0.0, -1.0)
+    pose[:, local.POINTS.index("ankle.R")] = (-0.2, 0.0, -1.0)
+    pose[:, local.POINTS.index("shoulder.L")] = (0.26, 0.0, 0.59)
+    pose[:, local.POINTS.index("shoulder.R")] = (-0.26, 0.0, 0.59)
+    pose[:, local.POINTS.index("wrist.L")] = (0.26, 0.0, 0.0)
+    pose[:, local.POINTS.index("wrist.R")] = (-0.26, 0.0, 0.0)
+    t = np.arange(T) / RATE
+    motion = np.zeros((T, 4))
+    motion[:, 1] = speed * t
+    motion[:, 2] = lift * np.sin(np.pi * np.arange(T) / (T - 1))
+    return {"pose": pose.reshape(T, -1), "motion": motion, "rate": np.float64(RATE)}
+
+
+def test_channels_measure_travel_height_and_reach():
+    c = local_action.action_channels(_features(speed=-1.5, lift=0.4))
+    assert np.allclose(c[:, 1], -1.5)  # velocity in the body's frame, leg lengths per second
+    assert np.allclose(c[:, :3][:, [0]], 0.0)
+    assert np.isclose(c[:, 3].max(), 0.4) and np.isclose(c[:, 3].min(), 0.0)  # both feet leave the ground
+    assert np.allclose(c[:, 3], c[:, 5] - c[:, 5].min())  # the pelvis rises with them
+    assert np.allclose(c[:, 6], 0.59)  # wrists straight below the shoulders: reach = upper arm + forearm here
+
+
+def test_energy_keeps_the_windows_where_something_happens():
+    f = _features(T=90)
+    f["pose"][30:60] += np.sin(np.linspace(0, 6 * np.pi, 30))[:, None] * 0.2  # the action in the middle second
+    starts, w = local._windows(90, RATE, 0.5, 0.125, None)
+    e = local_action.window_energy(f, starts, w)
+    keep = local_action.active_rows(e, 0.35)
+    assert keep.any() and not keep.all()
+    assert all(30 - w < s < 60 for s in starts[keep])
+    assert local_action.active_rows(np.zeros(3), 0.35).all()  # a still clip keeps its windows
+
+
+def test_backward_walk_is_far_from_forward_walk_only_with_the_action_part():
+    fwd, back = _features(speed=-1.5), _features(speed=1.5)
+    base = [local.entry_from_features(f) for f in (fwd, back)]
+    act = local.Settings(action_weight=8.0)
+    with_act = [local.entry_from_features(f, act) for f in (fwd, back)]
+    d0 = local.first_stage(base[0], [base[1]])[0]
+    d1 = local.first_stage(with_act[0], [with_act[1]])[0]
+    assert d1 > d0 + 1.0  # 3 leg lengths per second apart, times TIME and the weight (projected)
+
+
+def test_default_recipe_unchanged():
+    assert local.DEFAULT.key()[0] == local.RECIPE_VERSION
+    f = _features(speed=-1.0, lift=0.1)
+    a = local.window_vectors(f)
+    b = local.window_vectors(f, local.Settings(action_weight=0.0, active=0.0))
+    assert np.array_equal(a, b)
