@@ -32,7 +32,8 @@ def test_channels_measure_travel_height_and_reach():
     assert np.allclose(c[:, :3][:, [0]], 0.0)
     assert np.isclose(c[:, 3].max(), 0.4) and np.isclose(c[:, 3].min(), 0.0)  # both feet leave the ground
     assert np.allclose(c[:, 3], c[:, 5] - c[:, 5].min())  # the pelvis rises with them
-    assert np.allclose(c[:, 6], 0.59)  # wrists straight below the shoulders: reach = upper arm + forearm here
+    assert np.allclose(c[:, 6], 0.0) and np.allclose(c[:, 7], -0.59)  # hands straight below the shoulders
+    assert np.allclose(c[:, 8:], 0.0)  # a still pose: arms and legs do not move relative to the pelvis
 
 
 def test_energy_keeps_the_windows_where_something_happens():

@@ -39,6 +39,20 @@ def load(data):
     return items, feats
 
 
+def weighted_matrix(E, feats, settings, floor):
+    """The first stage with each side's mean weighted by its windows' energy (``local_action.window_weights``)."""
+    from blender_shapesig.core.index import local_action as la
+    W = [np.asarray(e["windows"], np.float32) for e in E]
+    wt = [la.window_weights(f, settings, floor) for f in feats]
+    n = len(E)
+    D = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            d = np.sqrt(vs.ls._sq_dist(W[i], W[j]))
+            D[i, j] = 0.5 * (np.average(d.min(1), weights=wt[i]) + np.average(d.min(0), weights=wt[j]))
+    return D
+
+
 def per_class(orders, items, queries):
     per = defaultdict(lambda: [0, 0])
     for q, order in zip(queries, orders):
@@ -78,7 +92,8 @@ def main(argv=None):
     for name in args.variants.split(","):
         settings, k, band, free, mix = vs.VARIANTS[name]
         E = vs.entries(feats, settings)
-        D1 = vs.first_matrix(E, E)
+        D1 = weighted_matrix(E, feats, settings, float(name.split("wchamfer")[1])) if "wchamfer" in name \
+            else vs.first_matrix(E, E)
         o1, o2 = [], []
         for q, c in zip(queries, cands):
             c = np.asarray(c)

@@ -108,3 +108,7 @@ for _w in (1.0, 2.0, 4.0):
 for _w in (4.0, 8.0):
     for _a in (0.35, 0.5):
         add(f"act{_w}_active{_a}", action_weight=_w, active=_a)
+# the first stage's Chamfer means weighted by the windows' energy (rigs.py only), floor after "wchamfer"
+for _w in (0.0, 2.0, 4.0):
+    for _f in (0.05, 0.2):
+        add(f"act{_w}_wchamfer{_f}", action_weight=_w)

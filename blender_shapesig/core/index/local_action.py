@@ -10,28 +10,34 @@ import numpy as np
 
 __all__ = ["ACTION_PARTS", "TIME", "sequence_channels", "action_channels", "window_action", "window_energy", "active_rows"]
 
-ACTION_PARTS = 8  # numbers per window: velocity (3), feet heights min / max (2), pelvis height (1), reach (2)
+ACTION_PARTS = 10  # per window: velocity (3), feet heights (2), pelvis height (1), hands forward and up (2),
+# arms' and legs' speeds (2)
 
 TIME = 0.25  # seconds: velocities enter as the distance travelled in this time (leg lengths, like the pose)
 
 # the key points' rows in ``local.POINTS`` order
 _SHOULDER, _WRIST, _ANKLE = (1, 2), (5, 6), (9, 10)
+_ARMS, _LEGS = (3, 4, 5, 6), (7, 8, 9, 10)
 
 
 def action_channels(feat) -> np.ndarray:
-    """(T, 7): the pelvis' velocity in the body's frame (3, leg lengths per second), the two ankles' heights above
-    the clip's ground (2), the pelvis' height above it (1) and the wrists' mean distance from the shoulders (1)."""
+    """(T, 10): the pelvis' velocity in the body's frame (3, leg lengths per second), the two ankles' heights above
+    the clip's ground (2), the pelvis' height above it (1), how far the hands reach forward of the shoulders and up
+    above them (2, the further hand; forward is the direction of a forward walk in ``local.features``' frame, -y),
+    and the mean speed of the arms' and of the legs' key points relative to the pelvis (2, leg lengths per second)."""
     pose = np.asarray(feat["pose"], float).reshape(len(feat["pose"]), -1, 3)
     motion = np.asarray(feat["motion"], float)
     rate = float(feat["rate"])
     T = len(pose)
-    vel = np.gradient(motion[:, :3], axis=0) * rate if T > 1 else np.zeros((T, 3))
+    grad = (lambda x: np.gradient(x, axis=0) * rate) if T > 1 else (lambda x: np.zeros_like(x))
+    vel = grad(motion[:, :3])
     pz = motion[:, 2]
     ankles = pz[:, None] + pose[:, list(_ANKLE), 2]
     ground = float(ankles.min()) if T else 0.0
-    feet = ankles - ground
-    reach = np.mean([np.linalg.norm(pose[:, w] - pose[:, s], axis=1) for s, w in zip(_SHOULDER, _WRIST)], axis=0)
-    return np.column_stack([vel, feet, pz - ground, reach])
+    hands = pose[:, list(_WRIST)] - pose[:, list(_SHOULDER)]
+    v = np.linalg.norm(grad(pose), axis=2)
+    return np.column_stack([vel, ankles - ground, pz - ground, (-hands[..., 1]).max(axis=1), hands[..., 2].max(axis=1),
+                            v[:, list(_ARMS)].mean(axis=1), v[:, list(_LEGS)].mean(axis=1)])
 
 
 def sequence_channels(feat) -> np.ndarray:
@@ -42,12 +48,14 @@ def sequence_channels(feat) -> np.ndarray:
 
 def window_action(channels, starts, w) -> np.ndarray:
     """(windows, ACTION_PARTS): per window the mean velocity (3), the highest the lower foot gets (airborne) and the
-    mean height of the higher foot (2), the range of the pelvis' height (1), the mean and the largest reach (2)."""
+    mean height of the higher foot (2), the range of the pelvis' height (1), the furthest the hands reach forward and
+    up (2), the arms' and legs' mean speeds (2); velocities and speeds times ``TIME``."""
     out = np.empty((len(starts), ACTION_PARTS))
     for k, s in enumerate(starts):
         c = channels[s:s + w]
         low, high = c[:, 3:5].min(axis=1), c[:, 3:5].max(axis=1)
-        out[k] = [*(TIME * c[:, :3].mean(axis=0)), low.max(), high.mean(), np.ptp(c[:, 5]), c[:, 6].mean(), c[:, 6].max()]
+        out[k] = [*(TIME * c[:, :3].mean(axis=0)), low.max(), high.mean(), np.ptp(c[:, 5]), c[:, 6].max(),
+                  c[:, 7].max(), *(TIME * c[:, 8:10].mean(axis=0))]
     return out
 
 
@@ -66,3 +74,16 @@ def active_rows(energy, share) -> np.ndarray:
     if not len(energy) or share <= 0:
         return np.ones(len(energy), bool)
     return energy >= share * energy.max() - 1e-12
+
+
+def window_weights(feat, settings, floor=0.05) -> np.ndarray:
+    """(windows,) each window's energy over the largest of its scale (at least ``floor``), in the rows' order of
+    ``local.window_vectors`` (without ``settings.active``): weights for a Chamfer mean by what happens."""
+    from .local import _windows
+
+    out = []
+    for window in settings.windows:
+        starts, w = _windows(len(feat["pose"]), float(feat["rate"]), window, settings.hop * window, settings.max_windows)
+        e = window_energy(feat, starts, w)
+        out.append(np.maximum(e / max(float(e.max()), 1e-9), floor))
+    return np.concatenate(out)
