@@ -1,6 +1,6 @@
 """The local search's action part (issue 41, ``core.index.local_action``): what it measures on features built here
 with known answers (a body rising off the ground, a walk forward and the same walk backward), and that the default
-recipe does not change with it."""
+recipe has it."""
 
 import numpy as np
 
@@ -49,7 +49,7 @@ def test_energy_keeps_the_windows_where_something_happens():
 
 def test_backward_walk_is_far_from_forward_walk_only_with_the_action_part():
     fwd, back = _features(speed=-1.5), _features(speed=1.5)
-    base = [local.entry_from_features(f) for f in (fwd, back)]
+    base = [local.entry_from_features(f, local.Settings(action_weight=0.0)) for f in (fwd, back)]
     act = local.Settings(action_weight=8.0)
     with_act = [local.entry_from_features(f, act) for f in (fwd, back)]
     d0 = local.first_stage(base[0], [base[1]])[0]
@@ -57,9 +57,11 @@ def test_backward_walk_is_far_from_forward_walk_only_with_the_action_part():
     assert d1 > d0 + 1.0  # 3 leg lengths per second apart, times TIME and the weight (projected)
 
 
-def test_default_recipe_unchanged():
-    assert local.DEFAULT.key()[0] == local.RECIPE_VERSION
+def test_the_action_part_is_appended_to_the_windows():
     f = _features(speed=-1.0, lift=0.1)
-    a = local.window_vectors(f)
-    b = local.window_vectors(f, local.Settings(action_weight=0.0, active=0.0))
-    assert np.array_equal(a, b)
+    base = local.window_vectors(f, local.Settings(action_weight=0.0))
+    act = local.window_vectors(f, local.Settings(action_weight=2.0))
+    assert act.shape == (len(base), base.shape[1] + local_action.ACTION_PARTS)
+    assert np.array_equal(act[:, :base.shape[1]], base)
+    assert local.DEFAULT.action_weight == local.ACTION_WEIGHT > 0
+    assert local.Settings(action_weight=0.0).key() != local.DEFAULT.key()  # stored entries are made again

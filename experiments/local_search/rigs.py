@@ -39,11 +39,23 @@ def load(data):
     return items, feats
 
 
+def window_weights(feat, settings, floor=0.05):
+    """(windows,) each window's energy over the largest of its scale (at least ``floor``), in the rows' order of
+    ``local.window_vectors`` (without ``settings.active``)."""
+    from blender_shapesig.core.index import local_action as la
+    out = []
+    for window in settings.windows:
+        starts, w = vs.ls._windows(len(feat["pose"]), float(feat["rate"]), window, settings.hop * window,
+                                   settings.max_windows)
+        e = la.window_energy(feat, starts, w)
+        out.append(np.maximum(e / max(float(e.max()), 1e-9), floor))
+    return np.concatenate(out)
+
+
 def weighted_matrix(E, feats, settings, floor):
     """The first stage with each side's mean weighted by its windows' energy (``local_action.window_weights``)."""
-    from blender_shapesig.core.index import local_action as la
     W = [np.asarray(e["windows"], np.float32) for e in E]
-    wt = [la.window_weights(f, settings, floor) for f in feats]
+    wt = [window_weights(f, settings, floor) for f in feats]
     n = len(E)
     D = np.zeros((n, n))
     for i in range(n):
@@ -75,7 +87,7 @@ def main(argv=None):
     ap.add_argument("--tslearn", action="store_true")
     ap.add_argument("--misses", action="store_true", help="print every wrong first match")
     args = ap.parse_args(argv)
-    items, feats = cm.cached(os.path.join(args.out, f"rigs_features_{cm.FEATURES}.pkl"), lambda: load(args.data))
+    items, feats = cm.cached(os.path.join(args.out, f"rigset_features_{cm.FEATURES}.pkl"), lambda: load(args.data))
     counts = Counter(it.label for it in items)
     queries = [q for q, it in enumerate(items) if counts[it.label] >= 2]
     cands = [[j for j in range(len(items)) if j != q] for q in queries]

@@ -15,6 +15,7 @@ def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **
 
 
 add("default")
+add("issue29", action_weight=0.0)  # the default before issue 41 (no action part)
 add("raw", normalize="none")
 add("global2", global_weight=2.0)
 add("centered_global2", sequence="centered", global_weight=2.0)
@@ -112,3 +113,7 @@ for _w in (4.0, 8.0):
 for _w in (0.0, 2.0, 4.0):
     for _f in (0.05, 0.2):
         add(f"act{_w}_wchamfer{_f}", action_weight=_w)
+for _w in (2.0, 3.0, 4.0):
+    add(f"act{_w}_k10", action_weight=_w, shortlist=10)
+    add(f"act{_w}_mix0.5", action_weight=_w, mix=0.5)
+add("act3.0", action_weight=3.0)

@@ -30,7 +30,8 @@ from . import local_action, local_dtw, take
 from .local_dtw import dtw
 
 
-__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
+__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "ACTION_WEIGHT", "FREE",
+           "BAND",
            "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
            "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
            "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows", "first_stage", "dtw",
@@ -42,9 +43,10 @@ HOP = 0.25  # between windows, a fraction of the window
 DIM = 96  # numbers per window in the index
 SHORTLIST = 20  # clips the second stage re-ranks
 # the index's size: at most this many windows per scale (a longer hop beyond 20 s) and samples of the second stage's
-# sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 33 * 2 bytes = 43 KB per clip
+# sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 39 * 2 bytes = 46 KB per clip
 MAX_WINDOWS = 80
 MAX_SEQUENCE = 200
+ACTION_WEIGHT = 2.0  # weight of the action part (``local_action``: travel, heights, reach, limb speeds; issue 41)
 MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
 FREE = 0.15  # the second stage may leave out this fraction of either sequence at each end
 BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
@@ -66,7 +68,7 @@ _ORDER = tuple(_PARENTS)
 
 # changes when the features change for the same settings (e.g. the leg of a rig without a foot bone): stored
 # entries made by an older recipe are then computed again, never used
-RECIPE_VERSION = 3
+RECIPE_VERSION = 4
 
 
 class Settings:
@@ -75,7 +77,7 @@ class Settings:
     def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
                  turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
                  scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE,
-                 action_weight=0.0, active=0.0):
+                 action_weight=ACTION_WEIGHT, active=0.0):
         self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
@@ -85,10 +87,9 @@ class Settings:
         self.action_weight, self.active = float(action_weight), float(active)
 
     def key(self):
-        extra = (self.action_weight, self.active) if (self.action_weight or self.active) else ()
-        return extra + (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+        return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
-                self.global_weight, self.max_windows, self.max_sequence)
+                self.global_weight, self.max_windows, self.max_sequence, self.action_weight, self.active)
 
 
 DEFAULT = Settings()

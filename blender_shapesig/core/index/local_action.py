@@ -75,15 +75,3 @@ def active_rows(energy, share) -> np.ndarray:
         return np.ones(len(energy), bool)
     return energy >= share * energy.max() - 1e-12
 
-
-def window_weights(feat, settings, floor=0.05) -> np.ndarray:
-    """(windows,) each window's energy over the largest of its scale (at least ``floor``), in the rows' order of
-    ``local.window_vectors`` (without ``settings.active``): weights for a Chamfer mean by what happens."""
-    from .local import _windows
-
-    out = []
-    for window in settings.windows:
-        starts, w = _windows(len(feat["pose"]), float(feat["rate"]), window, settings.hop * window, settings.max_windows)
-        e = window_energy(feat, starts, w)
-        out.append(np.maximum(e / max(float(e.max()), 1e-9), floor))
-    return np.concatenate(out)
