@@ -117,3 +117,5 @@ for _w in (2.0, 3.0, 4.0):
     add(f"act{_w}_k10", action_weight=_w, shortlist=10)
     add(f"act{_w}_mix0.5", action_weight=_w, mix=0.5)
 add("act3.0", action_weight=3.0)
+add("act1.5", action_weight=1.5)
+add("act1.0", action_weight=1.0)

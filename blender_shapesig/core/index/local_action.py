@@ -1,7 +1,8 @@
 """What makes an action that action, for the local search's windows (issue 41): from the local features alone (the
 key points relative to the pelvis in the body's frame and the pelvis' path in the turning frame, ``local.features``),
 per window the pelvis' mean velocity (times ``TIME``) in the body's frame (forward, sideways, up: walking backward is not walking),
-the feet's height above the clip's ground (the lowest ankle over the clip: airborne phases, a lifted foot), the
+the feet's height above the clip's ground (the lower ankle's median height: airborne phases, a lifted foot; a
+clip's lowest ankle would move with a crop or one low frame), the
 pelvis' height above it and the wrists' reach from the shoulders; and each window's motion energy, so that the
 still windows around a short action can be left out (``active_rows``). Leg lengths and seconds, no rig or rate
 dependence beyond the features'. Measurements: experiments/local_search/RESULTS.md (issue 41)."""
@@ -22,8 +23,8 @@ _ARMS, _LEGS = (3, 4, 5, 6), (7, 8, 9, 10)
 
 def action_channels(feat) -> np.ndarray:
     """(T, 10): the pelvis' velocity in the body's frame (3, leg lengths per second), the two ankles' heights above
-    the clip's ground (2), the pelvis' height above it (1), how far the hands reach forward of the shoulders and up
-    above them (2, the further hand; forward is the direction of a forward walk in ``local.features``' frame, -y),
+    the clip's ground (2, the lower ankle's median height), the pelvis' height above it (1), how far the hands reach
+    forward of the shoulders and up above them (2, the further hand; forward is the direction of a forward walk in ``local.features``' frame, -y),
     and the mean speed of the arms' and of the legs' key points relative to the pelvis (2, leg lengths per second)."""
     pose = np.asarray(feat["pose"], float).reshape(len(feat["pose"]), -1, 3)
     motion = np.asarray(feat["motion"], float)
@@ -33,7 +34,7 @@ def action_channels(feat) -> np.ndarray:
     vel = grad(motion[:, :3])
     pz = motion[:, 2]
     ankles = pz[:, None] + pose[:, list(_ANKLE), 2]
-    ground = float(ankles.min()) if T else 0.0
+    ground = float(np.median(ankles.min(axis=1))) if T else 0.0  # where the lower foot is most of the time
     hands = pose[:, list(_WRIST)] - pose[:, list(_SHOULDER)]
     v = np.linalg.norm(grad(pose), axis=2)
     return np.column_stack([vel, ankles - ground, pz - ground, (-hands[..., 1]).max(axis=1), hands[..., 2].max(axis=1),

@@ -11,7 +11,8 @@ RATE = 30.0
 
 def _features(T=61, speed=0.0, lift=0.0):
     """A still standing pose (ankles 1 leg length below the pelvis) travelling ``speed`` leg lengths per second
-    along the body frame's second axis, the pelvis rising ``lift`` leg lengths in a half sine (feet with it)."""
+    along the body frame's second axis, the pelvis rising ``lift`` leg lengths in a half sine in the middle third
+    (feet with it)."""
     pose = np.zeros((T, len(local.POINTS), 3))
     pose[:, local.POINTS.index("ankle.L")] = (0.2, 0.0, -1.0)
     pose[:, local.POINTS.index("ankle.R")] = (-0.2, 0.0, -1.0)
@@ -22,7 +23,8 @@ def _features(T=61, speed=0.0, lift=0.0):
     t = np.arange(T) / RATE
     motion = np.zeros((T, 4))
     motion[:, 1] = speed * t
-    motion[:, 2] = lift * np.sin(np.pi * np.arange(T) / (T - 1))
+    third = T // 3  # standing, then a half sine up and down, then standing
+    motion[third:T - third, 2] = lift * np.sin(np.pi * np.arange(T - 2 * third) / (T - 2 * third - 1))
     return {"pose": pose.reshape(T, -1), "motion": motion, "rate": np.float64(RATE)}
 
 
