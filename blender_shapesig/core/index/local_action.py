@@ -14,6 +14,7 @@ __all__ = ["ACTION_PARTS", "TIME", "sequence_channels", "action_channels", "wind
 ACTION_PARTS = 10  # per window: velocity (3), feet heights (2), pelvis height (1), hands forward and up (2),
 # arms' and legs' speeds (2)
 
+GROUND = 50.0  # percentile of the lower ankle's height over the clip taken as its ground (50: the median)
 TIME = 0.25  # seconds: velocities enter as the distance travelled in this time (leg lengths, like the pose)
 
 # the key points' rows in ``local.POINTS`` order
@@ -34,7 +35,7 @@ def action_channels(feat) -> np.ndarray:
     vel = grad(motion[:, :3])
     pz = motion[:, 2]
     ankles = pz[:, None] + pose[:, list(_ANKLE), 2]
-    ground = float(np.median(ankles.min(axis=1))) if T else 0.0  # where the lower foot is most of the time
+    ground = float(np.percentile(ankles.min(axis=1), GROUND)) if T else 0.0
     hands = pose[:, list(_WRIST)] - pose[:, list(_SHOULDER)]
     v = np.linalg.norm(grad(pose), axis=2)
     return np.column_stack([vel, ankles - ground, pz - ground, (-hands[..., 1]).max(axis=1), hands[..., 2].max(axis=1),

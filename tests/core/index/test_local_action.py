@@ -1,6 +1,6 @@
 """The local search's action part (issue 41, ``core.index.local_action``): what it measures on features built here
 with known answers (a body rising off the ground, a walk forward and the same walk backward), and that the default
-recipe has it."""
+recipe's key does not change while it is off."""
 
 import numpy as np
 
@@ -65,5 +65,5 @@ def test_the_action_part_is_appended_to_the_windows():
     act = local.window_vectors(f, local.Settings(action_weight=2.0))
     assert act.shape == (len(base), base.shape[1] + local_action.ACTION_PARTS)
     assert np.array_equal(act[:, :base.shape[1]], base)
-    assert local.DEFAULT.action_weight == local.ACTION_WEIGHT > 0
-    assert local.Settings(action_weight=0.0).key() != local.DEFAULT.key()  # stored entries are made again
+    assert local.Settings(action_weight=2.0).key() != local.Settings(action_weight=0.0).key()  # stored apart
+    assert local.Settings(action_weight=0.0).key() == local.DEFAULT.key()  # off by default: stored entries kept
