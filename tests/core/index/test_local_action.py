@@ -67,3 +67,22 @@ def test_the_action_part_is_appended_to_the_windows():
     assert np.array_equal(act[:, :base.shape[1]], base)
     assert local.Settings(action_weight=2.0).key() != local.Settings(action_weight=0.0).key()  # stored apart
     assert local.Settings(action_weight=0.0).key() == local.DEFAULT.key()  # off by default: stored entries kept
+
+
+def test_a_library_file_keeps_each_entrys_sequence_width(tmp_path):
+    from blender_shapesig.core.index.local_library import open_library, write_library
+    from blender_shapesig.core.index.local_store import _meta
+
+    f = _features(speed=-1.0, lift=0.2)
+    narrow = dict(local.entry_from_features(f, local.Settings(action_weight=0.0)), name="narrow")
+    wide = dict(local.entry_from_features(f, local.Settings(action_weight=2.0)), name="wide")
+    width = 3 * len(local.POINTS)
+    assert narrow["sequence"].shape[1] == width and wide["sequence"].shape[1] == width + 6
+    fn = tmp_path / "pack.bin"
+    files = [(n, 1, 1, {"clips": [_meta(e)]}, [e]) for n, e in (("a.bvh", narrow), ("b.bvh", wide))]
+    with open(fn, "wb") as fh:
+        write_library(fh, files, "F")
+    lib = open_library(str(fn))
+    for (name, size, mtime, meta, rows), e in zip(lib.files, (narrow, wide)):
+        got = lib.entry(meta["clips"][0], rows[0])
+        assert np.array_equal(np.asarray(got["sequence"]), e["sequence"])
