@@ -100,7 +100,8 @@ def main(argv=None):
         for q, c in zip(queries, cands):
             d = np.array([ts_dtw(seqs[q], seqs[j]) for j in c])
             orders.append(np.asarray(c)[np.argsort(d, kind="stable")])
-        print(f"rigs DTW on the 11 key points' positions (tslearn, 30 Hz, no band): {fmt(per_class(orders, items, queries))}")
+        print(f"rigs DTW on the 11 key points' positions (tslearn, 30 Hz, no band): "
+              f"{fmt(per_class(orders, items, queries))}")
     for name in args.variants.split(","):
         settings, k, band, free, mix = vs.VARIANTS[name]
         E = vs.entries(feats, settings)

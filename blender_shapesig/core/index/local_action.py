@@ -1,15 +1,16 @@
-"""What makes an action that action, for the local search's windows (issue 41): from the local features alone (the
-key points relative to the pelvis in the body's frame and the pelvis' path in the turning frame, ``local.features``),
-per window the pelvis' mean velocity (times ``TIME``) in the body's frame (forward, sideways, up: walking backward is not walking),
-the feet's height above the clip's ground (the lower ankle's median height: airborne phases, a lifted foot; a
-clip's lowest ankle would move with a crop or one low frame), the
-pelvis' height above it and the wrists' reach from the shoulders; and each window's motion energy, so that the
-still windows around a short action can be left out (``active_rows``). Leg lengths and seconds, no rig or rate
-dependence beyond the features'. Measurements: experiments/local_search/RESULTS.md (issue 41)."""
+"""What makes an action that action, for the local search's windows (issue 41; an option, ``local.ACTION_WEIGHT``):
+from the local features alone (the key points relative to the pelvis in the body's frame and the pelvis' path in
+the turning frame, ``local.features``), per window the pelvis' mean velocity in the body's frame (walking backward
+is not walking), the feet's height above the clip's ground (the lower ankle's median height: airborne phases, a
+lifted foot; the clip's lowest ankle would move with a crop), the range of the pelvis' height, how far the hands
+reach forward and up, the limbs' speeds; and each window's motion energy, so that the still windows around a short
+action can be left out (``active_rows``). Leg lengths and seconds, no rig or rate dependence beyond the features'.
+Measurements: experiments/local_search/RESULTS.md (issue 41)."""
 
 import numpy as np
 
-__all__ = ["ACTION_PARTS", "TIME", "sequence_channels", "action_channels", "window_action", "window_energy", "active_rows"]
+__all__ = ["ACTION_PARTS", "GROUND", "TIME", "sequence_channels", "action_channels", "window_action", "window_energy",
+           "active_rows"]
 
 ACTION_PARTS = 10  # per window: velocity (3), feet heights (2), pelvis height (1), hands forward and up (2),
 # arms' and legs' speeds (2)
@@ -25,8 +26,9 @@ _ARMS, _LEGS = (3, 4, 5, 6), (7, 8, 9, 10)
 def action_channels(feat) -> np.ndarray:
     """(T, 10): the pelvis' velocity in the body's frame (3, leg lengths per second), the two ankles' heights above
     the clip's ground (2, the lower ankle's median height), the pelvis' height above it (1), how far the hands reach
-    forward of the shoulders and up above them (2, the further hand; forward is the direction of a forward walk in ``local.features``' frame, -y),
-    and the mean speed of the arms' and of the legs' key points relative to the pelvis (2, leg lengths per second)."""
+    forward of the shoulders and up above them (2, the further hand; forward: a forward walk's direction in
+    ``local.features``' frame, -y), and the mean speed of the arms' and of the legs' key points relative to the
+    pelvis (2, leg lengths per second)."""
     pose = np.asarray(feat["pose"], float).reshape(len(feat["pose"]), -1, 3)
     motion = np.asarray(feat["motion"], float)
     rate = float(feat["rate"])

@@ -139,7 +139,8 @@ class LibraryFile:
         A = self.arrays
         e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
              "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
-             "sequence": A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))], "path": A["paths"][k], "_rows": (id(self), w0, w1, k),
+             "sequence": A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))], "path": A["paths"][k],
+             "_rows": (id(self), w0, w1, k),
              **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
         if "takes" in A and A["take_masks"][k].any():
             e.update(take=A["takes"][k], take_mask=A["take_masks"][k], seconds=np.float32(m.get("seconds", 0.0)))
