@@ -15,6 +15,8 @@ def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **
 
 
 add("default")
+add("issue29", action_weight=0.0)  # = the default (no action part)
+add("action", action_weight=2.0)  # issue 41's action part at its chosen weight (= act2.0)
 add("raw", normalize="none")
 add("global2", global_weight=2.0)
 add("centered_global2", sequence="centered", global_weight=2.0)
@@ -92,3 +94,29 @@ def format_row(set_name, name, r):
     crop = " ".join(f"{k} {v[0]}->{v[1]}/{r['n']}" for k, v in c.items())
     return (f"{set_name:10s} {name:24s} stage1 1-NN {r['stage1'][0]:.3f} mAP {r['stage1'][1]:.3f} | two-stage "
             f"1-NN {r['two_stage'][0]:.3f} mAP {r['two_stage'][1]:.3f} | crops {crop} | {r['bytes'] / 1024:.1f} KB")
+
+# issue 41: the action part (local_action) and the active windows
+for _w in (0.25, 0.5, 1.0, 2.0):
+    add(f"act{_w}", action_weight=_w)
+for _a in (0.2, 0.35, 0.5):
+    add(f"active{_a}", active=_a)
+    for _w in (0.5, 1.0):
+        add(f"act{_w}_active{_a}", action_weight=_w, active=_a)
+for _w in (4.0, 8.0):
+    add(f"act{_w}", action_weight=_w)
+for _w in (1.0, 2.0, 4.0):
+    add(f"act{_w}_seqpose", action_weight=_w, sequence="pose_only")
+    add(f"act{_w}_mix2", action_weight=_w, mix=2.0)
+for _w in (4.0, 8.0):
+    for _a in (0.35, 0.5):
+        add(f"act{_w}_active{_a}", action_weight=_w, active=_a)
+# the first stage's Chamfer means weighted by the windows' energy (rigs.py only), floor after "wchamfer"
+for _w in (0.0, 2.0, 4.0):
+    for _f in (0.05, 0.2):
+        add(f"act{_w}_wchamfer{_f}", action_weight=_w)
+for _w in (2.0, 3.0, 4.0):
+    add(f"act{_w}_k10", action_weight=_w, shortlist=10)
+    add(f"act{_w}_mix0.5", action_weight=_w, mix=0.5)
+add("act3.0", action_weight=3.0)
+add("act1.5", action_weight=1.5)
+add("act1.0", action_weight=1.0)

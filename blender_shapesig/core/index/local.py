@@ -26,11 +26,12 @@ import numpy as np
 from ..blas import one_blas_thread
 from ..clip.clip import Clip
 from ..errors import ShapeSigError
-from . import local_dtw, take
+from . import local_action, local_dtw, take
 from .local_dtw import dtw
 
 
-__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "FREE", "BAND",
+__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "ACTION_WEIGHT", "FREE",
+           "BAND",
            "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
            "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
            "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows", "first_stage", "dtw",
@@ -42,9 +43,14 @@ HOP = 0.25  # between windows, a fraction of the window
 DIM = 96  # numbers per window in the index
 SHORTLIST = 20  # clips the second stage re-ranks
 # the index's size: at most this many windows per scale (a longer hop beyond 20 s) and samples of the second stage's
-# sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 33 * 2 bytes = 43 KB per clip
+# sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 33 * 2 bytes = 43 KB per clip (39 columns, 46 KB,
+# with the action part)
 MAX_WINDOWS = 80
 MAX_SEQUENCE = 200
+# weight of the action part (``local_action``: travel, heights, reach, limb speeds; issue 41). Off by default: at 2
+# it raises the rig set from 30 to 35 of 51, HDM05's mAP to 0.983 and cmu_large to 49/49, but one crop probe of
+# cmu_mixed_format flips to the same take's other file at a tie (experiments/local_search/RESULTS.md)
+ACTION_WEIGHT = 0.0
 MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
 FREE = 0.15  # the second stage may leave out this fraction of either sequence at each end
 BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
@@ -74,17 +80,21 @@ class Settings:
 
     def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
                  turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
-                 scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE):
+                 scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE,
+                 action_weight=ACTION_WEIGHT, active=0.0):
         self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
         self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
         self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
+        # issue 41 (``local_action``): the action part's weight, the share of the largest window energy kept
+        self.action_weight, self.active = float(action_weight), float(active)
 
     def key(self):
+        extra = (self.action_weight, self.active) if (self.action_weight or self.active) else ()
         return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
-                self.global_weight, self.max_windows, self.max_sequence)
+                self.global_weight, self.max_windows, self.max_sequence) + extra
 
 
 DEFAULT = Settings()
@@ -296,6 +306,7 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
     motion[:, 3] *= settings.turn_weight
     X = np.column_stack([pose, motion])
     cP = np.concatenate([np.zeros((1, pose.shape[1])), np.cumsum(pose, axis=0)])
+    act = local_action.action_channels(feat) if settings.action_weight else None
     out = []
     for k, window in enumerate(settings.windows):
         starts, w = _windows(len(X), float(feat["rate"]), window, settings.hop * window, settings.max_windows)
@@ -310,8 +321,13 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
             lvl2 = _unit_rows(lvl2, 0.25)
         scale = np.zeros((len(starts), len(settings.windows)))
         scale[:, k] = settings.scale_weight
-        out.append(np.column_stack([settings.pose_weight * base, settings.motion_weight * lvl1,
-                                    settings.motion_weight * lvl2, scale]))
+        parts = [settings.pose_weight * base, settings.motion_weight * lvl1, settings.motion_weight * lvl2, scale]
+        if act is not None:
+            parts.append(settings.action_weight * local_action.window_action(act, starts, w))
+        V = np.column_stack(parts)
+        if settings.active:
+            V = V[local_action.active_rows(local_action.window_energy(feat, starts, w), settings.active)]
+        out.append(V)
     return np.concatenate(out)
 
 
@@ -330,6 +346,8 @@ def _sequence(feat, settings):
     seq = feat["pose"]
     if settings.sequence == "centered":
         seq = seq - seq.mean(axis=0)
+    if settings.action_weight and settings.sequence != "pose_only":
+        seq = np.column_stack([seq, settings.action_weight * local_action.sequence_channels(feat)])
     if settings.velocity_weight:
         vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
         seq = np.column_stack([seq, settings.velocity_weight * vel])

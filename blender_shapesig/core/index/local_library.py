@@ -24,7 +24,7 @@ MAGIC = b"SHAPESIG-LPACK3\n"
 _READABLE = (MAGIC, b"SHAPESIG-LPACK2\n")  # version 2 kept each clip's joint lists in place (read as they are)
 COARSE = 4  # windows of each clip kept for the prefilter (evenly spaced over its windows, both scales)
 _ALIGN = 64
-_SEQ_DIM = 3 * len(local.POINTS)
+_SEQ_DIM = 3 * len(local.POINTS)  # an entry's sequence's width when its clip's meta does not say (older recipes)
 
 # an entry's joints (the clip's bones), still joints and the canonical joints its rig has: its rows' coverage
 JOINT_LISTS = ("joints", "still", "rig_joints")
@@ -71,7 +71,9 @@ def write_library(f, files, fmt):
         index.append([name, int(size), int(mtime), meta, r])
         rows.append(r)
     dim = local.DIM
-    specs = [("windows", np.float16, (nw, dim)), ("norms", np.float32, (nw,)), ("sequences", np.float16, (nq, _SEQ_DIM)),
+    # one width for every entry's sequence (recipes differ: the narrower are padded, read back at their width)
+    width = max([np.shape(e["sequence"])[1] for f in files for e in f[4] if not e.get("refused")] + [_SEQ_DIM])
+    specs = [("windows", np.float16, (nw, dim)), ("norms", np.float32, (nw,)), ("sequences", np.float16, (nq, width)),
              ("paths", np.float32, (nc, 10)), ("coarse", np.float32, (nc, COARSE, dim)),
              ("takes", np.float32, (nc, take.DIM)), ("take_masks", np.uint8, (nc, len(take.JOINTS)))]
     # the header's size must be known before the offsets: lay the arrays out after a generous estimate
@@ -105,7 +107,8 @@ def write_library(f, files, fmt):
 
     put("windows", (np.asarray(e["windows"], np.float16) for e in each()))
     put("norms", (np.square(np.asarray(e["windows"], np.float32)).sum(1) for e in each()))
-    put("sequences", (np.asarray(e["sequence"], np.float16) for e in each()))
+    put("sequences", (np.pad(np.asarray(e["sequence"], np.float16), ((0, 0), (0, width - np.shape(e["sequence"])[1])))
+                      for e in each()))
     put("paths", (np.asarray(e["path"], np.float32).reshape(10) for e in each()))
     put("coarse", (coarse_windows(e["windows"]) for e in each()))
     # an entry made before the whole take was stored (an older recipe's, kept in the pack until its file goes) has
@@ -136,7 +139,8 @@ class LibraryFile:
         A = self.arrays
         e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
              "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
-             "sequence": A["sequences"][q0:q1], "path": A["paths"][k], "_rows": (id(self), w0, w1, k),
+             "sequence": A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))], "path": A["paths"][k],
+             "_rows": (id(self), w0, w1, k),
              **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
         if "takes" in A and A["take_masks"][k].any():
             e.update(take=A["takes"][k], take_mask=A["take_masks"][k], seconds=np.float32(m.get("seconds", 0.0)))

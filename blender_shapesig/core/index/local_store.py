@@ -36,7 +36,8 @@ def hashed_name(text: str) -> str:
 def _meta(e):
     return {"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
             "bones": int(e.get("bones", 0)), "trimmed": list(e.get("trimmed", ())),
-            "seconds": float(e.get("seconds", 0.0)), **{k: list(e.get(k, ())) for k in _JOINT_LISTS}}
+            "seconds": float(e.get("seconds", 0.0)), **{k: list(e.get(k, ())) for k in _JOINT_LISTS},
+            **({"seq_dim": int(np.shape(e["sequence"])[1])} if "sequence" in e else {})}
 
 
 # an entry's arrays (``local.index_entry``) and their types on disk (an older recipe's entries have no take)
