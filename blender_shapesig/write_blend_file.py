@@ -75,7 +75,7 @@ def source_armature(spec: ClipSpec):
         arm, _actions = import_acclaim(bpy.context, spec.skeleton(), [spec.path])
     else:
         raise ShapeSigError(f"{spec.path}: a {spec.ext} clip has no armature to carry the result: give a .bvh, "
-                            f".amc, .fbx, .glb or .blend clip first, or write --out FILE.bvh")
+                            f".amc, .fbx, .glb or .blend clip first, or write the result as BVH")
     ad = arm.animation_data
     if ad is not None and ad.action is not None:
         old = ad.action

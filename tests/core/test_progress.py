@@ -247,5 +247,5 @@ def test_command_line_draws_its_bars_through_the_adapter(data_dir, tmp_path, cap
     err = capsys.readouterr().err
     assert code == 0 and "loading" in err and "matrix" in err
     code = cli.main(["matrix", *bvh, "--metric", "sim2", "--out", str(tmp_path), "--no-figures", "--workers", "1",
-                     "--end", "60", "--no-progress"])
+                     "--end", "60", "--no-progress", "--overwrite"])  # the same --out again: its files are replaced
     assert code == 0 and "loading" not in capsys.readouterr().err
