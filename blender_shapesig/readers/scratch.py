@@ -85,8 +85,10 @@ def scratch_scene(name="shapesig_import"):
     old_scene = window.scene if window is not None else None
     old_selected, old_active = None, None
     if window is None:
-        old_selected = [o for o in bpy.context.scene.objects if o.select_get()]
-        old_active = bpy.context.view_layer.objects.active
+        # names, not references: nothing held across the import can dangle (a freed struct crashes 4.2's bpy)
+        old_selected = [o.name for o in bpy.context.scene.objects if o.select_get()]
+        active = bpy.context.view_layer.objects.active
+        old_active = active.name if active is not None else None
         render = bpy.context.scene.render
         old_rate = (render.fps, render.fps_base)
     try:
@@ -98,10 +100,14 @@ def scratch_scene(name="shapesig_import"):
             window.scene = old_scene
         remove_new_ids(before)
         if old_selected is not None:
+            scene = bpy.context.scene
             with contextlib.suppress(ReferenceError, RuntimeError):
-                render.fps, render.fps_base = old_rate
-            for o in old_selected:
-                with contextlib.suppress(ReferenceError, RuntimeError):
-                    o.select_set(True)
+                scene.render.fps, scene.render.fps_base = old_rate
+            objects = scene.objects
+            for name in old_selected:
+                o = objects.get(name)
+                if o is not None:
+                    with contextlib.suppress(ReferenceError, RuntimeError):
+                        o.select_set(True)
             with contextlib.suppress(ReferenceError, RuntimeError):
-                bpy.context.view_layer.objects.active = old_active
+                bpy.context.view_layer.objects.active = objects.get(old_active) if old_active else None
