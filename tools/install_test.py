@@ -549,11 +549,15 @@ def run_operators(bpy, ck: Checks, work: Path, allow_missing: bool) -> None:
     new = [x for x in bpy.data.actions if x not in acts_before]
     fn = _frames(new[0]) if len(new) == 1 else None
     current = obj.animation_data.action if obj.animation_data else None
+    # the blend is keyed at the scene's rate: its length lies between the sources' durations in scene frames
+    scene_fps = bpy.context.scene.render.fps / bpy.context.scene.render.fps_base
+    span = [(f - 1) / float(x.get("shapesig_fps", scene_fps)) * scene_fps + 1 for f, x in ((fa, a), (fb, b))]
     ck.add("shapesig.blend_actions", result == {"FINISHED"} and len(new) == 1 and fn is not None
-           and min(fa, fb) - 1 <= fn <= max(fa, fb) + 1 and current == new[0]
+           and min(span) - 1 <= fn <= max(span) + 1 and current == new[0]
            and _frames(a) == fa and _frames(b) == fb,
-           f"{result}, new {[x.name for x in new]} with {fn} frames (A {fa}, B {fb}), assigned "
-           f"{current.name if current else None}, in {ck.timings['blend_actions']:.1f}s")
+           f"{result}, new {[x.name for x in new]} with {fn} frames at {scene_fps:g} fps (A {fa}, B {fb} at their "
+           f"rates: {span[0]:.1f} and {span[1]:.1f} scene frames), assigned {current.name if current else None}, "
+           f"in {ck.timings['blend_actions']:.1f}s")
 
 
 def search_ops(bpy, ck: Checks, work: Path, missing: list[str]) -> None:
