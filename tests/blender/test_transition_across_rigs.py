@@ -1,6 +1,6 @@
 """shapesig.transition across rigs and rates in a 24 fps scene: a CMU ASF/AMC walk imported by the add-on's
 importer hands over to a Character Creator run (BVH, 60 fps) on an armature turned as Blender's FBX importer leaves
-Mixamo characters (``test_scene_world.turned``). Measured with Blender's own evaluation (pose heads in the world by
+Mixamo characters (``turned_characters.turned``). Measured with Blender's own evaluation (pose heads in the world by
 ``scene.frame_set``): the new action plays the joined clip's true duration at the scene's rate, its root does not
 snap at either seam, the sources are unchanged, one undo step takes it all back, and a fresh Blender process that
 reopens the saved file evaluates the same world motion."""
@@ -16,23 +16,17 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
+from blender_shapesig.action_hashes import action_hash  # noqa: E402
+
 from blender_shapesig import compat, transitions  # noqa: E402
-from tests.blender.test_scene_world import turned, world_heads  # noqa: E402
+from turned_characters import turned, world_heads  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
 FRAMES = 12  # generated frames, at A's rate
 
 
 def _hashes():
-    out = {}
-    for act in bpy.data.actions:
-        parts = []
-        for fc in sorted(compat.all_action_fcurves(act), key=lambda f: (f.data_path, f.array_index)):
-            co = np.empty(2 * len(fc.keyframe_points), dtype=np.float32)
-            fc.keyframe_points.foreach_get("co", co)
-            parts.append((fc.data_path, fc.array_index, co.tobytes()))
-        out[act.name] = hash(tuple(parts))
-    return out
+    return {act.name: action_hash(act) for act in bpy.data.actions}
 
 
 def _root_path(arm, action):

@@ -16,7 +16,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig.action_hashes import action_hash  # noqa: E402
+
+from blender_shapesig import action_io  # noqa: E402
 from blender_shapesig.core.blend.transition import transition  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
@@ -44,15 +46,7 @@ def rig(empty_file):
 
 
 def _hashes():
-    out = {}
-    for act in bpy.data.actions:
-        parts = []
-        for fc in sorted(compat.all_action_fcurves(act), key=lambda f: (f.data_path, f.array_index)):
-            co = np.empty(2 * len(fc.keyframe_points), dtype=np.float32)
-            fc.keyframe_points.foreach_get("co", co)
-            parts.append((fc.data_path, fc.array_index, co.tobytes()))
-        out[act.name] = hash(tuple(parts))
-    return out
+    return {act.name: action_hash(act) for act in bpy.data.actions}
 
 
 def _read(name, arm):
