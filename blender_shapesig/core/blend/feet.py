@@ -21,7 +21,8 @@ from ..clip.skeleton import (
 
 __all__ = ["FEET_MODES", "lock_feet", "find_contacts", "legs_of", "source_times", "blend_contacts", "intervals",
            "stance_drift", "source_drifts", "rotation_steps", "feet_positions", "CONTACT_HEIGHT", "CONTACT_SPEED", "MIN_CONTACT", "MIN_GAP", "RAMP",
-           "SOFT_REACH", "FADE_REACH", "MAX_LOWER", "POINTS"]
+           "SOFT_REACH", "FADE_REACH", "MAX_LOWER", "POINTS",
+           "FLOOR_TOLERANCE", "MAX_PITCH"]
 
 FEET_MODES = ("lock", "none")
 POINTS = ("heel", "ball")
@@ -36,6 +37,9 @@ MAX_LOWER = 0.08        # the root goes down at most this fraction of the leg (b
 SOFT_REACH = 0.97       # a leg stretched beyond this fraction (and beyond its blended stretch) straightens softly
 FADE_REACH = 1.0        # a lock asking more of the leg than this fraction (and than its blended stretch) fades out
 FADE_SPAN = 0.08        # ... over this fraction of the leg
+FLOOR_TOLERANCE = 0.005  # m: a foot point or toe tip may dip this far below the lowest of the rig's own sources
+MAX_PITCH = np.radians(60.0)  # a foot or toe flexes at most this much to stay above the floor
+MIN_ACROSS = 0.4         # ... and only if its rest direction is at least ~24 degrees off the vertical
 
 
 # ------------------------------------------------------------------------------------------------ legs
@@ -269,9 +273,10 @@ class _Source:
 
     def __init__(self, clip, times):
         self.clip, self.legs = clip, legs_of(clip)
-        rest = rest_of(clip)
+        self.rest = rest = rest_of(clip)
         fk = forward_kinematics(clip, rest)
         self.pos = feet_positions(clip, self.legs, fk)
+        self.tails = fk[1]
         self.contacts = find_contacts(clip, self.legs, fk)
         self.unit = unit_meters(clip, [(t, f) for t, _s, f in self.legs.values()])
         self.up = up_vector(clip)
@@ -444,12 +449,17 @@ def lock_feet(blend, sources):
             lowered = np.maximum(_smooth_max(need, work.fps), need)
             root = root - np.outer(lowered, up)
             heads = heads - np.outer(lowered, up)[:, None]
-    for side in desired:
-        fade = _reach_fade(heads[:, legs[side][0]], desired[side], pos[side]["heel"] - np.outer(lowered, up),
-                           lengths[side], work.fps)
+    floors = _floors(work, srcs, rest, legs, up)
+    for side in legs:
         target = pos[side]["heel"] - np.outer(lowered, up)
-        target = target + fade[:, None] * (desired[side] - target)
-        _ik_leg(X, W, heads, rest, legs[side], target)
+        if side in desired:
+            fade = _reach_fade(heads[:, legs[side][0]], desired[side], target, lengths[side], work.fps)
+            target = target + fade[:, None] * (desired[side] - target)
+        floor = floors.get(side)
+        if floor is not None:
+            target = target + np.outer(np.maximum(floor["heel"] - target @ up, 0.0), up)
+        if side in desired or floor is not None:
+            _ik_leg(X, W, heads, rest, legs[side], target, up, floor, work.fps)
     rotations = from_aligned(work, X)
     rt = work.root_translation if root is None else root_translation_from_heads(work, rest, root)
     out = replace(blend, rotations=rotations, root_translation=rt)
@@ -459,9 +469,54 @@ def lock_feet(blend, sources):
     return out, report
 
 
-def _ik_leg(X, W, heads, rest, leg, target):
+def _floors(work, srcs, rest, legs, up):
+    """``{side: {"heel": h, "ball": h, "toes": {bone: h}}}``: the lowest height (along ``up``, in the blend's
+    units) of each foot point, and of the tail of each bone under the foot (toes), over the sources on the blend's
+    own skeleton (the first source always is): a blend written onto that rig keeps its feet above them (a blend
+    across rigs otherwise brings the other rig's lower ankle and foot pitch)."""
+    same = [s for s in srcs if s.clip.bones == work.bones and s.rest.heads.shape == rest.heads.shape
+            and np.allclose(s.rest.heads, rest.heads, atol=1e-6 * (1.0 + np.abs(rest.heads).max()))]
+    out = {}
+    for side in set(legs).intersection(*(set(s.pos) for s in same)) if same else ():
+        foot = legs[side][2]
+        tol = FLOOR_TOLERANCE / srcs[0].unit
+        out[side] = {p: min(float((s.pos[side][p] @ up).min()) for s in same) - tol for p in POINTS}
+        out[side]["toes"] = {int(c): min(float((s.tails[:, c] @ up).min()) for s in same) - tol
+                             for c in np.flatnonzero(rest.ancestor == foot)}
+    return out
+
+
+def _pitch_to_floor(Wf, head, bone, up, floor, fps):
+    """A bone's world rotations (frames, 3, 3) pitched up about its head, so its tail (``head + Wf bone``) stays
+    no lower than ``floor`` along ``up`` (as far as it can): per frame the least flexing turn that lifts the tail to
+    the floor, about the bone's own across-axis (rest direction x up, turned with the bone: it stays defined when
+    the bone points down), eased over RAMP (``_smooth_max``) so the correction fades in and out without a step."""
+    v = np.einsum("fij,j->fi", Wf, bone)
+    want = floor - head @ up
+    if not (v @ up < want - 1e-9).any():
+        return Wf
+    across = np.cross(bone, up)
+    if np.linalg.norm(across) < MIN_ACROSS * max(np.linalg.norm(bone), 1e-12):
+        return Wf  # a bone (nearly) upright at rest: its tail is no toe (an importer's made-up tail), no pitch axis
+    axis = np.einsum("fij,j->fi", Wf, across / np.linalg.norm(across))
+    # the tail's height after a turn by t about the axis: c0 + A cos t + B sin t = c0 + R cos(t - phi)
+    along = np.sum(axis * v, axis=1)
+    c0 = along * (axis @ up)
+    A = (v - along[:, None] * axis) @ up
+    B = np.cross(axis, v) @ up
+    R, phi = np.hypot(A, B), np.arctan2(B, A)
+    # the first turn (flexing up, t >= 0) at which the tail reaches the floor; the highest it can go if it cannot
+    x = np.arccos(np.clip((want - c0) / np.maximum(R, 1e-12), -1.0, 1.0))
+    need = np.minimum(np.mod(phi - x, 2 * np.pi), np.mod(phi + x, 2 * np.pi))
+    need = np.minimum(np.where(v @ up < want, need, 0.0), MAX_PITCH)
+    need = np.maximum(_smooth_max(need, fps), need)
+    return so3.exp(axis * need[:, None]) @ Wf
+
+
+def _ik_leg(X, W, heads, rest, leg, target, up=None, floor=None, fps=None):
     """Two-bone IK in place on X (world-aligned local rotations): thigh and shin turned so that the ankle reaches
-    ``target`` with the knee in the plane of the blended leg; the foot keeps its world rotation."""
+    ``target`` with the knee in the plane of the blended leg; the foot keeps its world rotation, pitched up where
+    its tail, or a toe's, would go below its ``floor`` (``_floors``, along ``up``; ``_pitch_to_floor``)."""
     thigh, shin, foot = leg
     hip, knee, ankle = heads[:, thigh], heads[:, shin], heads[:, foot]
     l1 = np.linalg.norm(rest.heads[shin] - rest.heads[thigh])
@@ -479,7 +534,15 @@ def _ik_leg(X, W, heads, rest, leg, target):
     new_shin_parent = Rt @ W[:, rest.ancestor[shin]]
     new_foot_parent = Rs @ Rt @ W[:, rest.ancestor[foot]]
     X[:, shin] = np.swapaxes(new_shin_parent, -1, -2) @ Ws
-    X[:, foot] = np.swapaxes(new_foot_parent, -1, -2) @ W[:, foot]
+    Wf = W[:, foot]
+    if floor is not None:
+        reached = new_knee + np.einsum("fij,fj->fi", Rs @ Rt, ankle - knee)
+        Wf = _pitch_to_floor(Wf, reached, rest.tails[foot] - rest.heads[foot], up, floor["ball"], fps)
+        for toe, low in floor["toes"].items():
+            head = reached + np.einsum("fij,j->fi", Wf, rest.heads[toe] - rest.heads[foot])
+            Wt = _pitch_to_floor(Wf @ X[:, toe], head, rest.tails[toe] - rest.heads[toe], up, low, fps)
+            X[:, toe] = np.swapaxes(Wf, -1, -2) @ Wt
+    X[:, foot] = np.swapaxes(new_foot_parent, -1, -2) @ Wf
 
 
 def _report(work, srcs, contacts, before, after, unit, lowered):

@@ -1,6 +1,7 @@
 """core.clip.skeleton forward kinematics and core.blend.feet (planted feet) on real CMU clips from tests/data."""
 
 import pathlib
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from blender_shapesig.core.io.acclaim import ASF_TO_BLENDER, forward_kinematics 
 from blender_shapesig.core.io.amc import parse_amc
 from blender_shapesig.core.io.asf import parse_asf
 from blender_shapesig.core.io.bvh import load_bvh
-from blender_shapesig.core.clip.skeleton import forward_kinematics, unit_meters
+from blender_shapesig.core.clip.skeleton import forward_kinematics, rest_of, unit_meters
 
 ACC = pathlib.Path(__file__).resolve().parents[2] / "data" / "acclaim"
 BVH = pathlib.Path(__file__).resolve().parents[2] / "data" / "bvh"
@@ -71,9 +72,11 @@ def test_lock_reduces_stance_drift_and_leaves_the_rest():
     before, after = _drifts(report, "drift_before"), _drifts(report, "drift_after")
     assert np.median(after) < 0.5 * np.median(before)
     assert max(after) < max(before)
-    # only the legs and the root height change
+    # only the legs (with the toes under each foot) and the root height change
     legs = feet.legs_of(a)
-    leg_bones = sorted({j for leg in legs.values() for j in leg})
+    rest = rest_of(a)
+    toes = {int(c) for leg in legs.values() for c in np.flatnonzero(rest.ancestor == leg[2])}
+    leg_bones = sorted({j for leg in legs.values() for j in leg} | toes)
     others = [j for j in range(len(a.bones)) if j not in leg_bones]
     assert np.array_equal(out.rotations[:, others], blend.rotations[:, others])
     moved = out.root_translation - blend.root_translation
@@ -254,3 +257,37 @@ def test_reach_fade_lets_go_beyond_the_leg():
     fade = feet._reach_fade(hip, desired, current, 0.9, 120.0)
     assert np.allclose(fade[:5], 1.0) and np.allclose(fade[-5:], 0.0)
     assert np.abs(np.diff(fade)).max() < 0.2  # eased over several frames
+
+
+def test_lock_keeps_feet_and_toes_above_the_floor_of_the_rigs_own_sources():
+    """A blend written onto A's rig whose feet sink (the root 5 cm lower and both feet pitched 25 degrees toes-down,
+    as a blend with a rig of lower ankles brings): after the lock no ankle, ball or toe tip is lower than the
+    lowest of A's own (forward kinematics, independent of the lock), within FLOOR_TOLERANCE; no bone steps faster
+    than the blend's own + 5 degrees (the corrections ease in and out)."""
+    from blender_shapesig.core.geometry import so3
+
+    a, b = walk(), run()
+    blend = blend_clips(a, b, 0.25, align=True)
+    legs = feet.legs_of(a)
+    rest = rest_of(a)
+    up = np.array([0.0, 0.0, 1.0])
+    R = blend.rotations.copy()
+    for _thigh, _shin, foot in legs.values():
+        across = np.cross(rest.tails[foot] - rest.heads[foot], up)
+        across /= np.linalg.norm(across)
+        R[:, foot] = so3.exp(-np.radians(25.0) * across) @ R[:, foot]  # toes down, in the foot's own frame
+    sunk = replace(blend, rotations=R, root_translation=blend.root_translation - 0.05 * up)
+    points = sorted({f for _t, _s, f in legs.values()}
+                    | {int(c) for leg in legs.values() for c in np.flatnonzero(rest.ancestor == leg[2])})
+
+    def lowest(clip):  # per bone of `points`: the lowest of its head and tail
+        heads, tails, _W = forward_kinematics(feet._working_clip(clip, [a, b]))
+        return np.minimum(heads[:, points, 2], tails[:, points, 2]).min(axis=0)
+
+    floor = lowest(a)
+    assert (lowest(sunk) < floor - 0.03).any()  # the sunk blend goes through the floor
+    out, _report = feet.lock_feet(sunk, [a, b])
+    assert (lowest(out) >= floor - feet.FLOOR_TOLERANCE - 1e-6).all(), (lowest(out) - floor)
+    step = so3.angle(out.rotations[1:] @ np.swapaxes(out.rotations[:-1], -1, -2)).max()
+    own = so3.angle(sunk.rotations[1:] @ np.swapaxes(sunk.rotations[:-1], -1, -2)).max()
+    assert np.degrees(step) <= np.degrees(own) + 5.0
