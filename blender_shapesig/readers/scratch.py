@@ -75,22 +75,33 @@ def quiet_fds():
                 os.close(copy)
 
 
+# what a new scene has and importers read or change (the glTF importer reads the rate and first frame, the FBX
+# importer sets the rate, the BVH importer may extend the last frame)
+_FRESH = {"fps": 24, "fps_base": 1.0, "frame_start": 1}
+
+
 @contextlib.contextmanager
 def scratch_scene(name="shapesig_import"):
-    """Import into a new scene (with a window), else into the current one with its selection, active object and
-    frame rate restored (importers set the scene's rate); every data-block created meanwhile is removed at the
-    end."""
+    """Import into a new scene shown in the window (Blender with its interface), else -- in the background, where
+    Blender never processes the window's notifiers (each scene switch queues one; Blender 4.2 crashed after
+    hundreds) -- into the current one, set to a new scene's rate and first frame, its selection, active object,
+    rate and frame range restored afterwards; every data-block created meanwhile is removed at the end."""
     before = id_snapshot()
     window = getattr(bpy.context, "window", None)
+    if bpy.app.background:
+        window = None
     old_scene = window.scene if window is not None else None
     old_selected, old_active = None, None
     if window is None:
         # names, not references: nothing held across the import can dangle (a freed struct crashes 4.2's bpy)
-        old_selected = [o.name for o in bpy.context.scene.objects if o.select_get()]
+        scene = bpy.context.scene
+        old_selected = [o.name for o in scene.objects if o.select_get()]
         active = bpy.context.view_layer.objects.active
         old_active = active.name if active is not None else None
-        render = bpy.context.scene.render
-        old_rate = (render.fps, render.fps_base)
+        old_state = (scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end,
+                     scene.frame_current)
+        scene.render.fps, scene.render.fps_base = _FRESH["fps"], _FRESH["fps_base"]
+        scene.frame_start = _FRESH["frame_start"]
     try:
         if window is not None:
             window.scene = bpy.data.scenes.new(name)
@@ -102,7 +113,10 @@ def scratch_scene(name="shapesig_import"):
         if old_selected is not None:
             scene = bpy.context.scene
             with contextlib.suppress(ReferenceError, RuntimeError):
-                scene.render.fps, scene.render.fps_base = old_rate
+                scene.render.fps, scene.render.fps_base = old_state[:2]
+                scene.frame_start, scene.frame_end = old_state[2:4]
+                if scene.frame_current != old_state[4]:
+                    scene.frame_set(old_state[4])
             objects = scene.objects
             for name in old_selected:
                 o = objects.get(name)

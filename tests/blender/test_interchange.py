@@ -237,6 +237,45 @@ def test_reading_leaves_the_open_file_as_it_was(files):
     assert os.path.isfile(files / "walk.glb")
 
 
+def test_reading_into_a_users_scene_reads_the_same_and_restores_it(files):
+    """In the background (the bpy module, a script) the readers import into the open scene, not a new one (a
+    scene switch per file queues a window notifier Blender never processes there; 4.2 crashed after hundreds):
+    no scene is made, the scene's rate, frame range, current frame, selection and active object are as they were,
+    and the clips equal those read in a fresh file (the importers see a new scene's rate and first frame)."""
+    from blender_shapesig.readers.bvh import import_bvh
+    from blender_shapesig.readers.interchange import read_interchange_here
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    fresh = read_interchange_here(str(files / "walk.glb")) + read_interchange_here(str(files / "walk.fbx"))
+    fresh.append(import_bvh(BVH))
+    scene = bpy.context.scene
+    scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end = 30, 1.001, 10, 50
+    scene.frame_set(17)
+    users = [bpy.data.objects.new(n, None) for n in ("Picked", "Other")]
+    for o in users:
+        scene.collection.objects.link(o)
+    users[0].select_set(True)
+    bpy.context.view_layer.objects.active = users[0]
+    scenes = len(bpy.data.scenes)
+    seen = []
+    bpy.app.handlers.depsgraph_update_post.append(lambda sc, _dg: seen.append(len(bpy.data.scenes)))
+    try:
+        got = read_interchange_here(str(files / "walk.glb")) + read_interchange_here(str(files / "walk.fbx"))
+        got.append(import_bvh(BVH))
+    finally:
+        bpy.app.handlers.depsgraph_update_post.clear()
+    assert max(seen, default=scenes) == scenes == len(bpy.data.scenes)
+    assert (scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end, scene.frame_current) == \
+        (30, pytest.approx(1.001), 10, 50, 17)
+    assert [o.name for o in scene.objects if o.select_get()] == ["Picked"]
+    assert bpy.context.view_layer.objects.active.name == "Picked" and len(bpy.data.objects) == 2
+    assert [c.name for c in got] == [c.name for c in fresh]
+    for a, b in zip(got, fresh):
+        assert a.fps == b.fps and a.bones == b.bones
+        np.testing.assert_allclose(a.rotations, b.rotations, atol=1e-9)
+        np.testing.assert_allclose(a.root_translation, b.root_translation, atol=1e-9)
+
+
 def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, empty_file, tmp_path, monkeypatch):
     """Find Similar with a clip folder of an FBX and a GLB (three clips): indexed step by step (the modal job's
     progress), every clip ranked, one child start-up for the folder."""
