@@ -20,6 +20,7 @@ import bpy
 from . import action_changes, action_io, compat, frame_rates, rigmap, scene_motion, thumbnails
 from .core import index
 from .core.io import sources
+from .core.index.local_rank import local_entries
 from .core.index.windows import rank_windows
 from .core.measure_words import OPTIONS
 from .core.metrics import LOCAL
@@ -558,11 +559,14 @@ class RankJob:
         if item is not self.query:
             self.items.append(item)
         # the local search needs its own entries only (a clip its features refuse gets its signature entries when
-        # ranked): one check in memory instead of a file check per action and click
+        # ranked), as the command line's rank: one check in memory instead of a file check per action and click
         if self.settings.use_windows or (self.cache.contains_local(item.key) if self.local
                                          else indexed(self.cache, item.key, self.level, False)):
             return
-        _item, entries = next(index.iter_entries([item], self.level, self.cache, self.errors, local=self.local))
+        if self.local:  # what the command line's rank stores: the local entries only
+            entries = local_entries([item], self.cache, errors=self.errors)
+        else:
+            _item, entries = next(index.iter_entries([item], self.level, self.cache, self.errors))
         if entries:
             self.indexed += 1
         else:
@@ -623,8 +627,9 @@ class RankJob:
 
     def store(self):
         """Write the rows and the status message; returns the message."""
-        entries = self.cache.get(self.query.key, self.level) or []
-        q_bones = len(entries[0].bones) if entries else 0
+        # the query's joints (the local search stores no signature entry: then its clip's bones)
+        entries = None if self.local else self.cache.get(self.query.key, self.level)
+        q_bones = len(entries[0].bones) if entries else len(self.query.clips()[0].bones)
         column = self.order_by  # "sim", "elastic" or "local": the measure's key (core.measure_words)
         store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)

@@ -430,3 +430,46 @@ def test_action_items_have_typed_keys_and_poll_owns_preconditions(rig):
     s.use_frame_range = False
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     assert bpy.ops.shapesig.assign_result.poll() and bpy.context.window_manager.shapesig_results.results[0].is_action
+
+
+def _stored_kinds(folder):
+    """{"local": n, "signature": n} of the entry files of a store's folder (their meta: a local entry names its
+    feature settings, a signature entry its level)."""
+    import json
+    from collections import Counter
+
+    kinds = Counter()
+    for name in os.listdir(folder):
+        if name.endswith(".npz"):
+            with np.load(os.path.join(folder, name), allow_pickle=False) as z:
+                meta = json.loads(bytes(z["meta"]).decode("utf-8"))
+            kinds["local" if "settings" in meta else "signature" if "level" in meta else "other"] += 1
+    return dict(kinds)
+
+
+def test_find_similar_stores_what_the_command_lines_rank_stores(empty_file, cache_env, tmp_path):
+    """The default search (Motion and pose) indexes a folder as ``rank`` on the command line does: the local
+    search's entries of every clip and no signature entry (the panel used to store both); the panel's one more
+    entry is its query action's."""
+    import subprocess
+    import sys
+
+    folder = tmp_path / "lib"
+    folder.mkdir()
+    for name in ("07_01", "07_02", "09_02"):
+        (folder / f"{name}.bvh").write_bytes((BVH / f"{name}.bvh").read_bytes())
+    _import_bvh("08_01", "walk3")
+    s = bpy.context.scene.shapesig
+    s.use_file_actions, s.use_folders, s.folders, s.fps = False, True, str(folder), 120.0
+    assert s.similarity == "local"
+    assert bpy.ops.shapesig.rank() == {"FINISHED"}
+    panel = _stored_kinds(_cache().path)
+    cli_cache = tmp_path / "cli_index"
+    root = pathlib.Path(__file__).resolve().parents[2]
+    run = subprocess.run([sys.executable, "-m", "blender_shapesig", "rank", str(folder / "07_01.bvh"), str(folder),
+                          "--json"], capture_output=True, text=True, cwd=root, timeout=600,
+                         env=dict(os.environ, **{search.CACHE_ENV: str(cli_cache)}))
+    assert run.returncode == 0, run.stderr
+    cli = _stored_kinds(next(p for p in cli_cache.iterdir() if p.is_dir()))
+    assert cli == {"local": 3}
+    assert panel == {"local": 4}
