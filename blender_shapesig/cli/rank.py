@@ -218,7 +218,7 @@ def add_parser(sub):
         help="rank clips by similarity to a query",
         description="Rank clips by their distance to QUERY, best first. The default search is 'local' (motion "
         "and pose, window by window, across rigs; then a DTW re-rank of the first 20); --metric sim3 ranks by the "
-        "whole clips' log-signatures (finds the same take across formats better). Signatures are cached in --cache DIR, "
+        "whole clips' log-signatures only (motion, no pose; the same take in another format is found as often). Signatures are cached in --cache DIR, "
         "else $SHAPESIG_CACHE_DIR, else the per-user cache folder (~/.cache), in a subfolder blender_shapesig-cache "
         "that it alone writes; "
         "--no-cache keeps them in memory only.",
