@@ -3,7 +3,8 @@ never imports bpy. Packages: ``geometry`` (rotations, curves, the SRVT), ``clip`
 trimming, the comparison time base), ``io`` (sources, file formats), ``elastic`` (d_S*), ``signatures``, ``index``
 (search, moments, near duplicates), ``blend`` (geodesic blends, planted feet); modules ``rigs`` (canonical joints,
 bone maps), ``metrics``/``pairwise`` (named measures, matrices), ``errors``. The public names below are fixed by
-interfaces.md; docs/architecture.md shows who owns what."""
+the project's interface contract (beside the repository: ../shared/interfaces.md); docs/architecture.md shows
+who owns what."""
 
 from .errors import CurveError, ParseError, ShapeSigError
 
