@@ -563,10 +563,8 @@ class RankJob:
         if self.settings.use_windows or (self.cache.contains_local(item.key) if self.local
                                          else indexed(self.cache, item.key, self.level, False)):
             return
-        if self.local:  # what the command line's rank stores: the local entries only
-            entries = local_entries([item], self.cache, errors=self.errors)
-        else:
-            _item, entries = next(index.iter_entries([item], self.level, self.cache, self.errors))
+        entries = (local_entries([item], self.cache, errors=self.errors) if self.local  # as the CLI's rank
+                   else next(index.iter_entries([item], self.level, self.cache, self.errors))[1])
         if entries:
             self.indexed += 1
         else:
@@ -627,8 +625,7 @@ class RankJob:
 
     def store(self):
         """Write the rows and the status message; returns the message."""
-        # the query's joints (the local search stores no signature entry: then its clip's bones)
-        entries = None if self.local else self.cache.get(self.query.key, self.level)
+        entries = None if self.local else self.cache.get(self.query.key, self.level)  # local: no signatures
         q_bones = len(entries[0].bones) if entries else len(self.query.clips()[0].bones)
         column = self.order_by  # "sim", "elastic" or "local": the measure's key (core.measure_words)
         store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,

@@ -20,7 +20,7 @@ from ..geometry.curves import (
 )
 from ..elastic.elastic import check_warp
 from ..errors import ShapeSigError, check_inbetweens, check_integer, check_number, check_weight, check_weights
-from ..metrics import DEFAULT_DEPTH
+from ..elastic import DEFAULT_DEPTH
 
 __all__ = [
     "geodesic_blend", "blend_weights", "blend_name", "compute_warp", "identity_warp", "default_frames",

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..geometry.curves import geodesic_interpolate, uniform_times
 from ..errors import ShapeSigError
-from ..metrics import DEFAULT_DEPTH
+from ..elastic import DEFAULT_DEPTH
 from ..errors import check_weights
 from .cycle import apply_cycle, close_loop, crop_range, one_cycle
 from ..progress import check as check_progress

@@ -11,7 +11,7 @@ from ..clip.clip import Clip, shared_bones, still_joints
 from ..geometry.curves import relative_rotvecs
 from ..elastic.elastic import check_warp
 from ..errors import ShapeSigError, check_integer, check_number
-from ..metrics import DEFAULT_DEPTH
+from ..elastic import DEFAULT_DEPTH
 from ..clip.prepare import prepare_rotations
 from ..errors import check_weights
 from .combine import _Plan, blend_name, compute_warp, default_frames_many, mean_start

@@ -14,7 +14,7 @@ import numpy as np
 from ..clip.clip import Clip, restrict_to_shared
 from .elastic import dp_problem, elastic_align
 from ..errors import CurveError
-from ..metrics import DEFAULT_DEPTH
+from . import DEFAULT_DEPTH
 from ..clip.prepare import COMPARE_FPS, SMOOTH_SECONDS, prepare_clip, prepare_rotations
 from ..rigs import BODY, LIMBS
 from .subsequence import path_costs

@@ -13,7 +13,7 @@ from . import _dp_kernels
 from .elastic import (_check_depth, _check_method, _entry_coefficients, _srvt_matrix, _window_sums, step_entries,
                       step_table)
 from ..errors import CurveError
-from ..metrics import DEFAULT_DEPTH
+from . import DEFAULT_DEPTH
 
 __all__ = ["Subsequence", "subsequence_align", "subsequence_dp_numpy", "subsequence_dp_numba", "path_costs"]
 

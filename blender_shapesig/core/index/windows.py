@@ -17,7 +17,7 @@ from ..geometry import so3
 from ..signatures import tensor
 from ..clip.clip import Clip, restrict_to_shared
 from ..errors import CurveError, ShapeSigError
-from ..metrics import DEFAULT_DEPTH
+from ..elastic import DEFAULT_DEPTH
 from ..clip.prepare import SIGNATURE_SMOOTH_SECONDS, SMOOTH_SECONDS, prepare_clip
 from ..rigs import coverage_report, moving_count
 from ..signatures.signatures import normalized_difference
