@@ -19,7 +19,8 @@ from .geometry import curves as curves_mod
 from .geometry.curves import srvt, srvt_l2_squared, uniform_times, use_srvt_norm
 from .errors import ShapeSigError
 from .progress import Counter
-from .metrics import DEFAULT_DEPTH, MetricSpec, parse_metric_spec, time_base_smoothing
+from .elastic import DEFAULT_DEPTH
+from .metric_names import MetricSpec, parse_metric_spec, time_base_smoothing
 
 __all__ = [
     "prepare_curves", "distance_matrix", "clip_distance_matrix", "level_blocks", "log_signature_feature",
@@ -219,7 +220,7 @@ def cross_distance_matrix(curves_a, curves_b, metric, depth=DEFAULT_DEPTH, progr
     """(len(a), len(b)) distances of every curve of ``curves_a`` to every curve of ``curves_b`` (same joints; e.g.
     crop probes against a set): the signature features once per curve for linear and sim, else pair by pair
     (``metrics.curve_distance``). Two-stage names and ``local`` are refused (``distance_matrix``'s rule)."""
-    from .metrics import curve_distance
+    from .distances import curve_distance
 
     spec = metric if isinstance(metric, MetricSpec) else parse_metric_spec(metric)
     if spec.rerank or spec.base == "local":

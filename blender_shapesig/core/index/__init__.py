@@ -4,7 +4,7 @@ Data flows one way, ``words`` (word codes, sketch) -> ``entry`` (``IndexEntry``)
 See docs/search.md.
 """
 
-from ..metrics import DEFAULT_LEVEL
+from ..metric_names import DEFAULT_LEVEL
 from ..io.sources import LibraryItem, clip_key, file_key
 from .entry import IndexEntry, entry_distance, make_entry
 from .rank import (EXACT_POOL, FEW_SHARED, RankList, RankResult, build_index, clip_items, compute_entries,

@@ -19,7 +19,9 @@ from .entry import IndexEntry, curve_from_increments, entry_distance, pair_incre
 from . import take as take_mod
 from .words import word_codes
 from ..geometry import so3
-from ..metrics import DEFAULT_DEPTH, clip_distance, time_base_smoothing
+from ..distances import clip_distance
+from ..elastic import DEFAULT_DEPTH
+from ..metric_names import time_base_smoothing
 from ..clip.prepare import prepare_clip
 from ..rigs import JOINTS
 from ..signatures.signatures import ZERO_NORM

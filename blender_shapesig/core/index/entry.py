@@ -14,7 +14,7 @@ from ..geometry import so3
 from ..clip.clip import Clip, still_joints
 from ..geometry.curves import relative_rotvecs
 from ..errors import ShapeSigError
-from ..metrics import DEFAULT_LEVEL, time_base_smoothing
+from ..metric_names import DEFAULT_LEVEL, time_base_smoothing
 from ..clip.prepare import COMPARE_FPS, prepare_clip, smooth_increments
 from ..clip.trim import trim_record
 from .words import word_codes, sketch

@@ -17,7 +17,9 @@ from ..clip.clip import Clip
 from ..errors import ShapeSigError
 from ..measure_words import ENGINES
 from ..progress import wants_cancel
-from ..metrics import DEFAULT_DEPTH, DEFAULT_LEVEL, DEFAULT_METRIC, LOCAL, curve_distance, parse_metric
+from ..distances import curve_distance
+from ..elastic import DEFAULT_DEPTH
+from ..metric_names import DEFAULT_LEVEL, DEFAULT_METRIC, LOCAL, parse_metric
 from ..rigs import below_minimum, coverage_from
 from ..io.sources import LibraryItem, as_items, clip_item, library
 from .entry import (IndexEntry, curve_from_increments, entry_distance, make_entry, pair_increments,
