@@ -3,7 +3,8 @@
 ``maps`` (a valid ``{bone: joint}`` map and saved maps, in the file format of ``core.io.bone_map_file``),
 ``space`` (the comparison space across rigs: ``to_comparison_space``, ``apply_bone_map``, ``resolve_map``),
 ``retarget`` (back onto a rig: ``onto_rig``, ``rest_retarget``), ``chains`` (bones between written joints) and
-``coverage`` (joints and limb chains compared, ``MIN_COVERAGE``). The package re-exports their public names. See
+``coverage`` (joints and limb chains compared, ``MIN_COVERAGE``); ``body`` (the canonical body posed like a clip,
+the local search's key points) is imported from its module. The package re-exports the others' public names. See
 docs/rigs.md and docs/model.md, "Comparison space across rigs".
 """
 
