@@ -82,7 +82,7 @@ def onto_armature(clip: Clip, source_map, armature, name=None) -> Retargeted:
     moved = rigs.rest_retarget(mb, ma)
     out = rigs.onto_rig(replace(moved, name=name or clip.name), rest, ma)
     joint_bones = {ma.meta["bone_map"][j] for j in shared}
-    # bones between two written spine / neck joints share the chain's rotation (core.rig_chains): not kept
+    # bones between two written spine / neck joints share the chain's rotation (core.rigs.chains): not kept
     kept = tuple(b for b in rest.bones if b not in joint_bones and b not in out.meta.get("chain_bones", ()))
     out.meta["kept_bones"] = kept
     out.meta["rotation_space"] = "armature"

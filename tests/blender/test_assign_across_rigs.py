@@ -82,7 +82,7 @@ def test_assign_preview_of_another_rigs_result(mixed):
     # bones with no counterpart keep their rest and are listed on the row
     kept = [x for x in row.kept.split(", ") if x]
     # the Daz rig has no spine_mid and one neck bone: the AMC's upperback (between lowerback and thorax) and
-    # upperneck (between lowerneck and head) share their chain's rotation (core.rig_chains) and are not kept
+    # upperneck (between lowerneck and head) share their chain's rotation (core.rigs.chains) and are not kept
     chain = {"upperback", "upperneck"}
     assert set(kept) == {x.name for x in amc.data.bones} - mapped - chain
     clip = action_io.read_action(new, armature=amc, exclude_unkeyed=True)

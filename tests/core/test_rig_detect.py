@@ -1,4 +1,4 @@
-"""Bone maps by names and topology (core.rig_detect): rigs the tables do not know, built as BVH text by the test
+"""Bone maps by names and topology (core.rigs.detect): rigs the tables do not know, built as BVH text by the test
 (tests/rig_skeletons.py), read by the package's BVH reader; joints placed by the hierarchy and the rest pose,
 left/right from the rest feet, non-humanoids refused in one line; coverage over the joints both rigs have."""
 
@@ -11,7 +11,7 @@ from blender_shapesig.core import rigs
 from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.metrics import compare_clips
-from blender_shapesig.core.rig_names import tokens, word_role
+from blender_shapesig.core.rigs.names import tokens, word_role
 from tests.rig_skeletons import side_names, write_bvh
 
 UNITY = side_names({"hips": "Hips", "spine": "Spine", "chest": "Chest", "neck": "Neck", "head": "Head"},

@@ -1,10 +1,10 @@
 """Automatic bone maps by names and topology (``analyse_rig`` -> ``RigReport``; ``detect_map``). The words of the
-names (``rig_names.tokens``) say which bones belong to legs, arms and the body and on which side; the hierarchy
+names (``names.tokens``) say which bones belong to legs, arms and the body and on which side; the hierarchy
 confirms it (two leg chains meeting at the hips, a spine up to the bone the two arms branch from, the neck and
 head above it) and places the joints along each chain; the rest pose decides where names cannot (the upper arm
 and forearm are the two longest consecutive segments of an arm, the thigh and shin of a leg), tells left from
 right relative to the facing (the feet point forward) and refuses rigs whose spine is not above their legs.
-The built-in tables (``rig_names.FAMILIES``) stay as priors. See docs/rigs.md, "Automatic maps".
+The built-in tables (``names.FAMILIES``) stay as priors. See docs/rigs.md, "Automatic maps".
 """
 
 from dataclasses import dataclass, field
@@ -12,7 +12,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .rig_names import BODY, JOINTS, SIDES, detect_family, tokens, word_role
+from .names import BODY, JOINTS, SIDES, detect_family, tokens, word_role
 
 __all__ = ["RigReport", "analyse_rig", "detect_map", "LIMB_CHAINS", "SMALL_RIG"]
 

@@ -1,7 +1,7 @@
 """Bone names: the canonical joint set (``JOINTS``, ``BODY``, ``LIMBS``, ``SIDES``, ``CANONICAL_PARENTS``), the
 built-in bone-name tables (``FAMILIES``, the priors of detection) and the words of bone names (``tokens``: prefixes,
 sides, camelCase; ``word_role``: the limb words of common conventions). ``core.rigs`` re-exports the public names;
-``core.rig_detect`` confirms names with the hierarchy and the rest pose. See docs/rigs.md.
+``core.rigs.detect`` confirms names with the hierarchy and the rest pose. See docs/rigs.md.
 """
 
 import re

@@ -9,7 +9,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Sequence
 
 import numpy as np
 
-from .geometry import so3
+from ..geometry import so3
 
 __all__ = ["chains_between", "share_chains"]
 
