@@ -79,3 +79,31 @@ def test_the_guide_is_reachable_from_the_readme():
     for page in ("install.md", "search.md", "blending.md", "cli.md", "rigs.md", "faq.md", "performance.md",
                  "architecture.md", "dev/README.md"):
         assert page in index
+
+
+def _architecture_paths():
+    """The package paths docs/architecture.md names: every `code` span that is a module or package path
+    (``core/clip/skeleton.py``, ``core/rigs/``, ``scratch.py``) and, in the layer drawing, every ``*.py`` name and
+    every package or module at the start of a line (under ``core/`` where indented so)."""
+    text = open(os.path.join(ROOT, "docs", "architecture.md"), encoding="utf-8").read()
+    names = set(re.findall(r"`([\w./]+(?:\.py|/))`", text))
+    drawing = re.search(r"```\n(blender_shapesig/.*?)```", text, re.S).group(1)
+    for line in drawing.splitlines()[1:]:
+        first = line.split()[0] if line.strip() else ""
+        if line.startswith("  ") and not line.startswith(" " * 15) and (first.endswith("/") or first.endswith(".py")):
+            names.add(("core/" if line.startswith("    ") else "") + first)
+        names |= set(re.findall(r"\b\w+\.py\b", line))
+    return sorted(names)
+
+
+def test_architecture_names_modules_that_exist():
+    """Every module or package docs/architecture.md names exists: a path from the package, its core or the
+    repository; a bare module name somewhere in the package. The layout it describes is the one on disk."""
+    pkg = os.path.join(ROOT, "blender_shapesig")
+    on_disk = {f for _d, _s, files in os.walk(pkg) for f in files}
+    names = _architecture_paths()
+    assert len(names) > 40
+    missing = [n for n in names if ("/" in n.rstrip("/") or n.endswith("/")) and not any(
+        os.path.exists(os.path.join(base, n.rstrip("/"))) for base in (pkg, ROOT, os.path.join(pkg, "core")))
+        or "/" not in n and n not in on_disk]
+    assert not missing, missing
