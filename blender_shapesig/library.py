@@ -17,7 +17,7 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_io, compat, frame_rates, rigmap, scene_motion, thumbnails
+from . import action_changes, action_spaces, compat, frame_rates, rigmap, scene_motion, thumbnails
 from .core import index
 from .core.io import sources
 from .core.index.local_rank import local_entries
@@ -96,9 +96,9 @@ class ActionItem(sources.LibraryItem):
 
 def armature_digest(obj) -> str:
     """Digest of an armature's pose bones: names, rotation modes and rest orientations, and of the object's world
-    matrix (the world-axes rotations the index stores depend on them: ``action_io.to_armature_space``)."""
+    matrix (the world-axes rotations the index stores depend on them: ``action_spaces.to_armature_space``)."""
     h = hashlib.sha1()
-    world = action_io.object_matrix(obj)
+    world = action_spaces.object_matrix(obj)
     if world is not None:
         h.update(np.round(world, 9).tobytes())
     for pb in obj.pose.bones:

@@ -27,7 +27,7 @@ from .words import SKETCH_DIM
 __all__ = ["SignatureCache", "CACHE_FORMAT", "COMPACT_MAX_DIRECTION"]
 
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
-# 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
+# 2: clips in armature space (Blender axes), see action_spaces.to_armature_space; 3: entries signed on the comparison
 # time base (entry.make_entry), as metrics.clip_distance prepares the curves; 4: entries record the clip's own frame
 # count (clip_frames) beside the prepared curve's; 5: local-search entries (core.index.local) in files of their own
 # beside the signature entries (the pose pictures of core.index.thumbnails, <sha1>.png, beside them too); 6: both
