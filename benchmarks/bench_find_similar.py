@@ -169,7 +169,7 @@ def fresh_session_clicks(blend, folder, runs):
     deleted first: the baseline), alternated; the best of each and their ratio."""
     import subprocess
 
-    from blender_shapesig.core.index.store import CACHE_SUBDIR
+    from blender_shapesig.core.index.cache_folder import CACHE_SUBDIR
 
     env = dict(os.environ, **{index.CACHE_ENV: folder})
     got = {"stored": [], "recomputed": []}

@@ -9,7 +9,7 @@ Usage (from the repository root; no Blender needed, except for ``--cli``):
 criterion on the stance drifts its JSON reports.
 
 Data: real CMU takes found through the data folder's INDEX.md, one stride each (right heel strike to the next,
-frames picked by hand from the contacts ``core.blend.feet.find_contacts`` reports on the whole take):
+frames picked by hand from the contacts ``core.blend.contacts.find_contacts`` reports on the whole take):
 
 * 07_01 (walk, AMC + 07-walk.asf), frames 125-253  x  09_02 (run, AMC + 09-run.asf), frames 36-126: one rig,
   blended bone by bone;

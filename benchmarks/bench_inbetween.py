@@ -39,7 +39,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 from blender_shapesig.core.blend.body import resample  # noqa: E402
 from blender_shapesig.core.blend.bridge import Bridges  # noqa: E402
-from blender_shapesig.core.blend.feet import feet_positions, legs_of  # noqa: E402
+from blender_shapesig.core.blend.contacts import feet_positions, legs_of  # noqa: E402
 from blender_shapesig.core.blend.transition import best_cuts, inbetween  # noqa: E402
 from blender_shapesig.core.clip.skeleton import forward_kinematics, rest_of, unit_meters, up_vector  # noqa: E402
 from blender_shapesig.core.errors import ShapeSigError  # noqa: E402
@@ -236,9 +236,9 @@ def joins(pairs, frames=None):
     """Transitions across takes (``A:B`` pairs of clip files, read on their own rigs): per pair the largest root
     step at the seams (from 2 frames before the cut to 2 after B starts) over the sources' largest, the largest
     joint step there minus the sources' largest (degrees), and the largest stance drift (cm) of a heel or ball
-    contact run touching the generated frames (``feet.find_contacts`` on the joined clip)."""
+    contact run touching the generated frames (``contacts.find_contacts`` on the joined clip)."""
     from blender_shapesig.core.blend import feet
-    from blender_shapesig.core.blend.feet import POINTS, find_contacts, stance_drift
+    from blender_shapesig.core.blend.contacts import POINTS, find_contacts, stance_drift
     from blender_shapesig.core.blend.transition import transition
 
     rows = []
@@ -285,7 +285,7 @@ def _made_slides(joined, contacts, pos, unit, i, n):
     there, and ``low_slide`` the largest horizontal travel (cm) of a point that stays within 2 cm of its lowest
     height over that span and half a second on each side (low, whatever its speed: a foot pushed over the floor
     is no contact by the speed rule, but slides)."""
-    from blender_shapesig.core.blend.feet import POINTS, stance_drift
+    from blender_shapesig.core.blend.contacts import POINTS, stance_drift
 
     up = up_vector(joined)
     lo, hi = i, min(i + n + 1, joined.frames - 1)

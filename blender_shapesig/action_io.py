@@ -6,23 +6,23 @@ per channel; ``assign_action`` plays it without losing the replaced action. Vers
 """
 
 import math
-from dataclasses import replace
 
 import bpy
 import numpy as np
 
 from . import compat
 from .action_hashes import action_hash, read_hash
+from .action_spaces import _rest_frames, to_armature_space, to_pose_space
 from .bone_channels import PROPS as _PROPS, bone_channels
 from .core.clip.clip import Clip
 from .core.errors import ShapeSigError, check_frame_range
-from .core.clip.skeleton import fold_root_motion, from_world_axes, rest_meta, to_world_axes
+from .core.clip.skeleton import fold_root_motion, rest_meta
 from .core.io.files import check_frames
 # the rotation maths is core.geometry.so3's; the channel conversions are re-exported here, where callers know them
-from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels, nearest_rotation
+from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels
 
-__all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions", "to_armature_space", "to_pose_space",
-           "object_matrix", "world_matrix", "EULER_MODES", "SPACES"]
+__all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions",
+           "EULER_MODES", "SPACES"]
 
 SPACES = ("pose", "armature")
 
@@ -364,97 +364,6 @@ def _fold_below_root(armature, names, channels, frames, start, co_cache, R, root
     if carrier in (None, r) or top != r:
         return loc, None
     return (path - heads[r]) @ B[r], names[carrier]
-
-
-def up_in_bone_frame(armature, bone_name):
-    """The world's up (+Z) in the rest frame of ``bone_name`` (where its location and rotation channels live),
-    as a unit 3-vector; None when the bone does not exist."""
-    bone = armature.data.bones.get(bone_name) if bone_name else None
-    if bone is None:
-        return None
-    obj_rot = np.array(armature.matrix_world.to_3x3().normalized(), dtype=np.float64)
-    rest = np.array(bone.matrix_local.to_3x3().normalized(), dtype=np.float64)
-    up = rest.T @ (obj_rot.T @ np.array([0.0, 0.0, 1.0]))  # world -> armature -> bone rest space
-    n = float(np.linalg.norm(up))
-    return None if n < 1e-9 else tuple(float(c) / n for c in up)
-
-
-def _rest_frames(bones, armature):
-    """(B, heads): armature-space rest orientation (bones, 3, 3) and head (bones, 3) of each named bone."""
-    missing = [b for b in bones if b not in armature.data.bones]
-    if missing:
-        raise ShapeSigError(f"armature {armature.name!r} has no bone(s) {', '.join(missing[:5])}")
-    B = nearest_rotation(
-        np.array([np.array(armature.data.bones[b].matrix_local.to_3x3()) for b in bones], dtype=np.float64))
-    heads = np.array([np.array(armature.data.bones[b].head_local) for b in bones], dtype=np.float64)
-    return B, heads
-
-
-def world_matrix(obj):
-    """``obj``'s world matrix (mathutils): ``matrix_world`` for an object of a scene; for one loaded from a
-    library into no scene (a reader's), whose ``matrix_world`` was never evaluated here, its own transform
-    composed with its parents' (``parent world @ matrix_parent_inverse @ matrix_basis``; an object parent)."""
-    if obj.users_scene or obj.parent is None:
-        return obj.matrix_world if obj.users_scene else obj.matrix_basis
-    return world_matrix(obj.parent) @ obj.matrix_parent_inverse @ obj.matrix_basis
-
-
-def object_matrix(armature):
-    """The armature object's world matrix (4x4 numpy; rotation, scale, parents), or None when it is the identity
-    (then nothing is re-expressed: the numbers stay exactly those of the armature's own axes); ``world_matrix``."""
-    M = np.array(world_matrix(armature), dtype=np.float64)
-    return None if np.array_equal(M, np.eye(4)) else M
-
-
-def to_armature_space(clip: Clip, armature) -> Clip:
-    """Pose-bone rotations P (each bone's rest frame) -> the same rotations in the world's axes as the scene shows
-    the armature: X = A B P B^T A^T with B the bone's rest orientation and A the rotation of the object's world
-    matrix (``object_matrix``: its rotation, scale and parents; ``skeleton.to_world_axes``); the root translation
-    becomes the root bone's head in the world, M (head + B loc). (The space keeps its name, "armature": for an
-    armature object at the identity, as every reader's, both are the same.)
-
-    This is the space the package compares and blends clips in: it does not depend on bone rolls nor on how the
-    armature object is turned or scaled (an FBX character imported lying in its armature's axes, a rig parented
-    to a turned empty), so rigs with other roll conventions, BVH and ASF/AMC imports of the same take, and folder
-    clips all agree. d_P*, d_S* and tensor-basis signatures of one rig are unchanged by it (a constant rotation
-    per joint); Lyndon coordinates change slightly.
-    """
-    if clip.meta.get("rotation_space", "pose") != "pose":
-        raise ShapeSigError(f"clip {clip.name!r} is not in pose space")
-    B, heads = _rest_frames(clip.bones, armature)
-    X = B[None] @ clip.rotations @ np.swapaxes(B, -1, -2)[None]
-    rt = clip.root_translation
-    if rt is not None and clip.root_bone in armature.data.bones:
-        Br, hr = _rest_frames([clip.root_bone], armature)
-        rt = hr[0] + rt @ Br[0].T
-    meta = dict(clip.meta, rotation_space="armature", up_axis="Z")
-    out = replace(clip, rotations=X, root_translation=rt, meta=meta)
-    M = object_matrix(armature)
-    return out if M is None else to_world_axes(out, M)
-
-
-def to_pose_space(clip: Clip, armature) -> Clip:
-    """The inverse of ``to_armature_space`` for ``armature``'s bones: the world's axes back into the armature's
-    (``skeleton.from_world_axes``), then P = B^T X B, loc = B^T (x - head)."""
-    if clip.meta.get("rotation_space") != "armature":
-        raise ShapeSigError(f"clip {clip.name!r} is not in armature space")
-    M = object_matrix(armature)
-    if M is not None:
-        clip = from_world_axes(clip, M)
-    B, _heads = _rest_frames(clip.bones, armature)
-    P = np.swapaxes(B, -1, -2)[None] @ clip.rotations @ B[None]
-    rt = clip.root_translation
-    if rt is not None:
-        root = clip.root_bone if clip.root_bone in armature.data.bones else None
-        if root is None:
-            rt = None
-        else:
-            Br, hr = _rest_frames([root], armature)
-            rt = (rt - hr[0]) @ Br[0]
-    meta = dict(clip.meta, rotation_space="pose")
-    meta.pop("up_axis", None)
-    meta.pop("axes", None)
-    return replace(clip, rotations=P, root_translation=rt, meta=meta)
 
 
 # -------------------------------------------------------------------------------------------- writing

@@ -10,7 +10,7 @@ from typing import List, Optional, Sequence
 import bpy
 import numpy as np
 
-from . import action_io, compat, control_rigs, frame_rates, rigmap, scene_motion
+from . import action_io, action_spaces, compat, control_rigs, frame_rates, rigmap, scene_motion
 from .core.blend import make_blends
 from .core.errors import ShapeSigError
 from .core.metrics import DEFAULT_DEPTH
@@ -63,7 +63,7 @@ def _read_all(armature, actions, bones, rates=None, allow_partial=False):
     # one rig blends in its pose space, unless its object is turned, scaled or parented: then in the world's axes
     # (the same blend, conjugation-equivariant, with planted feet found and kept with the world's up and units)
     # (a control rig, e.g. Rigify, is read through its deform bones' evaluated pose: scene_motion.read_motion)
-    space = "armature" if (across or action_io.object_matrix(armature) is not None
+    space = "armature" if (across or action_spaces.object_matrix(armature) is not None
                            or control_rigs.is_control_rig(armature)) else "pose"
     rates = list(rates or ()) + [None] * (len(actions) - len(rates or ()))
     if space == "armature":
@@ -151,7 +151,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
         loop=loop, feet=feet, feet_required=False, mask=mask, groups=groups, align=align, depth=depth,
         frames=frames, bones=bones, root=root, allow_long=allow_long,
         up_axis=None if own[0].meta.get("rotation_space") == "armature" else
-        action_io.up_in_bone_frame(armature, own[0].root_bone),
+        action_spaces.up_in_bone_frame(armature, own[0].root_bone),
         progress=(lambda i, _n: progress(i, 2 * n)) if progress else None)
     created, names, strips = [], [], []
     try:

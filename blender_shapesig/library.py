@@ -1,15 +1,15 @@
 """The scene's search library (Blender layer): the query (``query_item``), the library items (``library_items``: the
-file's actions, keyed by a typed ``ActionKey``, and the clip files of the chosen folders), the cache registry
-(``cache_dir``, ``get_cache``), the one-line preconditions (``search_problem``, ``result_problem``), the rank click
-(``RankJob``) and the results in ``scene.shapesig``. Source actions are only read. See docs/dev/blender_layer.md.
+file's actions, keyed by a typed ``ActionKey``, and the clip files of the chosen folders, step by step in
+``SearchLibrary``), the cache registry (``cache_dir``, ``get_cache``), the one-line preconditions
+(``search_problem``, ``result_problem``), Build Index's steps (``index_steps``) and the cost of an index
+(``index_cost``). A click is ``rank_job.RankJob``, its rows ``result_rows``'. Source actions are only read. See
+docs/dev/blender_layer.md.
 """
 
 import fnmatch
 import functools
 import hashlib
-import json
 import os
-import time
 from dataclasses import dataclass
 from typing import List, Optional, Tuple
 
@@ -17,24 +17,21 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_io, compat, frame_rates, rigmap, scene_motion, thumbnails
+from . import action_changes, action_spaces, compat, frame_rates, rigmap, scene_motion
 from .core import index
 from .core.io import sources
-from .core.index.local_rank import local_entries
-from .core.index.windows import rank_windows
 from .core.measure_words import OPTIONS
-from .core.metrics import LOCAL
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
 from .core.io.files import skipped_line
 from .owners import find_owner
 from .rig_library import library_actions
 from .preferences import ADDON_ID, get_preferences
-from .properties import PANEL_MAX_LEVEL, column_word, index_level, results_of, settings_of, uses_local
+from .properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, uses_local
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
-           "library_items", "index_items", "missing_count", "rank_into_settings", "store_results",
-           "active_armature", "check_problem", "RankJob", "index_cost", "cost_text", "COSTLY_LEVEL"]
+           "SearchLibrary", "search_library", "library_items", "index_items", "indexed", "index_steps",
+           "missing_count", "active_armature", "check_problem", "index_cost", "cost_text", "COSTLY_LEVEL"]
 
 # The session's stores: (absolute index folder, compact limit) -> SignatureCache (their memory layer survives
 # operators; clearing this dict makes the next operator read the folder afresh).
@@ -96,9 +93,9 @@ class ActionItem(sources.LibraryItem):
 
 def armature_digest(obj) -> str:
     """Digest of an armature's pose bones: names, rotation modes and rest orientations, and of the object's world
-    matrix (the world-axes rotations the index stores depend on them: ``action_io.to_armature_space``)."""
+    matrix (the world-axes rotations the index stores depend on them: ``action_spaces.to_armature_space``)."""
     h = hashlib.sha1()
-    world = action_io.object_matrix(obj)
+    world = action_spaces.object_matrix(obj)
     if world is not None:
         h.update(np.round(world, 9).tobytes())
     for pb in obj.pose.bones:
@@ -429,232 +426,3 @@ def cost_text(clips, seconds, nbytes):
     span = f"{seconds / 60:.1f} min" if seconds >= 90 else f"{seconds:.0f} s"
     size = f"{nbytes / 1e9:.1f} GB" if nbytes >= 1e9 else f"{nbytes / 1e6:.0f} MB"
     return f"{clips} clips to index: about {span} and {size} of index"
-
-
-# ------------------------------------------------------------------------------------------ results
-
-def _row_sources(results, items):
-    """(is_action, clip file spec, target identity, name) per result, through the library item each came from (by
-    key): an action's read hash at the search and its name now (a cached entry keeps the name it was indexed
-    under: an action renamed since is named as it is now), a file's ``sources.file_identity``."""
-    by_key = {it.key: it for it in items}
-    out = []
-    for r in results:
-        item = by_key.get(r.key)
-        if isinstance(item, ActionItem):
-            out.append((True, "", item.action_key.read_hash if item.action_key is not None else "", item.action))
-            continue
-        # a whole .blend or .glb holds several clips: FILE#ACTION names this one
-        spec = sources.clip_address(item.source if item is not None else r.source, r.name, r.source)[0]
-        out.append((False, spec, sources.file_identity(spec), r.name))
-    return out
-
-
-# the results' columns, by the measure's key (their words: core.measure_words); local: the local search's score
-# (core.index.local.combine)
-SIM_COLUMN, ELASTIC_COLUMN, LOCAL_COLUMN = "sim", "elastic", "local"
-
-
-def store_results(settings, results, items, query_name, order_by=SIM_COLUMN, query_bones=0, seconds=0.0):
-    """Write ranked rows into the window manager's results (``properties.results_of``), in ``results``' order,
-    which is ascending in the column ``order_by`` (SIM_COLUMN, ELASTIC_COLUMN or LOCAL_COLUMN) within each tier
-    (whole-body matches, then partial ones)."""
-    out = results_of()
-    kinds = _row_sources(results, items)
-    labels = sources.unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
-    out.results.clear()
-    for r, (is_action, spec, target, name) in zip(results, kinds):
-        row = out.results.add()
-        row.name = row.clip_name = name
-        row.label = name if is_action else labels.pop()
-        row.distance = r.distance
-        row.has_elastic, row.elastic = r.elastic is not None, (r.elastic if r.elastic is not None else 0.0)
-        row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
-        row.is_action, row.spec, row.target, row.written = is_action, spec, target, ""
-        row.source = name if is_action else spec
-        row.coverage = getattr(r, "coverage", 1.0)  # joints compared / joints both rigs have (core.rigs)
-        row.unmapped = ", ".join(getattr(r, "unmapped", ()))
-        # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
-        row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
-        row.window_action = ""
-        row.explain = json.dumps(r.explain) if getattr(r, "explain", None) else ""
-        trimmed = getattr(r, "trimmed", ())  # the frames compared when trimming cut some
-        # kept / read apart from the moment's window: Assign and Preview of a trimmed clip give the whole action
-        row.kept_first, row.kept_last = trimmed[:2] if trimmed else (0, 0)
-        row.read_first, row.read_last = trimmed[2:] if trimmed else (0, 0)
-    out.results_index, out.query_name, out.order_by = 0, query_name, order_by
-    out.query_bones, out.seconds = query_bones, seconds
-
-
-class RankJob:
-    """One Find Similar click in small steps, so that the UI can show progress and Esc can cancel it (the
-    operator steps it from a timer; headless it runs the steps in a loop):
-
-    1. key each member (``SearchLibrary.members``: a folder file is hashed at its turn, never before the
-       progress bar) and index it when the store does not hold it, one clip per step (``index.iter_entries``;
-       what is done stays cached when the click is cancelled; clips that fail are counted apart, files that
-       are not regular files or are over a cap were skipped unopened and are reported once);
-    2. rank every readable clip (``index.rank_clips``; fast: everything is in the store): by the local search
-       (Similarity: Motion and pose, the default: its own second stage included), else by sim^n;
-    3. sim^n with Re-rank K, the d_S* of the first K rows, one per step (``rank_clips`` with the elastic metric on
-       the one clip: the same pair increments and DP as its re-rank).
-
-    The rows are then in the order of ONE column: sim^n, or d_S* when re-ranking (the K re-ranked rows, then
-    the next by sim^n up to Show; the message says how many more were ranked). Whole-body matches come before partial ones
-    (few shared bones), each tier ascending in that column. ``seconds`` is the whole click, from the start."""
-
-    def __init__(self, context, settings, started=None):
-        self.t0 = time.perf_counter() if started is None else started
-        self.settings = settings
-        self.lib = search_library(context, settings)  # no clip file read or hashed yet
-        self.action, self.query = self.lib.action, self.lib.query
-        self.query_name = self.action.name  # the action may be removed while the click runs
-        if not self.lib.actions and not self.lib.specs:
-            raise ShapeSigError("the library is empty: no other action animates this armature"
-                                + (" or matches the filter" if settings.name_filter else "")
-                                + ("" if settings.use_folders else "; add folders of clips")
-                                + self.lib.skipped_text())
-        self.cache, self.level, self.local = get_cache(context), index_level(settings), uses_local(settings)
-        self.rerank, self.top = (0 if self.local else max(int(settings.rerank), 0)), max(int(settings.top), 0)
-        self.items = []  # the library's members as they are keyed (without the query)
-        self.errors, self.failed, self.indexed = [], set(), 0
-        self._members = self.lib.members()
-        self.total = self.lib.size + 1 + self.rerank
-        self.done = 0
-        self.ranked = self.rows = None
-        self._head = []
-
-    @property
-    def skipped(self):
-        """The files left out unread (not regular files, unreadable, over a cap): one-line errors."""
-        return self.lib.skipped
-
-    @property
-    def progress(self) -> float:
-        return min(self.done / max(self.total, 1), 1.0)
-
-    @property
-    def finished(self) -> bool:
-        return self.rows is not None
-
-    def step(self) -> bool:
-        """Do one step; True when the rows are ready."""
-        self.done += 1
-        if self.ranked is None:
-            item = next(self._members, StopIteration)
-            if item is StopIteration:
-                self._rank()
-                return self.finished
-            if item is not None:
-                self._index(item)
-            return False
-        self._elastic(self._head.pop(0))
-        if not self._head:
-            self._order()
-        return self.finished
-
-    def _index(self, item):
-        """One member (keyed by ``SearchLibrary.members``): indexed when the store lacks it (moments read the
-        clips themselves, ``core.index.windows``); what is done stays cached when the click is cancelled."""
-        if item is not self.query:
-            self.items.append(item)
-        # the local search needs its own entries only (a clip its features refuse gets its signature entries when
-        # ranked), as the command line's rank: one check in memory instead of a file check per action and click
-        if self.settings.use_windows or (self.cache.contains_local(item.key) if self.local
-                                         else indexed(self.cache, item.key, self.level, False)):
-            return
-        entries = (local_entries([item], self.cache, errors=self.errors) if self.local  # as the CLI's rank
-                   else next(index.iter_entries([item], self.level, self.cache, self.errors))[1])
-        if entries:
-            self.indexed += 1
-        else:
-            self.failed.add(item.key)
-
-    def run(self):
-        """All steps (the synchronous path); returns the rows."""
-        while not self.step():
-            pass
-        return self.rows
-
-    def _rank(self):
-        if self.query.key in self.failed:
-            raise ShapeSigError(f"the query {self.query.name!r} could not be read: {self.errors[0]}")
-        items = [it for it in self.items if it.key not in self.failed]
-        if not items:
-            reasons = [str(e) for e in self.errors + self.skipped]
-            raise ShapeSigError(f"no library clip could be read ({reasons[0] if reasons else 'none found'})"
-                                + self.lib.skipped_text())
-        windows, cut = self.settings.use_windows, None
-        if windows:  # moments (core.index.windows), explained; the refinement of the first K runs inside
-            self.ranked = rank_windows(self.query, items, rerank=self.rerank, top=self.top or None,
-                                       depth=self.settings.depth, explain=True, errors=self.errors)
-        elif self.local:  # its second stage runs inside the ranking
-            self.ranked = index.rank_clips(self.query, items, metric=LOCAL, top=self.top or None, cache=self.cache)
-        else:
-            cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
-            self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=self.top or None,
-                                           cache=self.cache, pool=max(index.EXACT_POOL, 4 * max(cut or 0, self.top)))
-        self.warnings = self.errors + self.ranked.warnings
-        # clips (a .blend item may hold several)
-        self.compared = self.ranked.stats.get("compared" if windows else "library", len(items))
-        self.by_key = {it.key: it for it in items}
-        self._head = list(self.ranked[:cut]) if self.rerank and cut is not None else []
-        self.total = self.done + len(self._head)
-        if not self._head:
-            self._order()
-
-    def _elastic(self, r):
-        """d_S* of one row: rank_clips' elastic metric on that one clip (shared bones, the same depth)."""
-        one = index.rank_clips(self.query, [self.by_key[r.key]], metric="elastic", cache=self.cache,
-                               depth=self.settings.depth)
-        r.elastic = next((x.distance for x in one if x.name == r.name), float("nan"))
-
-    def _order(self):
-        if self.settings.use_windows:  # moments come in their search's order (stats: by pose and motion, or d_S*)
-            self.rows = list(self.ranked)
-            self.order_by = self.ranked.stats.get("order_by", "elastic" if self.rerank else "sim")
-        elif self.rerank:
-            head = [r for r in self.ranked if r.elastic is not None]
-            rest = [r for r in self.ranked if r.elastic is None][:max((self.top or len(self.ranked)) - len(head), 0)]
-            self.rows = sorted(head, key=lambda r: (r.partial, r.elastic, r.distance, r.name)) + rest  # then by sim
-            self.order_by = "elastic"
-        else:
-            self.rows, self.order_by = list(self.ranked), ("local" if self.local else "sim")
-        self.not_listed = max(self.compared - len(self.rows) - len(self.ranked.skipped), 0)
-        self.seconds = time.perf_counter() - self.t0
-
-    def store(self):
-        """Write the rows and the status message; returns the message."""
-        entries = None if self.local else self.cache.get(self.query.key, self.level)  # local: no signatures
-        q_bones = len(entries[0].bones) if entries else len(self.query.clips()[0].bones)
-        column = self.order_by  # "sim", "elastic" or "local": the measure's key (core.measure_words)
-        store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
-                      time.perf_counter() - self.t0)
-        thumbnails.start_job(self.cache, self.rows, self.by_key, self.query, self.query_name)  # in the background
-        out = results_of()
-        msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column_word(column)}; "
-               f"{self.indexed} newly indexed")
-        if self.failed:
-            msg += f", {len(self.failed)} could not be read"
-        msg += self.lib.skipped_text()
-        msg += f"; {out.seconds:.2f} s"
-        if self.rerank and self.order_by == ELASTIC_COLUMN:
-            msg += (f"; the best {sum(r.elastic is not None for r in self.rows)} by {column_word(SIM_COLUMN)} "
-                    f"re-ranked by {column_word(ELASTIC_COLUMN)}")
-        if self.not_listed:
-            msg += f"; {self.not_listed} more not listed (raise Show)"
-        # Auto-Pick: saved maps of the maps folder that could not be read were skipped (one line each)
-        self.warnings = (self.warnings + rigmap.skipped_maps(rigmap.maps_folder(auto_only=True))
-                         + frame_rates.library_notes(self.lib))
-        if self.warnings:
-            msg += f"; {len(self.warnings)} warning(s): {self.warnings[0]}"
-        out.message = msg
-        return msg
-
-
-def rank_into_settings(context, settings) -> index.RankList:
-    """Run a whole Find Similar click synchronously and store its rows; returns them as a RankList."""
-    job = RankJob(context, settings)
-    job.run()
-    job.store()
-    return index.RankList(job.rows, job.warnings, job.ranked.skipped, dict(job.ranked.stats, seconds=job.seconds))

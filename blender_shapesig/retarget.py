@@ -13,7 +13,7 @@ from typing import Tuple
 
 import numpy as np
 
-from . import action_io, control_rigs, rigmap, scene_motion
+from . import action_spaces, control_rigs, rigmap, scene_motion
 from .core import rigs
 from .core.clip.clip import Clip
 from .core.clip.skeleton import rest_meta
@@ -41,7 +41,7 @@ def rest_clip(armature, frames=2, fps=24.0, name="rest") -> Clip:
                 meta={"parents": {b.name: (b.parent.name if b.parent else None) for b in bones},
                       "rotation_space": "pose"})
     clip.meta.update(rest_meta(names, [b.head_local for b in bones], [b.tail_local for b in bones]))
-    return action_io.to_armature_space(clip, armature)
+    return action_spaces.to_armature_space(clip, armature)
 
 
 def needs_retarget(clip: Clip, armature) -> bool:

@@ -1,5 +1,5 @@
 """An armature's motion as the animator sees it in the scene, and motion written back the same way (the one owner
-of both): ``read_motion`` reads an action of an armature in the world's axes (``action_io.to_armature_space``: the
+of both): ``read_motion`` reads an action of an armature in the world's axes (``action_spaces.to_armature_space``: the
 object's world matrix, its rotation, scale and parents, applied: an FBX character imported lying in its
 armature's axes reads standing), through the evaluated pose of the deform bones where constraints drive them (a
 Rigify rig: ``control_rigs.evaluated_clip``); ``write_motion`` writes a clip in those axes (or in the armature's
@@ -9,7 +9,7 @@ along the SO(3)^d geodesics, root included), so it plays at its true speed. See 
 axes and time", and docs/rigs.md, "Rig kinds".
 """
 
-from . import action_io, control_rigs, frame_rates
+from . import action_io, action_spaces, control_rigs, frame_rates
 from .core.clip.clip import Clip
 from .core.clip.prepare import retime
 from .core.clip.skeleton import from_world_axes, to_world_axes
@@ -22,13 +22,13 @@ SOURCE_RATE = "shapesig_source_fps"  # the rate a written action's motion had be
 def in_world(clip: Clip, armature) -> Clip:
     """A clip in ``armature``'s own axes (rotation space "armature") re-expressed in the world's
     (``skeleton.to_world_axes`` by the object's world matrix; itself at the identity)."""
-    M = action_io.object_matrix(armature)
+    M = action_spaces.object_matrix(armature)
     return clip if M is None else to_world_axes(clip, M)
 
 
 def in_armature_axes(clip: Clip, armature) -> Clip:
     """The inverse of ``in_world``."""
-    M = action_io.object_matrix(armature)
+    M = action_spaces.object_matrix(armature)
     return clip if M is None else from_world_axes(clip, M)
 
 

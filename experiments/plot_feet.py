@@ -27,7 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bench_foot_drift import blend_pair, load  # noqa: E402
-from blender_shapesig.core.blend import feet  # noqa: E402
+from blender_shapesig.core.blend import contacts, feet  # noqa: E402
 
 
 def trajectories(data, pair, weight):
@@ -35,7 +35,7 @@ def trajectories(data, pair, weight):
     a, b = (load(data, label) for label in pair)
     blend = blend_pair(a, b, weight)
     locked, report = feet.lock_feet(blend, [a, b])
-    legs = feet.legs_of(a)
+    legs = contacts.legs_of(a)
     unit = feet.unit_meters(a, [(t, f) for t, _s, f in legs.values()])
     return blend, locked, report, unit
 
@@ -44,7 +44,7 @@ def plot(data, pair, weight, out):
     blend, locked, report, unit = trajectories(data, pair, weight)
     src = [load(data, label) for label in pair]
     work_b, work_l = (feet._working_clip(c, src) for c in (blend, locked))
-    before, after = feet.feet_positions(work_b), feet.feet_positions(work_l)
+    before, after = contacts.feet_positions(work_b), contacts.feet_positions(work_l)
     up = feet.up_vector(work_b)
     root = blend.root_translation
     travel = root[-1] - root[0]

@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 
 from bench_foot_drift import ANIM, ASF, CLIPS, blend_pair, load  # noqa: E402
 from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.core.blend import feet  # noqa: E402
+from blender_shapesig.core.blend import contacts, feet  # noqa: E402
 from blender_shapesig.readers.acclaim import import_acclaim  # noqa: E402
 
 
@@ -158,7 +158,7 @@ def render(data, weight, count, out, span=0.45):
 def _post(locked, sources, span):
     """A thin red post where the planted right ball stands mid-stance (a fixed reference for the eye)."""
     work = feet._working_clip(locked, sources)
-    ball = feet.feet_positions(work)["R"]["ball"][int(0.5 * span * locked.fps)]
+    ball = contacts.feet_positions(work)["R"]["ball"][int(0.5 * span * locked.fps)]
     bpy.ops.mesh.primitive_cylinder_add(radius=0.012, depth=0.5, location=(ball[0], ball[1], 0.25))
     post = bpy.context.active_object
     mat = bpy.data.materials.new("post")

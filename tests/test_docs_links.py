@@ -107,3 +107,9 @@ def test_architecture_names_modules_that_exist():
         os.path.exists(os.path.join(base, n.rstrip("/"))) for base in (pkg, ROOT, os.path.join(pkg, "core")))
         or "/" not in n and n not in on_disk]
     assert not missing, missing
+
+
+def test_architecture_is_a_short_read():
+    """docs/architecture.md stays a five-minute read: under 1,500 words."""
+    words = len(open(os.path.join(ROOT, "docs", "architecture.md"), encoding="utf-8").read().split())
+    assert words < 1500, words

@@ -10,7 +10,8 @@ import time
 import pytest
 
 from blender_shapesig.core.index import store as store_module
-from blender_shapesig.core.index.store import CACHE_SUBDIR, SignatureCache
+from blender_shapesig.core.index.cache_folder import CACHE_SUBDIR
+from blender_shapesig.core.index.store import SignatureCache
 from hostile import BVH, left_in, run_cli
 
 

@@ -1,7 +1,7 @@
 """Signature search operators (sidebar tab "ShapeSig"; settings in ``scene.shapesig``): ``shapesig.build_index``,
 ``shapesig.rank`` (Find Similar, with an optional elastic re-rank), ``shapesig.assign_result``,
 ``shapesig.preview_result``, ``shapesig.clear_index`` and ``shapesig.explain_result``. Thin: they parse the
-settings, call ``library`` and report (a failure is one line through ``errors_ui``'s guard); preconditions are in ``poll`` (``library.search_problem`` /
+settings, call ``library`` (a click: ``rank_job``) and report (a failure is one line through ``errors_ui``'s guard); preconditions are in ``poll`` (``library.search_problem`` /
 ``result_problem``). See docs/search.md and docs/dev/blender_layer.md.
 """
 
@@ -10,7 +10,7 @@ import time
 import bpy
 from bpy.props import BoolProperty
 
-from .. import library, results
+from .. import library, rank_job, results
 from ..core import index
 from ..core.elastic.explain import top_joints
 from ..core.measure_words import OPTIONS
@@ -159,7 +159,7 @@ class SHAPESIG_OT_rank(_IndexingJob, bpy.types.Operator):
 
     def _start(self, context):
         # the click's start (invoke): the panel reports its whole time
-        self.job = library.RankJob(context, library.settings_of(context), started=getattr(self, "t0", None))
+        self.job = rank_job.RankJob(context, library.settings_of(context), started=getattr(self, "t0", None))
 
     def _work(self):
         """Several quick steps a tick, one slow one at most."""

@@ -8,7 +8,7 @@ import json
 
 import bpy
 
-from .. import library
+from .. import library, result_rows
 from ..core.elastic.explain import top_joints
 from ..core.measure_words import MEASURES, OPTIONS, PANEL_NAME, measure_words
 from ..core.metrics import LOCAL
@@ -44,7 +44,7 @@ class SHAPESIG_UL_results(bpy.types.UIList):
                 split.label(text=text, icon=icon)
             nums = split.row(align=True)
             sim = ("~" if item.approximate else "") + f"{item.distance:.4f}"
-            if library.results_of(context).order_by == library.ELASTIC_COLUMN and item.has_elastic:
+            if library.results_of(context).order_by == result_rows.ELASTIC_COLUMN and item.has_elastic:
                 nums.label(text=f"{item.elastic:.3f}")
                 nums.label(text=sim)
             else:
@@ -63,7 +63,7 @@ def _header(layout, results):
     split.label(text="Clip")
     nums = split.row(align=True)
     nums.label(text=f"{measure_words(results.order_by).column} \u25b2")
-    second = {library.ELASTIC_COLUMN: MEASURES["sim"].column, library.LOCAL_COLUMN: ""}
+    second = {result_rows.ELASTIC_COLUMN: MEASURES["sim"].column, result_rows.LOCAL_COLUMN: ""}
     nums.label(text=second.get(results.order_by, MEASURES["elastic"].column))
     nums.label(text="Frames")
 
@@ -212,7 +212,7 @@ def _draw_results(layout, s, res):
         return
     item = res.results[res.results_index]
     info = layout.column(align=True)
-    if res.order_by == library.LOCAL_COLUMN:
+    if res.order_by == result_rows.LOCAL_COLUMN:
         info.label(text=f"{MEASURES['local'].label} = {item.distance:.4f} (motion and pose)")
     else:
         info.label(text=f"{MEASURES['sim'].label} = {item.distance:.4f}"

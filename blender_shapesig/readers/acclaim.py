@@ -9,7 +9,7 @@ import os
 import bpy
 import numpy as np
 
-from .. import action_io, compat
+from .. import action_io, action_spaces, compat
 from ..core.clip.clip import Clip
 from ..core.errors import ShapeSigError
 from ..core.io.acclaim import ASF_TO_BLENDER, parse_amc, parse_asf, to_blender_axes
@@ -118,7 +118,7 @@ def clip_to_pose(clip, armature):
     if clip.meta.get("rotation_space") == "asf":
         scale = float(props["units_to_blender"]) / float(clip.meta.get("meters_per_unit", 1.0))
         clip = to_blender_axes(clip, scale)
-    return action_io.to_pose_space(clip, armature)
+    return action_spaces.to_pose_space(clip, armature)
 
 
 def _build_armature(context, skeleton, name, scale):

@@ -8,7 +8,7 @@ import os
 
 import bpy
 
-from .. import action_io, compat
+from .. import action_io, action_spaces, compat
 from ..bone_channels import bone_channels
 from ..core.clip.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
@@ -107,6 +107,6 @@ def rig_of(arm):
             "local_location": b.use_local_location, "deform": b.use_deform,
             "rotation_mode": pb.rotation_mode if pb is not None else "QUATERNION",
         })
-    world = action_io.world_matrix(arm)  # an appended object's matrix_world is not evaluated: composed here
+    world = action_spaces.world_matrix(arm)  # an appended object's matrix_world is not evaluated: composed here
     return {"object": arm.name, "data": arm.data.name, "matrix_world": [list(r) for r in world],
             "bones": bones}

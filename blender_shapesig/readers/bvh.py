@@ -77,7 +77,7 @@ def import_armature(path):
 def import_bvh(path, name=None, space="armature"):
     """One BVH file as a Clip through Blender's importer, leaving the file as it was.
 
-    ``space``: "armature" (the package's comparison space, ``action_io.to_armature_space``) or "native"
+    ``space``: "armature" (the package's comparison space, ``action_spaces.to_armature_space``) or "native"
     (pose-bone rotations)."""
     if space not in SPACES:
         raise ShapeSigError(f"space must be one of {', '.join(SPACES)}, got {space!r}")

@@ -65,7 +65,7 @@ def animation_name(action, owner, info):
 
 def read_interchange_here(path, animation=None, space="armature"):
     """The clips of an FBX / glTF file (every armature animation, or the one named ``animation``), read in this
-    process. Each clip is in the world's axes (``action_io.to_armature_space``: the nodes above the armature, the
+    process. Each clip is in the world's axes (``action_spaces.to_armature_space``: the nodes above the armature, the
     file's up axis and units as Blender imported them), named after the file when it holds one animation, else after
     the animation; ``meta["animation"]`` is its name in the file (``FILE#ANIMATION``)."""
     path = os.path.abspath(os.fspath(path))

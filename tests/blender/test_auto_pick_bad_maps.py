@@ -8,7 +8,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import library, preferences, rigmap  # noqa: E402
+from blender_shapesig import library, preferences, rank_job, rigmap  # noqa: E402
 from blender_shapesig.core import index, rigs  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 
@@ -48,7 +48,7 @@ def test_find_similar_ranks_and_names_each_bad_map_once(two_runs):
     for name in BAD:
         lines = [w for w in skipped if str(folder / name) in w]
         assert len(lines) == 1 and "\n" not in lines[0], (name, skipped)
-    ranked = library.rank_into_settings(bpy.context, bpy.context.scene.shapesig)
+    ranked = rank_job.rank_into_settings(bpy.context, bpy.context.scene.shapesig)
     assert other.animation_data.action.name in [r.name for r in ranked]
     assert [w for w in ranked.warnings if w.startswith("saved bone map skipped")] == skipped
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}

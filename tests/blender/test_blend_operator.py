@@ -124,7 +124,7 @@ def test_blend_writes_a_new_action(rig):
 
 
 def _up(arm, bone):
-    from blender_shapesig.action_io import up_in_bone_frame
+    from blender_shapesig.action_spaces import up_in_bone_frame
 
     return up_in_bone_frame(arm, bone)
 

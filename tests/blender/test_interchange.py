@@ -279,7 +279,7 @@ def test_reading_into_a_users_scene_reads_the_same_and_restores_it(files):
 def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, empty_file, tmp_path, monkeypatch):
     """Find Similar with a clip folder of an FBX and a GLB (three clips): indexed step by step (the modal job's
     progress), every clip ranked, one child start-up for the folder."""
-    from blender_shapesig import library
+    from blender_shapesig import library, rank_job
     from blender_shapesig.core import index as search
 
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
@@ -294,7 +294,7 @@ def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, 
     s.use_file_actions, s.use_folders, s.folders, s.fps = False, True, str(folder), 120.0
     child.close()
     before = child.starts()
-    job = library.RankJob(bpy.context, s)
+    job = rank_job.RankJob(bpy.context, s)
     steps = 0
     while not job.step():
         steps += 1

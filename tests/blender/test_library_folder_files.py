@@ -13,7 +13,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import library  # noqa: E402
+from blender_shapesig import library, rank_job  # noqa: E402
 from blender_shapesig.core import index as search
 from blender_shapesig.core.io import sources  # noqa: E402
 from tests.hostile import hostile_library  # noqa: E402
@@ -74,7 +74,7 @@ def test_folder_files_are_hashed_inside_the_progress_loop(folder_search, monkeyp
     hashed = []
     real_key = sources.file_key
     monkeypatch.setattr(sources, "file_key", lambda path, extra="": hashed.append(path) or real_key(path, extra))
-    job = library.RankJob(bpy.context, folder_search)
+    job = rank_job.RankJob(bpy.context, folder_search)
     assert hashed == [] and len(job.skipped) == 4  # the hostile files are skipped unopened at discovery
     job.step()  # the query
     assert hashed == []

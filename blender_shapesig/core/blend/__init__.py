@@ -1,5 +1,5 @@
 """Time-aligned SRVT geodesic blends of curves and clips (reference eq. 5.14, sec. 9.1), in verb-named modules
-(``combine``, ``move_root``, ``mix``, ``mask``, ``cycle``, ``make``, ``feet``); the public names are importable from
+(``combine``, ``move_root``, ``mix``, ``mask``, ``cycle``, ``make``, ``contacts``, ``feet``); the public names are importable from
 ``blender_shapesig.core.blend``. See docs/blending.md.
 """
 

@@ -1,6 +1,6 @@
 """A clip's body for transitions, on any rig the bone maps know: joint positions by forward kinematics in a Z-up
 ground frame and in leg lengths (``Body``: the canonical joints through ``rigs.resolve_map``, else the clip's own
-bones), its foot contacts (``feet.find_contacts``), root heading and path; and ``on_rig``, a clip put onto another
+bones), its foot contacts (``contacts.find_contacts``), root heading and path; and ``on_rig``, a clip put onto another
 clip's rig and frame rate (``rigs.rest_retarget`` / ``rigs.onto_rig``, ``make.sample_at``). See docs/transitions.md.
 """
 
@@ -57,7 +57,7 @@ class Body:
         try:
             if clip.frames < 3:
                 raise ShapeSigError("too short for contacts")
-            from .feet import find_contacts, legs_of
+            from .contacts import find_contacts, legs_of
 
             legs = legs_of(clip, mapping)
             found = find_contacts(clip, legs, (heads, _tails, W))

@@ -32,7 +32,7 @@ def _drag(points, up, unit, first, last):
     """The longest way (rig units) a foot point moves on the ground while it stays down (within CONTACT_HEIGHT of
     its lowest over the sequence) from the last known frame to the target, and whether it is down at the last
     known frame."""
-    from .feet import _runs
+    from .contacts import _runs
 
     h = (points @ up) * unit
     down = h < h.min() + CONTACT_HEIGHT
@@ -46,10 +46,10 @@ def _drag(points, up, unit, first, last):
 
 def _steps(legs, heads, tails, up, unit, fps, first, last):
     """{side: (start, end, lift)} for the leg whose heel or ball the gap drags more than STEP over the ground
-    (``_drag``; a foot down at the last known frame only when still there (feet.CONTACT_SPEED) or dragged faster
+    (``_drag``; a foot down at the last known frame only when still there (contacts.CONTACT_SPEED) or dragged faster
     than that; of two such legs the one dragged further: the gap is too short for two steps): the frames
     (fractional) over which the heel swings from the last known spot to the target's, and its lift (rig units)."""
-    from .feet import CONTACT_SPEED
+    from .contacts import CONTACT_SPEED
 
     span = last + 2 - first  # from the last known frame to the target
     if (1.0 - 2.0 * SWING_MARGIN) * span / fps < MIN_SWING:
@@ -93,7 +93,8 @@ def plant_gap(rig, X, root, first, last, steps=True):
     """X (frames, bones, 3, 3) aligned rotations, ``root`` (frames, 3) heads of a sequence on ``rig``'s skeleton
     whose frames ``first``..``last`` (inclusive) are generated (the others known); returns X with the legs of
     the generated frames solved so the planted heels stay put (module docstring). Unchanged without legs."""
-    from .feet import _ik_leg, _runs, legs_of
+    from .contacts import _runs, legs_of
+    from .feet import _ik_leg
 
     try:
         legs = legs_of(rig)

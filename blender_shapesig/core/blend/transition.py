@@ -147,7 +147,7 @@ def _planted_shift(a, b, i, j, ba, bb, up):
     """The ground move that puts ``b``'s heels down at frame ``j`` on ``a``'s heels down at frame ``i`` (the mean
     over the feet down in both, ``Body.contacts``); None when no heel is down in both or the move is longer than
     half a leg (then not the same stance)."""
-    from .feet import feet_positions, legs_of
+    from .contacts import feet_positions, legs_of
 
     down = [side for side, col in (("L", 0), ("R", 2)) if ba.contacts[i, col] and bb.contacts[j, col]]
     if not down:

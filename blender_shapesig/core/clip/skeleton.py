@@ -357,7 +357,7 @@ def up_vector(clip: Clip) -> np.ndarray:
 
 def root_up(clips, up_axis=None) -> np.ndarray:
     """The world's up in the frame of the clips' root translations (where a blend moves the root): ``up_axis``
-    when given (the Blender layer passes it for pose-space actions: ``action_io.up_in_bone_frame``), else the
+    when given (the Blender layer passes it for pose-space actions: ``action_spaces.up_in_bone_frame``), else the
     first ``meta["up_axis"]``, else Y for Acclaim data, else ``estimate_up_axis`` on the clips' roots. For
     clips in world-aligned axes it is ``up_vector``."""
     for cand in [up_axis] + [c.meta.get("up_axis") for c in clips]:

@@ -2,8 +2,8 @@
 piecewise-linear warp phi of curve 1 onto curve 0 by a dynamic programme on the grid of frame pairs, with the
 exact energy of eq. 4.8 per step, pinned ends, pruned non-coprime steps and an automatic slope limit
 (``step_table``, ``required_depth``); also ``reparametrize``, ``warp_grid`` and ``elastic_distance_matrix``.
-Curves must be sampled uniformly. ``method`` picks the numba or numpy kernel of ``_dp_kernels`` (identical
-results). See docs/elastic.md.
+Curves must be sampled uniformly. ``method`` picks the numba kernel of ``_dp_kernels`` or the numpy one of ``_dp_numpy``
+(identical results). See docs/elastic.md.
 """
 
 import math
@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from . import _dp_kernels, _srvt_kernel
+from . import _dp_kernels, _dp_numpy, _srvt_kernel
 from ..geometry import curves
 from ._workspace import memo as _memo
 from ..geometry.curves import as_curve, as_times, geodesic_interpolate, srvt
@@ -266,7 +266,7 @@ class _Problem:
                 t["di"], t["dj"], t["start"], t["ea"], t["eb"], self.coef, self.lo, self.hi)
         if method == "numba":
             return _dp_kernels.dp_numba(*args, want_path=want_path, threads=threads, work=self.work)
-        return _dp_kernels.dp_numpy(*args, want_path=want_path)
+        return _dp_numpy.dp_numpy(*args, want_path=want_path)
 
 
 def _check_threads(threads):

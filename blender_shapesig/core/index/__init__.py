@@ -9,8 +9,8 @@ from ..io.sources import LibraryItem, clip_key, file_key
 from .entry import IndexEntry, entry_distance, make_entry
 from .rank import (EXACT_POOL, FEW_SHARED, RankList, RankResult, build_index, clip_items, compute_entries,
                    folder_library, item_entries, iter_entries, rank_clips)
-from .store import (CACHE_ENV, CACHE_FORMAT, CACHE_SUBDIR, COMPACT_MAX_DIRECTION, SignatureCache, default_cache_dir,
-                    private_cache_dir)
+from .cache_folder import CACHE_ENV, CACHE_SUBDIR, default_cache_dir, private_cache_dir
+from .store import CACHE_FORMAT, COMPACT_MAX_DIRECTION, SignatureCache
 from .words import SKETCH_DIM, sketch, word_codes
 
 __all__ = [

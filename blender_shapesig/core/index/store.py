@@ -1,15 +1,13 @@
 """The signature cache (``SignatureCache``): a pure store of index entries keyed by (content key, level), in memory
 and on disk in a folder it owns (``<the folder named>/blender_shapesig-cache/``, marked by a ``CACHEDIR.TAG`` it
 wrote: one ``<sha1>.npz`` per library item, a manifest, the light pack), deleting nothing it did not write and
-going on in memory with one ``warning`` when the folder cannot be used. It never loads clips nor computes entries
-(``rank.iter_entries`` does). See docs/search.md, "The index and its cache".
+going on in memory with one ``warning`` when the folder cannot be used (the folder's checks: ``cache_folder``). It
+never loads clips nor computes entries (``rank.iter_entries`` does). See docs/search.md, "The index and its cache".
 """
 
-import errno
 import io
 import json
 import os
-import re
 import stat
 import tempfile
 import threading
@@ -18,137 +16,29 @@ from typing import Optional
 import numpy as np
 
 from ..signatures import signatures
+from .cache_folder import (
+    _ENTRY_FILE, _OWN_FILE, _PACK, _TAG, _TAG_TEXT, _TMP_PREFIX, _TMP_SUFFIX, CACHE_SUBDIR, _check_own_folder,
+    _check_private, _marked, _Refused, _sweep, private_cache_dir,
+)
 from .entry import IndexEntry
-from .local_store import LOCAL_PACK, LocalEntries, hashed_name
+from .local_store import LocalEntries, hashed_name
 from .words import SKETCH_DIM
 
-__all__ = ["SignatureCache", "default_cache_dir", "private_cache_dir", "CACHE_FORMAT", "CACHE_ENV", "CACHE_SUBDIR",
-           "COMPACT_MAX_DIRECTION"]
+__all__ = ["SignatureCache", "CACHE_FORMAT", "COMPACT_MAX_DIRECTION"]
 
 # Version of the on-disk entry format; an entry written by another version is discarded and rebuilt.
-# 2: clips in armature space (Blender axes), see action_io.to_armature_space; 3: entries signed on the comparison
+# 2: clips in armature space (Blender axes), see action_spaces.to_armature_space; 3: entries signed on the comparison
 # time base (entry.make_entry), as metrics.clip_distance prepares the curves; 4: entries record the clip's own frame
 # count (clip_frames) beside the prepared curve's; 5: local-search entries (core.index.local) in files of their own
 # beside the signature entries (the pose pictures of core.index.thumbnails, <sha1>.png, beside them too); 6: both
 # kinds of entries record the canonical joints of the clip's rig (rig_joints; the local ones their joints and still
 # joints too), what a row's coverage and "unmapped" are computed from
 CACHE_FORMAT = 6
-CACHE_ENV = "SHAPESIG_CACHE_DIR"
 # Compact index: directions longer than this (coordinates; 256 KB as float32) are not stored.
 COMPACT_MAX_DIRECTION = 65_536
 
-_PACK = "light_pack.bin"  # the light pack's file name (see SignatureCache.save_pack)
-# The cache's own folder inside the folder a user names (--cache, $SHAPESIG_CACHE_DIR, the Index Folder), its
-# marker (the Cache Directory Tagging format: backup tools skip the folder) and the names of what it writes.
-CACHE_SUBDIR = "blender_shapesig-cache"
-_TAG = "CACHEDIR.TAG"
-_TAG_TEXT = ("Signature: 8a477f597d28d172789f06886806bc55\n"
-             "# This file is a cache directory tag created by blender_shapesig.\n"
-             "# Every file here was written by it and is rebuilt when needed.\n")
-_TMP_PREFIX, _TMP_SUFFIX = ".shapesig-", ".tmp"
-_OWN_FILE = re.compile(r"(?:[0-9a-f]{40}\.(?:npz|png)|fingerprints-[0-9a-f]{40}\.json|"
-                       + re.escape(_PACK) + "|" + re.escape(LOCAL_PACK) + "|"
-                       + re.escape(_TMP_PREFIX) + r"\w+"
-                       + re.escape(_TMP_SUFFIX) + ")")
-_ENTRY_FILE = re.compile(r"[0-9a-f]{40}\.npz")
 _ENTRY_FIELDS = ("name", "bones", "moving", "frames", "level", "norm", "fps", "source", "key", "exact",
                  "trimmed", "clip_frames", "rig_joints")
-
-
-class _Refused(Exception):
-    """A folder the cache will not use (not its own, or unsafe); the message says why."""
-
-
-def private_cache_dir() -> str:
-    """The per-user fallback folder in the temporary folder (``blender_shapesig-<uid>``), used when there is no
-    usable home or XDG cache folder; ``SignatureCache`` creates it mode 0700 and refuses it when it is a
-    symlink, not a folder, owned by another user or writable by others."""
-    uid = os.getuid() if hasattr(os, "getuid") else None
-    return os.path.join(tempfile.gettempdir(), "blender_shapesig-" + (str(uid) if uid is not None else "user"))
-
-
-def _user_cache_base():
-    """XDG_CACHE_HOME (absolute), else ~/.cache when the home folder exists and is writable, else None."""
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    if xdg and os.path.isabs(xdg):
-        return xdg
-    home = os.path.expanduser("~")
-    if os.path.isabs(home) and os.path.isdir(home):
-        base = os.path.join(home, ".cache")
-        if os.access(base if os.path.isdir(base) else home, os.W_OK):
-            return base
-    return None
-
-
-def default_cache_dir() -> str:
-    """The folder the cache lives in (its own subfolder ``CACHE_SUBDIR`` is made there): ``$SHAPESIG_CACHE_DIR``
-    if set, else the user's cache folder (XDG_CACHE_HOME, else ~/.cache), else ``private_cache_dir()``.
-    Blender's Index Folder preference, when set, names another one."""
-    return os.environ.get(CACHE_ENV) or _user_cache_base() or private_cache_dir()
-
-
-def _check_private(path):
-    """Make the per-user fallback folder (mode 0700) and check that it is safe to use; _Refused if not."""
-    try:
-        os.mkdir(path, 0o700)
-    except FileExistsError:
-        pass
-    st = os.lstat(path)
-    if stat.S_ISLNK(st.st_mode):
-        raise _Refused(f"{path} is a symbolic link")
-    if not stat.S_ISDIR(st.st_mode):
-        raise _Refused(f"{path} is not a folder")
-    if not hasattr(os, "getuid"):
-        return  # Windows: the temporary folder is the user's own
-    if st.st_uid != os.getuid():
-        raise _Refused(f"{path} belongs to another user")
-    if st.st_mode & 0o022:
-        raise _Refused(f"{path} is writable by other users")
-
-
-def _check_own_folder(folder):
-    """The cache's own folder: a real folder (not a symbolic link: the files would be written where it points) of
-    this user, not writable by other users; _Refused (or NotADirectoryError) otherwise."""
-    st = os.lstat(folder)
-    if stat.S_ISLNK(st.st_mode):
-        raise _Refused(f"{folder} is a symbolic link")
-    if not stat.S_ISDIR(st.st_mode):
-        raise NotADirectoryError(errno.ENOTDIR, "not a folder", folder)
-    if hasattr(os, "getuid") and st.st_uid != os.getuid():
-        raise _Refused(f"{folder} belongs to another user")
-    if st.st_mode & 0o002:
-        raise _Refused(f"{folder} is writable by every user")
-
-
-_STALE_SECONDS = 600.0  # a temporary file older than this was left by a process that died writing it
-
-
-def _sweep(folder):
-    """Remove what has one of the cache's own names but is not a regular file (a FIFO would hang ``np.load``, a
-    link would be read where it points) and the temporary files of writes that never finished."""
-    import time
-
-    now = time.time()
-    for n in os.listdir(folder):
-        if not _OWN_FILE.fullmatch(n):
-            continue
-        fn = os.path.join(folder, n)
-        try:
-            st = os.lstat(fn)
-            stale = n.startswith(_TMP_PREFIX) and n.endswith(_TMP_SUFFIX) and now - st.st_mtime > _STALE_SECONDS
-            if not stat.S_ISREG(st.st_mode) or stale:
-                os.remove(fn)
-        except OSError:
-            pass
-
-
-def _marked(folder) -> bool:
-    """True when ``folder`` holds the marker this cache writes."""
-    try:
-        with open(os.path.join(folder, _TAG), encoding="utf-8", errors="replace") as f:
-            return f.read(len(_TAG_TEXT) + 1) == _TAG_TEXT
-    except OSError:
-        return False
 
 
 def _entry_from_meta(m, key, sketch):

@@ -12,7 +12,7 @@ import pytest
 
 from blender_shapesig.core.blend.body import Body
 from blender_shapesig.core.blend.cuts import ground_fit
-from blender_shapesig.core.blend.feet import legs_of
+from blender_shapesig.core.blend.contacts import legs_of
 from blender_shapesig.core.blend.transition import best_cuts, inbetween, transition
 from blender_shapesig.core.clip.skeleton import forward_kinematics
 from blender_shapesig.core.errors import ShapeSigError
@@ -171,7 +171,7 @@ def test_bad_requests_are_refused(walk, run):
 def test_a_heel_down_across_the_gap_stays_put(walk):
     """A gap inside a stance of the real walk: the generated frames keep the heel on the ground path from its last
     known spot to its spot at the target (within 0.5 cm of that segment, never beyond its ends), as planted."""
-    from blender_shapesig.core.blend.feet import find_contacts
+    from blender_shapesig.core.blend.contacts import find_contacts
     from blender_shapesig.core.clip.skeleton import unit_meters
 
     legs = legs_of(walk)
@@ -199,7 +199,7 @@ def test_a_heel_down_across_the_gap_stays_put(walk):
 
 def _heels(clip):
     """{side: (frames, 3)} heel positions in metres (``feet.feet_positions``; the rig's up is Z or Y)."""
-    from blender_shapesig.core.blend.feet import feet_positions
+    from blender_shapesig.core.blend.contacts import feet_positions
     from blender_shapesig.core.clip.skeleton import unit_meters, up_vector
 
     legs = legs_of(clip)
