@@ -11,7 +11,7 @@ import pytest
 
 from blender_shapesig.core.index import store as store_module
 from blender_shapesig.core.index.store import CACHE_SUBDIR, SignatureCache
-from hostile import BVH, left_in, run_cli
+from tests.helpers.hostile import BVH, left_in, run_cli
 
 
 @pytest.fixture

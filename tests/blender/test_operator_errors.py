@@ -11,7 +11,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import errors_ui, library, operators  # noqa: E402
-from stand_in import stand_in  # noqa: E402
+from tests.helpers.stand_in import stand_in  # noqa: E402
 from test_operators_lose_nothing import _error, cache_env, rig  # noqa: E402,F401
 
 FAILURES = (OSError(28, "No space left on device", "/index/x.npz"), MemoryError(),

@@ -20,7 +20,7 @@ from blender_shapesig import compat, library, results  # noqa: E402
 from blender_shapesig.core import index
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.errors import MAX_INBETWEENS  # noqa: E402
-from stand_in import stand_in  # noqa: E402
+from tests.helpers.stand_in import stand_in  # noqa: E402
 from test_blend_operator import _buffer_hash, _import_bvh, _reopen  # noqa: E402
 from test_search_ui import FakeLayout, _draw  # noqa: E402
 

@@ -23,7 +23,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import compat, frame_rates, library  # noqa: E402
 from blender_shapesig.core import index as search  # noqa: E402
-from turned_characters import (_quiet, _scale_location_keys, _select_only, import_bvh, turned,  # noqa: E402
+from tests.helpers.turned_characters import (_quiet, _scale_location_keys, _select_only, import_bvh, turned,  # noqa: E402
                                world_heads)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

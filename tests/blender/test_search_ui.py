@@ -18,7 +18,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_changes, action_io, compat  # noqa: E402
 from blender_shapesig.core import index as search, rigs  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
-from stand_in import stand_in  # noqa: E402
+from tests.helpers.stand_in import stand_in  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
 CLIPS = {"walk1": "07_01", "walk2": "07_02", "walk3": "08_01", "run1": "09_02", "run2": "09_03", "jump": "13_32"}

@@ -1,5 +1,5 @@
 """Bone maps by names and topology (core.rig_detect): rigs the tables do not know, built as BVH text by the test
-(tests/rig_skeletons.py), read by the package's BVH reader; joints placed by the hierarchy and the rest pose,
+(tests/helpers/rig_skeletons.py), read by the package's BVH reader; joints placed by the hierarchy and the rest pose,
 left/right from the rest feet, non-humanoids refused in one line; coverage over the joints both rigs have."""
 
 import json
@@ -12,7 +12,7 @@ from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.metrics import compare_clips
 from blender_shapesig.core.rig_names import tokens, word_role
-from tests.rig_skeletons import side_names, write_bvh
+from tests.helpers.rig_skeletons import side_names, write_bvh
 
 UNITY = side_names({"hips": "Hips", "spine": "Spine", "chest": "Chest", "neck": "Neck", "head": "Head"},
                    {"clavicle": ("Shoulder_{s}", "LR"), "upper_arm": ("UpperArm_{s}", "LR"),

@@ -8,7 +8,7 @@ import numpy as np
 
 from blender_shapesig.core.clip import skeleton
 from blender_shapesig.core.io.bvh import bvh_text, load_bvh, parse_bvh
-from planted import _resample, _rotation_columns
+from tests.helpers.planted import _resample, _rotation_columns
 
 __all__ = ["build_take", "airborne", "AIRBORNE_LEGS"]
 
