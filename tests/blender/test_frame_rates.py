@@ -94,7 +94,7 @@ def _shown_rates():
 
     from blender_shapesig.operators.blend import _draw_rate
     from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
-    from test_search_ui import FakeLayout
+    from tests.helpers.fake_layout import FakeLayout
 
     s = bpy.context.scene.shapesig
     out = {}

@@ -12,8 +12,7 @@ from blender_shapesig.core import rigs
 from blender_shapesig.core.index import rank_clips
 from blender_shapesig.core.index.store import SignatureCache
 from blender_shapesig.core.io import sources
-from tests.core.test_rig_detect import BIOVISION, BLENDER_LR, UNITY
-from tests.helpers.rig_skeletons import write_bvh
+from tests.helpers.rig_skeletons import BIOVISION, BLENDER_LR, UNITY, write_bvh
 
 UNITY_HAS = tuple(j for j in rigs.JOINTS if j != "spine_mid")  # the Unity rig has every joint but spine_mid
 
