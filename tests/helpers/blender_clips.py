@@ -44,7 +44,7 @@ def import_bvh(file_name, action_name, fake_user=False):
 def action_fcurves(action):
     from blender_shapesig import compat
 
-    return list(compat.all_actionaction_fcurves(action))
+    return list(compat.all_action_fcurves(action))
 
 
 def buffer_hash(action):
