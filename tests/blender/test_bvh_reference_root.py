@@ -1,6 +1,6 @@
 """A BVH in the Unity / MotionBuilder layout (a static reference ROOT above the hips, six channels on every joint,
-the walk in the hips' position channels; built from the CMU walk 07_01 by ``tests/helpers/reference_root.py``): the bpy-free
-reader's forward kinematics puts every joint below the ROOT, the hips' world path among them, where Blender's BVH
+the walk in the hips' position channels; built from the CMU walk 07_01 by ``tests/helpers/reference_root.py``): the
+bpy-free reader's forward kinematics puts every joint below the ROOT, the hips' world path among them, where Blender's BVH
 importer (``bpy.ops.import_anim.bvh``, default options) plays them, to 1e-5 leg lengths in every frame."""
 
 import pathlib

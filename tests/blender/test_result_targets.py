@@ -32,7 +32,7 @@ def test_an_action_replaced_under_its_name_is_refused(rig):
     for op in (bpy.ops.shapesig.assign_result, bpy.ops.shapesig.preview_result, bpy.ops.shapesig.explain_result):
         assert CHANGED in operator_error(op) and "'run'" in operator_error(op)
     msg = operator_error(bpy.ops.shapesig.blend_actions, action_a="walk", action_b="run",
-                 expect_b=results.expected_hash(row, "run"))
+                         expect_b=results.expected_hash(row, "run"))
     assert CHANGED in msg
     assert sorted(a.name for a in bpy.data.actions) == actions and rig.animation_data.action == active
     assert not bpy.context.scene.shapesig.preview_object

@@ -42,8 +42,8 @@ def _unfilter(raw, h, w, bpp=4):
 
 
 def read_png(path) -> np.ndarray:
-    """(height, width, 4) uint8 of an 8-bit RGBA (or RGB) non-interlaced PNG (what ``core.raster.write_png`` writes); other
-    kinds are refused in one line."""
+    """(height, width, 4) uint8 of an 8-bit RGBA (or RGB) non-interlaced PNG (what ``core.raster.write_png``
+    writes); other kinds are refused in one line."""
     with open(path, "rb") as f:
         data = f.read()
     if not data.startswith(_SIGNATURE):

@@ -1,7 +1,7 @@
 """The walk of a BVH in the Unity / MotionBuilder layout (a static reference ROOT, six channels on every joint, the
-walk in the hips' channels; ``tests/helpers/reference_root.py``) reaches the comparison space and the search: the same take
-with the walk on its ROOT reads as the same clip (hips path, rotations), and a walk turned to the side or backward
-finds the same-direction walk first, far ahead of the others. Equality with Blender's importer:
+walk in the hips' channels; ``tests/helpers/reference_root.py``) reaches the comparison space and the search: the
+same take with the walk on its ROOT reads as the same clip (hips path, rotations), and a walk turned to the side or
+backward finds the same-direction walk first, far ahead of the others. Equality with Blender's importer:
 tests/blender/test_bvh_reference_root.py."""
 
 import numpy as np
