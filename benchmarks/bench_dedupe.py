@@ -42,7 +42,8 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.dedupe import dedupe_library, planted  # noqa: E402
+from blender_shapesig.dedupe import dedupe_library  # noqa: E402
+from tests.helpers import planted  # noqa: E402
 
 
 COPY_EVERY = 20

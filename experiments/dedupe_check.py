@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 
 from blender_shapesig.core.io.sources import ClipSpec  # noqa: E402
 from blender_shapesig.dedupe import dedupe_library  # noqa: E402
-from tests import planted  # noqa: E402
+from tests.helpers import planted  # noqa: E402
 
 ORIGINALS = ("Przestr_motion-capture/data/07/07_01.bvh", "Przestr_motion-capture/data/09/09_02.bvh",
              "Przestr_motion-capture/data/13/13_32.bvh")

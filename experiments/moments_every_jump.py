@@ -4,7 +4,7 @@ at 60 fps, a playground take of ten forward jumps with walks and runs between th
 
   .venv/bin/python experiments/moments_every_jump.py --data ../shared/data/cmu [--pad 20] [--rerank K] [--library]
 
-The jumps are labelled automatically from the feet's height (``tests/long_take.py``'s ``airborne``: the lowest of
+The jumps are labelled automatically from the feet's height (``tests/helpers/long_take.py``'s ``airborne``: the lowest of
 the feet and toe bones' heads and tails more than 0.1 leg lengths above the ground, the take's 5th percentile of
 that lowest point, for at least 0.2 s). Each jump in turn (its flight with ``--pad`` frames either side) queries
 Moments (``rank_windows``) over the take; printed: how many of the labelled jumps lie in its first 15 windows (a
@@ -19,16 +19,15 @@ import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-for p in (ROOT, os.path.join(ROOT, "tests")):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+if ROOT not in sys.path:
+    sys.path.insert(0, ROOT)
 
 import numpy as np  # noqa: E402
 
 from blender_shapesig.core.index.windows import rank_windows  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
-from long_take import airborne  # noqa: E402
+from tests.helpers.long_take import airborne  # noqa: E402
 
 TAKE = os.path.join("DragonForgedTheArtist_IClone-CMU-Mocap", "All_BVH", "subjects", "001", "001_01.bvh")
 FEET = ("CC_Base_L_Foot", "CC_Base_R_Foot", "CC_Base_L_ToeBase", "CC_Base_R_ToeBase")

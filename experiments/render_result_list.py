@@ -28,7 +28,8 @@ from blender_shapesig import thumbnails  # noqa: E402
 from blender_shapesig.core import index  # noqa: E402
 from blender_shapesig.core.index import thumbnails as core_thumbs  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
-from blender_shapesig.core.raster import read_png, write_png  # noqa: E402
+from blender_shapesig.core.raster import write_png  # noqa: E402
+from tests.helpers.png import read_png  # noqa: E402
 
 BVH = os.path.join(ROOT, "tests", "data", "bvh")
 CLIPS = {"walk 07_01": "07_01", "walk 07_02": "07_02", "walk 08_01": "08_01", "run 09_02": "09_02",

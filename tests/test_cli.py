@@ -453,7 +453,7 @@ def test_rank_thumbnails_writes_a_picture_per_row_and_the_query(capsys, tmp_path
     """``rank --thumbnails DIR``: one PNG per result and the query's, named in the JSON, the same bytes as the
     pictures kept in the cache folder; a walk's differs from the jump's."""
     from blender_shapesig.core.index import thumbnails
-    from blender_shapesig.core.raster import read_png
+    from tests.helpers.png import read_png
 
     bvh = ROOT / "tests" / "data" / "bvh"
     out_dir, cache = tmp_path / "pics", tmp_path / "cache"

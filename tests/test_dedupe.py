@@ -18,7 +18,7 @@ from blender_shapesig.core.io import sources
 from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.index import entry_distance, make_entry
 from blender_shapesig.core.rigs import JOINTS
-from tests import planted
+from tests.helpers import planted
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data"

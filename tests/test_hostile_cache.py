@@ -12,7 +12,7 @@ import pytest
 from blender_shapesig.core.index import store as store_module
 from blender_shapesig.core.index.cache_folder import CACHE_SUBDIR
 from blender_shapesig.core.index.store import SignatureCache
-from hostile import BVH, left_in, run_cli
+from tests.helpers.hostile import BVH, left_in, run_cli
 
 
 @pytest.fixture

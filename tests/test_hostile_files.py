@@ -11,7 +11,7 @@ import pytest
 from blender_shapesig.core.errors import ParseError, UnreadableFileError
 from blender_shapesig.core.io import registry, sources
 from blender_shapesig.core.io.smpl import load_smpl
-from hostile import BVH, left_in, run_cli
+from tests.helpers.hostile import BVH, left_in, run_cli
 
 GOOD = ("07_01", "09_03")
 

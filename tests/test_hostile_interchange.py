@@ -18,7 +18,7 @@ import pytest
 from blender_shapesig.core.errors import ParseError, UnreadableFileError
 from blender_shapesig.core.io.interchange import check_interchange
 from blender_shapesig.readers import guard
-from hostile import BVH, ROOT, fbx_bomb, left_in, make_gltf, run_cli
+from tests.helpers.hostile import BVH, ROOT, fbx_bomb, left_in, make_gltf, run_cli
 
 pytest.importorskip("bpy", reason="Blender's glTF exporter writes the test files")
 

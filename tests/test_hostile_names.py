@@ -10,7 +10,7 @@ import pytest
 
 from blender_shapesig.core.io.sources import ClipSpec
 from blender_shapesig.core.io.text import plot_name, shown_name
-from hostile import BVH, left_in, make_gltf, run_cli
+from tests.helpers.hostile import BVH, left_in, make_gltf, run_cli
 
 MATHTEXT = "take $\\nope{x}$ one.bvh"  # matplotlib's mathtext cannot parse it: drawn literally or it fails
 NEWLINE = "walk\nblender_shapesig: error: fake.bvh"

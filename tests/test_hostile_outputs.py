@@ -13,7 +13,7 @@ import threading
 import pytest
 
 from blender_shapesig import cli
-from hostile import BVH, make_blend
+from tests.helpers.hostile import BVH, make_blend
 
 ACC = BVH.parent.parent / "data" / "acclaim"
 

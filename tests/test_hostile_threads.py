@@ -7,7 +7,7 @@ import shutil
 
 import pytest
 
-from hostile import BVH, left_in, make_blend, run_cli
+from tests.helpers.hostile import BVH, left_in, make_blend, run_cli
 
 pytest.importorskip("bpy", reason="writing a .blend needs the bpy module")
 

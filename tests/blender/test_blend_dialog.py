@@ -12,8 +12,8 @@ from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.blend_actions import TIMING_TRACK, timed_strips  # noqa: E402
 from blender_shapesig.core.blend import pose_steps  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
-
-from test_blend_operator import _angle, _buffer_hash, _import_bvh, _read, _reopen  # noqa: E402
+from tests.helpers.blender_clips import angle, buffer_hash, import_bvh, read_keyed, reopen_hashes  # noqa: E402
+from tests.helpers.fake_layout import FakeLayout  # noqa: E402
 
 
 @pytest.fixture
@@ -21,9 +21,9 @@ def rig(empty_file):
     """The walk 07_01's armature (active action 'walk'), and the actions 'run' (09_02) and 'walk2' (07_02) of
     the same skeleton (their armatures deleted; fake users), in a 120 fps scene."""
     bpy.context.scene.render.fps = 120  # the clips' rate (the importer leaves the scene's alone)
-    arm = _import_bvh("07_01.bvh", "walk")
+    arm = import_bvh("07_01.bvh", "walk")
     for file, name in (("09_02.bvh", "run"), ("07_02.bvh", "walk2")):
-        other = _import_bvh(file, name)
+        other = import_bvh(file, name)
         bpy.data.actions[name].use_fake_user = True
         bpy.data.objects.remove(other)
     bpy.context.view_layer.objects.active = arm
@@ -32,7 +32,7 @@ def rig(empty_file):
 
 
 def _hashes():
-    return {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run", "walk2")}
+    return {a: buffer_hash(bpy.data.actions[a]) for a in ("walk", "run", "walk2")}
 
 
 def test_ranges_and_planted_feet(rig):
@@ -43,16 +43,16 @@ def test_ranges_and_planted_feet(rig):
     out = bpy.data.actions["walk_x_run_0.50"]
     assert out.use_fake_user and _hashes() == before
     assert tuple(out.frame_range) == (126.0, 126.0 + round(0.5 * 128 + 0.5 * 90))
-    got = _read("walk_x_run_0.50", rig)
+    got = read_keyed("walk_x_run_0.50", rig)
     unplanted = rig.animation_data.action
     assert unplanted == out
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(126, 254),
                                           range_b=(37, 127), feet="NONE") == {"FINISHED"}
-    free = _read("walk_x_run_0.50_2", rig)
+    free = read_keyed("walk_x_run_0.50_2", rig)
     legs = [got.bones.index(b) for b in ("lShin", "rShin")]
     arms = [got.bones.index(b) for b in ("lForeArm", "rForeArm")]
-    assert _angle(got.rotations[:, legs], free.rotations[:, legs]) > 0.05  # the knees work to plant the feet
-    assert _angle(got.rotations[:, arms], free.rotations[:, arms]) < 1e-5  # the arms are the blend's
+    assert angle(got.rotations[:, legs], free.rotations[:, legs]) > 0.05  # the knees work to plant the feet
+    assert angle(got.rotations[:, arms], free.rotations[:, arms]) < 1e-5  # the arms are the blend's
 
 
 def test_three_actions(rig):
@@ -60,16 +60,16 @@ def test_three_actions(rig):
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.0, extra="walk2=0",
                                           feet="NONE") == {"FINISHED"}
     name = "walk_x_run_x_walk2_1.00_0.00_0.00"
-    walk = _read("walk", rig)
-    got = _read(name, rig)
-    assert got.frames == walk.frames and _angle(got.rotations, walk.rotations) < 1e-5
+    walk = read_keyed("walk", rig)
+    got = read_keyed(name, rig)
+    assert got.frames == walk.frames and angle(got.rotations, walk.rotations) < 1e-5
     third = 1 / 3
     for b, c in (("run", "walk2"), ("walk2", "run")):
         assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b=b, weight=third, extra=f"{c}={third}",
                                               assign=False) == {"FINISHED"}
-    x = _read("walk_x_run_x_walk2_0.33_0.33_0.33", rig)
-    y = _read("walk_x_walk2_x_run_0.33_0.33_0.33", rig)
-    assert x.frames == y.frames and _angle(x.rotations, y.rotations) < 1e-4  # float32 keys
+    x = read_keyed("walk_x_run_x_walk2_0.33_0.33_0.33", rig)
+    y = read_keyed("walk_x_walk2_x_run_0.33_0.33_0.33", rig)
+    assert x.frames == y.frames and angle(x.rotations, y.rotations) < 1e-4  # float32 keys
     assert _hashes() == before
 
 
@@ -77,9 +77,9 @@ def test_loop(rig):
     # the ranges leave out the BVH conversion's rest frame and ramp (frames 1-6)
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, loop=True, range_a=(7, 317),
                                           range_b=(7, 131)) == {"FINISHED"}
-    got = _read("walk_x_run_0.50", rig)
+    got = read_keyed("walk_x_run_0.50", rig)
     R = got.rotations
-    assert _angle(R[-1], R[0]) < 1e-4
+    assert angle(R[-1], R[0]) < 1e-4
     steps = pose_steps(R[:-1])
     assert pose_steps(np.stack([R[-2], R[0]]))[0] <= np.median(steps)
 
@@ -104,15 +104,15 @@ def test_loop_of_exactly_one_stride_each(rig):
     """A and B cropped by their ranges to exactly one stride (the period of the feet, found apart): Loop takes each
     range whole as its cycle (it used to find no cycle in a clip of one) and the seam steps no more than the
     sources' largest joint step + 5 degrees (issue 38)."""
-    walk, run = _read("walk", rig), _read("run", rig)
+    walk, run = read_keyed("walk", rig), read_keyed("run", rig)
     pa, pb = _foot_period(walk), _foot_period(run)
     assert 125 <= pa <= 135 and 85 <= pb <= 95
     ra, rb = (100, 100 + pa), (20, 20 + pb)
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, loop=True, range_a=ra,
                                           range_b=rb) == {"FINISHED"}
-    got = _read("walk_x_run_0.50", rig)
+    got = read_keyed("walk_x_run_0.50", rig)
     R = got.rotations
-    assert _angle(R[-1], R[0]) < 1e-4 and got.frames - 1 == round(0.5 * pa + 0.5 * pb)  # both strides whole
+    assert angle(R[-1], R[0]) < 1e-4 and got.frames - 1 == round(0.5 * pa + 0.5 * pb)  # both strides whole
     largest = max(_joint_steps(c.crop(*r).rotations).max() for c, r in ((walk, ra), (run, rb)))
     seam = np.linalg.norm(so3.log(R[0] @ np.swapaxes(R[-2], -1, -2)), axis=-1).max()
     assert seam <= largest + np.radians(5.0)
@@ -122,12 +122,12 @@ def test_loop_of_exactly_one_stride_each(rig):
 def test_mask_keeps_the_legs_of_a(rig):
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=1.0, mask="legs=0",
                                           feet="NONE", align=False) == {"FINISHED"}
-    walk, got = _read("walk", rig), _read("walk_x_run_1.00", rig)
+    walk, got = read_keyed("walk", rig), read_keyed("walk_x_run_1.00", rig)
     assert got.frames == walk.frames  # the timing follows the legs
     legs = [walk.bones.index(b) for b in ("lThigh", "lShin", "rThigh", "rShin")]
-    assert _angle(got.rotations[:, legs], walk.rotations[:, legs]) < 1e-5
+    assert angle(got.rotations[:, legs], walk.rotations[:, legs]) < 1e-5
     j = walk.bones.index("rForeArm")
-    assert _angle(got.rotations[:, j], walk.rotations[:, j]) > 0.05
+    assert angle(got.rotations[:, j], walk.rotations[:, j]) > 0.05
 
 
 def test_editable_timing_strip_bake_and_save(rig, tmp_path):
@@ -147,10 +147,10 @@ def test_editable_timing_strip_bake_and_save(rig, tmp_path):
     assert stash and stash[0].strips[0].action == walk  # the replaced active action is kept
     # bake the unedited clock: the baked blend, up to one more geodesic resampling
     assert bpy.ops.shapesig.bake_blend_timing() == {"FINISHED"}
-    baked = _read("walk_x_run_0.50_baked", rig)
+    baked = read_keyed("walk_x_run_0.50_baked", rig)
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(126, 254),
                                           range_b=(37, 127), assign=False) == {"FINISHED"}
-    direct = _read("walk_x_run_0.50_2", rig)
+    direct = read_keyed("walk_x_run_0.50_2", rig)
     assert baked.frames == direct.frames and baked.frame_start == direct.frame_start
     err = np.linalg.norm(baked.rotations - direct.rotations, axis=(-2, -1))
     assert np.median(err) < 2e-3 and np.median(pose_steps(direct.rotations)) > 5 * np.median(err)
@@ -160,14 +160,14 @@ def test_editable_timing_strip_bake_and_save(rig, tmp_path):
     keys[k].co.y += 3.0
     fc.update()
     assert bpy.ops.shapesig.bake_blend_timing() == {"FINISHED"}
-    nudged = _read("walk_x_run_0.50_baked_2", rig)
-    assert _angle(nudged.rotations, baked.rotations) > 0.02
+    nudged = read_keyed("walk_x_run_0.50_baked_2", rig)
+    assert angle(nudged.rotations, baked.rotations) > 0.02
     assert _hashes() == before
     # save, reopen in a fresh process: every action is there, the sources unchanged
     names = {a.name for a in bpy.data.actions}
     path = tmp_path / "timed.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
-    after = _reopen(path)
+    after = reopen_hashes(path)
     assert set(after) == names
     for name, digest in before.items():
         assert after[name] == digest
@@ -204,8 +204,6 @@ def _dialog(**props):
     from types import SimpleNamespace
 
     from blender_shapesig.operators.blend import SHAPESIG_OT_blend_actions as Op
-    from test_search_ui import FakeLayout
-
     values = {k: v.keywords.get("default", "") for k, v in Op.__annotations__.items()}
     values.update(props, layout=FakeLayout())
     op = SimpleNamespace(**values)
@@ -229,13 +227,13 @@ def test_cyclic_actions_default_to_one_stride(rig):
     assert opened == [op] and op.action_a == "walk"
     (a0, a1), (b0, b1), strides_for = tuple(op.range_a), tuple(op.range_b), op.strides_for
     assert 7 <= a0 < a1 and 7 <= b0 < b1
-    walk, run = _read("walk", rig), _read("run", rig)
+    walk, run = read_keyed("walk", rig), read_keyed("run", rig)
     for clip, (s, e) in ((walk, (a0, a1)), (run, (b0, b1))):
         seconds = (e - s) / clip.fps
         assert 0.6 <= seconds <= 1.3  # a stride of a walk or a run (two steps)
         R = clip.rotations
         i, j, h = s - clip.frame_start, e - clip.frame_start, (s + e) // 2 - clip.frame_start
-        assert _angle(R[i], R[j]) < 0.5 * _angle(R[i], R[h])  # a cycle: it ends where it starts
+        assert angle(R[i], R[j]) < 0.5 * angle(R[i], R[h])  # a cycle: it ends where it starts
     Op.draw(op, bpy.context)
     assert "One stride of each" in op.layout.labels()
     # OK in the dialog: the blend of those strides (headless Blender runs no invoke: the dialog's values are given)
@@ -243,9 +241,9 @@ def test_cyclic_actions_default_to_one_stride(rig):
                                           range_b=(b0, b1), strides_for=strides_for) == {"FINISHED"}
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5, range_a=(a0, a1),
                                           range_b=(b0, b1)) == {"FINISHED"}
-    by_dialog, by_hand = _read("walk_x_run_0.50", rig), _read("walk_x_run_0.50_2", rig)
+    by_dialog, by_hand = read_keyed("walk_x_run_0.50", rig), read_keyed("walk_x_run_0.50_2", rig)
     assert by_dialog.frames == by_hand.frames == round(0.5 * (a1 - a0) + 0.5 * (b1 - b0)) + 1
-    assert _angle(by_dialog.rotations, by_hand.rotations) < 1e-6
+    assert angle(by_dialog.rotations, by_hand.rotations) < 1e-6
     # ranges given (or Loop) are left alone; the strides found for walk x run are not used for walk x walk2
     _, op = _dialog(action_a="walk", action_b="run", range_a=(10, 200))
     op._default_strides(rig)
@@ -255,7 +253,7 @@ def test_cyclic_actions_default_to_one_stride(rig):
     assert "found for walk and run" in op.layout.labels()
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="walk2", weight=0.5, range_a=(a0, a1),
                                           range_b=(b0, b1), strides_for=strides_for, feet="NONE") == {"FINISHED"}
-    whole = _read("walk_x_walk2_0.50", rig)
+    whole = read_keyed("walk_x_walk2_0.50", rig)
     assert whole.frames > 250  # whole actions (317 and 330 frames), not the strides
     # a pose (one frame) shows no cycle: whole actions
     action_io.write_action(walk.crop(50, 50), armature=rig, name="pose").use_fake_user = True

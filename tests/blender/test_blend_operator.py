@@ -2,15 +2,6 @@
 names, frames and keys of the written actions, their content against core.blend, sources untouched
 (F-curve buffers hashed with foreach_get), one undo step, clean errors."""
 
-import contextlib
-import hashlib
-import io
-import json
-import pathlib
-import subprocess
-import sys
-import textwrap
-
 import numpy as np
 import pytest
 
@@ -19,68 +10,21 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, default_frames  # noqa: E402
 from blender_shapesig.core.blend.feet import lock_feet  # noqa: E402
-
-BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
-
-
-def _import_bvh(name, action_name):
-    try:
-        bpy.ops.import_anim.bvh.get_rna_type()
-    except (AttributeError, KeyError):
-        import addon_utils
-
-        addon_utils.enable("io_anim_bvh", default_set=False)
-    with contextlib.redirect_stdout(io.StringIO()):
-        bpy.ops.import_anim.bvh(filepath=str(BVH / name), rotate_mode="NATIVE", frame_start=1,
-                                use_fps_scale=False, update_scene_fps=False, update_scene_duration=False)
-    obj = bpy.context.view_layer.objects.active
-    obj.animation_data.action.name = action_name
-    return obj
+from tests.helpers.blender_clips import (action_fcurves, angle, buffer_hash, import_bvh, read_keyed,  # noqa: E402
+                                         reopen_hashes)
 
 
 @pytest.fixture
 def rig(empty_file):
     """The walk's armature (active, action 'walk') and a second action 'run' (from the run's import,
     whose armature is deleted; the action keeps a fake user)."""
-    arm = _import_bvh("07_01.bvh", "walk")
-    other = _import_bvh("09_02.bvh", "run")
+    arm = import_bvh("07_01.bvh", "walk")
+    other = import_bvh("09_02.bvh", "run")
     bpy.data.actions["run"].use_fake_user = True
     bpy.data.objects.remove(other)
     bpy.context.view_layer.objects.active = arm
     arm.select_set(True)
     return arm
-
-
-def _fcurves(action):
-    from blender_shapesig import compat
-
-    return list(compat.all_action_fcurves(action))
-
-
-def _buffer_hash(action):
-    """SHA-1 over every F-curve's path, index and keyframe buffers read with foreach_get."""
-    h = hashlib.sha1()
-    for fc in sorted(_fcurves(action), key=lambda f: (f.data_path, f.array_index)):
-        h.update(f"{fc.data_path}[{fc.array_index}]".encode())
-        kp = fc.keyframe_points
-        n = len(kp)
-        for attr in ("co", "handle_left", "handle_right"):
-            buf = np.empty(2 * n, dtype=np.float32)
-            kp.foreach_get(attr, buf)
-            h.update(buf.tobytes())
-        ibuf = np.empty(n, dtype=np.int32)
-        kp.foreach_get("interpolation", ibuf)
-        h.update(ibuf.tobytes())
-    return h.hexdigest()
-
-
-def _angle(Ra, Rb):
-    fro = np.sqrt(np.sum((Ra - Rb) ** 2, axis=(-2, -1)))
-    return float((2.0 * np.arcsin(np.clip(fro / (2.0 * np.sqrt(2.0)), 0.0, 1.0))).max())
-
-
-def _read(name, arm, **kw):
-    return action_io.read_action(bpy.data.actions[name], armature=arm, exclude_unkeyed=True, **kw)
 
 
 def test_operator_is_registered_as_one_undo_step(addon):
@@ -92,7 +36,7 @@ def test_operator_is_registered_as_one_undo_step(addon):
 
 def test_blend_writes_a_new_action(rig):
     arm = rig
-    before = {a.name: _buffer_hash(a) for a in bpy.data.actions}
+    before = {a.name: buffer_hash(a) for a in bpy.data.actions}
     result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5)
     assert result == {"FINISHED"}
     assert {a.name for a in bpy.data.actions} == {"walk", "run", "walk_x_run_0.50"}
@@ -100,12 +44,12 @@ def test_blend_writes_a_new_action(rig):
     assert out.use_fake_user
     assert arm.animation_data.action == out
     # Sources are bit-identical.
-    assert {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == before
+    assert {a: buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == before
 
-    walk, run = _read("walk", arm), _read("run", arm)
+    walk, run = read_keyed("walk", arm), read_keyed("run", arm)
     n = default_frames(walk.frames, run.frames, 0.5)
     assert n == 224  # (317 + 131) / 2
-    fcs = _fcurves(out)
+    fcs = action_fcurves(out)
     # One F-curve per rotation channel of every bone of the walk, plus the root's location.
     n_rot = sum(4 if m in ("QUATERNION", "AXIS_ANGLE") else 3 for m in walk.rotation_modes)
     assert len(fcs) == n_rot + 3
@@ -117,9 +61,9 @@ def test_blend_writes_a_new_action(rig):
 
     # Content: the core blend of the two actions as read, feet planted by default (float32 keys: ~1e-6).
     expected, _report = lock_feet(blend_clips(walk, run, 0.5, up_axis=_up(arm, walk.root_bone)), [walk, run])
-    got = _read("walk_x_run_0.50", arm)
+    got = read_keyed("walk_x_run_0.50", arm)
     assert got.bones == expected.bones
-    assert _angle(got.rotations, expected.rotations) < 1e-5
+    assert angle(got.rotations, expected.rotations) < 1e-5
     assert np.abs(got.root_translation - expected.root_translation).max() < 1e-3
 
 
@@ -133,11 +77,11 @@ def test_weight_zero_and_one_reproduce_the_sources(rig):
     arm = rig
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.0) == {"FINISHED"}
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=1.0) == {"FINISHED"}
-    walk, run = _read("walk", arm), _read("run", arm)
-    w0, w1 = _read("walk_x_run_0.00", arm), _read("walk_x_run_1.00", arm)
+    walk, run = read_keyed("walk", arm), read_keyed("run", arm)
+    w0, w1 = read_keyed("walk_x_run_0.00", arm), read_keyed("walk_x_run_1.00", arm)
     assert w0.frames == walk.frames and w1.frames == run.frames
-    assert _angle(w0.rotations, walk.rotations) < 1e-5
-    assert _angle(w1.rotations, run.rotations) < 1e-5
+    assert angle(w0.rotations, walk.rotations) < 1e-5
+    assert angle(w1.rotations, run.rotations) < 1e-5
     assert np.abs(w0.root_translation - walk.root_translation).max() < 1e-3
     assert np.abs(w1.root_translation - run.root_translation).max() < 1e-3
 
@@ -172,7 +116,7 @@ def test_inbetweens_length_and_names(rig):
     for name in names:
         act = bpy.data.actions[name]
         assert act.use_fake_user
-        assert {len(fc.keyframe_points) for fc in _fcurves(act)} == {120}
+        assert {len(fc.keyframe_points) for fc in action_fcurves(act)} == {120}
         assert tuple(act.frame_range) == (1.0, 120.0)
     assert arm.animation_data.action.name == "walk"
     # Again: names are kept unique without Blender's ".001" mangling of "0.50".
@@ -187,22 +131,22 @@ def test_bone_list_blends_only_the_subset(rig):
     result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.5,
                                             bone_subset="LIST", bone_list=", ".join(upper))
     assert result == {"FINISHED"}
-    walk, run = _read("walk", arm), _read("run", arm)
+    walk, run = read_keyed("walk", arm), read_keyed("run", arm)
     expected, _report = lock_feet(blend_clips(walk, run, 0.5, bones=upper, up_axis=_up(arm, walk.root_bone)),
                                   [walk, run])
-    got = _read("walk_x_run_0.50", arm)
-    assert _angle(got.rotations, expected.rotations) < 1e-5
+    got = read_keyed("walk_x_run_0.50", arm)
+    assert angle(got.rotations, expected.rotations) < 1e-5
     # A lower-body bone is the walk's own motion in the blended timing, not the full blend.
     full = blend_clips(walk, run, 0.5, up_axis=_up(arm, walk.root_bone))
     j = walk.bones.index("lThigh")
-    assert _angle(got.rotations[:, j], full.rotations[:, j]) > 0.05
+    assert angle(got.rotations[:, j], full.rotations[:, j]) > 0.05
 
 
 def test_undo_restores_the_file(rig):
     arm_name = rig.name
     bpy.ops.ed.undo_push(message="before blend")
     before = sorted(a.name for a in bpy.data.actions)
-    hashes = {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")}
+    hashes = {a: buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")}
     # Python calls push an undo step only when asked (the UI does it for UNDO operators).
     result = bpy.ops.shapesig.blend_actions("EXEC_DEFAULT", True, action_a="walk", action_b="run",
                                             inbetweens=2)
@@ -211,7 +155,7 @@ def test_undo_restores_the_file(rig):
     bpy.ops.ed.undo()  # one step
     assert sorted(a.name for a in bpy.data.actions) == before
     assert bpy.data.objects[arm_name].animation_data.action.name == "walk"
-    assert {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == hashes
+    assert {a: buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == hashes
     bpy.ops.ed.redo()
     assert "walk_x_run_0.67" in bpy.data.actions
 
@@ -225,7 +169,7 @@ def _assert_fails(match, **kw):
 
 def test_errors_report_cleanly_and_create_nothing(rig):
     arm = rig
-    hashes = {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")}
+    hashes = {a: buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")}
     _assert_fails("same action", action_a="walk", action_b="walk")
     _assert_fails("no action named 'nope'", action_a="walk", action_b="nope")
     _assert_fails("choose two actions", action_a="walk", action_b="")
@@ -251,7 +195,7 @@ def test_errors_report_cleanly_and_create_nothing(rig):
     # No armature.
     bpy.context.view_layer.objects.active = None
     _assert_fails("must be an armature", action_a="walk", action_b="run")
-    assert {a: _buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == hashes
+    assert {a: buffer_hash(bpy.data.actions[a]) for a in ("walk", "run")} == hashes
 
 
 def test_selected_pose_bones_subset(rig):
@@ -266,41 +210,19 @@ def test_selected_pose_bones_subset(rig):
     result = bpy.ops.shapesig.blend_actions(action_a="walk", action_b="run", weight=0.4,
                                             bone_subset="SELECTED", align=False)
     assert result == {"FINISHED"}
-    walk, run = _read("walk", arm), _read("run", arm)
+    walk, run = read_keyed("walk", arm), read_keyed("run", arm)
     expected, _report = lock_feet(blend_clips(walk, run, 0.4, align=False, bones=sorted(chosen),
                                               up_axis=_up(arm, walk.root_bone)), [walk, run])
-    got = _read("walk_x_run_0.40", arm)
-    assert _angle(got.rotations, expected.rotations) < 1e-5
+    got = read_keyed("walk_x_run_0.40", arm)
+    assert angle(got.rotations, expected.rotations) < 1e-5
 
 
 # ------------------------------------------------------------ animator safety: never orphan an action
 
-_REOPEN = textwrap.dedent("""
-    import hashlib, json, sys
-    import numpy as np
-    import bpy
-    sys.path.insert(0, sys.argv[2])
-    bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
-""")
-
-
-def _reopen(path):
-    """{action: _buffer_hash} of the saved file, read in a fresh process (the same hash function)."""
-    import inspect
-
-    code = _REOPEN + inspect.getsource(_fcurves) + inspect.getsource(_buffer_hash) + \
-        'print("RESULT" + json.dumps({a.name: _buffer_hash(a) for a in bpy.data.actions}))\n'
-    root = str(pathlib.Path(__file__).resolve().parents[2])
-    out = subprocess.run([sys.executable, "-c", code, str(path), root], capture_output=True, text=True, timeout=300)
-    line = [ln for ln in out.stdout.splitlines() if ln.startswith("RESULT")]
-    assert line, out.stderr[-2000:]
-    return json.loads(line[-1][len("RESULT"):])
-
-
 def test_blend_assign_keeps_the_previous_action_through_save_and_reopen(rig, tmp_path):
     walk = bpy.data.actions["walk"]
     assert walk.users == 1 and not walk.use_fake_user  # only the armature uses it: assigning would orphan it
-    before = {a.name: _buffer_hash(a) for a in bpy.data.actions}
+    before = {a.name: buffer_hash(a) for a in bpy.data.actions}
     bpy.ops.shapesig.blend_actions("EXEC_DEFAULT", action_a="walk", action_b="run", weight=0.5, align=False,
                                    assign=True)
     assert rig.animation_data.action.name.startswith("walk_x_run")
@@ -308,7 +230,7 @@ def test_blend_assign_keeps_the_previous_action_through_save_and_reopen(rig, tmp
     assert len(tracks) == 1 and tracks[0].mute and tracks[0].strips[0].action == walk
     path = tmp_path / "kept.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
-    after = _reopen(path)
+    after = reopen_hashes(path)
     for name, digest in before.items():
         assert after.get(name) == digest, name
     assert len(after) == len(before) + 1

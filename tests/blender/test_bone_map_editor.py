@@ -46,7 +46,7 @@ def test_editor_registered_and_drawn(daz):
                 "SHAPESIG_UL_bone_map", "SHAPESIG_MT_saved_maps"):
         assert hasattr(bpy.types, cls)
     assert bpy.types.SHAPESIG_PT_bone_map_view3d.bl_parent_id == "SHAPESIG_PT_search_view3d"
-    from test_search_ui import FakeLayout
+    from tests.helpers.fake_layout import FakeLayout
 
     from blender_shapesig.panels import rigmap as panel
 
@@ -196,7 +196,7 @@ def test_trim_toggle_changes_the_frames_compared(empty_file, data_dir, tmp_path)
     assert (row.kept_first, row.kept_last, row.read_first, row.read_last) == (6, 330, 1, 330)
     assert row.frame_last == 0  # not a moment: Assign and Preview give the whole action
     assert row.frames == 325
-    from test_search_ui import FakeLayout
+    from tests.helpers.fake_layout import FakeLayout
 
     from blender_shapesig.panels.search import draw_search
 

@@ -35,13 +35,8 @@ def test_equals_blender_importer(empty_file, name):
 
 
 def test_equals_blender_importer_on_naming_rules(empty_file, tmp_path):
-    import sys
+    from tests.helpers.synthetic_bvh import SYNTHETIC
 
-    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "core" / "io"))
-    try:
-        from test_bvh_reader import SYNTHETIC
-    finally:
-        sys.path.pop(0)
     path = tmp_path / "synthetic.bvh"
     path.write_bytes(SYNTHETIC.encode())
     ours = load_bvh(path)

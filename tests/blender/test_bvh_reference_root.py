@@ -1,6 +1,6 @@
 """A BVH in the Unity / MotionBuilder layout (a static reference ROOT above the hips, six channels on every joint,
-the walk in the hips' position channels; built from the CMU walk 07_01 by ``tests/reference_root.py``): the bpy-free
-reader's forward kinematics puts every joint below the ROOT, the hips' world path among them, where Blender's BVH
+the walk in the hips' position channels; built from the CMU walk 07_01 by ``tests/helpers/reference_root.py``): the
+bpy-free reader's forward kinematics puts every joint below the ROOT, the hips' world path among them, where Blender's BVH
 importer (``bpy.ops.import_anim.bvh``, default options) plays them, to 1e-5 leg lengths in every frame."""
 
 import pathlib
@@ -14,11 +14,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig.core.clip.skeleton import REST_HEADS, forward_kinematics  # noqa: E402
 from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 
-TESTS = pathlib.Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(TESTS))
-from reference_root import reference_root_layout  # noqa: E402
-
-sys.path.remove(str(TESTS))
+from tests.helpers.reference_root import reference_root_layout  # noqa: E402
 
 
 def _blender_heads(path, names, frames):

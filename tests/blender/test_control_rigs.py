@@ -16,7 +16,7 @@ from blender_shapesig.core.clip.prepare import retime  # noqa: E402
 from blender_shapesig.bone_channels import bone_channels  # noqa: E402
 from blender_shapesig.core import index, rigs  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
-from walks_runs_idles import library, read, walks_first  # noqa: E402
+from tests.helpers.walks_runs_idles import library, read, walks_first  # noqa: E402
 
 LEGS = ("thigh.L", "thigh.R", "shin.L", "shin.R")
 DATA = pathlib.Path(__file__).resolve().parents[1] / "data"

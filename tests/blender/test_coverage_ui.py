@@ -12,9 +12,8 @@ from blender_shapesig.core import rigs
 from blender_shapesig.core.index import rank_clips
 from blender_shapesig.core.io import sources
 from blender_shapesig.readers.bvh import import_armature
-from test_search_ui import FakeLayout
-from tests.core.test_rig_detect import BIOVISION, UNITY
-from tests.rig_skeletons import write_bvh
+from tests.helpers.fake_layout import FakeLayout
+from tests.helpers.rig_skeletons import BIOVISION, UNITY, write_bvh
 
 UNITY_HAS = [j for j in rigs.JOINTS if j != "spine_mid"]
 TORSO = ("hips", "spine", "neck", "head")

@@ -14,7 +14,7 @@ from blender_shapesig.blend_actions import blend_actions  # noqa: E402
 from blender_shapesig.core.blend import feet  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from blender_shapesig.library import owner_armature  # noqa: E402
-from mixed_scene import activate, build, save_reopen  # noqa: E402
+from tests.helpers.mixed_scene import activate, build, save_reopen  # noqa: E402
 
 
 @pytest.fixture(scope="module")

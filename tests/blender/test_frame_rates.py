@@ -9,7 +9,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import frame_rates  # noqa: E402
-from mixed_scene import DATA, TRUE_FPS, activate, build, save_reopen  # noqa: E402
+from tests.helpers.mixed_scene import DATA, TRUE_FPS, activate, build, save_reopen  # noqa: E402
 
 
 @pytest.fixture
@@ -94,7 +94,7 @@ def _shown_rates():
 
     from blender_shapesig.operators.blend import _draw_rate
     from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
-    from test_search_ui import FakeLayout
+    from tests.helpers.fake_layout import FakeLayout
 
     s = bpy.context.scene.shapesig
     out = {}
@@ -117,7 +117,7 @@ def test_the_rates_shown_are_the_true_ones_or_flagged_as_assumed(mixed):
     """Done when (issue 31): in the panel and the Blend dialog, each action's rate is its true one (the Acclaim
     import's 120; the BVH files' Frame Time once their folder is known) or shown as assumed (the scene's 24, the
     one-frame pose always)."""
-    from mixed_scene import one_frame_pose
+    from tests.helpers.mixed_scene import one_frame_pose
 
     one_frame_pose(bpy.data.objects["07-walk"])
     shown = _shown_rates()

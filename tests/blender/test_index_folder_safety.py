@@ -13,7 +13,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import library  # noqa: E402
 from blender_shapesig.core import index  # noqa: E402
-from test_blend_operator import _import_bvh  # noqa: E402
+from tests.helpers.blender_clips import import_bvh  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
 
@@ -33,8 +33,8 @@ def _untouched(folder, files):
 @pytest.fixture
 def scene(empty_file):
     """The walk 07_01 active (action 'walk') and 'run' (09_02) as a library action; no session caches."""
-    arm = _import_bvh("07_01.bvh", "walk")
-    other = _import_bvh("09_02.bvh", "run")
+    arm = import_bvh("07_01.bvh", "walk")
+    other = import_bvh("09_02.bvh", "run")
     bpy.data.actions["run"].use_fake_user = True
     bpy.data.objects.remove(other)
     bpy.context.view_layer.objects.active = arm

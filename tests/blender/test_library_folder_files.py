@@ -16,7 +16,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import library, rank_job  # noqa: E402
 from blender_shapesig.core import index as search
 from blender_shapesig.core.io import sources  # noqa: E402
-from tests.hostile import hostile_library  # noqa: E402
+from tests.helpers.hostile import hostile_library  # noqa: E402
 
 BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
 REAL = ("07_02", "08_01", "09_02")

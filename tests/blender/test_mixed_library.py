@@ -10,7 +10,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import compat, frame_rates, rig_library  # noqa: E402
 from blender_shapesig.core import index as search  # noqa: E402
-from mixed_scene import DATA, activate, build, one_frame_pose, save_reopen  # noqa: E402
+from tests.helpers.mixed_scene import DATA, activate, build, one_frame_pose, save_reopen  # noqa: E402
 
 # query action -> (its armature, the same take on another rig)
 SAME = {"07_01": ("07-walk", "07_01.001"), "07_01.001": ("07_01", "07_01"), "002_03": ("002_03", "02_03"),

@@ -12,7 +12,8 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_io, compat  # noqa: E402
 from blender_shapesig.core import index as search  # noqa: E402
 from blender_shapesig.core.index.windows import retimed_excerpt  # noqa: E402
-from test_search_ui import FakeLayout, _import_bvh  # noqa: E402 - the importer call and recording layout there
+from tests.helpers.blender_clips import import_bvh  # noqa: E402
+from tests.helpers.fake_layout import FakeLayout  # noqa: E402
 
 FIRST, LAST, SPEED = 101, 340, 1.25
 
@@ -23,7 +24,7 @@ def take(empty_file, monkeypatch, tmp_path):
     fast, and 'other' its first half second played at half speed, both written as actions of the same armature
     (the query active)."""
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
-    arm = _import_bvh("../acclaim/16_15", "take")  # tests/data/acclaim/16_15.bvh
+    arm = import_bvh("../acclaim/16_15.bvh", "take", fake_user=True)  # tests/data/acclaim/16_15.bvh
     clip = action_io.read_action(bpy.data.actions["take"], armature=arm)
     query = action_io.write_action(retimed_excerpt(clip, FIRST, LAST, SPEED), armature=arm, name="query")
     query.use_fake_user = True

@@ -11,8 +11,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import errors_ui, library, operators  # noqa: E402
-from stand_in import stand_in  # noqa: E402
-from test_operators_lose_nothing import _error, cache_env, rig  # noqa: E402,F401
+from tests.helpers.stand_in import stand_in  # noqa: E402
+from tests.helpers.operator_scene import cache_env, operator_error, rig  # noqa: E402,F401 - fixtures
 
 FAILURES = (OSError(28, "No space left on device", "/index/x.npz"), MemoryError(),
             ReferenceError("StructRNA of type Action has been removed"), ValueError("cannot reshape array"))
@@ -40,7 +40,7 @@ def test_search_operators_report_any_failure_in_one_line(rig, monkeypatch, capfd
     res, settings = library.results_of(bpy.context), bpy.context.scene.shapesig
     for op, label in ((bpy.ops.shapesig.rank, "Find Similar"), (bpy.ops.shapesig.build_index, "Build Index")):
         for mode in ("EXEC_DEFAULT", "INVOKE_DEFAULT"):
-            msg = _error(op, **{}) if mode == "EXEC_DEFAULT" else _invoke_error(op)
+            msg = operator_error(op, **{}) if mode == "EXEC_DEFAULT" else _invoke_error(op)
             assert f"{label}: {line}" in msg and type(exc).__name__ not in msg, msg
             assert not res.running and not settings.index_running
     assert "Traceback" in capfd.readouterr().err  # the console keeps it
@@ -60,9 +60,9 @@ def test_result_and_blend_operators_report_any_failure_in_one_line(rig, monkeypa
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     actions = sorted(a.name for a in bpy.data.actions)
     monkeypatch.setattr(results, "read_hash", lambda action: (_ for _ in ()).throw(MemoryError()))
-    assert _error(bpy.ops.shapesig.assign_result) == "Error: Assign Result: out of memory"
+    assert operator_error(bpy.ops.shapesig.assign_result) == "Error: Assign Result: out of memory"
     monkeypatch.setattr(blend_actions, "make_blends", lambda *a, **k: (_ for _ in ()).throw(OSError(5, "I/O")))
-    assert _error(bpy.ops.shapesig.blend_actions, action_a="walk", action_b="run") == "Error: Blend Actions: I/O"
+    assert operator_error(bpy.ops.shapesig.blend_actions, action_a="walk", action_b="run") == "Error: Blend Actions: I/O"
     assert sorted(a.name for a in bpy.data.actions) == actions
 
 

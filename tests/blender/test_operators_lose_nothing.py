@@ -20,38 +20,17 @@ from blender_shapesig import compat, library, results  # noqa: E402
 from blender_shapesig.core import index
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.errors import MAX_INBETWEENS  # noqa: E402
-from stand_in import stand_in  # noqa: E402
-from test_blend_operator import _buffer_hash, _import_bvh, _reopen  # noqa: E402
-from test_search_ui import FakeLayout, _draw  # noqa: E402
+from tests.helpers.stand_in import stand_in  # noqa: E402
+from tests.helpers.blender_clips import buffer_hash, import_bvh, reopen_hashes  # noqa: E402
+from tests.helpers.fake_layout import FakeLayout, draw_search_panel  # noqa: E402
+from tests.helpers.operator_scene import cache_env, operator_error, rig  # noqa: E402,F401 - fixtures
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
 BVH, ACC = DATA / "bvh", DATA / "acclaim"
 
 
-@pytest.fixture
-def cache_env(monkeypatch, tmp_path):
-    monkeypatch.setenv(index.CACHE_ENV, str(tmp_path / "index"))
-    library.CACHES.clear()
-    return tmp_path / "index"
-
-
-@pytest.fixture
-def rig(empty_file, cache_env):
-    """The walk 07_01's armature, active, playing 'walk' (its only user: no fake user), and the actions 'walk2',
-    'run', 'jump' (fake users; their armatures deleted)."""
-    arm = _import_bvh("07_01.bvh", "walk")
-    for f, name in (("07_02.bvh", "walk2"), ("09_02.bvh", "run"), ("13_32.bvh", "jump")):
-        other = _import_bvh(f, name)
-        bpy.data.actions[name].use_fake_user = True
-        bpy.data.objects.remove(other)
-    bpy.context.view_layer.objects.active = arm
-    arm.select_set(True)
-    bpy.context.scene.shapesig.crop_start = 2
-    return arm
-
-
 def _hashes():
-    return {a.name: _buffer_hash(a) for a in bpy.data.actions}
+    return {a.name: buffer_hash(a) for a in bpy.data.actions}
 
 
 def _state(obj):
@@ -65,15 +44,6 @@ def _state(obj):
             "frame": bpy.context.scene.frame_current,
             "actions": {a.name: (a.users, a.use_fake_user) for a in bpy.data.actions},
             "nla": [(t.name, [s.action.name for s in t.strips]) for t in ad.nla_tracks] if ad else []}
-
-
-def _error(op, **kw):
-    """The one-line error of a refused operator call."""
-    with pytest.raises(RuntimeError) as info:
-        op("EXEC_DEFAULT", **kw)
-    msg = str(info.value).strip()
-    assert "\n" not in msg and "Traceback" not in msg, msg
-    return msg
 
 
 # ----------------------------------------------------------------------------- never lose an action
@@ -143,10 +113,10 @@ def test_assign_preview_stop_and_blends_survive_save_and_reopen(rig, tmp_path):
     path = tmp_path / "after.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     for saved in (mid, path):
-        after = _reopen(saved)
+        after = reopen_hashes(saved)
         for name, digest in before.items():
             assert after.get(name) == digest, (saved.name, name)
-    assert len(_reopen(path)) == len(before) + 3
+    assert len(reopen_hashes(path)) == len(before) + 3
 
 
 # --------------------------------------------------------------------------------- refuse bad values
@@ -160,7 +130,7 @@ def test_assign_preview_stop_and_blends_survive_save_and_reopen(rig, tmp_path):
 ])
 def test_blend_refuses_out_of_range_values_and_changes_nothing(rig, kw, needle):
     before, state = _hashes(), _state(rig)
-    msg = _error(bpy.ops.shapesig.blend_actions, action_a="walk", action_b="run", align=False, **kw)
+    msg = operator_error(bpy.ops.shapesig.blend_actions, action_a="walk", action_b="run", align=False, **kw)
     assert needle in msg, msg
     assert _hashes() == before and _state(rig) == state
 
@@ -182,7 +152,7 @@ def test_search_settings_out_of_range_are_refused_not_clamped(rig, prop, value, 
     setattr(s, prop, value)
     assert getattr(s, prop) == value  # soft limits: the value is kept as given ...
     assert not bpy.ops.shapesig.rank.poll()  # ... and refused, with the reason
-    assert needle in _error(bpy.ops.shapesig.rank) and needle in _error(bpy.ops.shapesig.build_index)
+    assert needle in operator_error(bpy.ops.shapesig.rank) and needle in operator_error(bpy.ops.shapesig.build_index)
     assert len(bpy.context.window_manager.shapesig_results.results) == 0
 
 
@@ -198,11 +168,11 @@ def test_frame_range_is_checked_inside_the_action(rig):
     hashes = _hashes()
     s.frame_start, s.frame_end = 2000, 2100
     assert not bpy.ops.shapesig.rank.poll() and not bpy.ops.shapesig.build_index.poll()
-    msg = _error(bpy.ops.shapesig.rank)
+    msg = operator_error(bpy.ops.shapesig.rank)
     assert f"2000..2100 is outside action 'walk''s frames {first}..{last}" in msg
     s.frame_start, s.frame_end = first, last + 1
-    assert "outside" in _error(bpy.ops.shapesig.build_index)
-    assert "outside" in _draw().labels()  # the panel says why
+    assert "outside" in operator_error(bpy.ops.shapesig.build_index)
+    assert "outside" in draw_search_panel().labels()  # the panel says why
     assert [(r.name, r.distance) for r in bpy.context.window_manager.shapesig_results.results] == rows and _hashes() == hashes
     s.frame_start, s.frame_end = first + 10, first + 60
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
@@ -219,7 +189,7 @@ def test_rows_follow_one_named_sort_column(rig):
     assert bpy.ops.shapesig.rank() == {"FINISHED"}  # the default, Similarity: Motion and pose
     scores = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
     assert res.order_by == "local" and scores == sorted(scores) and "sorted by score" in res.message
-    assert "Score \u25b2" in _draw().labels()
+    assert "Score \u25b2" in draw_search_panel().labels()
     s.similarity = "sim"
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     sims = [r.distance for r in bpy.context.window_manager.shapesig_results.results]
@@ -242,12 +212,12 @@ def test_rows_follow_one_named_sort_column(rig):
     core = index.rank_clips(q, items, rerank=2, top=2, cache=library.get_cache(bpy.context), metric="sim")
     # (the rows keep float32)
     assert [(r.name, pytest.approx(r.elastic, rel=1e-6)) for r in core] == [(r.name, r.elastic) for r in bpy.context.window_manager.shapesig_results.results]
-    lay = _draw()
+    lay = draw_search_panel()
     assert "Timing-aligned \u25b2" in lay.labels() and "sorted by timing-aligned" in lay.labels()
 
 
 def test_labels_are_unique_and_counts_honest(empty_file, cache_env, tmp_path):
-    arm = _import_bvh("07_01.bvh", "walk")
+    arm = import_bvh("07_01.bvh", "walk")
     lib = tmp_path / "lib"
     for sub in ("a", "b"):
         (lib / sub).mkdir(parents=True)
@@ -292,7 +262,7 @@ def test_rank_click_pushes_no_undo_and_keeps_results_on_the_window_manager(rig, 
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     path2 = tmp_path / "b.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path2), copy=True)
-    assert _reopen(path) == _reopen(path2)
+    assert reopen_hashes(path) == reopen_hashes(path2)
 
 
 def test_rank_modal_progress_escape_and_measured_time(rig):
@@ -326,7 +296,7 @@ def test_rank_modal_progress_escape_and_measured_time(rig):
         seen.append(op.job.progress)
     assert got == {"FINISHED"} and seen == sorted(seen) and len(res.results) == 3
     assert res.seconds >= 5.0 and f"{res.seconds:.2f} s" in res.message
-    assert f"click took {res.seconds:.2f} s" in _draw().labels()
+    assert f"click took {res.seconds:.2f} s" in draw_search_panel().labels()
 
 
 # --------------------------------------------------------------------------- cost and skeleton field
@@ -337,7 +307,7 @@ def test_level_four_cost_estimate_and_confirmation(rig, monkeypatch):
 
     s = bpy.context.scene.shapesig
     s.level = 4
-    assert "costly" not in _draw().labels()  # the local search (the default) indexes at the default level
+    assert "costly" not in draw_search_panel().labels()  # the local search (the default) indexes at the default level
     s.similarity = "sim"
     clips, seconds, nbytes = library.index_cost(bpy.context, s)
     _o, _a, q = library.query_item(bpy.context, s)
@@ -347,7 +317,7 @@ def test_level_four_cost_estimate_and_confirmation(rig, monkeypatch):
     per = log_signature_dim(3 * moving, 4) / log_signature_dim(3 * ref["moving"], 4) / ref["clips"]
     assert clips == 4 and seconds == pytest.approx(4 * ref["seconds"] * per)
     assert nbytes == pytest.approx(4 * ref["bytes"] * per) and nbytes > 4 * 4 * log_signature_dim(3 * moving, 4) * 0.9
-    assert "costly" in _draw().labels()
+    assert "costly" in draw_search_panel().labels()
     # in the UI, the click asks first with the estimate (OK runs it again, confirmed)
     asked = []
     fake_wm = SimpleNamespace(invoke_confirm=lambda op, event, **kw: asked.append(kw) or {"RUNNING_MODAL"})

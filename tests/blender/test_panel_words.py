@@ -17,7 +17,7 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import frame_rates, library  # noqa: E402
 from blender_shapesig.core import index as search  # noqa: E402
 from blender_shapesig.core.measure_words import ENGINES, MEASURES, OPTIONS, PANEL_NAME, THESIS_SYMBOLS  # noqa: E402
-from mixed_scene import activate, build, one_frame_pose  # noqa: E402
+from tests.helpers.mixed_scene import activate, build, one_frame_pose  # noqa: E402
 
 SYMBOL = re.compile("|".join(THESIS_SYMBOLS))
 EXCEPTION_NAME = re.compile(r"\w*Error\b|\w*Exception\b|Traceback|NoneType|\bErrno\b")

@@ -9,8 +9,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import library, results  # noqa: E402
-from test_blend_operator import _import_bvh  # noqa: E402
-from test_operators_lose_nothing import BVH, _error, cache_env, rig  # noqa: E402,F401
+from tests.helpers.blender_clips import BVH, import_bvh  # noqa: E402
+from tests.helpers.operator_scene import cache_env, operator_error, rig  # noqa: E402,F401 - fixtures
 
 CHANGED = "changed since the search; search again"
 
@@ -30,9 +30,9 @@ def test_an_action_replaced_under_its_name_is_refused(rig):
     actions = sorted(a.name for a in bpy.data.actions)
     active = rig.animation_data.action
     for op in (bpy.ops.shapesig.assign_result, bpy.ops.shapesig.preview_result, bpy.ops.shapesig.explain_result):
-        assert CHANGED in _error(op) and "'run'" in _error(op)
-    msg = _error(bpy.ops.shapesig.blend_actions, action_a="walk", action_b="run",
-                 expect_b=results.expected_hash(row, "run"))
+        assert CHANGED in operator_error(op) and "'run'" in operator_error(op)
+    msg = operator_error(bpy.ops.shapesig.blend_actions, action_a="walk", action_b="run",
+                         expect_b=results.expected_hash(row, "run"))
     assert CHANGED in msg
     assert sorted(a.name for a in bpy.data.actions) == actions and rig.animation_data.action == active
     assert not bpy.context.scene.shapesig.preview_object
@@ -52,7 +52,7 @@ def test_an_unchanged_action_row_still_assigns_and_blends(rig):
 
 def _folder_result(tmp_path):
     """The walk's armature, a folder library holding the take 07_02, Find Similar run and its row selected."""
-    arm = _import_bvh("07_01.bvh", "walk")
+    arm = import_bvh("07_01.bvh", "walk")
     lib = tmp_path / "lib"
     lib.mkdir()
     shutil.copy(BVH / "07_02.bvh", lib / "07_02.bvh")
@@ -69,7 +69,7 @@ def test_a_replaced_file_is_refused(empty_file, cache_env, tmp_path):  # noqa: F
     shutil.copy(BVH / "09_02.bvh", lib / "07_02.bvh")  # another take put in its place
     actions = sorted(a.name for a in bpy.data.actions)
     for op in (bpy.ops.shapesig.assign_result, bpy.ops.shapesig.preview_result, bpy.ops.shapesig.explain_result):
-        assert CHANGED in _error(op)
+        assert CHANGED in operator_error(op)
     assert sorted(a.name for a in bpy.data.actions) == actions and arm.animation_data.action.name == "walk"
 
 
@@ -79,7 +79,7 @@ def test_a_written_result_edited_since_is_refused(empty_file, cache_env, tmp_pat
     written = arm.animation_data.action
     assert row.is_action and row.source == written.name and results.expected_hash(row, written.name)
     bpy.data.actions.remove(written)
-    stand_in = _import_bvh("09_02.bvh", "x")  # another motion under the written action's name
+    stand_in = import_bvh("09_02.bvh", "x")  # another motion under the written action's name
     stand_in.animation_data.action.name = row.source
     bpy.context.view_layer.objects.active = arm
-    assert CHANGED in _error(bpy.ops.shapesig.assign_result)
+    assert CHANGED in operator_error(bpy.ops.shapesig.assign_result)

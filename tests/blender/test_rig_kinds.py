@@ -14,7 +14,7 @@ from blender_shapesig import action_io, control_rigs, retarget  # noqa: E402
 from blender_shapesig.core import index  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
-from walks_runs_idles import library, read, walks_first  # noqa: E402
+from tests.helpers.walks_runs_idles import library, read, walks_first  # noqa: E402
 
 
 

@@ -23,8 +23,8 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import compat, frame_rates, library  # noqa: E402
 from blender_shapesig.core import index as search  # noqa: E402
-from turned_characters import (_quiet, _scale_location_keys, _select_only, import_bvh, turned,  # noqa: E402
-                               world_heads)
+from tests.helpers.turned_characters import (import_bvh, quiet, scale_location_keys, select_only,  # noqa: E402
+                                             turned, world_heads)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data"
@@ -53,7 +53,7 @@ def test_the_turned_character_moves_as_the_import_in_the_world(scene24, how):
 def _find_similar(arm, folder):
     s = bpy.context.scene.shapesig
     s.use_file_actions, s.use_folders, s.folders = False, True, str(folder)
-    _select_only(arm)
+    select_only(arm)
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     return [(pathlib.Path(r.spec or r.source).name, r.distance) for r in
             bpy.context.window_manager.shapesig_results.results]
@@ -155,7 +155,7 @@ def test_a_blend_of_the_turned_character_with_another_rigs_walk_stays_on_the_flo
     # the sources at 24 samples a second (their keys are 120 a second, one a scene frame): every 5th frame
     low_a, step_a = _lowest_and_step(arm, _frames(arm.animation_data.action, 5))
     low_b, step_b = _lowest_and_step(other, _frames(other.animation_data.action, 5))
-    _select_only(arm)
+    select_only(arm)
     assert bpy.ops.shapesig.blend_actions(action_a="lying", action_b="16_15", weight=0.5, fps_a=120.0, fps_b=120.0,
                                           assign=True) == {"FINISHED"}
     new = arm.animation_data.action
@@ -229,7 +229,7 @@ def test_blends_play_for_the_weight_average_of_their_sources(scene24, scene_fps)
     for act, rate in ((arm.animation_data.action, 120.0), (other.animation_data.action, 60.0)):
         first, last = act.frame_range
         seconds[act.name] = (last - first) / rate
-    _select_only(arm)
+    select_only(arm)
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="walk2", weight=0.25, fps_a=120.0, fps_b=60.0,
                                           feet="NONE", assign=True) == {"FINISHED"}
     got = _scene_seconds(arm.animation_data.action)
@@ -244,7 +244,7 @@ def test_a_blend_with_editable_timing_plays_its_true_duration_in_a_24_fps_scene(
     other = import_bvh(DATA / "bvh" / "07_02.bvh", "walk2")
     want = 0.5 * sum((a.frame_range[1] - a.frame_range[0]) / 120.0
                      for a in (arm.animation_data.action, other.animation_data.action))
-    _select_only(arm)
+    select_only(arm)
     assert bpy.ops.shapesig.blend_actions(action_a="walk", action_b="walk2", weight=0.5, fps_a=120.0, fps_b=120.0,
                                           feet="NONE", timing="NLA") == {"FINISHED"}
     strip = timed_strips(arm)[0]
@@ -267,7 +267,7 @@ def test_a_real_mixamo_character_imported_by_blender(scene24, folder):
     importer at its default options (object turned 90 degrees, scale 0.01). Find Similar lists what the command
     line lists for the file (top 5, same distances); Assign of another rig's walk stays upright; a blend with a
     CMU walk keeps the toes on the floor and the joints without jumps."""
-    _quiet(bpy.ops.import_scene.fbx, filepath=str(SHARED_MIXAMO))
+    quiet(bpy.ops.import_scene.fbx, filepath=str(SHARED_MIXAMO))
     arm = next(o for o in bpy.data.objects if o.type == "ARMATURE")
     assert abs(arm.rotation_euler[0] - math.pi / 2) < 1e-4 and abs(arm.scale[0] - 0.01) < 1e-6
     arm.animation_data.action.name = "mixamo_walk"
@@ -294,14 +294,14 @@ def test_a_real_mixamo_character_imported_by_blender(scene24, folder):
     # ramp left out; the CMU walk in metres (the BVH is in centimetres: the importer scales by 0.01), so heights of
     # both sources and the blend compare in one unit
     bpy.context.scene.frame_set(1)
-    _quiet(bpy.ops.import_anim.bvh, filepath=str(WALK), global_scale=0.01)
+    quiet(bpy.ops.import_anim.bvh, filepath=str(WALK), global_scale=0.01)
     cmu = bpy.context.view_layer.objects.active
     cmu.animation_data.action.name = "cmu_walk"
     # every foot joint: ankles, balls (ToeBase) and toe tips (Toe_End's head; its tail is made up by the importer)
     feet = MIXAMO_FEET | {"lFoot", "rFoot"}
     low_a, step_a = _lowest_and_step_of(arm, bpy.data.actions["mixamo_walk"], feet, 1, with_tails=False)
     low_b, step_b = _lowest_and_step_of(cmu, cmu.animation_data.action, feet, 5, with_tails=False)
-    _select_only(arm)
+    select_only(arm)
     assert bpy.ops.shapesig.blend_actions(action_a="mixamo_walk", action_b="cmu_walk", weight=0.5, fps_a=24.0,
                                           fps_b=120.0, range_b=(7, 317), assign=True) == {"FINISHED"}
     blend = arm.animation_data.action
@@ -311,10 +311,10 @@ def test_a_real_mixamo_character_imported_by_blender(scene24, folder):
     assert step <= max(step_a, step_b) + 5.0, (step, step_a, step_b)
     # the same blend after Apply Rotation & Scale (what an animator had to do before): the same world motion
     turned_heads, _r = _world_pose(arm, _frames(blend))
-    _select_only(arm)
+    select_only(arm)
     compat.assign_action(arm, bpy.data.actions["mixamo_walk"])
-    _quiet(bpy.ops.object.transform_apply, location=False, rotation=True, scale=True)
-    _scale_location_keys(bpy.data.actions["mixamo_walk"], 0.01)
+    quiet(bpy.ops.object.transform_apply, location=False, rotation=True, scale=True)
+    scale_location_keys(bpy.data.actions["mixamo_walk"], 0.01)
     assert bpy.ops.shapesig.blend_actions(action_a="mixamo_walk", action_b="cmu_walk", weight=0.5, fps_a=24.0,
                                           fps_b=120.0, range_b=(7, 317), assign=True) == {"FINISHED"}
     applied_heads, _r = _world_pose(arm, _frames(arm.animation_data.action))

@@ -4,8 +4,6 @@ first, distances equal metrics.clip_distance on the actions read independently, 
 misses after a keyframe edit and rebuilds a corrupt file; assign / preview / blend; clean errors; the panel
 and list draw (fake layout) in every state."""
 
-import contextlib
-import io
 import os
 import pathlib
 from types import SimpleNamespace
@@ -18,27 +16,11 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import action_changes, action_io, compat  # noqa: E402
 from blender_shapesig.core import index as search, rigs  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
-from stand_in import stand_in  # noqa: E402
+from tests.helpers.blender_clips import BVH, CLIPS, import_bvh  # noqa: E402
+from tests.helpers.fake_layout import FakeLayout, draw_search_panel  # noqa: E402
+from tests.helpers.stand_in import stand_in  # noqa: E402
 
-BVH = pathlib.Path(__file__).resolve().parent.parent / "data" / "bvh"
-CLIPS = {"walk1": "07_01", "walk2": "07_02", "walk3": "08_01", "run1": "09_02", "run2": "09_03", "jump": "13_32"}
 LABEL = {"07_01": "walk", "07_02": "walk", "08_01": "walk", "09_02": "run", "09_03": "run", "13_32": "jump"}
-
-
-def _import_bvh(name, action_name):
-    try:
-        bpy.ops.import_anim.bvh.get_rna_type()
-    except (AttributeError, KeyError):
-        import addon_utils
-
-        addon_utils.enable("io_anim_bvh", default_set=False)
-    with contextlib.redirect_stdout(io.StringIO()):
-        bpy.ops.import_anim.bvh(filepath=str(BVH / f"{name}.bvh"), rotate_mode="NATIVE", frame_start=1,
-                                use_fps_scale=False, update_scene_fps=False, update_scene_duration=False)
-    obj = bpy.context.view_layer.objects.active
-    obj.animation_data.action.name = action_name
-    obj.animation_data.action.use_fake_user = True
-    return obj
 
 
 @pytest.fixture
@@ -51,10 +33,10 @@ def cache_env(monkeypatch, tmp_path):
 @pytest.fixture
 def rig(empty_file, cache_env):
     """The first walk's armature (active, action 'walk1') and the other five actions (fake users)."""
-    arm = _import_bvh(CLIPS["walk1"], "walk1")
+    arm = import_bvh(f"{CLIPS['walk1']}.bvh", "walk1", fake_user=True)
     for action_name, clip in CLIPS.items():
         if action_name != "walk1":
-            other = _import_bvh(clip, action_name)
+            other = import_bvh(f"{clip}.bvh", action_name, fake_user=True)
             bpy.data.objects.remove(other)
     bpy.context.view_layer.objects.active = arm
     arm.select_set(True)
@@ -200,7 +182,7 @@ def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_en
 
 
 def test_folder_library(empty_file, cache_env):
-    arm = _import_bvh("07_01", "walk1")
+    arm = import_bvh("07_01.bvh", "walk1", fake_user=True)
     s = bpy.context.scene.shapesig
     s.use_file_actions, s.use_folders, s.folders, s.crop_start = False, True, str(BVH), 2
     s.similarity = "sim"  # the query's own file at sim 0 (the local search's float16 windows: about 5e-4)
@@ -249,7 +231,7 @@ def test_errors_are_clear(empty_file, cache_env):
         bpy.ops.shapesig.build_index()
     with pytest.raises(RuntimeError, match="select an armature"):
         bpy.ops.shapesig.assign_result()
-    arm = _import_bvh("09_02", "only")
+    arm = import_bvh("09_02.bvh", "only", fake_user=True)
     with pytest.raises(RuntimeError, match="no results"):
         bpy.ops.shapesig.assign_result()
     with pytest.raises(RuntimeError, match="no results"):
@@ -271,55 +253,23 @@ def test_errors_are_clear(empty_file, cache_env):
 
 # ------------------------------------------------------------------------------------ panel drawing
 
-class FakeLayout:
-    """Records every UI call; sub-layouts share the log."""
-
-    def __init__(self, log=None):
-        self.log = [] if log is None else log
-
-    def __getattr__(self, name):
-        def call(*args, **kwargs):
-            self.log.append((name, args, kwargs))
-            if name == "operator":
-                props = SimpleNamespace()
-                self.log.append(("props", props))
-                return props
-            return FakeLayout(self.log)
-
-        return call
-
-    def labels(self):
-        return " | ".join(e[2].get("text", "") for e in self.log if e[0] == "label")
-
-    def operators(self):
-        return [e[1][0] for e in self.log if e[0] == "operator"]
-
-
-def _draw():
-    from blender_shapesig.panels.search import SHAPESIG_PT_search_view3d
-
-    layout = FakeLayout()
-    SHAPESIG_PT_search_view3d.draw(SimpleNamespace(layout=layout), bpy.context)
-    return layout
-
-
 def test_panel_draws_every_state(rig):
     from blender_shapesig.panels.search import SHAPESIG_UL_results
 
     bpy.context.view_layer.objects.active = None
-    assert "Select an armature" in _draw().labels()
+    assert "Select an armature" in draw_search_panel().labels()
     bpy.context.view_layer.objects.active = rig
-    lay = _draw()
+    lay = draw_search_panel()
     assert "No results yet" in lay.labels() and {"shapesig.build_index", "shapesig.rank"} <= set(lay.operators())
     s = bpy.context.scene.shapesig
     s.use_file_actions = False
-    assert "library is empty" in _draw().labels()
+    assert "library is empty" in draw_search_panel().labels()
     s.use_file_actions = True
     s.index_running, s.index_progress = True, 0.5
-    assert "Indexing 50%" in str(_draw().log)
+    assert "Indexing 50%" in str(draw_search_panel().log)
     s.index_running = False
     bpy.ops.shapesig.rank()
-    lay = _draw()
+    lay = draw_search_panel()
     assert any(e[0] == "template_list" for e in lay.log)
     assert {"shapesig.assign_result", "shapesig.preview_result", "shapesig.blend_actions"} <= set(lay.operators())
     i = lay.operators().index("shapesig.blend_actions")
@@ -330,9 +280,9 @@ def test_panel_draws_every_state(rig):
                                   "results_index")
     assert bpy.context.window_manager.shapesig_results.results[0].name in row.labels() and f"{bpy.context.window_manager.shapesig_results.results[0].distance:.4f}" in row.labels()
     bpy.context.window_manager.shapesig_results.results_index = 99
-    assert "Select a result" in _draw().labels()
+    assert "Select a result" in draw_search_panel().labels()
     s.query_action = "nope"
-    assert "no action 'nope'" in _draw().labels()
+    assert "no action 'nope'" in draw_search_panel().labels()
 
 
 def test_build_index_modal_steps_and_escape(rig):
@@ -458,7 +408,7 @@ def test_find_similar_stores_what_the_command_lines_rank_stores(empty_file, cach
     folder.mkdir()
     for name in ("07_01", "07_02", "09_02"):
         (folder / f"{name}.bvh").write_bytes((BVH / f"{name}.bvh").read_bytes())
-    _import_bvh("08_01", "walk3")
+    import_bvh("08_01.bvh", "walk3", fake_user=True)
     s = bpy.context.scene.shapesig
     s.use_file_actions, s.use_folders, s.folders, s.fps = False, True, str(folder), 120.0
     assert s.similarity == "local"

@@ -21,8 +21,9 @@ bpy = pytest.importorskip("bpy")
 from blender_shapesig import thumbnails  # noqa: E402
 from blender_shapesig.core import index as search  # noqa: E402
 from blender_shapesig.core.index import thumbnails as core_thumbs  # noqa: E402
-from blender_shapesig.core.raster import read_png  # noqa: E402
-from test_search_ui import CLIPS, FakeLayout, _import_bvh  # noqa: E402
+from tests.helpers.png import read_png  # noqa: E402
+from tests.helpers.blender_clips import CLIPS, import_bvh  # noqa: E402
+from tests.helpers.fake_layout import FakeLayout  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"
 ROOT = str(pathlib.Path(__file__).resolve().parents[2])
@@ -35,10 +36,10 @@ def demo(empty_file, monkeypatch, tmp_path):
     from blender_shapesig import library
 
     library.CACHES.clear()
-    arm = _import_bvh(CLIPS["walk1"], "walk1")
+    arm = import_bvh(f"{CLIPS['walk1']}.bvh", "walk1", fake_user=True)
     for name, clip in CLIPS.items():
         if name != "walk1":
-            bpy.data.objects.remove(_import_bvh(clip, name))
+            bpy.data.objects.remove(import_bvh(f"{clip}.bvh", name, fake_user=True))
     bpy.context.view_layer.objects.active = arm
     arm.select_set(True)
     return tmp_path / "index" / search.CACHE_SUBDIR
@@ -137,8 +138,8 @@ def test_same_take_from_amc_and_daz_bvh_looks_alike(empty_file, monkeypatch, tmp
                                     asf_path=str(DATA / "acclaim" / "07-walk.asf"))
     amc = bpy.context.view_layer.objects.active.animation_data.action
     amc.use_fake_user = True
-    bpy.data.objects.remove(_import_bvh("09_02", "run"))
-    arm = _import_bvh("07_01", "walk_bvh")
+    bpy.data.objects.remove(import_bvh("09_02.bvh", "run", fake_user=True))
+    arm = import_bvh("07_01.bvh", "walk_bvh", fake_user=True)
     bpy.context.view_layer.objects.active = arm
     bpy.context.scene.shapesig.fps = 120.0  # Blender's BVH importer records no rate
     assert bpy.ops.shapesig.rank() == {"FINISHED"}

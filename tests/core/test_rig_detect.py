@@ -1,5 +1,5 @@
 """Bone maps by names and topology (core.rigs.detect): rigs the tables do not know, built as BVH text by the test
-(tests/rig_skeletons.py), read by the package's BVH reader; joints placed by the hierarchy and the rest pose,
+(tests/helpers/rig_skeletons.py), read by the package's BVH reader; joints placed by the hierarchy and the rest pose,
 left/right from the rest feet, non-humanoids refused in one line; coverage over the joints both rigs have."""
 
 import json
@@ -12,21 +12,8 @@ from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.metrics import compare_clips
 from blender_shapesig.core.rigs.names import tokens, word_role
-from tests.rig_skeletons import side_names, write_bvh
+from tests.helpers.rig_skeletons import BIOVISION, BLENDER_LR, UNITY, side_names, write_bvh
 
-UNITY = side_names({"hips": "Hips", "spine": "Spine", "chest": "Chest", "neck": "Neck", "head": "Head"},
-                   {"clavicle": ("Shoulder_{s}", "LR"), "upper_arm": ("UpperArm_{s}", "LR"),
-                    "forearm": ("LowerArm_{s}", "LR"), "hand": ("Hand_{s}", "LR"), "thigh": ("UpperLeg_{s}", "LR"),
-                    "shin": ("LowerLeg_{s}", "LR"), "foot": ("Foot_{s}", "LR"), "toe": ("Toes_{s}", "LR")})
-BIOVISION = side_names({"hips": "Hips", "spine": "Ab", "chest": "Chest", "neck": "Neck", "head": "Head"},
-                       {"clavicle": ("{s}Collar", ("Left", "Right")), "upper_arm": ("{s}Shoulder", ("Left", "Right")),
-                        "forearm": ("{s}Elbow", ("Left", "Right")), "hand": ("{s}Wrist", ("Left", "Right")),
-                        "thigh": ("{s}Hip", ("Left", "Right")), "shin": ("{s}Knee", ("Left", "Right")),
-                        "foot": ("{s}Ankle", ("Left", "Right"))})
-BLENDER_LR = side_names({"hips": "Hips", "spine": "Abdomen", "chest": "Torso", "neck": "Neck", "head": "Head"},
-                        {"upper_arm": ("UpperArm.{s}", "LR"), "forearm": ("LowerArm.{s}", "LR"),
-                         "hand": ("Hand.{s}", "LR"), "thigh": ("UpperLeg.{s}", "LR"), "shin": ("LowerLeg.{s}", "LR"),
-                         "foot": ("Foot.{s}", "LR"), "toe": ("Toe.{s}", "LR")})
 # names that lie about anatomy (a stylised rig): the arm is hand, hand.001, hand.002
 LYING = side_names({"hips": "root", "spine": "body.001", "chest": "body.002", "head": "head"},
                    {"upper_arm": ("hand.{s}", "LR"), "forearm": ("hand.{s}.001", "LR"), "hand": ("hand.{s}.002", "LR"),

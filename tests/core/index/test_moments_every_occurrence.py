@@ -1,6 +1,6 @@
 """Moments list every occurrence in a take (non-maximum suppression within a take, not one window per take): a long
 take built from 14 CMU clips of tests/data (walks, runs and five copies of the forward jump 13_32 at other speeds;
-``tests/long_take.py``), its jumps labelled from the feet's height; a jump of 13_32 finds all five first, each
+``tests/helpers/long_take.py``), its jumps labelled from the feet's height; a jump of 13_32 finds all five first, each
 with its frames. Also: the free-window DTW (``local_dtw.subsequence_dtw``) against brute force."""
 
 import numpy as np
@@ -10,7 +10,7 @@ from blender_shapesig.core.index.local_dtw import dtw, subsequence_dtw
 from blender_shapesig.core.index.windows import rank_windows
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.io.bvh import load_bvh
-from long_take import airborne, build_take
+from tests.helpers.long_take import airborne, build_take
 
 JUMP = "13_32.bvh"
 SEGMENTS = [("07_01.bvh", 1.0), (JUMP, 1.0), ("09_02.bvh", 1.0), ("08_01.bvh", 0.9), (JUMP, 0.8),

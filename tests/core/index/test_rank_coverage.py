@@ -1,7 +1,7 @@
 """Rank rows tell the truth about coverage (issue 30): joints compared / canonical joints both rigs have, the joints
 left out named in ``unmapped``, and the limb-chain rule (below half of the arms and legs both rigs have: refused with
 one warning, or kept as partial and ranked last when partial matches are allowed). Rigs are BVH text written by the
-test (tests/rig_skeletons.py), read through the front door; maps that leave joints out are saved maps."""
+test (tests/helpers/rig_skeletons.py), read through the front door; maps that leave joints out are saved maps."""
 
 import json
 
@@ -12,8 +12,7 @@ from blender_shapesig.core import rigs
 from blender_shapesig.core.index import rank_clips
 from blender_shapesig.core.index.store import SignatureCache
 from blender_shapesig.core.io import sources
-from tests.core.test_rig_detect import BIOVISION, BLENDER_LR, UNITY
-from tests.rig_skeletons import write_bvh
+from tests.helpers.rig_skeletons import BIOVISION, BLENDER_LR, UNITY, write_bvh
 
 UNITY_HAS = tuple(j for j in rigs.JOINTS if j != "spine_mid")  # the Unity rig has every joint but spine_mid
 

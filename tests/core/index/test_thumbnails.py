@@ -14,7 +14,8 @@ from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.index import SignatureCache
 from blender_shapesig.core.index import thumbnails as T
 from blender_shapesig.core.io import sources
-from blender_shapesig.core.raster import Canvas, png_bytes, read_png, write_png
+from blender_shapesig.core.raster import Canvas, png_bytes, write_png
+from tests.helpers.png import read_png
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 

@@ -1,6 +1,6 @@
 """Our bpy-free BVH reader (``core.io.bvh.load_bvh``): rotations against an independent reading of the
 Euler channels (scipy), names and channel orders as Blender's importer makes them, errors naming the line.
-Its equality with Blender's importer is tests/blender/test_bvh_reader.py."""
+Its equality with Blender's importer is tests/blender/test_bvh_reader_vs_importer.py."""
 
 import pathlib
 
@@ -11,47 +11,10 @@ from scipy.spatial.transform import Rotation
 from blender_shapesig.core.errors import ParseError
 from blender_shapesig.core.io.bvh import BVH_TO_BLENDER, load_bvh
 from blender_shapesig.core.io.sources import read
+from tests.helpers.synthetic_bvh import SYNTHETIC
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "data" / "bvh"
 A = BVH_TO_BLENDER
-
-# spaces in a name, a repeated name, a joint without channels, an End Site, X-Y-Z and Y-X-Z orders, a root with
-# positions in another order, CR LF line ends, more data lines than "Frames:" (the importer reads them all)
-SYNTHETIC = """HIERARCHY\r
-ROOT Hips\r
-{\r
-  OFFSET 0 0 0\r
-  CHANNELS 6 Zposition Xposition Yposition Zrotation Yrotation Xrotation\r
-  JOINT Left Leg\r
-  {\r
-    OFFSET 1 0 0\r
-    CHANNELS 3 Xrotation Yrotation Zrotation\r
-    JOINT Foot\r
-    {\r
-      OFFSET 0 -1 0\r
-      End Site\r
-      {\r
-        OFFSET 0 -0.5 0\r
-      }\r
-    }\r
-  }\r
-  JOINT Foot\r
-  {\r
-    OFFSET -1 0 0\r
-    CHANNELS 3 Yrotation Xrotation Zrotation\r
-    End Site\r
-    {\r
-      OFFSET 0 -1 0\r
-    }\r
-  }\r
-}\r
-MOTION\r
-Frames: 2\r
-Frame Time: 0.0333333\r
-1 2 3 10 20 30 -40 50 60 70 -80 90\r
-4 5 6 -100 120 170 5 -5 15 179 89 -179\r
-7 8 9 1 2 3 4 5 6 7 8 9\r
-"""
 
 
 @pytest.mark.parametrize("name", sorted(p.name for p in DATA.glob("*.bvh")))

@@ -1,7 +1,7 @@
 """The walk of a BVH in the Unity / MotionBuilder layout (a static reference ROOT, six channels on every joint, the
-walk in the hips' channels; ``tests/reference_root.py``) reaches the comparison space and the search: the same take
-with the walk on its ROOT reads as the same clip (hips path, rotations), and a walk turned to the side or backward
-finds the same-direction walk first, far ahead of the others. Equality with Blender's importer:
+walk in the hips' channels; ``tests/helpers/reference_root.py``) reaches the comparison space and the search: the
+same take with the walk on its ROOT reads as the same clip (hips path, rotations), and a walk turned to the side or
+backward finds the same-direction walk first, far ahead of the others. Equality with Blender's importer:
 tests/blender/test_bvh_reference_root.py."""
 
 import numpy as np
@@ -10,7 +10,7 @@ import pytest
 from blender_shapesig.core import index
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.io.bvh import load_bvh
-from reference_root import reference_root_layout, turned_walk
+from tests.helpers.reference_root import reference_root_layout, turned_walk
 
 TURNS = (0, 90, 180)  # forward, to the side, backward: the body's facing unchanged
 

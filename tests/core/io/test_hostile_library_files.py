@@ -18,7 +18,7 @@ import pytest
 
 from blender_shapesig.core.io import files, sources
 from blender_shapesig.core.errors import ParseError, ShapeSigError, UnreadableFileError
-from tests.hostile import hostile_library
+from tests.helpers.hostile import hostile_library
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 BVH = ROOT / "tests" / "data" / "bvh"

@@ -16,7 +16,7 @@ from blender_shapesig.core.index import local as ls
 from blender_shapesig.core.io import sources
 
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CLIPS = 300  # batches of 64 (the last 44): the victim dies with most of the library still to do
 
 

@@ -99,3 +99,19 @@ def side_names(body, limbs):
         for s, word in zip(("L", "R"), sides):
             out[f"{base}.{s}"] = pattern.format(s=word)
     return out
+
+
+# three exporters' names for the layout's joints (Unity's humanoid, Biovision's BVH, Blender's .L/.R-style)
+UNITY = side_names({"hips": "Hips", "spine": "Spine", "chest": "Chest", "neck": "Neck", "head": "Head"},
+                   {"clavicle": ("Shoulder_{s}", "LR"), "upper_arm": ("UpperArm_{s}", "LR"),
+                    "forearm": ("LowerArm_{s}", "LR"), "hand": ("Hand_{s}", "LR"), "thigh": ("UpperLeg_{s}", "LR"),
+                    "shin": ("LowerLeg_{s}", "LR"), "foot": ("Foot_{s}", "LR"), "toe": ("Toes_{s}", "LR")})
+BIOVISION = side_names({"hips": "Hips", "spine": "Ab", "chest": "Chest", "neck": "Neck", "head": "Head"},
+                       {"clavicle": ("{s}Collar", ("Left", "Right")), "upper_arm": ("{s}Shoulder", ("Left", "Right")),
+                        "forearm": ("{s}Elbow", ("Left", "Right")), "hand": ("{s}Wrist", ("Left", "Right")),
+                        "thigh": ("{s}Hip", ("Left", "Right")), "shin": ("{s}Knee", ("Left", "Right")),
+                        "foot": ("{s}Ankle", ("Left", "Right"))})
+BLENDER_LR = side_names({"hips": "Hips", "spine": "Abdomen", "chest": "Torso", "neck": "Neck", "head": "Head"},
+                        {"upper_arm": ("UpperArm.{s}", "LR"), "forearm": ("LowerArm.{s}", "LR"),
+                         "hand": ("Hand.{s}", "LR"), "thigh": ("UpperLeg.{s}", "LR"), "shin": ("LowerLeg.{s}", "LR"),
+                         "foot": ("Foot.{s}", "LR"), "toe": ("Toe.{s}", "LR")})

@@ -1,5 +1,5 @@
 """A long take built from the CMU BVH clips of tests/data (one Daz skeleton): segments of other takes one after
-another, each played at its own speed (channels interpolated, rotations unwrapped: ``planted._resample``), its
+another, each played at its own speed (channels interpolated, rotations unwrapped: ``planted.resample``), its
 root path moved to start where the previous one ended; and the jumps in it labelled from the feet's height
 (``airborne``). ``tests/core/index/test_moments_every_occurrence.py``; the experiment on a real long take,
 ``experiments/moments_every_jump.py``, labels its jumps by the same rule."""
@@ -8,7 +8,7 @@ import numpy as np
 
 from blender_shapesig.core.clip import skeleton
 from blender_shapesig.core.io.bvh import bvh_text, load_bvh, parse_bvh
-from planted import _resample, _rotation_columns
+from tests.helpers.planted import resample, rotation_columns
 
 __all__ = ["build_take", "airborne", "AIRBORNE_LEGS"]
 
@@ -37,7 +37,7 @@ def build_take(segments, path):
         joints, frame_time, values = parse_bvh(source)
         values = values[TRIM:]
         where = np.arange(0, len(values) - 1, speed)
-        part = _resample(values, _rotation_columns(joints), where)
+        part = resample(values, rotation_columns(joints), where)
         pos = [joints[0].columns("position")[a] for a in "xz"]
         part[:, joints[0].columns("position")["y"]] -= _ground(source)  # every segment on one floor
         if end is not None:

@@ -4,7 +4,7 @@ import os
 import pathlib
 import shutil
 
-BVH = pathlib.Path(__file__).resolve().parent / "data" / "bvh"
+BVH = pathlib.Path(__file__).resolve().parents[1] / "data" / "bvh"
 HOSTILE = ("x.bvh", "z.bvh", "d.bvh", "l.bvh")
 
 
@@ -22,7 +22,7 @@ def hostile_library(folder, real):
     return folder
 
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 # runs the command line in a process of its own and prints, last, the largest resident size (KiB) that process or
 # any of its waited-for descendants reached (getrusage of the children of this wrapper)

@@ -13,20 +13,20 @@ import numpy as np
 from blender_shapesig import compat
 
 
-def _quiet(op, **kw):
+def quiet(op, **kw):
     with contextlib.redirect_stdout(io.StringIO()):
         return op(**kw)
 
 
 def import_bvh(path, name):
-    _quiet(bpy.ops.import_anim.bvh, filepath=str(path))
+    quiet(bpy.ops.import_anim.bvh, filepath=str(path))
     arm = bpy.context.view_layer.objects.active
     arm.name = name
     arm.animation_data.action.name = name
     return arm
 
 
-def _select_only(obj):
+def select_only(obj):
     for o in bpy.context.view_layer.objects:
         o.select_set(False)
     obj.select_set(True)
@@ -41,11 +41,11 @@ def turned(path, name, how):
     scaled by T's inverse scale, which Apply Transform does not do."""
     arm = import_bvh(path, name)
     turn, scale = {"fbx": (math.pi / 2, 0.01), "empty": (math.pi / 2, 0.01), "scaled": (0.0, 2.5)}[how]
-    _select_only(arm)
+    select_only(arm)
     arm.rotation_euler = (-turn, 0.0, 0.0)
     arm.scale = (1 / scale,) * 3
-    _quiet(bpy.ops.object.transform_apply, location=False, rotation=True, scale=True)
-    _scale_location_keys(arm.animation_data.action, 1 / scale)
+    quiet(bpy.ops.object.transform_apply, location=False, rotation=True, scale=True)
+    scale_location_keys(arm.animation_data.action, 1 / scale)
     if how == "empty":
         empty = bpy.data.objects.new(f"{name}_parent", None)
         bpy.context.collection.objects.link(empty)
@@ -57,7 +57,7 @@ def turned(path, name, how):
     return arm
 
 
-def _scale_location_keys(action, factor):
+def scale_location_keys(action, factor):
     for fc in compat.all_action_fcurves(action):
         if fc.data_path.endswith(".location"):
             for k in fc.keyframe_points:

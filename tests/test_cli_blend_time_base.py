@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[3]
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 BVH = ROOT / "tests" / "data" / "bvh"
 WEIGHTS = (0.25, 0.5, 0.75)  # --inbetweens 3
 

@@ -38,11 +38,11 @@ def rate(source, path, step=2):
     return _write(path, source, values[::step], frame_time * step)
 
 
-def _rotation_columns(joints):
+def rotation_columns(joints):
     return sorted(c for j in joints for c in j.columns("rotation").values())
 
 
-def _resample(values, rot, where, gain=None):
+def resample(values, rot, where, gain=None):
     """The channels at fractional frames ``where`` (linear interpolation; rotation columns ``rot`` unwrapped
     first, their swing about the mean multiplied by ``gain`` (one factor per column) if given, wrapped back to
     [-180, 180) last)."""
@@ -63,7 +63,7 @@ def trimmed_retimed(source, path, trim=0.1, amplitude=0.06, stretch=1.15):
     a, b = int(round(trim * n)), int(round((1.0 - trim) * n)) - 1
     u = np.linspace(0.0, 1.0, int(round((b - a + 1) * stretch)))
     where = a + (b - a) * (u + amplitude * np.sin(2.0 * np.pi * u))
-    return _write(path, source, _resample(values, _rotation_columns(joints), where), frame_time)
+    return _write(path, source, resample(values, rotation_columns(joints), where), frame_time)
 
 
 def variant(source, path, rng, keep=(0.5, 1.0), speed=(0.8, 1.25), scale=(0.7, 1.3), shortest=2.0):
@@ -77,8 +77,8 @@ def variant(source, path, rng, keep=(0.5, 1.0), speed=(0.8, 1.25), scale=(0.7, 1
     length = min(max(int(rng.uniform(*keep) * n), int(shortest / frame_time), 8), n)
     a = int(rng.integers(0, n - length + 1))
     where = np.arange(a, a + length - 1, rng.uniform(*speed))
-    rot = _rotation_columns(joints)
-    return _write(path, source, _resample(values, rot, where, rng.uniform(*scale, size=len(rot))), frame_time)
+    rot = rotation_columns(joints)
+    return _write(path, source, resample(values, rot, where, rng.uniform(*scale, size=len(rot))), frame_time)
 
 
 def plant(folder, walk, run, jump):
