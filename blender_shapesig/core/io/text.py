@@ -16,6 +16,8 @@ def shown_name(name) -> str:
     ``\\xNN``; the rest as is."""
     text = os.fsdecode(name) if isinstance(name, bytes) else str(name)
     text = text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    if text.isprintable():  # the common case, without a look at each character
+        return text
     return "".join(ch if ch.isprintable() or ch == " " else ch.encode("unicode_escape").decode("ascii")
                    for ch in text)
 
