@@ -173,6 +173,23 @@ def display_name(clip):
     return clip.name
 
 
+FILE_KEYS_RECORD = "file keys"  # the cache folder's record of file hashes (SignatureCache.read_fingerprints)
+
+
+@contextlib.contextmanager
+def remembered_file_keys(cache):
+    """The files' hashes kept in the cache folder from one command to the next (``sources.load_file_keys``): a
+    file unchanged since (size, mtime, inode, change time) is not read again to be keyed; the record is updated
+    when this command hashed files."""
+    from ..core.io import sources
+
+    sources.load_file_keys(cache.read_fingerprints(FILE_KEYS_RECORD))
+    yield
+    record = sources.file_keys_record()
+    if record is not None:
+        cache.write_fingerprints(FILE_KEYS_RECORD, record)
+
+
 def cache_dir(args, search):
     """The signature cache folder of ``rank`` and ``dedupe``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the
     per-user cache (``core.index.default_cache_dir``); None (memory only) with --no-cache. The cache makes its own

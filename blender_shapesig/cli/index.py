@@ -12,8 +12,9 @@ def run(args):
 
     sched = c.check_scheduler(args.scheduler)
     t0 = time.perf_counter()
-    items, _skipped = library_or_refuse(args.paths, args, "index")
     cache = index.SignatureCache(c.cache_dir(args, index))
+    with c.remembered_file_keys(cache):
+        items, _skipped = library_or_refuse(args.paths, args, "index")
     with parallel.scheduler(sched) as s, c.progress_bar(args, "indexing") as bar:
         clips, computed, errors = parallel.index_items(items, cache, s, bar)
     warnings = ([cache.warning] if cache.warning else []) + errors

@@ -143,11 +143,12 @@ def run(args):
     from ..core.clip.trim import trim_note, trimmed_range
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
-    query = read_one(spec)
-    # the query is keyed like the library: its signature is a cache hit when it was indexed before
-    query_item = spec_item(spec, load=lambda _spec: query)
-    items, skipped = library_or_refuse(args.clips, args, "rank")
     cache = index.SignatureCache(c.cache_dir(args, index))
+    with c.remembered_file_keys(cache):
+        query = read_one(spec)
+        # the query is keyed like the library: its signature is a cache hit when it was indexed before
+        query_item = spec_item(spec, load=lambda _spec: query)
+        items, skipped = library_or_refuse(args.clips, args, "rank")
     computed = _fill_on(sched, items, cache, base, level, args) if sched else None
     with c.progress_bar(args, "signatures") as bar:
         if args.windows:
