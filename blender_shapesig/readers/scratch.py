@@ -8,6 +8,7 @@ temporary file for the duration.
 """
 
 import contextlib
+import gc
 import io
 import os
 import sys
@@ -109,6 +110,9 @@ def scratch_scene(name="shapesig_import"):
     finally:
         if window is not None:
             window.scene = old_scene
+        # an importer's cyclic garbage (e.g. the BVH importer's node graph) may hold Python wrappers of the data
+        # it made: freed now, while that data exists (collected after, the likeliest cause of 4.2's crashes)
+        gc.collect()
         remove_new_ids(before)
         if old_selected is not None:
             scene = bpy.context.scene

@@ -4,9 +4,21 @@ Blender binary through tests/run_in_blender.py.
 Each test starts from an empty factory-settings file with the add-on registered.
 """
 
+import gc
+
 import pytest
 
 bpy = pytest.importorskip("bpy", reason="the Blender tests need the bpy module or a Blender binary")
+
+
+@pytest.fixture(autouse=True)
+def _garbage_collected_while_its_data_exists():
+    """After each test, Python's cyclic garbage (an exporter's or importer's object graph holding wrappers of
+    Blender data) is freed while that data still exists: the next test's file reset frees the data, and a wrapper
+    collected after it is the likeliest cause of Blender 4.2's crashes in later tests, in any code (one struck
+    during garbage collection right after a glTF export)."""
+    yield
+    gc.collect()
 
 
 @pytest.fixture(scope="session")
