@@ -241,12 +241,14 @@ def test_reading_into_a_users_scene_reads_the_same_and_restores_it(files):
     """In the background (the bpy module, a script) the readers import into the open scene, not a new one (a
     scene switch per file queues a window notifier Blender never processes there; 4.2 crashed after hundreds):
     no scene is made, the scene's rate, frame range, current frame, selection and active object are as they were,
-    and the clips equal those read in a fresh file (the importers see a new scene's rate and first frame)."""
+    and the clips equal those read in a fresh file (the importers see a new scene's rate and first frame). FBX and
+    BVH: the glTF importer switches the window's scene itself, which crashes Blender 4.2's bpy module now and then
+    (in the product glTF files are read in the reading child; one in-process glTF read is checked above)."""
     from blender_shapesig.readers.bvh import import_bvh
     from blender_shapesig.readers.interchange import read_interchange_here
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    fresh = read_interchange_here(str(files / "walk.glb")) + read_interchange_here(str(files / "walk.fbx"))
+    fresh = read_interchange_here(str(files / "walk.fbx"))
     fresh.append(import_bvh(BVH))
     scene = bpy.context.scene
     scene.render.fps, scene.render.fps_base, scene.frame_start, scene.frame_end = 30, 1.001, 10, 50
@@ -260,7 +262,7 @@ def test_reading_into_a_users_scene_reads_the_same_and_restores_it(files):
     seen = []
     bpy.app.handlers.depsgraph_update_post.append(lambda sc, _dg: seen.append(len(bpy.data.scenes)))
     try:
-        got = read_interchange_here(str(files / "walk.glb")) + read_interchange_here(str(files / "walk.fbx"))
+        got = read_interchange_here(str(files / "walk.fbx"))
         got.append(import_bvh(BVH))
     finally:
         bpy.app.handlers.depsgraph_update_post.clear()
