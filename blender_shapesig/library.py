@@ -17,7 +17,7 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_spaces, compat, frame_rates, rigmap, scene_motion
+from . import action_changes, action_spaces, frame_rates, rigmap, scene_motion
 from .core import index
 from .core.io import sources
 from .core.measure_words import OPTIONS
@@ -30,7 +30,7 @@ from .properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, u
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
-           "SearchLibrary", "search_library", "library_items", "index_items", "indexed", "index_steps",
+           "SearchLibrary", "search_library", "library_items", "index_items", "index_steps",
            "missing_count", "active_armature", "check_problem", "index_cost", "cost_text", "COSTLY_LEVEL"]
 
 # The session's stores: (absolute index folder, compact limit) -> SignatureCache (their memory layer survives
@@ -367,11 +367,6 @@ def library_items(context, settings, obj=None) -> List[sources.LibraryItem]:
 def index_items(context, settings) -> List[sources.LibraryItem]:
     """What Build Index indexes: the query, then the library (every folder file keyed now)."""
     return [it for it in search_library(context, settings).members() if it is not None]
-
-
-def indexed(cache, key, level, local) -> bool:
-    """True when the store holds the item's signature entries (and with ``local`` its local-search entries)."""
-    return cache.contains(key, level) and (not local or cache.contains_local(key))
 
 
 def index_steps(lib: SearchLibrary, level, cache, errors, local=False, computed=None):

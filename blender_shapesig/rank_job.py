@@ -94,7 +94,7 @@ class RankJob:
         # the local search needs its own entries only (a clip its features refuse gets its signature entries when
         # ranked), as the command line's rank: one check in memory instead of a file check per action and click
         if self.settings.use_windows or (self.cache.contains_local(item.key) if self.local
-                                         else library.indexed(self.cache, item.key, self.level, False)):
+                                         else self.cache.contains(item.key, self.level)):
             return
         entries = (local_entries([item], self.cache, errors=self.errors) if self.local  # as the CLI's rank
                    else next(index.iter_entries([item], self.level, self.cache, self.errors))[1])

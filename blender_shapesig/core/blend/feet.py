@@ -329,12 +329,12 @@ def _floors(work, srcs, rest, legs, up):
     units) of each foot point, and of the tail of each bone under the foot (toes), over the sources on the blend's
     own skeleton (the first source always is): a blend written onto that rig keeps its feet above them (a blend
     across rigs otherwise brings the other rig's lower ankle and foot pitch)."""
-    same = [s for s in srcs if s.clip.bones == work.bones and s.rest.heads.shape == rest.heads.shape
+    same = [s for s in srcs if s.clip.bones == work.bones
             and np.allclose(s.rest.heads, rest.heads, atol=1e-6 * (1.0 + np.abs(rest.heads).max()))]
+    tol = FLOOR_TOLERANCE / srcs[0].unit
     out = {}
     for side in set(legs).intersection(*(set(s.pos) for s in same)) if same else ():
         foot = legs[side][2]
-        tol = FLOOR_TOLERANCE / srcs[0].unit
         out[side] = {p: min(float((s.pos[side][p] @ up).min()) for s in same) - tol for p in POINTS}
         out[side]["toes"] = {int(c): min(float((s.tails[:, c] @ up).min()) for s in same) - tol
                              for c in np.flatnonzero(rest.ancestor == foot)}
@@ -348,7 +348,8 @@ def _pitch_to_floor(Wf, head, bone, up, floor, fps):
     the bone points down), eased over RAMP (``_smooth_max``) so the correction fades in and out without a step."""
     v = np.einsum("fij,j->fi", Wf, bone)
     want = floor - head @ up
-    if not (v @ up < want - 1e-9).any():
+    rise = v @ up
+    if not (rise < want - 1e-9).any():
         return Wf
     across = np.cross(bone, up)
     if np.linalg.norm(across) < MIN_ACROSS * max(np.linalg.norm(bone), 1e-12):
@@ -363,7 +364,7 @@ def _pitch_to_floor(Wf, head, bone, up, floor, fps):
     # the first turn (flexing up, t >= 0) at which the tail reaches the floor; the highest it can go if it cannot
     x = np.arccos(np.clip((want - c0) / np.maximum(R, 1e-12), -1.0, 1.0))
     need = np.minimum(np.mod(phi - x, 2 * np.pi), np.mod(phi + x, 2 * np.pi))
-    need = np.minimum(np.where(v @ up < want, need, 0.0), MAX_PITCH)
+    need = np.minimum(np.where(rise < want, need, 0.0), MAX_PITCH)
     need = np.maximum(_smooth_max(need, fps), need)
     return so3.exp(axis * need[:, None]) @ Wf
 
