@@ -8,11 +8,11 @@ ranking with the built index; the one-off index build; the index's memory.
    every 4th frame: 30 fps as in the issue's file), each cropped differently (16-84 frames, 132 F-curves each,
    1,000 distinct contents). Saved to ``--blend`` (built once,
    reused when it exists).
-2. Index build (the one-off cost): ``library.library_items`` + ``core.index.build_index`` into a fresh folder:
+2. Index build (the one-off cost): ``library.library_items`` + ``core.search.build_index`` into a fresh folder:
    actions per second; the same-run baseline: the build again into another folder with OpenBLAS's own threads.
 3. A click (what the search operator does, without writing the UI results): the query item,
    ``library.library_items`` (change detection through ``action_io.action_fingerprint``) and
-   ``core.index.rank_clips`` with the built index (re-rank off). Cold: the first click of a session (every
+   ``core.search.rank_clips`` with the built index (re-rank off). Cold: the first click of a session (every
    action's fingerprint, ``action_io.read_hash``, computed; the baseline: ``action_io.action_hash`` of every
    action, the key every click computed before); warm: later clicks (best of ``--repeat``) and a click after one action was edited. Then the click as
    the UI runs it, ``bpy.ops.shapesig.rank()`` (results written to the window manager, no undo step), beside the
@@ -46,7 +46,7 @@ import blender_shapesig  # noqa: E402
 import dataclasses  # noqa: E402
 
 from blender_shapesig import action_changes, action_io, library  # noqa: E402
-from blender_shapesig.core import blas, index  # noqa: E402
+from blender_shapesig.core import blas, search as index  # noqa: E402
 from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 
@@ -169,7 +169,7 @@ def fresh_session_clicks(blend, folder, runs):
     deleted first: the baseline), alternated; the best of each and their ratio."""
     import subprocess
 
-    from blender_shapesig.core.index.cache_folder import CACHE_SUBDIR
+    from blender_shapesig.core.search.cache_folder import CACHE_SUBDIR
 
     env = dict(os.environ, **{index.CACHE_ENV: folder})
     got = {"stored": [], "recomputed": []}

@@ -1,4 +1,4 @@
-"""The default search (``local``) over 1,000 indexed clips: one query, warm, through ``core.index.rank_clips`` (what
+"""The default search (``local``) over 1,000 indexed clips: one query, warm, through ``core.search.rank_clips`` (what
 ``rank`` and Find Similar run), against a 1-NN DTW on joint positions over the same clips (tslearn, the usual
 baseline); the index's bytes per clip on disk.
 
@@ -28,9 +28,9 @@ import numpy as np
 from _common import ROOT, timed, write_json
 
 from blender_shapesig import evaluation as ev  # noqa: E402
-from blender_shapesig.core import index  # noqa: E402
+from blender_shapesig.core import search as index  # noqa: E402
 from blender_shapesig.core.clip.clip import Clip  # noqa: E402
-from blender_shapesig.core.index import local  # noqa: E402
+from blender_shapesig.core.search.local import features as local  # noqa: E402
 
 SETS = (("hdm05", "hdm05.csv"), ("cmu", "cmu_large.csv"))
 

@@ -5,10 +5,10 @@
 
 The library: every BVH under --data (the shared BVH library, 60 files on three skeletons, which holds the long
 takes 13_10 (2,397 frames), 131_02 (1,247) and the iClone 001_01 (1,376, 60 fps)) plus the long AMC takes 09_12
-(1,918 frames) and 135_06 (3,261). Each excerpt (``core.index.windows.retimed_excerpt``: frames S..E of a long take
+(1,918 frames) and 135_06 (3,261). Each excerpt (``core.search.moments.windows.retimed_excerpt``: frames S..E of a long take
 played 0.8x, 1.0x or 1.25x as fast, resampled at the take's rate) queries the library with
-``core.index.windows.rank_windows``; the script prints the rank of the source take, the IoU of its window with
-S..E, and seconds. Baseline in the same run: the whole-clip ranking (``core.index.rank_clips``, sim3, signatures
+``core.search.moments.windows.rank_windows``; the script prints the rank of the source take, the IoU of its window with
+S..E, and seconds. Baseline in the same run: the whole-clip ranking (``core.search.rank_clips``, sim3, signatures
 already in memory) of the same query, its rank of the source take and its seconds.
 """
 
@@ -22,9 +22,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from blender_shapesig.core import index
+from blender_shapesig.core import search as index
 from blender_shapesig.core.io import sources  # noqa: E402
-from blender_shapesig.core.index.windows import rank_windows, retimed_excerpt  # noqa: E402
+from blender_shapesig.core.search.moments.windows import rank_windows, retimed_excerpt  # noqa: E402
 
 _AMC_TAKES = [("keenon_nimblephysics@d560120b1/data/mocap/09_12.amc", "keenon_nimblephysics@d560120b1/data/mocap/09.asf"),
               ("Jiaqi-Zuo_CSCI520-Motion-Capture-Interpolation/mocapPlayer-starter/135_06-martialArts.amc",

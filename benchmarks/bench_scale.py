@@ -1,4 +1,4 @@
-"""The default search at library scale: a library file (``core/index/local_library.py``) of N synthetic-but-realistic
+"""The default search at library scale: a library file (``core/search/local/library.py``) of N synthetic-but-realistic
 clips, queried warm through the CLI's core path, opened in a fresh process, against the exact first stage.
 
     .venv/bin/python benchmarks/bench_scale.py --clips N [--data FOLDER] [--queries Q] [--recall-queries R] [--json]
@@ -34,8 +34,8 @@ import numpy as np
 from _common import ROOT
 
 from blender_shapesig.core.blas import one_blas_thread  # noqa: E402
-from blender_shapesig.core.index import local, local_dtw, take  # noqa: E402
-from blender_shapesig.core.index.local_library import open_library, write_library  # noqa: E402
+from blender_shapesig.core.search.local import features as local, dtw as local_dtw, take  # noqa: E402
+from blender_shapesig.core.search.local.library import open_library, write_library  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 
 
@@ -190,8 +190,8 @@ sys.path.insert(0, {str(ROOT)!r})
 def rss():
     return int(open('/proc/self/statm').read().split()[1]) * 4096
 import numpy as np
-from blender_shapesig.core.index import local
-from blender_shapesig.core.index.local_library import open_library
+from blender_shapesig.core.search.local import features as local
+from blender_shapesig.core.search.local.library import open_library
 r0 = rss()
 t0 = time.perf_counter()
 lib = open_library({fn!r}); block = lib.stack()

@@ -8,7 +8,7 @@ Clips: every .bvh under ``--data`` (default: $SHAPESIG_CMU_DATA, e.g. the Przest
 43 bones; else the test clips), read with Blender's importer (``core.io.sources.read``), frame 1 (rest pose) cropped.
 
 Reference ranking: sim^n from float64 log-signatures on the moving joints (exact: still joints add only
-zero coordinates, see core/index/entry.py), every clip against every other. Compared by recall@10 (mean over
+zero coordinates, see core/search/signature/entry.py), every clip against every other. Compared by recall@10 (mean over
 queries of |true top 10 ∩ top 10| / 10):
   * float32 directions (what the index stores);
   * count sketches of K buckets (the index's first stage), alone;
@@ -38,7 +38,7 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from blender_shapesig.core import index
+from blender_shapesig.core import search as index
 from blender_shapesig.core.signatures import signatures
 from blender_shapesig.core.io import sources  # noqa: E402
 

@@ -30,7 +30,7 @@ import bpy  # noqa: E402
 
 import blender_shapesig  # noqa: E402
 from blender_shapesig import action_io, library, thumbnails  # noqa: E402
-from blender_shapesig.core import index  # noqa: E402
+from blender_shapesig.core import search as index  # noqa: E402
 from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 

@@ -18,7 +18,7 @@ import numpy as np
 import bpy
 
 from . import action_changes, action_spaces, frame_rates, rigmap, scene_motion
-from .core import index
+from .core import search as index
 from .core.io import sources
 from .core.measure_words import OPTIONS
 from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer

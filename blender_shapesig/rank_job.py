@@ -8,10 +8,8 @@ line; ``rank_into_settings`` runs a whole click synchronously. The library itsel
 import time
 
 from . import frame_rates, library, rigmap, thumbnails
-from .core import index
-from .core.index.local_rank import local_entries
-from .core.index.windows import rank_windows
-from .core.metrics import LOCAL
+from .core import search as index
+from .core.search.engines import engine_for
 from .core.errors import ShapeSigError
 from .properties import column_word, index_level, results_of, uses_local
 from .result_rows import ELASTIC_COLUMN, SIM_COLUMN, store_results
@@ -51,6 +49,9 @@ class RankJob:
         self.rerank, self.top = (0 if self.local else max(int(settings.rerank), 0)), max(int(settings.top), 0)
         self.items = []  # the library's members as they are keyed (without the query)
         self.errors, self.failed, self.indexed = [], set(), 0
+        # the engine the command line's rank would use (``core.search.engines``): moments, the local search or sim^n
+        self.engine = engine_for("local" if self.local else "sim", None if self.local else self.level,
+                                 windows=settings.use_windows, explain=True, errors=self.errors)
         self._members = self.lib.members()
         self.total = self.lib.size + 1 + self.rerank
         self.done = 0
@@ -88,17 +89,14 @@ class RankJob:
 
     def _index(self, item):
         """One member (keyed by ``SearchLibrary.members``): indexed when the store lacks it (moments read the
-        clips themselves, ``core.index.windows``); what is done stays cached when the click is cancelled."""
+        clips themselves, ``core.search.moments.windows``); what is done stays cached when the click is cancelled."""
         if item is not self.query:
             self.items.append(item)
-        # the local search needs its own entries only (a clip its features refuse gets its signature entries when
-        # ranked), as the command line's rank: one check in memory instead of a file check per action and click
-        if self.settings.use_windows or (self.cache.contains_local(item.key) if self.local
-                                         else self.cache.contains(item.key, self.level)):
+        # each engine indexes its own entries only (the local search: a clip its features refuse gets its signature
+        # entries when ranked), as the command line's rank: one check in memory instead of a file check per click
+        if self.engine.indexed(item, self.cache):
             return
-        entries = (local_entries([item], self.cache, errors=self.errors) if self.local  # as the CLI's rank
-                   else next(index.iter_entries([item], self.level, self.cache, self.errors))[1])
-        if entries:
+        if self.engine.index(item, self.cache, self.errors):
             self.indexed += 1
         else:
             self.failed.add(item.key)
@@ -117,16 +115,13 @@ class RankJob:
             reasons = [str(e) for e in self.errors + self.skipped]
             raise ShapeSigError(f"no library clip could be read ({reasons[0] if reasons else 'none found'})"
                                 + self.lib.skipped_text())
-        windows, cut = self.settings.use_windows, None
-        if windows:  # moments (core.index.windows), explained; the refinement of the first K runs inside
-            self.ranked = rank_windows(self.query, items, rerank=self.rerank, top=self.top or None,
-                                       depth=self.settings.depth, explain=True, errors=self.errors)
-        elif self.local:  # its second stage runs inside the ranking
-            self.ranked = index.rank_clips(self.query, items, metric=LOCAL, top=self.top or None, cache=self.cache)
-        else:
+        windows, cut, pool = self.settings.use_windows, None, None
+        if not windows and not self.local:  # sim^n: Timing Check re-ranks the first rows one per step
             cut = min(self.rerank, self.top or self.rerank) if self.rerank else (self.top or None)
-            self.ranked = index.rank_clips(self.query, items, metric="sim", level=self.level, top=self.top or None,
-                                           cache=self.cache, pool=max(index.EXACT_POOL, 4 * max(cut or 0, self.top)))
+            pool = max(index.EXACT_POOL, 4 * max(cut or 0, self.top))
+        # moments refine their first rows inside (explained); the local search's second stage runs inside
+        self.ranked = index.rank_clips(self.query, items, engine=self.engine, rerank=self.rerank if windows else 0,
+                                       top=self.top or None, cache=self.cache, depth=self.settings.depth, pool=pool)
         self.warnings = self.errors + self.ranked.warnings
         # clips (a .blend item may hold several)
         self.compared = self.ranked.stats.get("compared" if windows else "library", len(items))

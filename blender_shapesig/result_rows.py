@@ -32,7 +32,7 @@ def _row_sources(results, items):
 
 
 # the results' columns, by the measure's key (their words: core.measure_words); local: the local search's score
-# (core.index.local.combine)
+# (core.search.local.features.combine)
 SIM_COLUMN, ELASTIC_COLUMN, LOCAL_COLUMN = "sim", "elastic", "local"
 
 

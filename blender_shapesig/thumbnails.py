@@ -1,5 +1,5 @@
 """Pictures of the result rows (Blender layer): after a Find Similar click, a ``ThumbJob`` makes each row's strip of
-key poses (``core.index.thumbnails``: drawn once, kept in the index folder beside the clip's entries, reused by
+key poses (``core.search.thumbnails``: drawn once, kept in the index folder beside the clip's entries, reused by
 later sessions) and loads it into the add-on's ``bpy.utils.previews`` collection, a few rows per tick of a
 ``bpy.app.timers`` timer, so the click itself is never slower; each row then has ``preview_path`` (the PNG) and
 ``preview_icon`` (its icon id: 0 while pending, and always 0 in background mode, where Blender makes no icons).
@@ -15,7 +15,7 @@ import bpy
 import bpy.utils.previews
 
 from .core.errors import ShapeSigError
-from .core.index import thumbnails as core_thumbs
+from .core.search import thumbnails as core_thumbs
 from .core.raster import png_bytes
 from .properties import results_of
 

@@ -24,7 +24,7 @@ if ROOT not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from blender_shapesig.core.index.windows import rank_windows  # noqa: E402
+from blender_shapesig.core.search.moments.windows import rank_windows  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from tests.helpers.long_take import airborne  # noqa: E402

@@ -1,6 +1,6 @@
 #!/usr/bin/env python
 """Pictures of docs/transitions.md, drawn by the package's rasterizer (``core.raster``) and pose strips
-(``core.index.thumbnails.draw_strip``), no Blender needed:
+(``core.search.thumbnails.draw_strip``), no Blender needed:
 
   .venv/bin/python experiments/plot_transition.py [--out docs/img]
 
@@ -24,8 +24,8 @@ import numpy as np  # noqa: E402
 from blender_shapesig.core.blend.body import Body  # noqa: E402
 from blender_shapesig.core.blend.cuts import CUT_FPS, cut_costs  # noqa: E402
 from blender_shapesig.core.blend.transition import best_cuts, transition  # noqa: E402
-from blender_shapesig.core.index import local  # noqa: E402
-from blender_shapesig.core.index.thumbnails import draw_strip  # noqa: E402
+from blender_shapesig.core.search.local import features as local  # noqa: E402
+from blender_shapesig.core.search.thumbnails import draw_strip  # noqa: E402
 from blender_shapesig.core.io.sources import read_one  # noqa: E402
 from blender_shapesig.core.raster import write_png  # noqa: E402
 from blender_shapesig.core.rigs import apply_bone_map  # noqa: E402

@@ -6,7 +6,7 @@
 
 A library of the shared CMU takes in two formats each: AMC 07_01-07_03 and 09_01-09_03 with their cgspeed Daz
 BVH, iClone (Character Creator skeleton, 60 fps) 002_01-002_03 with Daz 02_01-02_03, AMC 16_15 with its
-MotionBuilder BVH. Every clip queries the library (``core.index.rank_clips``, sim3, through ``core.io.sources``);
+MotionBuilder BVH. Every clip queries the library (``core.search.rank_clips``, sim3, through ``core.io.sources``);
 the script prints each query's first result and whether it is the same take, and the count.
 
 No crops: every clip is read as a user reads it (``--trim auto``, ``core.clip.trim``), which drops the Daz BVH files'
@@ -37,7 +37,7 @@ if ROOT not in sys.path:
 
 import numpy as np  # noqa: E402
 
-from blender_shapesig.core import index
+from blender_shapesig.core import search as index
 from blender_shapesig.core.clip import prepare
 from blender_shapesig.core.geometry import so3
 from blender_shapesig.core.io import sources  # noqa: E402

@@ -25,8 +25,8 @@ import numpy as np  # noqa: E402
 
 import blender_shapesig  # noqa: E402
 from blender_shapesig import thumbnails  # noqa: E402
-from blender_shapesig.core import index  # noqa: E402
-from blender_shapesig.core.index import thumbnails as core_thumbs  # noqa: E402
+from blender_shapesig.core import search as index  # noqa: E402
+from blender_shapesig.core.search import thumbnails as core_thumbs  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.raster import write_png  # noqa: E402
 from tests.helpers.png import read_png  # noqa: E402

@@ -45,7 +45,7 @@ def test_core_imports_nothing_from_the_blender_layer():
     Blender layer registers its readers with ``core.io.registry`` itself)."""
     bad = []
     for path in sorted((PACKAGE / "core").rglob("*.py")):
-        depth = len(path.parent.relative_to(PACKAGE).parts)  # core/x.py: 1, core/index/x.py: 2
+        depth = len(path.parent.relative_to(PACKAGE).parts)  # core/x.py: 1, core/search/x.py: 2
         tree = ast.parse(path.read_text(encoding="utf-8"))
         for node in ast.walk(tree):
             if isinstance(node, ast.Import):
@@ -161,10 +161,10 @@ def test_the_cycle_finder_finds_a_cycle():
 
 
 def test_an_import_of_a_submodule_counts_its_packages():
-    """``from .index import local`` in core/metrics.py runs core/index/__init__.py first: an edge to the package
+    """``from .index import local`` in core/metrics.py runs core/search/__init__.py first: an edge to the package
     (the cycle of the old metrics hub, metrics -> index.local -> index/__init__ -> rank -> metrics, went unseen)."""
     edges = _import_graph()
-    assert {"blender_shapesig.core.index.local", "blender_shapesig.core.index"} <= edges["blender_shapesig.core.metrics"]
+    assert {"blender_shapesig.core.search.local.features", "blender_shapesig.core.search"} <= edges["blender_shapesig.core.metrics"]
     assert "blender_shapesig.core" not in edges["blender_shapesig.core.metrics"]  # its own package: no edge
 
 

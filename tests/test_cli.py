@@ -286,7 +286,7 @@ def test_rank_sim_equals_distance_for_every_clip(capsys, amc, tmp_path):
 
 
 def test_rank_default_cache_env_and_no_cache(capsys, amc, tmp_path, monkeypatch):
-    """Without --cache, rank caches in $SHAPESIG_CACHE_DIR (else the per-user folder, core.index.default_cache_dir);
+    """Without --cache, rank caches in $SHAPESIG_CACHE_DIR (else the per-user folder, core.search.default_cache_dir);
     --no-cache reads and writes no cache; both options at once are an error."""
     env_dir = tmp_path / "user_cache"
     monkeypatch.setenv("SHAPESIG_CACHE_DIR", str(env_dir))
@@ -319,7 +319,7 @@ def test_rank_rerank_and_top(capsys, amc):
     first = out["results"][0]
     a, b = _compared(_clip(amc["r1"]), _clip(names[first["clip"]]), "elastic")
     # The index keeps float32 increments on the 30 fps time base and low-passes them there; `distance` low-passes
-    # the 120 fps curve before resampling: close, not equal (equal at 30 fps: tests/core/index/test_rank.py).
+    # the 120 fps curve before resampling: close, not equal (equal at 30 fps: tests/core/search/test_rank.py).
     assert first["elastic"] == pytest.approx(elastic_distance(a.rotations, b.rotations), rel=1e-2)
 
 
@@ -452,7 +452,7 @@ def test_subprocess_rank_blend_results_name_their_action(amc, tmp_path):
 def test_rank_thumbnails_writes_a_picture_per_row_and_the_query(capsys, tmp_path):
     """``rank --thumbnails DIR``: one PNG per result and the query's, named in the JSON, the same bytes as the
     pictures kept in the cache folder; a walk's differs from the jump's."""
-    from blender_shapesig.core.index import thumbnails
+    from blender_shapesig.core.search import thumbnails
     from tests.helpers.png import read_png
 
     bvh = ROOT / "tests" / "data" / "bvh"

@@ -11,8 +11,8 @@ import distributed
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import index
-from blender_shapesig.core.index import local as ls
+from blender_shapesig.core import search as index
+from blender_shapesig.core.search.local import features as ls
 from blender_shapesig.core.io import sources
 
 
@@ -41,7 +41,7 @@ def _stored(folder, cache):
 
 
 def _warm_up():
-    from blender_shapesig.core.index import local_rank  # noqa: F401 - what a task imports first
+    from blender_shapesig.core.search.local import rank as local_rank  # noqa: F401 - what a task imports first
 
 
 def _poison(folder):
@@ -49,7 +49,7 @@ def _poison(folder):
     stored the first batch (64 entry files in ``folder``)."""
 
     def poison():
-        from blender_shapesig.core.index import local_rank
+        from blender_shapesig.core.search.local import rank as local_rank
 
         real = local_rank.item_local_entries
 

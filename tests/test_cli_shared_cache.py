@@ -7,7 +7,7 @@ import pathlib
 import shutil
 
 from blender_shapesig import cli
-from blender_shapesig.core import index as search
+from blender_shapesig.core import search as search
 from blender_shapesig.core.io import sources
 
 ACC = pathlib.Path(__file__).resolve().parent / "data" / "acclaim"

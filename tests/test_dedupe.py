@@ -1,6 +1,6 @@
 """``dedupe`` on the bundled CMU clips: planted copies (renamed, half the frame rate, trimmed and re-timed) land in
 their original's cluster, no cluster swallows more than 30 % of the library, the same results on a Dask
-LocalCluster through ``--scheduler``; the pure parts of ``core.index.dedupe`` (common bone tuple, linkage)."""
+LocalCluster through ``--scheduler``; the pure parts of ``core.search.dedupe`` (common bone tuple, linkage)."""
 
 import json
 import os
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core.index import dedupe
+from blender_shapesig.core.search import dedupe
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.clip.clip import Clip
-from blender_shapesig.core.index import entry_distance, make_entry
+from blender_shapesig.core.search import entry_distance, make_entry
 from blender_shapesig.core.rigs import JOINTS
 from tests.helpers import planted
 
@@ -107,7 +107,7 @@ def test_bad_scheduler_is_one_line(capsys, library, tmp_path):
 
 
 def test_dask_is_imported_only_by_a_dedupe_run():
-    code = ("import sys, blender_shapesig.cli, blender_shapesig.dedupe, blender_shapesig.core.index.dedupe; "
+    code = ("import sys, blender_shapesig.cli, blender_shapesig.dedupe, blender_shapesig.core.search.dedupe; "
             "sys.exit('dask' in sys.modules or 'distributed' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     assert subprocess.run([sys.executable, "-c", code], env=env).returncode == 0

@@ -9,8 +9,8 @@ import shutil
 
 import pytest
 
-from blender_shapesig.core import index
-from blender_shapesig.core.index import dedupe, make_entry
+from blender_shapesig.core import search as index
+from blender_shapesig.core.search import dedupe, make_entry
 from blender_shapesig.core.io import sources
 from blender_shapesig.dedupe import dedupe_library
 

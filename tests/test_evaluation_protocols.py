@@ -13,7 +13,7 @@ from blender_shapesig import evaluation as ev
 from blender_shapesig.core import rigs
 from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.errors import ShapeSigError
-from blender_shapesig.core.index import local as ls
+from blender_shapesig.core.search.local import features as ls
 from blender_shapesig.core.io import sources
 from blender_shapesig.evaluation import retrieval
 
@@ -104,7 +104,7 @@ def test_cli_evaluates_local_by_group_with_crop_probes(capsys, data_dir, tmp_pat
     assert code == 0 and got["group"] == "format" and got["protocol"] == "leave-one-group-out"
     summary = json.loads((out / "summary.json").read_text())
     assert {"local", "sim3"} <= set(summary["metrics"]) and all("map" in r for r in summary["metrics"].values())
-    # the truth: core.index.local on the clips, each query ranked among the other format's clips
+    # the truth: core.search.local.features on the clips, each query ranked among the other format's clips
     labels, fmt = [r.label for r in rows], [r.file.split("/")[0] for r in rows]
     entries = [ls.index_entry(_mapped(data_dir, r)) for r in rows]
     hits, aps = [], []

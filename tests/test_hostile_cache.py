@@ -9,9 +9,9 @@ import time
 
 import pytest
 
-from blender_shapesig.core.index import store as store_module
-from blender_shapesig.core.index.cache_folder import CACHE_SUBDIR
-from blender_shapesig.core.index.store import SignatureCache
+from blender_shapesig.core.search import store as store_module
+from blender_shapesig.core.search.cache_folder import CACHE_SUBDIR
+from blender_shapesig.core.search.store import SignatureCache
 from tests.helpers.hostile import BVH, left_in, run_cli
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from blender_shapesig import cli
-from blender_shapesig.core import index, rigs
+from blender_shapesig.core import search as index, rigs
 from blender_shapesig.core.io import sources
 
 pytest.importorskip("bpy", reason="BVH files are read with Blender's importer")

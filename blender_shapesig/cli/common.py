@@ -192,7 +192,7 @@ def remembered_file_keys(cache):
 
 def cache_dir(args, search):
     """The signature cache folder of ``rank`` and ``dedupe``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the
-    per-user cache (``core.index.default_cache_dir``); None (memory only) with --no-cache. The cache makes its own
+    per-user cache (``core.search.default_cache_dir``); None (memory only) with --no-cache. The cache makes its own
     subfolder there; when it cannot, it goes on in memory only with one warning (``SignatureCache.warning``)."""
     if getattr(args, "no_cache", False):
         if args.cache:

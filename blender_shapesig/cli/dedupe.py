@@ -5,7 +5,7 @@ from . import common as c
 
 
 def run(args):
-    from ..core import index
+    from ..core import search as index
     from ..dedupe import dedupe_library
 
     if args.k < 1:

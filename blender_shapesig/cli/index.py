@@ -6,7 +6,7 @@ from . import common as c
 
 
 def run(args):
-    from ..core import index
+    from ..core import search as index
     from ..dedupe import parallel
     from .rank import library_or_refuse
 

@@ -49,13 +49,14 @@ def library_or_refuse(specs, args, verb):
     return items, skipped
 
 def _rank_windows(query, items, args, progress):
-    """``rank --windows``: moments of the clips (``core.index.windows``), the signature stage at level 2."""
-    from ..core.index.windows import rank_windows
+    """``rank --windows``: moments of the clips (``core.search.moments``), the signature stage at level 2."""
+    from ..core.search import rank_clips
+    from ..core.search.engines import engine_for
 
     if args.metric not in (None, "sim", "sim2") or args.level not in (None, 2):
         raise c.CommandError("--windows ranks by sim2 (then elastic): leave --metric and --level out")
-    return rank_windows(query, items, rerank=args.rerank, top=args.top, depth=args.depth, explain=bool(args.explain),
-                        progress=progress, allow_partial=args.allow_partial)
+    return rank_clips(query, items, engine=engine_for(windows=True, explain=bool(args.explain)), rerank=args.rerank,
+                      top=args.top, depth=args.depth, progress=progress, allow_partial=args.allow_partial)
 
 
 def _fill_on(sched, items, cache, base, level, args):
@@ -87,14 +88,14 @@ def _explanation(query, item, result, args):
 
 
 def _thumbnails(folder, query_item, by_key, results, rows, cache, args=None):
-    """``--thumbnails DIR``: the query's and every row's picture of key poses (``core.index.thumbnails``, made once
+    """``--thumbnails DIR``: the query's and every row's picture of key poses (``core.search.thumbnails``, made once
     in the cache folder) written into DIR as ``query.png``, ``01_<clip>.png``, ...; each row's ``"thumbnail"`` is
     its file (null with a warning when the clip has no key points, e.g. no legs). Returns the query's file."""
     import os
     import re
 
     from ..core.errors import ShapeSigError
-    from ..core.index.thumbnails import frame_window, picture_bytes
+    from ..core.search.thumbnails import frame_window, picture_bytes
 
     pictures = {}  # path -> PNG bytes, every one made before any is written
 
@@ -121,7 +122,7 @@ def _thumbnails(folder, query_item, by_key, results, rows, cache, args=None):
 
 
 def run(args):
-    from ..core import index
+    from ..core import search as index
     from ..core.metrics import DEFAULT_METRIC, metric_label, parse_metric
 
     base, level = parse_metric(args.metric or ("sim" if args.windows else DEFAULT_METRIC), args.level)

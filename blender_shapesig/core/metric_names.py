@@ -16,7 +16,7 @@ __all__ = [
 ]
 
 SIGNATURE_METRICS = ("group", "concat", "linear", "sim")
-# The local, pose-aware search (``core.index.local``): windows of key-point positions by log-signatures, then a
+# The local, pose-aware search (``core.search.local.features``): windows of key-point positions by log-signatures, then a
 # DTW re-rank of a shortlist; the default of ``rank`` and of Find Similar (docs/model.md). Between two clips alone
 # (``clip_distance``) it is the first stage's distance: the combined score needs a library.
 LOCAL = "local"

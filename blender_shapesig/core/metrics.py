@@ -23,7 +23,7 @@ def clip_distance(a: Clip, b: Clip, metric="sim", level=None, depth=DEFAULT_DEPT
     """Distance between two clips (``distances.clip_distance``); ``local``: the local search's first stage
     between the two (its second stage ranks a shortlist of a library)."""
     if parse_metric(metric, level)[0] == LOCAL:
-        from .index import local
+        from .search.local import features as local
 
         return float(local.first_stage(local.index_entry(a), [local.index_entry(b)])[0])
     return distances.clip_distance(a, b, metric, level, depth, time_base)

@@ -1,14 +1,14 @@
 """Library reports: near-duplicate clusters of a clip library (``dedupe``), outside core.
 
 ``dedupe_library(paths, out_dir, ...)`` discovers the clips (``core.io.sources``), signs what the signature cache
-lacks (in parallel on Dask, ``parallel``), runs the two-stage search of ``core.index.dedupe`` (the elastic checks on
+lacks (in parallel on Dask, ``parallel``), runs the two-stage search of ``core.search.dedupe`` (the elastic checks on
 Dask too) and writes ``report.html`` and ``report.json`` (``report``).
 """
 
 import os
 import time
 
-from ..core.index import dedupe as core_dedupe
+from ..core.search import dedupe as core_dedupe
 from ..core.errors import ShapeSigError
 from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 from . import parallel
@@ -71,12 +71,12 @@ def sign_library(items, level, store, mapper, chunk=8):
 def dedupe_library(paths, out_dir, threshold=None, scheduler=None, *, k=core_dedupe.DEFAULT_K,
                    level=DEFAULT_LEVEL, depth=DEFAULT_DEPTH, cache_dir=None, plots=True, unreadable=None, **options):
     """Deduplicate the clips in ``paths`` (files, folders, ``FILE.blend#ACTION``, ClipSpecs) and write the report into
-    ``out_dir``. ``threshold``: the relative-d_S* gate (default: relative to the library, ``core.index.dedupe``);
+    ``out_dir``. ``threshold``: the relative-d_S* gate (default: relative to the library, ``core.search.dedupe``);
     ``scheduler``: None (a thread pool, no Dask), a local Dask scheduler name or a cluster address;
     ``cache_dir``: the signature cache folder (None: memory only); ``unreadable``: a list that receives the
     files skipped unopened (``library_items``). ``options``: ClipSpec fields (asf, fps, trim, bone_map). Returns
     the report dict."""
-    from ..core.index import SignatureCache
+    from ..core.search import SignatureCache
     from .report import write_report
 
     t0 = time.perf_counter()

@@ -94,7 +94,7 @@ def sign_item(task):
     """One signing task: ``(item, level)`` -> ``(entries, None)`` or ``([], one-line error)``. The entries are
     computed by the index's own code (``index.item_entries`` on a memory-only store); the caller stores them."""
     from ..core.errors import ShapeSigError
-    from ..core.index import SignatureCache, item_entries
+    from ..core.search import SignatureCache, item_entries
 
     item, level = task
     try:
@@ -107,8 +107,8 @@ def local_item(item):
     """One indexing task of the local search: ``item`` -> ``(entries, None)`` or ``([], one-line error)``,
     computed by ``local_rank.item_local_entries`` on a memory-only store; the caller stores them (once)."""
     from ..core.errors import ShapeSigError
-    from ..core.index import SignatureCache
-    from ..core.index.local_rank import item_local_entries
+    from ..core.search import SignatureCache
+    from ..core.search.local.rank import item_local_entries
 
     try:
         return item_local_entries(item, SignatureCache()), None
@@ -174,7 +174,7 @@ def index_items(items, store, sched=None, progress=None, batch=64):
     ``sched``) in batches of ``batch`` items, each batch stored (by this process: once per clip, however many
     workers run) as soon as it is done, so a run stopped midway keeps what it finished. ``progress(done, total)``
     after each batch. Returns (clips, computed items, [one-line errors])."""
-    from ..core.index import local
+    from ..core.search.local import features as local
 
     skey = local.settings_key()
     todo = [it for it in items if not store.contains_local(it.key, skey)]

@@ -10,7 +10,7 @@ import os
 
 import numpy as np
 
-from ..core.index.dedupe import choose_keeper, copy_facts
+from ..core.search.dedupe import choose_keeper, copy_facts
 from ..core.io.sources import clip_address
 from ..core.io.text import plot_name
 
@@ -38,8 +38,8 @@ def speed_trace(entry):
 
 def _cluster_png(members, entries, labels):
     """Two panels: each member's joint speed on its own seconds, and its time map onto the first member
-    (``core.index.dedupe.time_map``: the diagonal for a copy, a curve for a re-timed or trimmed one)."""
-    from ..core.index.dedupe import time_map
+    (``core.search.dedupe.time_map``: the diagonal for a copy, a curve for a re-timed or trimmed one)."""
+    from ..core.search.dedupe import time_map
     from ..core.errors import ShapeSigError
     from ..evaluation.plots import pyplot
 
@@ -86,9 +86,9 @@ def _fmt(x):
 
 
 def _strip_uri(item, name, store):
-    """The clip's picture of key poses (``core.index.thumbnails``) as base64 PNG, or its one-line reason."""
+    """The clip's picture of key poses (``core.search.thumbnails``) as base64 PNG, or its one-line reason."""
     from ..core.errors import ShapeSigError
-    from ..core.index.thumbnails import picture_bytes
+    from ..core.search.thumbnails import picture_bytes
 
     try:
         return base64.b64encode(picture_bytes(item, store, name)).decode("ascii"), ""

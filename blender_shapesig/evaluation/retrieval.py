@@ -1,13 +1,13 @@
 """Rankings and their scores for every kind of metric, in one protocol: each query ranks its candidates (every other
 clip, or with groups the clips of the other groups: leave-one-group-out) by a distance row, optionally the first K
-re-ordered by a second stage (``BASE+elasticK``: d_S*; ``local``: ``core.index.local.combine`` of both stages);
+re-ordered by a second stage (``BASE+elasticK``: d_S*; ``local``: ``core.search.local.features.combine`` of both stages);
 1-NN and mAP (the shortlist re-ordered, the rest in the first stage's order) from those rankings; and crop probes
 (a clip cut by 10 % at one end queries the full set: does it find its source first?)."""
 
 import numpy as np
 
 from ..core.errors import ShapeSigError
-from ..core.index import local
+from ..core.search.local import features as local
 
 __all__ = ["candidates", "first_stage_order", "rerank_order", "local_order", "ranking_scores", "local_first_stage"]
 

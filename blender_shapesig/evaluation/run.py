@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core.clip.clip import restrict_to_shared
 from ..core.elastic.elastic import elastic_distance
-from ..core.index import local
+from ..core.search.local import features as local
 from ..core.metrics import DEFAULT_DEPTH, LOCAL, SMOOTHED_METRICS, parse_metric_spec
 from ..core.pairwise import cross_distance_matrix, distance_matrix
 from ..core.progress import Bar

@@ -11,7 +11,7 @@ import bpy
 from bpy.props import BoolProperty
 
 from .. import library, rank_job, results
-from ..core import index
+from ..core import search as index
 from ..core.elastic.explain import top_joints
 from ..core.measure_words import OPTIONS
 from ..core.errors import ShapeSigError, error_line

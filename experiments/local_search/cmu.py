@@ -52,7 +52,7 @@ def rig_items(data):
 def across_rigs(items, feats, variant, n_lib):
     """Same take first, for the first 20 items querying the first n_lib items' library."""
     settings, k, band, free, mix = variant
-    from blender_shapesig.core.index import local as ls
+    from blender_shapesig.core.search.local import features as ls
 
     E = vs.entries(feats[:n_lib], settings)
     ok = 0

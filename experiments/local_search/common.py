@@ -14,7 +14,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 if ROOT not in sys.path:
     sys.path.insert(0, ROOT)
 
-from blender_shapesig.core.index import local as ls  # noqa: E402
+from blender_shapesig.core.search.local import features as ls  # noqa: E402
 from blender_shapesig.core import rigs
 from blender_shapesig.core.io import sources  # noqa: E402
 

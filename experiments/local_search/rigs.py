@@ -42,7 +42,7 @@ def load(data):
 def window_weights(feat, settings, floor=0.05):
     """(windows,) each window's energy over the largest of its scale (at least ``floor``), in the rows' order of
     ``local.window_vectors`` (without ``settings.active``)."""
-    from blender_shapesig.core.index import local_action as la
+    from blender_shapesig.core.search.local import action as la
     out = []
     for window in settings.windows:
         starts, w = vs.ls._windows(len(feat["pose"]), float(feat["rate"]), window, settings.hop * window,

@@ -24,7 +24,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import common as cm  # noqa: E402
 import variants as vs  # noqa: E402
-from blender_shapesig.core.index import local as ls  # noqa: E402
+from blender_shapesig.core.search.local import features as ls  # noqa: E402
 
 N = 32
 

@@ -12,7 +12,7 @@ import common as cm, variants as vs
 from blender_shapesig.core.clip.prepare import prepare_clip
 from blender_shapesig.core.signatures import signatures as sg
 from blender_shapesig.core.metrics import time_base_smoothing
-from blender_shapesig.core.index import local as ls
+from blender_shapesig.core.search.local import features as ls
 def take_vec(clip):
     c = prepare_clip(clip, smooth=time_base_smoothing("linear"))
     dx = sg.development_increments(c.rotations)   # (T-1, 3J)

@@ -18,7 +18,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import common as cm  # noqa: E402
 import variants as vs  # noqa: E402
-from blender_shapesig.core.index import local as ls  # noqa: E402
+from blender_shapesig.core.search.local import features as ls  # noqa: E402
 
 
 def main(argv=None):

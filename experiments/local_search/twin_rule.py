@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""The twin rule (issue 29, ``core/index/take.py``) measured on every set: for each query (whole clips under the
+"""The twin rule (issue 29, ``core/search/local/take.py``) measured on every set: for each query (whole clips under the
 set's protocol, and the crop probes), the shortlist's candidate of the query's length (``--length``) with the nearest
 whole take, its take distance over the shortlist's median, whether the current first is longer than the query, and
 how well each holds the query's windows; then what the rule would do for a grid of ratios, set by set (how many
@@ -23,7 +23,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 import common as cm  # noqa: E402
 import variants as vs  # noqa: E402
-from blender_shapesig.core.index import local as ls, take  # noqa: E402
+from blender_shapesig.core.search.local import features as ls, take  # noqa: E402
 
 CROPS = (("start", 0.1), ("end", 0.1))
 SETS = ("cmu27", "cmu27_mixed", "cmu_large", "cmu_mixed_format", "hdm05")

@@ -4,7 +4,7 @@ matrix, the second stage's DTW on the shortlist, 1-NN / mAP under a protocol, an
 import numpy as np
 
 import common as cm
-from blender_shapesig.core.index import local as ls
+from blender_shapesig.core.search.local import features as ls
 
 # name -> (Settings, shortlist K, re-rank band, re-rank free ends, mix)
 VARIANTS = {}

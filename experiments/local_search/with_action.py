@@ -1,6 +1,6 @@
 #!/usr/bin/env python
 """Run a script or module with the local search's action part on (issue 41: ``local.DEFAULT.action_weight`` = 2,
-the option ``core/index/local_action.py`` measures), so the command line's numbers can be taken with it:
+the option ``core/search/local/action.py`` measures), so the command line's numbers can be taken with it:
 
   .venv/bin/python experiments/local_search/with_action.py experiments/rank_rigs.py --data ../shared/data/rigs
   .venv/bin/python experiments/local_search/with_action.py -m blender_shapesig evaluate --index ... --metrics local
@@ -16,7 +16,7 @@ import sys
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, ROOT)
 
-from blender_shapesig.core.index import local  # noqa: E402
+from blender_shapesig.core.search.local import features as local  # noqa: E402
 
 
 def main():

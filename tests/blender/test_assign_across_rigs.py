@@ -12,7 +12,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, frame_rates, library, rigmap  # noqa: E402
 from blender_shapesig.action_hashes import read_hash  # noqa: E402
-from blender_shapesig.core import index as search  # noqa: E402
+from blender_shapesig.core import search as search  # noqa: E402
 from blender_shapesig.core import rigs  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from tests.helpers.mixed_scene import activate, build, save_reopen  # noqa: E402

@@ -9,7 +9,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import library, preferences, rank_job, rigmap  # noqa: E402
-from blender_shapesig.core import index, rigs  # noqa: E402
+from blender_shapesig.core import search as index, rigs  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 
 BAD = {"latin1.json": '{"hip": "hips", "t\xeate": "head"}'.encode("latin-1"),

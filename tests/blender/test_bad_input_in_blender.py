@@ -494,7 +494,7 @@ def test_rank_skips_bad_library_actions_and_refuses_a_bad_query(library, rig):
 
 
 def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
-    from blender_shapesig.core import index as search
+    from blender_shapesig.core import search as search
 
     assert bpy.ops.shapesig.rank("EXEC_DEFAULT") == {"FINISHED"}
     first = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}

@@ -9,7 +9,7 @@ import bpy
 
 from blender_shapesig import library, result_rows, rigmap
 from blender_shapesig.core import rigs
-from blender_shapesig.core.index import rank_clips
+from blender_shapesig.core.search import rank_clips
 from blender_shapesig.core.io import sources
 from blender_shapesig.readers.bvh import import_armature
 from tests.helpers.fake_layout import FakeLayout

@@ -240,7 +240,7 @@ def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, 
     """Find Similar with a clip folder of an FBX and a GLB (three clips): indexed step by step (the modal job's
     progress), every clip ranked, one child start-up for the folder."""
     from blender_shapesig import library, rank_job
-    from blender_shapesig.core import index as search
+    from blender_shapesig.core import search as search
 
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
     library.CACHES.clear()
@@ -271,7 +271,7 @@ def test_assign_of_an_fbx_result_retargets_it_onto_the_active_armature(files, em
     joint both rigs have moves with the FBX clip's angular velocity in the comparison space (correlation >= 0.9);
     the FBX file is not changed."""
     from blender_shapesig import action_io, library, rigmap
-    from blender_shapesig.core import index as search
+    from blender_shapesig.core import search as search
     from blender_shapesig.core import rigs
     from blender_shapesig import frame_rates
     from blender_shapesig.core.clip.prepare import retime

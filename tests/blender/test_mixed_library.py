@@ -9,7 +9,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import compat, frame_rates, rig_library  # noqa: E402
-from blender_shapesig.core import index as search  # noqa: E402
+from blender_shapesig.core import search as search  # noqa: E402
 from tests.helpers.mixed_scene import DATA, activate, build, one_frame_pose, save_reopen  # noqa: E402
 
 # query action -> (its armature, the same take on another rig)

@@ -10,8 +10,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.core import index as search  # noqa: E402
-from blender_shapesig.core.index.windows import retimed_excerpt  # noqa: E402
+from blender_shapesig.core import search as search  # noqa: E402
+from blender_shapesig.core.search.moments.windows import retimed_excerpt  # noqa: E402
 from tests.helpers.blender_clips import import_bvh  # noqa: E402
 from tests.helpers.fake_layout import FakeLayout  # noqa: E402
 

@@ -17,7 +17,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import compat, library, results  # noqa: E402
-from blender_shapesig.core import index
+from blender_shapesig.core import search as index
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.errors import MAX_INBETWEENS  # noqa: E402
 from tests.helpers.stand_in import stand_in  # noqa: E402

@@ -11,7 +11,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_io, control_rigs, retarget  # noqa: E402
-from blender_shapesig.core import index  # noqa: E402
+from blender_shapesig.core import search as index  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 from tests.helpers.gltf_export import export_glb  # noqa: E402

@@ -22,7 +22,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import compat, frame_rates, library  # noqa: E402
-from blender_shapesig.core import index as search  # noqa: E402
+from blender_shapesig.core import search as search  # noqa: E402
 from tests.helpers.turned_characters import (import_bvh, quiet, scale_location_keys, select_only,  # noqa: E402
                                              turned, world_heads)
 
@@ -168,7 +168,7 @@ def test_a_blend_of_the_turned_character_with_another_rigs_walk_stays_on_the_flo
 def test_the_key_pose_pictures_of_a_turned_character_stand(scene24):
     """The pictures draw the canonical body the local search poses from the clip (``local.body_positions``,
     Z up): on a turned character its head is above its pelvis and its ankles below, as on the plain import."""
-    from blender_shapesig.core.index import local
+    from blender_shapesig.core.search.local import features as local
 
     for how in ("fbx", "empty"):
         arm = turned(WALK, f"lying_{how}", how)

@@ -14,7 +14,7 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import action_changes, action_io, compat  # noqa: E402
-from blender_shapesig.core import index as search, rigs  # noqa: E402
+from blender_shapesig.core import search as search, rigs  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
 from tests.helpers.blender_clips import BVH, CLIPS, import_bvh  # noqa: E402
 from tests.helpers.fake_layout import FakeLayout, draw_search_panel  # noqa: E402

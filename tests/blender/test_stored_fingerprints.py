@@ -15,7 +15,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig.core import index as search  # noqa: E402
+from blender_shapesig.core import search as search  # noqa: E402
 
 ROOT = str(pathlib.Path(__file__).resolve().parents[2])
 

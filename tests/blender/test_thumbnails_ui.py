@@ -19,8 +19,8 @@ import pytest
 bpy = pytest.importorskip("bpy")
 
 from blender_shapesig import thumbnails  # noqa: E402
-from blender_shapesig.core import index as search  # noqa: E402
-from blender_shapesig.core.index import thumbnails as core_thumbs  # noqa: E402
+from blender_shapesig.core import search as search  # noqa: E402
+from blender_shapesig.core.search import thumbnails as core_thumbs  # noqa: E402
 from tests.helpers.png import read_png  # noqa: E402
 from tests.helpers.blender_clips import CLIPS, import_bvh  # noqa: E402
 from tests.helpers.fake_layout import FakeLayout  # noqa: E402

@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("bpy")
 
 from blender_shapesig.core.io import sources  # noqa: E402
-from blender_shapesig.core.index import rank_clips  # noqa: E402
+from blender_shapesig.core.search import rank_clips  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
 from blender_shapesig.core.clip.prepare import decimate_clip  # noqa: E402
 from blender_shapesig.core.clip.trim import START_RATIO, step_ratios  # noqa: E402

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from blender_shapesig.core import blas
-from blender_shapesig.core import index as search
+from blender_shapesig.core import search as search
 from blender_shapesig.core.io import sources
-from blender_shapesig.core.index import rank
+from blender_shapesig.core.search import rank
 from blender_shapesig.core.io.acclaim import load_acclaim
 
 needs_openblas = pytest.mark.skipif(blas.blas_threads() is None, reason="numpy's OpenBLAS not found")

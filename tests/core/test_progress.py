@@ -7,13 +7,13 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from blender_shapesig import cli
-from blender_shapesig.core import index, pairwise, progress
+from blender_shapesig.core import search as index, pairwise, progress
 from blender_shapesig.core.blend import blend_clip_series, make_blends
 from blender_shapesig.core.clip.clip import Clip
 from blender_shapesig.core.elastic.elastic import elastic_distance_matrix
 from blender_shapesig.core.errors import Cancelled, ShapeSigError
-from blender_shapesig.core.index.local_rank import local_entries
-from blender_shapesig.core.index.windows import rank_windows
+from blender_shapesig.core.search.local.rank import local_entries
+from blender_shapesig.core.search.moments.windows import rank_windows
 from blender_shapesig.core.io.sources import read_one
 from blender_shapesig.evaluation import run as evaluation_run
 from blender_shapesig.evaluation.index import IndexEntry

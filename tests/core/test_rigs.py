@@ -184,7 +184,7 @@ def test_a_rig_turned_about_up_gives_the_same_comparison_space(data_dir, path, i
     rest), so the increments every measure sees, the hips' path and the joints' positions (FK with the rig's
     own rest offsets) agree to rounding; before, an in-place take turned 30 degrees was sim3 0.70 away."""
     from blender_shapesig.core.geometry.curves import relative_rotvecs
-    from blender_shapesig.core.index.local import rig_positions
+    from blender_shapesig.core.search.local.features import rig_positions
 
     asf = str(data_dir / "acclaim" / "07-walk.asf") if path[1].endswith(".amc") else None
     raw = sources.read_one(sources.ClipSpec(str(data_dir.joinpath(*path)), asf=asf, bone_map="none"))

@@ -1,7 +1,7 @@
 """A long take built from the CMU BVH clips of tests/data (one Daz skeleton): segments of other takes one after
 another, each played at its own speed (channels interpolated, rotations unwrapped: ``planted.resample``), its
 root path moved to start where the previous one ended; and the jumps in it labelled from the feet's height
-(``airborne``). ``tests/core/index/test_moments_every_occurrence.py``; the experiment on a real long take,
+(``airborne``). ``tests/core/search/test_moments_every_occurrence.py``; the experiment on a real long take,
 ``experiments/moments_every_jump.py``, labels its jumps by the same rule."""
 
 import numpy as np

@@ -7,7 +7,7 @@ import bpy
 import pytest
 
 from blender_shapesig import library
-from blender_shapesig.core import index
+from blender_shapesig.core import search as index
 from tests.helpers.blender_clips import import_bvh
 
 

@@ -18,40 +18,27 @@ import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 PKG = "blender_shapesig"
-MOVES = {
-    "core.so3": "core.geometry.so3",
-    "core.curves": "core.geometry.curves",
-    "core.clip": "core.clip.clip",
-    "core.skeleton": "core.clip.skeleton",
-    "core.trim": "core.clip.trim",
-    "core.prepare": "core.clip.prepare",
-    "core.elastic": "core.elastic.elastic",
-    "core._dp_kernels": "core.elastic._dp_kernels",
-    "core._srvt_kernel": "core.elastic._srvt_kernel",
-    "core._workspace": "core.elastic._workspace",
-    "core.subsequence": "core.elastic.subsequence",
-    "core.explain": "core.elastic.explain",
-    "core.signatures": "core.signatures.signatures",
-    "core.tensor": "core.signatures.tensor",
-    "core.sources": "core.io.sources",
-    "core.formats": "core.io",
-    "core.formats.acclaim": "core.io.acclaim",
-    "core.formats.amc": "core.io.amc",
-    "core.formats.asf": "core.io.asf",
-    "core.formats.bvh": "core.io.bvh",
-    "core.formats.blend": "core.io.blend_file",
-    "core.formats.text": "core.io.text",
-    "core.dedupe": "core.index.dedupe",
-    "core.feet": "core.blend.feet",
-    "core.files": "core.io.files",
-    "core.local_search": "core.index.local",
-    "readers.blend": "readers.blend_file",
-    "readers._blend_child": "readers._blend_file_child",
-    "write_blend": "write_blend_file",
+MOVES = {  # issue 40: one engine shape (core/index -> core/search, one subpackage per engine)
+    "core.index": "core.search",
+    "core.index.cache_folder": "core.search.cache_folder",
+    "core.index.dedupe": "core.search.dedupe",
+    "core.index.entry": "core.search.signature.entry",
+    "core.index.words": "core.search.signature.words",
+    "core.index.local": "core.search.local.features",
+    "core.index.local_action": "core.search.local.action",
+    "core.index.local_dtw": "core.search.local.dtw",
+    "core.index.local_library": "core.search.local.library",
+    "core.index.local_rank": "core.search.local.rank",
+    "core.index.local_store": "core.search.local.store",
+    "core.index.take": "core.search.local.take",
+    "core.index.rank": "core.search.rank",
+    "core.index.store": "core.search.store",
+    "core.index.thumbnails": "core.search.thumbnails",
+    "core.index.windows": "core.search.moments.windows",
 }
-NEW_PACKAGES = ["core.geometry", "core.clip", "core.elastic", "core.signatures", "core.io"]
+NEW_PACKAGES = ["core.search", "core.search.local", "core.search.signature", "core.search.moments"]
 FILE_MOVES = {  # old file -> new file (relative to the package folder)
-    "core/formats/__init__.py": "core/io/__init__.py",
+    "core/index/__init__.py": "core/search/__init__.py",
 }
 
 
@@ -210,9 +197,9 @@ def main():
             if not init.exists():
                 init.write_text("")
                 subprocess.run(["git", "add", str(init)], cwd=ROOT, check=True)
-        old_formats = ROOT / PKG / "core" / "formats"
-        if old_formats.exists() and not any(p.suffix == ".py" for p in old_formats.iterdir()):
-            subprocess.run(["rm", "-rf", str(old_formats)], check=True)
+        old_package = ROOT / PKG / "core" / "index"
+        if old_package.exists() and not any(p.suffix == ".py" for p in old_package.iterdir()):
+            subprocess.run(["rm", "-rf", str(old_package)], check=True)
     existing = new_modules()
     files = [pathlib.Path(f).resolve() for f in args.files] if args.files else sorted(
         p for p in ROOT.rglob("*.py") if "__pycache__" not in p.parts and not any(

@@ -7,7 +7,7 @@ tests/blender/test_bvh_reference_root.py."""
 import numpy as np
 import pytest
 
-from blender_shapesig.core import index
+from blender_shapesig.core import search as index
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.io.bvh import load_bvh
 from tests.helpers.reference_root import reference_root_layout, turned_walk

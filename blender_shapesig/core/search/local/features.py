@@ -1,0 +1,470 @@
+"""Local search: clips compared by what animators call "the same motion" (issue 29): pose and motion, by windows.
+
+Per clip (``features``): the positions of a few key points (head, shoulders, elbows, wrists, knees, ankles) of a
+canonical body posed like the clip (``core.rigs.body``: the rig's segment directions by forward kinematics on the
+canonical joints of the comparison space; an adult's proportions in leg lengths), relative to the pelvis in the body's
+own horizontal frame (the facing of the hips and shoulders removed frame by frame), so rigs, body sizes, units and
+directions do not matter; plus the hips' path in that turning frame and the turned angle (the motion
+channels), all at ``RATE`` samples per second. **First stage** (``index_entry``, ``first_stage``): the clip's
+sliding windows (``WINDOWS``: 0.5 and 1 s, hop a quarter window), each described by its mean pose (the basepoint)
+and the level-2 log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a
+signed square root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window), projected by a
+fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
+their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
+matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
+(Sakoe-Chiba band, open ends; ``local_dtw``: compiled when numba is loaded, else by numpy anti-diagonals);
+``combine`` scores the shortlist by both stages, and the same take in another file ranks first
+(``take.twin_first``); ``shortlist_scores`` does both, ``search`` runs it all. Pure numpy (numba optional); no
+bpy. Measured in experiments/local_search/RESULTS.md.
+"""
+
+import math
+from typing import Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from ...blas import one_blas_thread
+from ...clip.clip import Clip
+from ...rigs.body import POINTS, SEGMENTS, body_positions, rig_positions
+from . import action as local_action, dtw as local_dtw, take
+from .dtw import dtw
+
+
+__all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "ACTION_WEIGHT", "FREE",
+           "BAND",
+           "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
+           "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
+           "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows", "first_stage", "dtw",
+           "rerank", "path_distances", "combine", "search"]
+
+RATE = 30.0  # samples per second of the features
+WINDOWS = (0.5, 1.0)  # seconds per window, two scales (clips shorter than a window have one window of that scale)
+HOP = 0.25  # between windows, a fraction of the window
+DIM = 96  # numbers per window in the index
+SHORTLIST = 20  # clips the second stage re-ranks
+# the index's size: at most this many windows per scale (a longer hop beyond 20 s) and samples of the second stage's
+# sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 33 * 2 bytes = 43 KB per clip (39 columns, 46 KB,
+# with the action part)
+MAX_WINDOWS = 80
+MAX_SEQUENCE = 200
+# weight of the action part (``local_action``: travel, heights, reach, limb speeds; issue 41). Off by default: at 2
+# it raises the rig set from 30 to 35 of 51, HDM05's mAP to 0.983 and cmu_large to 49/49, but one crop probe of
+# cmu_mixed_format flips to the same take's other file at a tie (experiments/local_search/RESULTS.md)
+ACTION_WEIGHT = 0.0
+MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
+FREE = 0.15  # the second stage may leave out this fraction of either sequence at each end
+BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
+
+
+# changes when the features change for the same settings (e.g. the leg of a rig without a foot bone): stored
+# entries made by an older recipe are then computed again, never used
+RECIPE_VERSION = 3
+
+
+class Settings:
+    """The recipe's constants in one object (experiments vary them; the defaults are the module's)."""
+
+    def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
+                 turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
+                 scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE,
+                 action_weight=ACTION_WEIGHT, active=0.0):
+        self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
+        self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
+        self.normalize, self.seed, self.step = normalize, seed, step
+        self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
+        self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
+        # issue 41 (``local_action``): the action part's weight, the share of the largest window energy kept
+        self.action_weight, self.active = float(action_weight), float(active)
+
+    def key(self):
+        extra = (self.action_weight, self.active) if (self.action_weight or self.active) else ()
+        return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
+                self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
+                self.global_weight, self.max_windows, self.max_sequence) + extra
+
+
+DEFAULT = Settings()
+
+
+_KEYS = {}
+
+
+def settings_key(settings: Settings = DEFAULT) -> str:
+    """The settings as text: part of a stored entry's key (``SignatureCache.put_local``; remembered by value: a
+    click asks once per library item)."""
+    k = settings.key()
+    text = _KEYS.get(k)
+    if text is None:
+        text = _KEYS[k] = repr(k)
+    return text
+
+
+# ------------------------------------------------------------------------------------------------- features
+
+def _resample(x, fps, rate):
+    """Linear interpolation of (frames, ...) at ``rate`` samples per second (the same span in seconds)."""
+    F = x.shape[0]
+    if F < 2 or abs(fps - rate) < 1e-9:
+        return x
+    n = int(math.floor((F - 1) * rate / fps + 1e-9)) + 1
+    s = np.arange(n) * (fps / rate)
+    i = np.minimum(np.floor(s).astype(int), F - 2)
+    w = (s - i).reshape((-1,) + (1,) * (x.ndim - 1))
+    return x[i] * (1 - w) + x[i + 1] * w
+
+
+def _facing(side):
+    """(frames,) the body's yaw: the angle of its horizontal right-to-left direction (hips and shoulders),
+    unwrapped (the facing is a quarter turn from it; only differences and the frame matter)."""
+    return np.unwrap(np.arctan2(side[:, 1], side[:, 0]))
+
+
+def features(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
+    """The clip's channels at ``settings.rate``: ``pose`` (T, 3 * points) the key points relative to the hips in the
+    body's horizontal frame (leg lengths), ``motion`` (T, 4) the hips' path integrated in that turning frame and
+    the turned angle (radians, from the first sample)."""
+    hips, P, side = body_positions(clip)
+    hips = _resample(hips, clip.fps, settings.rate)
+    P = _resample(P, clip.fps, settings.rate)
+    yaw = _facing(_resample(side, clip.fps, settings.rate))
+    c, s = np.cos(yaw), np.sin(yaw)
+    rel = P - hips[:, None]
+    local = np.stack([c[:, None] * rel[..., 0] + s[:, None] * rel[..., 1],
+                      -s[:, None] * rel[..., 0] + c[:, None] * rel[..., 1], rel[..., 2]], axis=-1)
+    dh = np.diff(hips, axis=0)
+    cm, sm = c[:-1], s[:-1]
+    dl = np.stack([cm * dh[:, 0] + sm * dh[:, 1], -sm * dh[:, 0] + cm * dh[:, 1], dh[:, 2]], axis=1)
+    path = np.vstack([np.zeros((1, 3)), np.cumsum(dl, axis=0)])
+    motion = np.column_stack([path, yaw - yaw[0]])
+    return {"pose": local.reshape(len(local), -1), "motion": motion, "rate": np.float64(settings.rate)}
+
+
+# ------------------------------------------------------------------------------------------------- windows
+
+def _windows(T, rate, window, hop, most=None):
+    """Start indices and the length (samples) of the sliding windows of T samples; one window if shorter; at most
+    ``most`` windows (a longer hop in long clips)."""
+    w = max(2, int(round(window * rate)))
+    step = max(1, int(round(hop * rate)))
+    if T <= w:
+        return np.array([0]), T
+    if most and (T - w) // step + 1 > most:
+        step = int(math.ceil((T - w) / (most - 1)))
+    starts = np.arange(0, T - w + 1, step)
+    if starts[-1] != T - w:
+        starts = np.append(starts, T - w)
+    return starts, w
+
+
+def _levy_areas(X, starts, w):
+    """(windows, d(d-1)/2): the Levy areas (level 2 of the log-signature, Lyndon basis [i, j], i < j) of each
+    window X[s:s+w] (``w`` samples), by prefix sums: A_ij = 1/2 sum_k (Y_i dX_j - Y_j dX_i), Y = X - X[s]."""
+    d = X.shape[1]
+    dX = np.diff(X, axis=0)
+    M = np.einsum("ki,kj->kij", X[:-1], dX)  # X_k (x) dX_k
+    cM = np.concatenate([np.zeros((1, d, d)), np.cumsum(M, axis=0)])
+    cD = np.concatenate([np.zeros((1, d)), np.cumsum(dX, axis=0)])
+    e = starts + w - 1
+    S = cM[e] - cM[starts] - np.einsum("wi,wj->wij", X[starts], cD[e] - cD[starts])
+    A = 0.5 * (S - np.swapaxes(S, 1, 2))
+    iu = np.triu_indices(d, 1)
+    return A[:, iu[0], iu[1]]
+
+
+def _unit_rows(x, floor):
+    n = np.linalg.norm(x, axis=1, keepdims=True)
+    return x / np.maximum(n, floor)
+
+
+_PROJECTIONS = {}
+
+
+def _projection(n_in, dim, seed):
+    key = (n_in, dim, seed)
+    if key not in _PROJECTIONS:
+        rng = np.random.default_rng(seed)
+        _PROJECTIONS[key] = (rng.standard_normal((n_in, dim)) / math.sqrt(dim)).astype(np.float32)
+    return _PROJECTIONS[key]
+
+
+def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT) -> np.ndarray:
+    """(windows, n) the unprojected window descriptors of every scale (``settings.windows`` seconds, hop
+    ``settings.hop`` of each): [mean pose, level 1, signed-sqrt level 2] of the path [pose, motion], each part
+    normalized (``settings.normalize``: "parts" = unit length with a floor, eq. 9.1 per window; "none" = raw, leg
+    lengths) and weighted, plus a one-hot of the scale (windows of other lengths are not each other's nearest)."""
+    pose, motion = feat["pose"], feat["motion"].copy()
+    motion[:, 3] *= settings.turn_weight
+    X = np.column_stack([pose, motion])
+    cP = np.concatenate([np.zeros((1, pose.shape[1])), np.cumsum(pose, axis=0)])
+    act = local_action.action_channels(feat) if settings.action_weight else None
+    out = []
+    for k, window in enumerate(settings.windows):
+        starts, w = _windows(len(X), float(feat["rate"]), window, settings.hop * window, settings.max_windows)
+        base = (cP[starts + w] - cP[starts]) / w
+        lvl1 = X[starts + w - 1] - X[starts]
+        lvl2 = _levy_areas(X, starts, w)
+        lvl2 = np.sign(lvl2) * np.sqrt(np.abs(lvl2))
+        if settings.normalize == "parts":
+            # a still window has no direction: below the floor (leg lengths) its motion parts keep their size
+            base = _unit_rows(base, 1e-6)
+            lvl1 = _unit_rows(lvl1, 0.25)
+            lvl2 = _unit_rows(lvl2, 0.25)
+        scale = np.zeros((len(starts), len(settings.windows)))
+        scale[:, k] = settings.scale_weight
+        parts = [settings.pose_weight * base, settings.motion_weight * lvl1, settings.motion_weight * lvl2, scale]
+        if act is not None:
+            parts.append(settings.action_weight * local_action.window_action(act, starts, w))
+        V = np.column_stack(parts)
+        if settings.active:
+            V = V[local_action.active_rows(local_action.window_energy(feat, starts, w), settings.active)]
+        out.append(V)
+    return np.concatenate(out)
+
+
+def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
+    """The compact arrays the search keeps per clip: ``windows`` (N, DIM) float16 (projected window descriptors),
+    ``sequence`` (T', 3 * points) float16 (the pose every ``settings.step``-th sample, for the second stage),
+    ``path`` (10,) and the whole take (``take.take_entry``: ``take``, ``take_mask``, ``seconds``)."""
+    entry = entry_from_features(features(clip, settings), settings)
+    entry.update(take.take_entry(clip))
+    return entry
+
+
+def _sequence(feat, settings):
+    """The second stage's sequence: the pose (``settings.sequence`` "centered": minus its mean over the clip) and,
+    with ``velocity_weight``, the motion channels' rates (leg lengths and radians per second)."""
+    seq = feat["pose"]
+    if settings.sequence == "centered":
+        seq = seq - seq.mean(axis=0)
+    if settings.action_weight and settings.sequence != "pose_only":
+        seq = np.column_stack([seq, settings.action_weight * local_action.sequence_channels(feat)])
+    if settings.velocity_weight:
+        vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
+        seq = np.column_stack([seq, settings.velocity_weight * vel])
+    return seq[::max(settings.step, int(math.ceil(len(seq) / settings.max_sequence)))]
+
+
+def whole_path(feat) -> np.ndarray:
+    """(10,) the whole clip's level-2 log-signature of its motion channels (the pelvis' path in the turning frame
+    and the turned angle; level 2 by signed square root): where, how far and how the take turns."""
+    X = feat["motion"]
+    lvl2 = _levy_areas(X, np.array([0]), len(X))[0]
+    return np.concatenate([X[-1] - X[0], np.sign(lvl2) * np.sqrt(np.abs(lvl2))])
+
+
+def entry_from_features(feat, settings: Settings = DEFAULT):
+    """``index_entry`` from ``features``. The projection is multiplied in float64 so that the float16 entry does not
+    depend on how many BLAS threads ran the product (a cluster's worker and this process store the same bytes)."""
+    V = window_vectors(feat, settings)
+    if settings.dim:
+        V = V @ _projection(V.shape[1], settings.dim, settings.seed).astype(np.float64)
+    return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
+            "path": whole_path(feat).astype(np.float32)}
+
+
+def entry_bytes(entry) -> int:
+    return int(sum(np.asarray(v).nbytes for v in entry.values()))
+
+
+# ------------------------------------------------------------------------------------------------- stage one
+
+def _sq_dist(A, B):
+    d = (A * A).sum(1)[:, None] + (B * B).sum(1)[None] - 2.0 * (A @ B.T)
+    return np.maximum(d, 0.0)
+
+
+def stack(entries: Sequence) -> Dict[str, np.ndarray]:
+    """The library's windows in one block for ``first_stage`` (build it once per library): ``windows`` (all, DIM)
+    float32, their squared norms, ``bounds`` (each entry's first row, and the end) and each entry's rows
+    (``starts``, ``ends``). A library file (``local_library.LibraryFile.stack``) gives the same keys but the
+    ``bounds``, memory-mapped, its entries' rows in any order."""
+    wins = [np.asarray(e["windows"], dtype=np.float32) for e in entries]
+    W = np.concatenate(wins) if wins else np.zeros((0, 1), np.float32)
+    bounds = np.concatenate([[0], np.cumsum([len(w) for w in wins])]).astype(np.int64)
+    return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds, "starts": bounds[:-1], "ends": bounds[1:]}
+
+
+PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first_stage(keep=)``) ...
+PREFILTER_SHARE = 0.02  # ... and at least this share of the library (a larger library holds more near neighbours:
+# keeping 1,000 of 100,000 found 90 % of the exact top 10, 2 % 96 %; docs/performance.md, "At library scale")
+
+
+def _chunks(lengths, block):
+    """Slices of consecutive entries (``lengths`` their rows) of at most ``block`` rows each (an entry longer than
+    ``block`` alone), found without a loop per entry."""
+    first = np.concatenate([[0], np.cumsum(lengths)[:-1]]) // max(int(block), 1)
+    cuts = np.flatnonzero(np.diff(first)) + 1
+    return [slice(a, b) for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(lengths)]]))]
+
+
+def gather_rows(starts, ends):
+    """(rows, offsets): the row numbers of the entries' row ranges [starts, ends) one after another, and where each
+    entry's rows begin in them (a contiguous block of candidates is ``W[rows]``; ``reduceat`` by ``offsets``)."""
+    lengths = np.asarray(ends - starts, np.int64)
+    offsets = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
+    rows = np.repeat(np.asarray(starts, np.int64) - offsets, lengths) + np.arange(int(lengths.sum()), dtype=np.int64)
+    return rows, offsets
+
+
+def _take(A, rows):
+    """A[rows] read at once: a slice when the rows are consecutive (a memory map read in one piece)."""
+    if len(rows) and rows[-1] - rows[0] + 1 == len(rows):
+        return A[int(rows[0]):int(rows[-1]) + 1]
+    return A[rows]
+
+
+def coarse_windows(windows, k) -> np.ndarray:
+    """(k, DIM) float32: ``k`` of a clip's windows evenly spaced over them (repeated when it has fewer)."""
+    w = np.asarray(windows)
+    return np.asarray(w[np.linspace(0, len(w) - 1, k).round().astype(int)], np.float32)
+
+
+def coarse_distances(query, coarse, norms=None, block: int = 4096) -> np.ndarray:
+    """(entries,) the prefilter: the Chamfer distance of the query's windows subsampled like the entries'
+    (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k. ``norms``: the coarse
+    windows' squared norms (entries * k,) when the caller keeps them (``first_stage`` does, per library). Run
+    ``block`` entries at a time (the distances of a block stay in the processor's cache)."""
+    n, k = coarse.shape[0], coarse.shape[1]
+    q = coarse_windows(query["windows"], 4 * k)
+    qn = (q * q).sum(1)[:, None]
+    out = np.empty(n)
+    for a in range(0, n, block):
+        b = min(n, a + block)
+        C = np.asarray(coarse[a:b], np.float32).reshape(-1, coarse.shape[2])
+        cn = (C * C).sum(1) if norms is None else norms[a * k:b * k]
+        D = (qn + cn[None] - 2.0 * (q @ C.T)).reshape(len(q), b - a, k)  # squared distances
+        near = D[:, :, 0].copy()  # the nearest of an entry's k windows: k - 1 elementwise minima (not a
+        for j in range(1, k):     # reduction over a short axis, which numpy runs slowly)
+            np.minimum(near, D[:, :, j], out=near)
+        q_side = np.sqrt(np.maximum(near, 0.0)).mean(axis=0)
+        e_side = np.sqrt(np.maximum(D.min(axis=0), 0.0)).mean(axis=1)
+        out[a:b] = 0.5 * (q_side + e_side)
+    return out
+
+
+def _coarse_norms(lib):
+    """The library's coarse windows' squared norms, computed on its first query and kept in its block."""
+    got = lib.get("coarse_norms")
+    if got is None:
+        C = np.asarray(lib["coarse"], np.float32).reshape(-1, lib["coarse"].shape[2])
+        got = (C * C).sum(1)
+        lib["coarse_norms"] = got
+    return got
+
+
+def first_stage(query, library, block: int = 65536, keep: Optional[int] = None,
+                share: float = PREFILTER_SHARE) -> np.ndarray:
+    """(entries,) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's distance + the
+    same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries (or a library
+    file's), or the entries. The entries' rows (a memory-mapped library's in any order) are gathered into
+    contiguous blocks of at most ``block`` rows, each compared in one product, with one BLAS thread (small
+    products). ``keep``: with a library that has ``coarse`` windows and more entries than ``keep`` (raised to
+    ``share`` of the entries when that is more), only that many nearest by ``coarse_distances`` are computed exactly;
+    the others come after them in the prefilter's order (the largest exact distance plus their coarse distance)."""
+    lib = library if isinstance(library, dict) and "starts" in library else stack(library)
+    q = np.asarray(query["windows"], dtype=np.float32)
+    qn = (q * q).sum(1)[:, None]
+    W, norms, starts, ends = lib["windows"], lib["norms"], lib["starts"], lib["ends"]
+    n = len(starts)
+    out = np.full(n, np.inf)
+    if n == 0:
+        return out
+    idx = np.arange(n)
+    coarse = None
+    with one_blas_thread():
+        keep = None if keep is None else max(int(keep), int(math.ceil(share * n)))
+        if keep is not None and lib.get("coarse") is not None and n > keep:
+            coarse = coarse_distances(query, lib["coarse"], _coarse_norms(lib))
+            idx = np.argpartition(coarse, keep)[:keep]
+            idx = idx[np.argsort(starts[idx], kind="stable")]  # the file's order: the map is read forward
+        lengths = ends[idx] - starts[idx]
+        for part in _chunks(lengths, block):
+            run = idx[part]
+            rows, rel = gather_rows(starts[run], ends[run])
+            D = qn + np.asarray(_take(norms, rows), np.float32)[None] \
+                - 2.0 * (q @ np.asarray(_take(W, rows), np.float32).T)
+            np.sqrt(np.maximum(D, 0.0, out=D), out=D)
+            q_side = np.minimum.reduceat(D, rel, axis=1).mean(axis=0)
+            e_side = np.add.reduceat(D.min(axis=0), rel) / lengths[part]
+            out[run] = 0.5 * (q_side + e_side)
+    if coarse is not None:
+        rest = np.isinf(out)
+        out[rest] = out[~rest].max() + coarse[rest]
+    return out
+
+
+# ------------------------------------------------------------------------------------------------- stage two
+
+def _band(n, m, band=BAND):
+    return int(math.ceil(band * max(n, m))) + 1
+
+
+def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) -> np.ndarray:
+    """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the square
+    root of the sum of the two lengths (clips of other durations stay comparable); up to ``free`` of either
+    sequence's length may be left out at each end (crops)."""
+    a = np.ascontiguousarray(query["sequence"], dtype=np.float64)
+    bs = [np.ascontiguousarray(c["sequence"], dtype=np.float64) for c in candidates]
+    if not bs:
+        return np.empty(0)
+    if not local_dtw.kernel_ready() and len(bs) > 1:  # numpy: the shortlist at once
+        fa = min(int(free * len(a)), len(a) - 1)
+        out = local_dtw._dtw_many(a, bs, [max(_band(len(a), len(b), band), 1) for b in bs], [fa] * len(bs),
+                        [max(0, min(int(free * len(b)), len(b) - 1)) for b in bs])
+    else:
+        out = np.array([dtw(a, b, _band(len(a), len(b), band), int(free * len(a)), int(free * len(b))) for b in bs])
+    return out / np.sqrt(len(a) + np.array([len(b) for b in bs], float))
+
+
+def combine(d1, d2, mix=MIX, dg=None, global_weight=0.0) -> np.ndarray:
+    """The shortlist's final score: d2 / mean(d2) + mix * d1 / mean(d1) (+ global_weight * dg / mean(dg), ``dg``
+    the distances of the whole clips' paths); each term relative to the shortlist (finite values), so no unit
+    matters; mix = 0: the second stage alone."""
+    def rel(x):
+        x = np.asarray(x, float)
+        fin = x[np.isfinite(x)]
+        return x / max(fin.mean() if len(fin) else 1.0, 1e-12)
+
+    s = rel(d2)
+    if mix:
+        s = s + mix * rel(d1)
+    if global_weight and dg is not None:
+        s = s + global_weight * rel(dg)
+    return s
+
+
+def held_distances(query, candidates: Sequence) -> np.ndarray:
+    """(len(candidates),) how well each candidate holds the query: the mean over the query's windows of the distance
+    to the candidate's nearest window (the query's side of ``first_stage``; about 0 for the clip a crop was cut
+    from)."""
+    q = np.asarray(query["windows"], np.float32)
+    return np.array([float(np.sqrt(_sq_dist(q, np.asarray(c["windows"], np.float32))).min(axis=1).mean())
+                     for c in candidates])
+
+
+def shortlist_scores(query, candidates: Sequence, d1, mix: float = MIX, dg=None, global_weight: float = 0.0):
+    """(score, d2): the shortlist's final scores (``combine`` of the first stage's ``d1`` and the DTW ``d2``, the
+    query's twin first: ``take.twin_first``) and the DTW distances, for the candidates in the first stage's order."""
+    d2 = rerank(query, candidates)
+    score = combine(d1, d2, mix, dg, global_weight)
+    return take.twin_first(query, candidates, score, lambda picked: held_distances(query, picked)), d2
+
+
+def path_distances(query, candidates) -> np.ndarray:
+    q = np.asarray(query["path"], float)
+    return np.array([np.linalg.norm(np.asarray(c["path"], float) - q) for c in candidates])
+
+
+def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MIX,
+           settings: Settings = DEFAULT, library=None) -> List[int]:
+    """The entries' indices, best first: all by ``first_stage`` (on ``library``, the entries' ``stack``, when
+    given), the first ``shortlist`` re-ranked by ``combine`` of both stages (and of the whole paths when
+    ``settings.global_weight``)."""
+    d1 = first_stage(query, entries if library is None else library)
+    order = list(np.argsort(d1, kind="stable"))
+    head = order[:shortlist]
+    cands = [entries[i] for i in head]
+    dg = path_distances(query, cands) if settings.global_weight else None
+    score, _ = shortlist_scores(query, cands, d1[head], mix, dg, settings.global_weight)
+    head = [head[i] for i in np.argsort(score, kind="stable")]
+    return head + order[shortlist:]

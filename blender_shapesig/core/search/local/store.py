@@ -1,0 +1,235 @@
+"""The signature cache's part for the local search (``LocalEntries``, mixed into ``store.SignatureCache``): every
+item's local entries (``local.index_entry``, about 16 KB a clip, or a clip's one-line refusal) in a file of their own
+beside its signature entries, named by the item's key and the settings' key; all of them also in one pack
+(``LOCAL_PACK``), so that a new process (a command-line ``rank``) reads a library's entries in one read; and the
+library's windows stacked once per library (``local_stack``). The safety rules are the cache's: atomic writes in
+its own folder, an unreadable or outdated file deleted and computed again, a failed write turning the disk off.
+"""
+
+import functools
+import hashlib
+import io
+import json
+import os
+import stat
+
+import numpy as np
+
+from . import features as local
+from .library import JOINT_LISTS as _JOINT_LISTS, open_library, write_library
+
+__all__ = ["LOCAL_PACK", "LocalEntries", "hashed_name"]
+
+LOCAL_PACK = "local_pack.bin"
+# Windows does not replace a file this process has memory-mapped: the library file is closed before it is written
+# again (``LocalEntries.release_library``); elsewhere the old mapping stays valid and nothing is copied
+MAPPED_FILES_LOCKED = os.name == "nt"
+
+
+@functools.lru_cache(maxsize=1 << 18)
+def hashed_name(text: str) -> str:
+    """The cache's file name of an entry's description (its SHA-1), remembered: a click asks for every library
+    item's file names (``contains``), and 1,000 hashes a click were a tenth of a warm click."""
+    return hashlib.sha1(text.encode("utf-8", "surrogateescape")).hexdigest()
+
+
+def _meta(e):
+    return {"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
+            "bones": int(e.get("bones", 0)), "trimmed": list(e.get("trimmed", ())),
+            "seconds": float(e.get("seconds", 0.0)), **{k: list(e.get(k, ())) for k in _JOINT_LISTS},
+            **({"seq_dim": int(np.shape(e["sequence"])[1])} if "sequence" in e else {})}
+
+
+# an entry's arrays (``local.index_entry``) and their types on disk (an older recipe's entries have no take)
+_ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "take": np.float32,
+           "take_mask": np.uint8}
+
+
+def _entry(m, arrays):
+    if m.get("refused"):
+        return {"name": m["name"], "refused": str(m["refused"])}
+    e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
+         "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "seconds": np.float32(m.get("seconds", 0.0)),
+         **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays},
+         **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS}}
+    if (e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0
+            or ("take" in e and e["take"].ndim != 1)):
+        raise ValueError("bad shapes")
+    return e
+
+
+class LocalEntries:
+    """Local-search entries keyed by (item key, settings key); needs the cache's ``path``, ``_lock``, ``stats``,
+    ``_writable``, ``_atomic_write``, ``_memory_only`` and ``FORMAT`` (``store.CACHE_FORMAT``)."""
+
+    def _local_init(self):
+        self._local = {}          # (key, settings key) -> [entry]
+        self._local_memo = None   # the last library's stack
+        self._lpack = None        # file name -> (size, mtime_ns, meta, entries): the pack, once loaded
+        self._lpack_dirty = False
+        self._lib = None          # the opened library file (local_library.LibraryFile)
+        self.pack_warning = None  # one line when the library file was damaged (it is rebuilt)
+
+    def _format(self):
+        return self.FORMAT  # the cache's one version of its files (store.CACHE_FORMAT)
+
+    def local_file_for(self, key, settings_key):
+        return os.path.join(self.path, hashed_name(f"{key}|LOCAL|{settings_key}|F{self._format()}") + ".npz")
+
+    # -- the pack: every local file's entries in one memory-mapped file (``local_library``), used while the file
+    # has the same size and mtime; a damaged pack is deleted (one line in ``pack_warning``) and written again
+    def _load_local_pack(self):
+        self._lpack, self._lib = {}, None
+        fn = os.path.join(self.path, LOCAL_PACK)
+        try:
+            if not stat.S_ISREG(os.lstat(fn).st_mode):
+                raise ValueError("not a regular file")
+            lib = open_library(fn)
+        except FileNotFoundError:
+            return
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            self.pack_warning = f"the library file was damaged and is rebuilt ({exc})"
+            self._discard(fn)
+            self._lpack_dirty = True
+            return
+        if lib.format != self._format():
+            return
+        self._lib = lib
+        for name, size, mtime, meta, rows in lib.files:
+            self._lpack[name] = (size, mtime, meta, [lib.entry(m, r) for m, r in zip(meta["clips"], rows)])
+
+    def _pack_local(self, fn, meta, entries):
+        if self._lpack is None:
+            self._load_local_pack()
+        st = os.stat(fn)
+        self._lpack[os.path.basename(fn)] = (st.st_size, st.st_mtime_ns, meta, entries)
+        self._lpack_dirty = True
+
+    def release_library(self):
+        """Close the memory-mapped library file: every entry read from it gets its arrays copied into memory (in
+        place, so lists holding the entries follow) and the store forgets the map, so that the file can be
+        replaced; the next process maps the new one."""
+        with self._lock:
+            if self._lib is None:
+                return
+            lists = [got[3] for got in (self._lpack or {}).values()] + list(self._local.values())
+            for entries in lists:
+                for e in entries:
+                    if e.pop("_rows", None) is not None:
+                        for k in _ARRAYS:
+                            if k in e:  # (an older recipe's entry has no take)
+                                e[k] = np.array(e[k])
+            self._local_memo = None
+            self._lib = None
+
+    def save_local_pack(self):
+        """Write the pack when local entries were read or written since it was loaded (files gone: left out)."""
+        if self.path is None or not self._lpack_dirty or not self._writable:
+            return
+        if MAPPED_FILES_LOCKED:
+            self.release_library()
+        with self._lock:
+            files = [(name, size, mtime, meta, entries) for name, (size, mtime, meta, entries) in self._lpack.items()
+                     if os.path.exists(os.path.join(self.path, name))]
+            try:
+                self._atomic_write(os.path.join(self.path, LOCAL_PACK),
+                                   lambda f: write_library(f, files, self._format()))
+            except OSError as exc:
+                self._memory_only(exc)
+                return
+            self._lpack_dirty = False
+
+    # -- files
+    def _read_local(self, key, settings_key):
+        fn = self.local_file_for(key, settings_key)
+        try:
+            st = os.lstat(fn)
+        except OSError:
+            return None
+        if not stat.S_ISREG(st.st_mode):  # a FIFO would hang np.load: never opened
+            self._discard(fn)
+            return None
+        if self._lpack is None:
+            self._load_local_pack()
+        got = self._lpack.get(os.path.basename(fn))
+        if got is not None and (got[0], got[1]) == (st.st_size, st.st_mtime_ns) and got[2].get("key") == key \
+                and got[2].get("settings") == settings_key:
+            return got[3]
+        try:
+            with np.load(fn, allow_pickle=False) as z:
+                meta = json.loads(bytes(z["meta"]).decode("utf-8"))
+                if (meta.get("format") != self._format() or meta.get("key") != key
+                        or meta.get("settings") != settings_key):
+                    raise ValueError("outdated")
+                out = [_entry(m, {} if m.get("refused") else
+                              {k: z[f"{k}{i}"] for k in _ARRAYS if f"{k}{i}" in z.files})
+                       for i, m in enumerate(meta["clips"])]
+            self._pack_local(fn, meta, out)
+            return out
+        except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
+            self._discard(fn)
+            return None
+
+    def _write_local(self, key, settings_key, entries):
+        meta = {"format": self._format(), "key": key, "settings": settings_key, "clips": [_meta(e) for e in entries]}
+        arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
+        for i, e in enumerate(entries):
+            if not e.get("refused"):
+                arrays.update({f"{k}{i}": np.asarray(e[k], dt) for k, dt in _ARRAYS.items() if k in e})
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        fn = self.local_file_for(key, settings_key)
+        self._atomic_write(fn, buf.getvalue())
+        self.stats["writes"] += 1
+        self._pack_local(fn, meta, list(entries))
+
+    # -- public
+    def get_local(self, key, settings_key):
+        """The local-search entries stored for (key, settings key), or None (a miss)."""
+        with self._lock:
+            got = self._local.get((key, settings_key))
+            if got is None and self.path is not None:
+                got = self._read_local(key, settings_key)
+                if got is not None:
+                    self.stats["disk_hits"] += 1
+                    self._local[(key, settings_key)] = got
+            self.stats["hits" if got is not None else "misses"] += 1
+            return got
+
+    def put_local(self, key, settings_key, entries):
+        """Store the local-search entries of (key, settings key) (memory, and disk when the cache has a folder)."""
+        with self._lock:
+            if self.path is not None and self._writable:
+                try:
+                    self._write_local(key, settings_key, entries)
+                except OSError as exc:
+                    self._memory_only(exc)
+            self._local[(key, settings_key)] = list(entries)
+
+    def contains_local(self, key, settings_key=None):
+        """True when the local-search entries of (key, settings key; default ``local.DEFAULT``'s) are cached
+        (memory or disk), reading nothing."""
+        settings_key = settings_key or local.settings_key()
+        return (key, settings_key) in self._local or (
+            self.path is not None and os.path.exists(self.local_file_for(key, settings_key)))
+
+    def local_stack(self, entries):
+        """``local.stack`` of the entries (the library's windows in one block), memoized for the last list of
+        entries: a repeated query over the same library does not restack them. Entries read from the library file
+        are not copied: the block is the file's memory map, with their rows and the prefilter's coarse windows."""
+        key = tuple(id(e) for e in entries)
+        memo = self._local_memo
+        if memo is not None and memo[0] == key:
+            return memo[2]
+        lib = self._lib
+        rows = [e.get("_rows") for e in entries]
+        if entries and lib is not None and all(r is not None and r[0] == id(lib) for r in rows):
+            R = np.asarray([r[1:] for r in rows], np.int64)
+            k = R[:, 2]
+            whole = len(k) == len(lib.arrays["coarse"]) and np.array_equal(k, np.arange(len(k)))
+            block = {"windows": lib.arrays["windows"], "norms": lib.arrays["norms"], "starts": R[:, 0],
+                     "ends": R[:, 1], "coarse": lib.arrays["coarse"] if whole else np.asarray(lib.arrays["coarse"][k])}
+        else:
+            block = local.stack(entries)
+        self._local_memo = (key, list(entries), block)
+        return block
