@@ -1,4 +1,4 @@
-"""Sidebar tab "ShapeSig" (3D Viewport, Dope Sheet and NLA sidebars): the signature search panel, with the query,
+"""Sidebar tab "ShapeSig" (3D Viewport, Dope Sheet and NLA sidebars): the Motion Search panel, with the query,
 the library, Build Index and Find Similar, the results list and, for the selected result, Assign, Preview,
 Blend and "Why different". It only draws: preconditions are the operators' ``poll``, shown as a label
 (``library.search_problem``). See docs/search.md, "In Blender".
