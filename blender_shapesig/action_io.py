@@ -1,4 +1,4 @@
-"""Blender armature actions <-> ``core.Clip``: ``read_action`` samples an action's pose-bone rotations on every
+"""Blender armature actions <-> ``core.clip.clip.Clip``: ``read_action`` samples an action's pose-bone rotations on every
 integer frame (every rotation mode; pose space or the armature's axes, ``space``), with the root translation, the
 frame rate and ``meta``; ``write_action`` makes a new action (never modifies one) with one LINEAR key per frame
 per channel; ``assign_action`` plays it without losing the replaced action. Version differences go through

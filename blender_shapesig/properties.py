@@ -1,4 +1,4 @@
-"""Scene settings of the signature search (``scene.shapesig``, ``ShapeSigSettings``: query, library, level, re-rank
+"""Scene settings of the Motion Search panel (``scene.shapesig``, ``ShapeSigSettings``: query, library, level, re-rank
 count, a running preview's state) and its transient results on the window manager
 (``window_manager.shapesig_results``, ``ShapeSigResults``: no undo step, not saved). See docs/dev/blender_layer.md.
 """

@@ -13,6 +13,7 @@ from . import action_io, compat, library, retarget, rigmap, scene_motion
 from .action_hashes import read_hash
 from .core.io import sources
 from .core.errors import ShapeSigError
+from .core.measure_words import ENGINES
 from .properties import results_of
 
 __all__ = ["selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result",
@@ -329,7 +330,7 @@ def moment_problem(context, settings):
     res = results_of()
     order = take_moments(res.results, res.results_index)
     if not order:
-        return "the selected result is a whole clip, not a moment (tick Moments and search again)"
+        return f"the selected result is a whole clip, not a moment (tick {ENGINES['moments'].label} and search again)"
     if len(order) < 2:
         return "the selected moment is the only one found in its take"
     return None

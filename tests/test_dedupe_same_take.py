@@ -11,6 +11,7 @@ import pytest
 
 from blender_shapesig.core import search as index
 from blender_shapesig.core.search import dedupe, make_entry
+from blender_shapesig.core.measure_words import MEASURES
 from blender_shapesig.core.io import sources
 from blender_shapesig.dedupe import dedupe_library
 
@@ -65,7 +66,8 @@ def test_every_near_miss_names_the_test_it_failed(report):
     out, _ = report
     assert out["near_misses"]
     for row in out["near_misses"]:
-        assert row["failed"].startswith(("copy test: sim", "copy test: relative", "complete linkage")), row
+        gates = (MEASURES["sim"].status, MEASURES["relative"].status)  # in the report's words
+        assert row["failed"].startswith(tuple(f"copy test: {g} " for g in gates) + ("complete linkage",)), row
         if row["failed"].startswith("copy test"):
             assert "; same-take test: " in row["failed"]
-    assert "take distance" in out["rule"]
+    assert f"{MEASURES['take'].status} <= " in out["rule"]

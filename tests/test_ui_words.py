@@ -78,7 +78,8 @@ ALL_WORDS = {f"{table}[{key!r}]": words for table, group in (("ENGINES", ENGINES
 DOCS = PACKAGE.parent / "docs"
 # the modules whose strings a person reads as labels, status lines and reports (tooltips aside: operator docstrings
 # and ``description=`` may name a thesis symbol)
-UI_MODULES = ("panels", "operators", "results.py", "library.py")
+# (every module of the Blender layer: the packages below are core, the command line's and the file readers')
+NOT_UI = ("core", "cli", "dedupe", "evaluation", "readers")
 
 
 def test_the_patterns_find_thesis_symbols_and_exception_names():
@@ -95,13 +96,15 @@ def test_the_patterns_find_thesis_symbols_and_exception_names():
 def test_labels_columns_and_status_words_hold_no_thesis_symbol():
     assert not SYMBOL.search(PANEL_NAME) and not EXCEPTION_NAME.search(PANEL_NAME)
     for where, words in ALL_WORDS.items():
-        for field in ("label", "column", "status"):
+        for field in ("label", "column", "status", "description"):
             text = getattr(words, field)
             assert text and not SYMBOL.search(text), f"{where}.{field}: {text!r}"
     # the symbols live in the tooltips: each measure's tooltip names its symbol
     for where in ("MEASURES['sim']", "MEASURES['elastic']", "ENGINES['sim']", "ENGINES['moments']"):
         words = ALL_WORDS[where]
         assert words.symbol and words.symbol in words.tooltip, where
+    for where, words in ALL_WORDS.items():
+        assert words.symbol in words.tooltip, where
 
 
 def test_the_docs_name_each_measure_by_its_words_and_its_symbol():
@@ -131,16 +134,12 @@ def _ui_strings(tree, skip_tooltips=True):
 
 
 def _ui_module_paths():
-    out = []
-    for name in UI_MODULES:
-        path = PACKAGE / name
-        out += sorted(path.rglob("*.py")) if path.is_dir() else [path]
-    return out
+    return sorted(p for p in PACKAGE.rglob("*.py") if p.relative_to(PACKAGE).parts[0] not in NOT_UI)
 
 
 def test_no_label_or_report_of_the_panel_and_operators_holds_a_thesis_symbol():
     paths = _ui_module_paths()
-    assert len(paths) >= 10
+    assert len(paths) >= 30
     found = [f"{p.relative_to(PACKAGE)}:{line}: {text!r}" for p in paths
              for line, text in _ui_strings(ast.parse(p.read_text(encoding="utf-8")))
              if SYMBOL.search(text) or EXCEPTION_NAME.search(text)]
@@ -173,3 +172,172 @@ def test_the_one_source_check_finds_a_copy():
     tree = ast.parse('def f():\n    """Timing-aligned in a docstring"""\n    return label(text="Timing-aligned")')
     texts = [t for _line, t in _ui_strings(tree, skip_tooltips=False)]
     assert texts == ["Timing-aligned"] and "Timing-aligned" in _names()
+
+
+# ------------------------------------------------------------------ every place that names a measure reads the owner
+
+import argparse  # noqa: E402
+import html.parser  # noqa: E402
+import importlib.util  # noqa: E402
+
+from blender_shapesig.core.measure_words import SYMBOLS, metric_phrase  # noqa: E402
+from blender_shapesig.core.metric_names import ALL_METRICS, LOCAL, METRICS  # noqa: E402
+
+ROOT = PACKAGE.parent
+SYMBOL_ONLY = re.compile("|".join(SYMBOLS))  # the thesis' symbols without the metric ids the command line takes
+# "id = words" in --metric's help
+NAMED = re.compile(r"(?:^|; )(\w+) = ([^,;]+)")
+
+
+def _commands():
+    from blender_shapesig.cli import build_parser
+
+    parser = build_parser()
+    return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+
+
+def _option(parser, dest):
+    return next(a for a in parser._actions if a.dest == dest)
+
+
+def test_the_owner_holds_every_engine_and_measure():
+    """One ``Words`` per engine of Find Similar and per measure the command line takes, each under its id."""
+    assert set(ENGINES) == {LOCAL, "sim", "moments"} and set(ALL_METRICS) <= set(MEASURES)
+    for table in (ENGINES, MEASURES, OPTIONS):
+        for key, words in table.items():
+            assert words.key == key and words.description and "\n" not in words.description, key
+    assert {metric_phrase(m) for m in ALL_METRICS} == {ENGINES[LOCAL].short} | {MEASURES[m].label for m in METRICS}
+
+
+def test_metric_help_names_each_measure_in_the_owners_words():
+    """``--metric``'s help of distance, rank and matrix: every metric id with the owner's label and symbol, and
+    nothing else (a measure spelled by hand, or one missing, fails)."""
+    commands = _commands()
+    for name, local in (("distance", True), ("rank", True), ("matrix", False)):
+        text = " ".join(_option(commands[name], "metric").help.split())
+        got = dict(NAMED.findall(text))
+        want = {base: f"{MEASURES[base].label}" for base in METRICS}
+        if local:
+            want[LOCAL] = ENGINES[LOCAL].short
+        assert got == want, name
+        for base in METRICS:
+            assert f"{base} = {MEASURES[base].label}, {MEASURES[base].symbol};" in text, (name, base)
+
+
+def _claims_as_often(text):
+    return "as often" in " ".join(text.split())
+
+
+def test_rank_help_describes_the_engines_in_the_owners_words_and_the_docs_numbers():
+    """``rank --help`` names the three engines by the owner's label and one-line description; its claim on the
+    same take in another format agrees with docs/evaluation.md's numbers (the default's and sim^3's) and with
+    docs/cli.md."""
+    rank = _commands()["rank"]
+    text = " ".join(rank.description.split())
+    for key in ("local", "sim"):
+        assert f"{ENGINES[key].short}: {ENGINES[key].description}" in text, key
+    assert f"{ENGINES['moments'].label}: {ENGINES['moments'].description}" in text
+    assert f"{ENGINES['moments'].label}: {ENGINES['moments'].description}" in _option(rank, "windows").help
+    assert MEASURES["elastic"].status in _option(rank, "rerank").help
+    evaluation = " ".join((DOCS / "evaluation.md").read_text(encoding="utf-8").split())
+    m = re.search(r"the same take in another file format first for (\d+) of (\d+) clips \(sim\^3: (\d+)/(\d+)",
+                  evaluation)
+    assert m, "docs/evaluation.md no longer gives the same-take numbers of the default and sim^3"
+    default, signatures = (int(m.group(1)), int(m.group(2))), (int(m.group(3)), int(m.group(4)))
+    cli_md = (DOCS / "cli.md").read_text(encoding="utf-8")
+    assert _claims_as_often(text) == (default == signatures) == _claims_as_often(cli_md)
+    assert "better" not in text
+
+
+class _Headers(html.parser.HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.headers, self._in = [], False
+
+    def handle_starttag(self, tag, attrs):
+        self._in = tag == "th"
+
+    def handle_data(self, data):
+        if self._in:
+            self.headers.append(data)
+            self._in = False
+
+
+def test_dedupe_report_headers_are_the_owners_columns():
+    """The HTML report's pair tables (clusters and near misses) head each measure's column with the owner's."""
+    from blender_shapesig.dedupe import report
+
+    got = _Headers()
+    got.feed(report._table([], str))
+    assert got.headers == ["a", "b"] + [MEASURES[k].column for k in ("sim", "elastic", "relative", "take")] + [
+        "near-duplicate"]
+
+
+def _demo():
+    spec = importlib.util.spec_from_file_location("shapesig_demo_words", ROOT / "tools" / "demo.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_demo_report_headers_are_the_owners_columns_and_none_is_empty():
+    """The demo's ranking table: the sort measure's column, and the timing-aligned difference's only when a row
+    has one (the issue's table had an empty d_S* column)."""
+    demo = _demo()
+    assert demo.result_columns("local", False) == [MEASURES["local"].column]
+    assert demo.result_columns("sim", False) == [MEASURES["sim"].column]
+    assert demo.result_columns("elastic", True) == [MEASURES["sim"].column, MEASURES["elastic"].column]
+
+
+def test_evaluation_report_names_each_metric_in_the_owners_words():
+    from blender_shapesig.evaluation.report import format_report
+
+    row = {"accuracy": 1.0, "correct": 2, "seconds": 0.5, "map": 1.0,
+           "confusion": {"classes": ["walk"], "table": [[2]]}}
+    names = ("local", "sim3", "elastic", "sim3+elastic5")
+    text = format_report({"clips": 2, "classes": ["walk"], "metrics": {n: row for n in names}})
+    assert f"| local | {ENGINES['local'].short} |" in text and f"| sim3 | {MEASURES['sim'].label} |" in text
+    assert f"| elastic | {MEASURES['elastic'].label} |" in text
+    assert f"| sim3+elastic5 | {MEASURES['sim'].label}, the best 5 re-ranked by the {MEASURES['elastic'].status} |" \
+        in text
+
+
+def _shown_strings(path):
+    """[(line, text)] of the strings of a command-line module a person reads in its output (docstrings and the
+    ``help=``/``description=`` of its options, its tooltips, aside)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    skip = _docstrings(tree)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.keyword) and node.arg in ("help", "description"):
+            skip.update(id(n) for n in ast.walk(node.value))
+    return [(node.lineno, node.value) for node in ast.walk(tree)
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in skip]
+
+
+def test_no_report_or_output_of_the_command_line_holds_a_thesis_symbol():
+    """The command line's text output and messages, the dedupe report (its gates' rule and failed tests), the
+    evaluation report and the demo report use the owner's words; a thesis symbol only in ``--help`` (where the
+    owner's symbols follow their words) and the docs."""
+    paths = sorted((PACKAGE / "cli").glob("*.py")) + sorted((PACKAGE / "dedupe").glob("*.py")) + sorted(
+        (PACKAGE / "evaluation").glob("*.py")) + [PACKAGE / "core" / "index" / "dedupe.py", ROOT / "tools" / "demo.py"]
+    found = [f"{p.relative_to(ROOT)}:{line}: {text!r}" for p in paths for line, text in _shown_strings(p)
+             if SYMBOL_ONLY.search(text)]
+    assert not found, "\n".join(found)
+
+
+def test_help_holds_only_the_owners_symbols():
+    """Every ``--help`` text: with the owner's symbols taken out, no thesis symbol is left (an equation number, a
+    citation of the docs, may stay)."""
+    symbols = sorted({w.symbol for w in ALL_WORDS.values() if w.symbol}, key=len, reverse=True)
+    no_equation = re.compile("|".join(s for s in SYMBOLS if not s.startswith("eq")))
+    commands = _commands()
+    texts = [(name, p.description or "") for name, p in commands.items()]
+    texts += [(f"{name} {a.dest}", a.help or "") for name, p in commands.items() for a in p._actions]
+    assert len(texts) > 100
+    found = []
+    for where, text in texts:
+        for s in symbols:
+            text = text.replace(s, "")
+        if no_equation.search(text):
+            found.append(f"{where}: {text!r}")
+    assert not found, "\n".join(found)

@@ -2,8 +2,9 @@
 
 1. import the sample CMU clips into one file: ASF/AMC with our importer (``shapesig.import_acclaim``), BVH with
    Blender's own importer;
-2. rank every action against one query walk by the normalized log-signature distance (eq. 9.1), re-ranking
-   the top 3 by the elastic distance (``shapesig.build_index`` + ``shapesig.rank``);
+2. rank every action against one query walk with Find Similar's default search, motion and pose window by window
+   (``shapesig.build_index`` + ``shapesig.rank``), reported in the panel's words (``core.measure_words``: a
+   column only when a row has a value in it);
 3. make one time-aligned SRVT geodesic blend of a walk and a run (``shapesig.blend_actions``);
 4. save ``OUT/demo.blend`` and print a short report (also written to ``OUT/demo_report.md``).
 
@@ -132,6 +133,16 @@ def import_clips(bpy, data, report):
     return imported
 
 
+def result_columns(order_by, any_elastic):
+    """The ranking table's value columns (``core.measure_words``): the first measure's (the score, or the similarity
+    when the rows are sorted by it or re-ranked by the timing-aligned difference), then the timing-aligned
+    difference's when some row has one."""
+    from blender_shapesig.core.measure_words import MEASURES
+
+    first = MEASURES["local" if order_by == "local" else "sim"]
+    return [first.column] + ([MEASURES["elastic"].column] if any_elastic else [])
+
+
 def rank(bpy, imported, query_name, report):
     """The search panel's work: index the file's actions, then rank them against the query's action."""
     arm, query_label = imported[query_name]
@@ -143,18 +154,16 @@ def rank(bpy, imported, query_name, report):
     with quiet_stdout():
         assert bpy.ops.shapesig.build_index() == {"FINISHED"}
         assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    from blender_shapesig.core.measure_words import ENGINES, MEASURES, measure_words
+    from blender_shapesig.core.measure_words import ENGINES, MEASURES, OPTIONS, measure_words
 
     label = {n: lab for n, (_a, lab) in imported.items()}
     res = bpy.context.window_manager.shapesig_results
     results = list(res.results)
     checked = f", the best {s.rerank} re-ranked by {MEASURES['elastic'].status}" if res.order_by == "elastic" else ""
+    engine = f"{OPTIONS['similarity'].label}: {ENGINES[s.similarity].label}"
     report(f"- ranked the file's actions against query {query_name!r} ({query_label}) by "
-           f"{measure_words(res.order_by).status} (Similarity: {ENGINES[s.similarity].label}){checked} "
-           f"(shapesig.build_index + shapesig.rank):")
-    columns = [MEASURES["local" if res.order_by == "local" else "sim"].column]
-    if any(r.has_elastic for r in results):
-        columns.append(MEASURES["elastic"].column)
+           f"{measure_words(res.order_by).status} ({engine}){checked} (shapesig.build_index + shapesig.rank):")
+    columns = result_columns(res.order_by, any(r.has_elastic for r in results))
     report(f"  | rank | action | label | {' | '.join(columns)} | frames |")
     report("  " + "|---" * (len(columns) + 4) + "|")
     for i, r in enumerate(results, 1):
@@ -183,10 +192,12 @@ def blend(bpy, imported, name_a, name_b, report):
     first, last = (int(round(v)) for v in action.frame_range)
     frames = {int(round(a.frame_range[1] - a.frame_range[0])) + 1 for a in (bpy.data.actions[name_a],
                                                                                bpy.data.actions[name_b])}
+    from blender_shapesig.core.measure_words import OPTIONS
     from blender_shapesig.core.metrics import DEFAULT_DEPTH
     from blender_shapesig.scene_motion import timing_text
 
-    report(f"- blended {name_a!r} with {name_b!r} at weight 0.5, time-aligned (D = {DEFAULT_DEPTH}; source lengths "
+    report(f"- blended {name_a!r} with {name_b!r} at weight 0.5, time-aligned ({OPTIONS['depth'].label} "
+           f"{DEFAULT_DEPTH}; source lengths "
            f"{sorted(frames)} frames): new action {action.name!r}, frames {first}..{last} "
            f"({timing_text(action)}), assigned to {arm.name!r} (shapesig.blend_actions)")
     return action

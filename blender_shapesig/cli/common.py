@@ -396,12 +396,15 @@ def add_common(p, asf=True, crop=True):
 
 
 def metric_help(default, local=True):
-    return (
-        ("local (the local search: windows of pose and motion by log-signatures, then a DTW re-rank of a "
-         "shortlist; between two clips its first stage), " if local else "")
-        + "l2 (d_P*), elastic (d_S*), group (rho^n), concat (sigma_*^n), linear (sigma_L^n) or sim (sim^n, eq. 9.1); "
-        f"a level may be appended (sim3) (default: {default})"
-    )
+    """--metric's help: every metric id in its words (``core.measure_words``), and its thesis symbol as a tooltip
+    names it."""
+    from ..core.measure_words import ENGINES, MEASURES
+    from ..core.metric_names import LOCAL, METRICS
+
+    engine = ENGINES[LOCAL]
+    items = [f"{LOCAL} = {engine.short}, the local search (between two clips: its first stage)"] if local else []
+    items += [f"{base} = {MEASURES[base].label}, {MEASURES[base].symbol}" for base in METRICS]
+    return "; ".join(items) + f"; a signature measure takes a level (sim3) (default: {default})"
 
 
 def add_metric(p, depth_help=f"DP search depth D for elastic (default {DEFAULT_DEPTH})", default="sim",

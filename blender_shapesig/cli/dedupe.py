@@ -34,6 +34,8 @@ def run(args):
 
 
 def add_parser(sub):
+    from ..core.measure_words import MEASURES
+
     p = sub.add_parser(
         "dedupe",
         help="near-duplicate clusters of a library (HTML + JSON report)",
@@ -45,7 +47,8 @@ def add_parser(sub):
     p.add_argument("--out", required=True, metavar="DIR", help="folder for report.html and report.json")
     c.add_overwrite(p)
     p.add_argument("--threshold", type=float, metavar="X",
-                   help="relative d_S* gate (default: half its median over a sample of the k-NN pairs)")
+                   help=f"the gate of the {MEASURES['relative'].status} ({MEASURES['relative'].description}) "
+                   "(default: half its median over a sample of the k-NN pairs)")
     p.add_argument("--scheduler", metavar="ADDRESS", help=c.SCHEDULER_HELP)
     p.add_argument("--k", type=int, default=8, help="neighbours per clip in the signature graph (default 8)")
     p.add_argument("--level", type=int, help=f"signature level (default {c.DEFAULT_LEVEL})")

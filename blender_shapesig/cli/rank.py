@@ -142,6 +142,7 @@ def run(args):
         raise c.CommandError("--explain must be 0 or more")
     from ..core.io.sources import clip_address, read_one, spec_item
     from ..core.clip.trim import trim_note, trimmed_range
+    from ..core.measure_words import ENGINES, MEASURES, metric_phrase
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
     cache = index.SignatureCache(c.cache_dir(args, index))
@@ -198,9 +199,11 @@ def run(args):
         out["query_thumbnail"] = out_thumbs
     if sched:
         out["computed"] = computed  # library files whose entries the scheduler computed
-    lines = [f"query: {c.shown(query.name)}  metric: {label}"]
+    search = ENGINES["moments"].label if args.windows else metric_phrase(label)
+    lines = [f"query: {c.shown(query.name)}  metric: {label} ({search})"]
+    elastic_word = MEASURES["elastic"].column.lower()
     for i, r in enumerate(rows, 1):
-        el = "" if r["elastic"] is None else f"  elastic {r['elastic']:.6g}"
+        el = "" if r["elastic"] is None else f"  {elastic_word} {r['elastic']:.6g}"
         if r.get("metric") and r["metric"] != label:
             el += f"  ({r['metric']})"
         dist = "nan" if r["distance"] is None else f"{r['distance']:.6g}"
@@ -214,29 +217,39 @@ def run(args):
     return out, "\n".join(lines)
 
 
-def add_parser(sub):
-    p = sub.add_parser(
-        "rank",
-        help="rank clips by similarity to a query",
-        description="Rank clips by their distance to QUERY, best first. The default search is 'local' (motion "
-        "and pose, window by window, across rigs; then a DTW re-rank of the first 20); --metric sim3 ranks by the "
-        "whole clips' log-signatures only (motion, no pose; the same take in another format is found as often). Signatures are cached in --cache DIR, "
-        "else $SHAPESIG_CACHE_DIR, else the per-user cache folder (~/.cache), in a subfolder blender_shapesig-cache "
-        "that it alone writes; "
-        "--no-cache keeps them in memory only.",
+def description():
+    """``rank --help``'s text: the engines in their words (``core.measure_words``)."""
+    from ..core.measure_words import ENGINES, MEASURES, OPTIONS
+
+    local, sim, moments = ENGINES["local"], ENGINES["sim"], ENGINES["moments"]
+    return (
+        f"Rank clips by their distance to QUERY, best first. The default search, --metric local, is "
+        f"{local.short}: {local.description}. --metric sim3 is {sim.short}: {sim.description}; it finds the same "
+        f"take in another file format as often as the default (docs/evaluation.md); with --rerank K the first K "
+        f"are re-ordered by the {MEASURES['elastic'].status} (the panel's {OPTIONS['rerank'].label}). --windows "
+        f"ranks {moments.label}: {moments.description}. Signatures are cached in --cache DIR, else "
+        "$SHAPESIG_CACHE_DIR, else the per-user cache folder (~/.cache), in a subfolder blender_shapesig-cache that "
+        "it alone writes; --no-cache keeps them in memory only."
     )
+
+
+def add_parser(sub):
+    from ..core.measure_words import ENGINES, MEASURES
+
+    elastic, moments = MEASURES["elastic"], ENGINES["moments"]
+    p = sub.add_parser("rank", help="rank clips by similarity to a query", description=description())
     p.add_argument("query", metavar="QUERY", help=c.CLIP_HELP)
     p.add_argument("clips", metavar="CLIP", nargs="+", help=c.CLIP_HELP + ", or a folder of clip files")
-    c.add_metric(p, depth_help=f"DP search depth D for the elastic re-rank (default {c.DEFAULT_DEPTH})",
+    c.add_metric(p, depth_help=f"DP search depth D of the {elastic.status} (default {c.DEFAULT_DEPTH})",
                  default=None)
     p.add_argument("--rerank", type=int, default=None, metavar="K",
-                   help="re-order the first K by elastic distance (local: the shortlist its second stage "
-                   "re-scores, default 20; with --windows: refine the first K moments by the free-window elastic "
-                   "DP, default 10)")
+                   help=f"re-order the first K by the {elastic.status}, {elastic.symbol} (local: the shortlist its "
+                   "second stage re-scores, default 20; with --windows: refine the first K moments by the "
+                   "free-window elastic DP, default 10)")
     p.add_argument("--windows", action="store_true",
-                   help="rank moments inside the clips: each result adds the matching frames (start, end)")
+                   help=f"{moments.label}: {moments.description} (JSON: start, end)")
     p.add_argument("--explain", type=int, nargs="?", const=5, default=0, metavar="K",
-                   help="explain the first K results (default 5): per-joint shares of the elastic distance and "
+                   help=f"explain the first K results (default 5): per-joint shares of the {elastic.status} and "
                    "the alignment cost over time")
     p.add_argument("--top", type=int, metavar="K", help="keep the K best results")
     p.add_argument("--cache", metavar="DIR",

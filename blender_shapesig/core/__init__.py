@@ -1,10 +1,11 @@
 """blender_shapesig.core: shape analysis of curves in SO(3)^d, pure numpy/scipy (numba, iisignature optional);
 never imports bpy. Packages: ``geometry`` (rotations, curves, the SRVT), ``clip`` (the ``Clip``, rest skeletons,
 trimming, the comparison time base), ``io`` (sources, file formats), ``elastic`` (d_S*), ``signatures``, ``index``
-(search, moments, near duplicates), ``blend`` (geodesic blends, planted feet); modules ``rigs`` (canonical joints,
-bone maps), ``metrics``/``pairwise`` (named measures, matrices), ``errors``. The public names below are fixed by
-the project's interface contract (beside the repository: ../shared/interfaces.md); docs/architecture.md shows
-who owns what."""
+(search, moments, near duplicates), ``blend`` (geodesic blends, planted feet), ``rigs`` (canonical joints, bone
+maps, the comparison space, retargeting); modules ``metric_names`` (the metric grammar, defaults), ``measure_words``
+(the engines' and measures' names a person reads), ``distances``/``metrics``/``pairwise`` (named measures,
+matrices), ``errors``. The public names below are fixed by the project's interface contract, which is kept outside
+this repository: add names, never rename them. docs/architecture.md shows who owns what."""
 
 from .errors import CurveError, ParseError, ShapeSigError
 

@@ -11,12 +11,16 @@ import os
 import numpy as np
 
 from ..core.search.dedupe import choose_keeper, copy_facts
+from ..core.measure_words import MEASURES
 from ..core.io.sources import clip_address
 from ..core.io.text import plot_name
 
-__all__ = ["write_report", "clip_label", "speed_trace"]
+__all__ = ["write_report", "clip_label", "speed_trace", "PAIR_HEADERS"]
 
 NEAR_MISSES = 20
+# the pair tables' headers: the measures' columns (core.measure_words), for the JSON keys sim, elastic, relative, take
+PAIR_HEADERS = ("a", "b") + tuple(MEASURES[key].column for key in ("sim", "elastic", "relative", "take")) + (
+    "near-duplicate",)
 
 
 def clip_label(item, entry):
@@ -166,8 +170,7 @@ def _shortener(labels):
 
 
 def _table(rows, short):
-    head = ("<tr><th>a</th><th>b</th><th>sim</th><th>d_S*</th><th>relative d_S*</th><th>take distance</th>"
-            "<th>near-duplicate</th></tr>")
+    head = "<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in PAIR_HEADERS) + "</tr>"
     body = "".join(f"<tr><td>{html.escape(short(r['a']))}</td><td>{html.escape(short(r['b']))}</td>"
                    f"<td>{_fmt(r['sim'])}</td><td>{_fmt(r['elastic'])}</td><td>{_fmt(r['relative'])}</td>"
                    f"<td>{_fmt(r.get('take'))}</td><td>{'yes' if r['confirmed'] and not r.get('failed') else 'no'}"
@@ -201,7 +204,8 @@ def _html(out, clusters, images, labels):
         (f"<p>{out['clips']} clips in <code>{e(root)}</code> (paths below are relative to it), " if root
          else f"<p>{out['clips']} clips, ") + f"{len(clusters)} "
         f"clusters (largest: {out['largest_cluster_share']:.0%} of the library), {out['graph_edges']} k-NN edges "
-        f"(k = {out['k']}), {out['checked_pairs']} pairs checked by d_S*. Scheduler: {e(out['scheduler'])}; "
+        f"(k = {out['k']}), {out['checked_pairs']} pairs checked by the {MEASURES['elastic'].status}. "
+        f"Scheduler: {e(out['scheduler'])}; "
         f"{secs}.</p>",
         f"<p>Rule: {e(out['rule'])}. Clusters: complete linkage (every pair in a cluster passes both gates). "
         "Plots: each member's joint speed over its own seconds, and its time map onto the first member (the "

@@ -8,6 +8,7 @@ import re
 
 import numpy as np
 
+from ..core.measure_words import metric_phrase
 from .scores import format_confusion
 
 __all__ = ["safe_name", "write_matrix", "write_summary", "format_report"]
@@ -33,18 +34,20 @@ def write_matrix(D, names, out_dir, stem="matrix"):
 
 
 def format_report(summary):
-    """``report.md``'s text: one line per metric (1-NN accuracy, mAP, silhouette, seconds), then every
-    metric's confusion table."""
+    """``report.md``'s text: one line per metric (its name and its words, ``core.measure_words``; 1-NN accuracy,
+    mAP, silhouette, seconds), then every metric's confusion table."""
     n = summary["clips"]
     classes = summary["classes"]
     lines = ["# Evaluation summary", "", f"{n} clips, classes: {', '.join(classes)}", "",
-             "| metric | 1-NN accuracy | mAP | silhouette | seconds |", "|---|---|---|---|---|"]
+             "| metric | measure | 1-NN accuracy | mAP | silhouette | seconds |", "|---|---|---|---|---|---|"]
     sections = []
     for name, row in summary["metrics"].items():
         extra = " | ".join(f"{row[k]:.3f}" if k in row else "" for k in ("map", "silhouette"))
-        lines.append(f"| {name} | {row['accuracy']:.3f} ({row['correct']}/{n}) | {extra} | {row['seconds']:.2f} |")
+        lines.append(f"| {name} | {metric_phrase(name)} | {row['accuracy']:.3f} ({row['correct']}/{n}) | {extra} | "
+                     f"{row['seconds']:.2f} |")
         table = format_confusion(row["confusion"]["classes"], row["confusion"]["table"])
-        sections.append(f"## {name}\n\n1-NN accuracy {row['accuracy']:.3f} ({row['correct']}/{n}), "
+        sections.append(f"## {name} ({metric_phrase(name)})\n\n1-NN accuracy {row['accuracy']:.3f} "
+                        f"({row['correct']}/{n}), "
                         f"{row['seconds']:.2f} s\n\n{table}\n")
     return "\n".join(lines) + "\n\n" + "\n".join(sections)
 

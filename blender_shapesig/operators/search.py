@@ -1,4 +1,4 @@
-"""Signature search operators (sidebar tab "ShapeSig"; settings in ``scene.shapesig``): ``shapesig.build_index``,
+"""The Motion Search panel's operators (tab "ShapeSig"; settings in ``scene.shapesig``): ``shapesig.build_index``,
 ``shapesig.rank`` (Find Similar, with an optional elastic re-rank), ``shapesig.assign_result``,
 ``shapesig.preview_result``, ``shapesig.clear_index`` and ``shapesig.explain_result``. Thin: they parse the
 settings, call ``library`` (a click: ``rank_job``) and report (a failure is one line through ``errors_ui``'s guard); preconditions are in ``poll`` (``library.search_problem`` /

@@ -1,4 +1,4 @@
-"""Sidebar tab "ShapeSig" (3D Viewport, Dope Sheet and NLA sidebars): the signature search panel, with the query,
+"""Sidebar tab "ShapeSig" (3D Viewport, Dope Sheet and NLA sidebars): the Motion Search panel, with the query,
 the library, Build Index and Find Similar, the results list and, for the selected result, Assign, Preview,
 Blend and "Why different". It only draws: preconditions are the operators' ``poll``, shown as a label
 (``library.search_problem``). See docs/search.md, "In Blender".
@@ -10,7 +10,7 @@ import bpy
 
 from .. import library, result_rows
 from ..core.elastic.explain import top_joints
-from ..core.measure_words import MEASURES, OPTIONS, PANEL_NAME, measure_words
+from ..core.measure_words import ENGINES, MEASURES, OPTIONS, PANEL_NAME, measure_words
 from ..core.metrics import LOCAL
 from ..properties import column_word
 from ..results import expected_hash, take_moments
@@ -213,7 +213,7 @@ def _draw_results(layout, s, res):
     item = res.results[res.results_index]
     info = layout.column(align=True)
     if res.order_by == result_rows.LOCAL_COLUMN:
-        info.label(text=f"{MEASURES['local'].label} = {item.distance:.4f} (motion and pose)")
+        info.label(text=f"{MEASURES['local'].label} = {item.distance:.4f} ({ENGINES['local'].status})")
     else:
         info.label(text=f"{MEASURES['sim'].label} = {item.distance:.4f}"
                    + (f", {MEASURES['elastic'].label} = {item.elastic:.4f}" if item.has_elastic else ""))

@@ -21,6 +21,7 @@ from .signature.words import word_codes
 from ..geometry import so3
 from ..distances import clip_distance
 from ..elastic import DEFAULT_DEPTH
+from ..measure_words import MEASURES, OPTIONS
 from ..metric_names import time_base_smoothing
 from ..clip.prepare import prepare_clip
 from ..rigs import JOINTS
@@ -41,6 +42,7 @@ THRESHOLD_RATIO = 0.5
 DISTRIBUTION_SAMPLE = 100
 # pairs up to CHECK_FACTOR * the sim gate get the elastic check (the near misses are shown in the report)
 CHECK_FACTOR = 1.5
+RELATIVE = MEASURES["relative"].status  # the second gate in the report's words (core.measure_words)
 
 
 @dataclass(frozen=True)
@@ -92,16 +94,16 @@ class DedupeResult:
             return ""
         if e.relative is None:
             return "not checked"
-        copy = (f"sim {e.sim:.3g} > {self.sim_threshold:.3g}" if e.sim > self.sim_threshold
-                else f"relative d_S* {e.relative:.3g} > {self.threshold:.3g}")
+        copy = (f"{MEASURES['sim'].status} {e.sim:.3g} > {self.sim_threshold:.3g}" if e.sim > self.sim_threshold
+                else f"{RELATIVE} {e.relative:.3g} > {self.threshold:.3g}")
         if e.take is None:
             return f"copy test: {copy}; same-take test: one skeleton and format (only copies)"
         if e.length > take_mod.SAME_LENGTH:
             twin = f"lengths differ by {np.expm1(e.length):.0%}"
         elif e.take > self.take_threshold:
-            twin = f"take distance {e.take:.3g} > {self.take_threshold:.3g}"
+            twin = f"{MEASURES['take'].status} {e.take:.3g} > {self.take_threshold:.3g}"
         else:
-            twin = f"relative d_S* {e.relative:.3g} > {self.threshold:.3g}"
+            twin = f"{RELATIVE} {e.relative:.3g} > {self.threshold:.3g}"
         return f"copy test: {copy}; same-take test: {twin}"
 
 
@@ -429,15 +431,15 @@ def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, 
     edges = [checked.get((e.i, e.j), e) for e in edges]
     if threshold is None:
         tau = relative_threshold([checked[(e.i, e.j)].relative for e in picked], ratio)
-        rule = (f"sim{entries[0].level if entries else ''} <= {sim_ratio:g} x median over the k-NN edges "
-                f"({sim_tau:.4g}); relative d_S* <= {ratio:g} x median over {len(picked)} sampled k-NN edges "
-                f"({tau:.4g})")
+        given = f"{ratio:g} x median over {len(picked)} sampled k-NN edges ({tau:.4g})"
     else:
         tau = float(threshold)
-        rule = f"sim <= {sim_ratio:g} x median over the k-NN edges ({sim_tau:.4g}); relative d_S* <= {tau:g} (given)"
-    rule += (f"; or, for files of other skeletons or formats, one length (within "
-             f"{np.expm1(take_mod.SAME_LENGTH):.0%}), take distance <= {take_mod.TWIN_RATIO:g} x median over the "
-             f"k-NN edges ({take_tau:.4g}) and the relative d_S* gate")
+        given = f"{tau:g} (given)"
+    level = f" ({OPTIONS['level'].status} {entries[0].level})" if entries else ""
+    rule = (f"{MEASURES['sim'].status}{level} <= {sim_ratio:g} x median over the k-NN edges ({sim_tau:.4g}); "
+            f"{RELATIVE} <= {given}; or, for files of other skeletons or formats, one length (within "
+            f"{np.expm1(take_mod.SAME_LENGTH):.0%}), {MEASURES['take'].status} <= {take_mod.TWIN_RATIO:g} x median "
+            f"over the k-NN edges ({take_tau:.4g}) and the {RELATIVE} gate")
     out = DedupeResult([], edges, sim_tau, tau, rule, take_threshold=take_tau)
     known = {(e.i, e.j): out.confirmed(e) for e in edges if e.relative is not None}
 
