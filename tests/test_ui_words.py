@@ -319,7 +319,7 @@ def test_no_report_or_output_of_the_command_line_holds_a_thesis_symbol():
     evaluation report and the demo report use the owner's words; a thesis symbol only in ``--help`` (where the
     owner's symbols follow their words) and the docs."""
     paths = sorted((PACKAGE / "cli").glob("*.py")) + sorted((PACKAGE / "dedupe").glob("*.py")) + sorted(
-        (PACKAGE / "evaluation").glob("*.py")) + [PACKAGE / "core" / "index" / "dedupe.py", ROOT / "tools" / "demo.py"]
+        (PACKAGE / "evaluation").glob("*.py")) + [PACKAGE / "core" / "search" / "dedupe.py", ROOT / "tools" / "demo.py"]
     found = [f"{p.relative_to(ROOT)}:{line}: {text!r}" for p in paths for line, text in _shown_strings(p)
              if SYMBOL_ONLY.search(text)]
     assert not found, "\n".join(found)
