@@ -78,7 +78,7 @@ ALL_WORDS = {f"{table}[{key!r}]": words for table, group in (("ENGINES", ENGINES
 DOCS = PACKAGE.parent / "docs"
 # the modules whose strings a person reads as labels, status lines and reports (tooltips aside: operator docstrings
 # and ``description=`` may name a thesis symbol)
-UI_MODULES = ("panels", "operators", "results.py", "library.py")
+UI_MODULES = ("panels", "operators", "search/results.py", "search/library.py")
 
 
 def test_the_patterns_find_thesis_symbols_and_exception_names():

@@ -18,41 +18,17 @@ import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 PKG = "blender_shapesig"
-MOVES = {
-    "core.so3": "core.geometry.so3",
-    "core.curves": "core.geometry.curves",
-    "core.clip": "core.clip.clip",
-    "core.skeleton": "core.clip.skeleton",
-    "core.trim": "core.clip.trim",
-    "core.prepare": "core.clip.prepare",
-    "core.elastic": "core.elastic.elastic",
-    "core._dp_kernels": "core.elastic._dp_kernels",
-    "core._srvt_kernel": "core.elastic._srvt_kernel",
-    "core._workspace": "core.elastic._workspace",
-    "core.subsequence": "core.elastic.subsequence",
-    "core.explain": "core.elastic.explain",
-    "core.signatures": "core.signatures.signatures",
-    "core.tensor": "core.signatures.tensor",
-    "core.sources": "core.io.sources",
-    "core.formats": "core.io",
-    "core.formats.acclaim": "core.io.acclaim",
-    "core.formats.amc": "core.io.amc",
-    "core.formats.asf": "core.io.asf",
-    "core.formats.bvh": "core.io.bvh",
-    "core.formats.blend": "core.io.blend_file",
-    "core.formats.text": "core.io.text",
-    "core.dedupe": "core.index.dedupe",
-    "core.feet": "core.blend.feet",
-    "core.files": "core.io.files",
-    "core.local_search": "core.index.local",
-    "readers.blend": "readers.blend_file",
-    "readers._blend_child": "readers._blend_file_child",
-    "write_blend": "write_blend_file",
+# The Blender layer in rooms (issue 40); the earlier table (core in subpackages) is in this file's git history.
+ROOMS = {
+    "actions": ["action_io", "action_hashes", "action_changes", "action_spaces", "bone_channels", "owners",
+                "frame_rates", "scene_motion", "control_rigs", "write_blend_file"],
+    "search": ["library", "rig_library", "rank_job", "result_rows", "results", "thumbnails"],
+    "rigs": ["rigmap", "retarget"],
+    "blend": ["blend_actions", "transitions"],
 }
-NEW_PACKAGES = ["core.geometry", "core.clip", "core.elastic", "core.signatures", "core.io"]
-FILE_MOVES = {  # old file -> new file (relative to the package folder)
-    "core/formats/__init__.py": "core/io/__init__.py",
-}
+MOVES = {name: f"{room}.{name}" for room, names in ROOMS.items() for name in names}
+NEW_PACKAGES = list(ROOMS)
+FILE_MOVES = {}  # old file -> new file (relative to the package folder), for files that are not modules
 
 
 def module_file(mod):
@@ -87,7 +63,7 @@ def resolve(level, module, pkg_of_file):
 def relative(target, pkg_of_file):
     """``target`` (dotted, below the package) written relative to a file in package ``pkg_of_file``."""
     a = pkg_of_file.split(".") if pkg_of_file else []
-    b = target.split(".")
+    b = target.split(".") if target else []
     i = 0
     while i < len(a) and i < len(b) and a[i] == b[i]:
         i += 1
@@ -96,7 +72,7 @@ def relative(target, pkg_of_file):
 
 FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from (?P<dots>\.+)(?P<mod>[\w.]*) import "
                      r"(?P<names>\([^)]*\)|[^\n#]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.M)
-ABS_FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from " + PKG + r"\.(?P<mod>[\w.]+) import "
+ABS_FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from " + PKG + r"(?:\.(?P<mod>[\w.]+))? import "
                          r"(?P<names>\([^)]*\)|[^\n#]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.M)
 DOTTED_RE = re.compile(r"(?<![\w.])(?<!from )" + PKG + r"\.([A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*)")
 
@@ -118,7 +94,7 @@ def groups_for(target, items, existing):
     for item in items:
         name, _, alias = item.partition(" as ")
         name, alias = name.strip(), alias.strip()
-        sub = f"{target}.{name}"
+        sub = f"{target}.{name}" if target else name
         if sub in MOVES:
             new_pkg, _, new_name = MOVES[sub].rpartition(".")
             if new_name != name and not alias:
@@ -133,11 +109,15 @@ def groups_for(target, items, existing):
 
 
 def emit(m, groups, items, write_mod):
-    out = []
-    for key, names in groups:
-        text = m["names"] if len(groups) == 1 and names == items else ", ".join(names)
-        out.append(m["indent"] + f"from {write_mod(key)} import {text}")
-    return "\n".join(out) + m["tail"]
+    """One ``from`` line per new package, the package itself first, then its subpackages by name; a ``noqa``
+    comment is kept on every line."""
+    if len(groups) == 1 and groups[0][1] == items:
+        return m["indent"] + f"from {write_mod(groups[0][0])} import {m['names']}" + m["tail"]
+    lines = [m["indent"] + f"from {write_mod(key)} import {', '.join(names)}"
+             for key, names in sorted(groups, key=lambda g: (g[0] != "", g[0]))]
+    if "noqa" in m["tail"]:
+        return "\n".join(line + m["tail"] for line in lines)
+    return "\n".join(lines) + m["tail"]
 
 
 def rewrite_text(text, file_mod_new, file_mod_old, is_init, existing):
@@ -157,7 +137,7 @@ def rewrite_text(text, file_mod_new, file_mod_old, is_init, existing):
 
     def abs_sub(m):
         items = split_names(m["names"])
-        return emit(m, groups_for(m["mod"], items, existing), items, lambda k: f"{PKG}.{k}")
+        return emit(m, groups_for(m["mod"] or "", items, existing), items, lambda k: f"{PKG}.{k}" if k else PKG)
 
     def dotted_sub(m):
         parts = m.group(1).split(".")
@@ -210,9 +190,6 @@ def main():
             if not init.exists():
                 init.write_text("")
                 subprocess.run(["git", "add", str(init)], cwd=ROOT, check=True)
-        old_formats = ROOT / PKG / "core" / "formats"
-        if old_formats.exists() and not any(p.suffix == ".py" for p in old_formats.iterdir()):
-            subprocess.run(["rm", "-rf", str(old_formats)], check=True)
     existing = new_modules()
     files = [pathlib.Path(f).resolve() for f in args.files] if args.files else sorted(
         p for p in ROOT.rglob("*.py") if "__pycache__" not in p.parts and not any(
