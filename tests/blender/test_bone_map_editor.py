@@ -91,7 +91,7 @@ def test_map_survives_save_and_reopen_in_a_fresh_process(daz, tmp_path):
     path = tmp_path / "mapped.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     code = ("import bpy, json, sys; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
-            "from blender_shapesig import rigmap; "
+            "from blender_shapesig.rigs import rigmap; "
             "arm = next(o for o in bpy.data.objects if o.type == 'ARMATURE'); "
             "print('MAP=' + json.dumps(rigmap.stored_map(arm)))")
     out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, cwd=ROOT,

@@ -74,6 +74,9 @@ FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from (?P<dots>\.+)(?P<mod>[\w.]*) impo
                      r"(?P<names>\([^)]*\)|[^\n#]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.M)
 ABS_FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from " + PKG + r"(?:\.(?P<mod>[\w.]+))? import "
                          r"(?P<names>\([^)]*\)|[^\n#]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.M)
+# an import inside a code string, after a quote or "; " and up to ";", a quote or an escaped newline
+INLINE_FROM_RE = re.compile(r"(?:(?<=[\"';])|(?<=\\n))(?P<lead> ?)from " + PKG + r"(?:\.(?P<mod>[\w.]+))? import "
+                            r"(?P<names>[\w ,]+?)(?=;|[\"']|\\n)")
 DOTTED_RE = re.compile(r"(?<![\w.])(?<!from )" + PKG + r"\.([A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*)")
 
 
@@ -139,6 +142,14 @@ def rewrite_text(text, file_mod_new, file_mod_old, is_init, existing):
         items = split_names(m["names"])
         return emit(m, groups_for(m["mod"] or "", items, existing), items, lambda k: f"{PKG}.{k}" if k else PKG)
 
+    def inline_sub(m):
+        items = split_names(m["names"])
+        groups = sorted(groups_for(m["mod"] or "", items, existing), key=lambda g: (g[0] != "", g[0]))
+        if len(groups) == 1 and groups[0][1] == items:
+            return m["lead"] + f"from {PKG}{'.' + groups[0][0] if groups[0][0] else ''} import {m['names']}"
+        return m["lead"] + "; ".join(f"from {PKG}{'.' + k if k else ''} import {', '.join(names)}"
+                                     for k, names in groups)
+
     def dotted_sub(m):
         parts = m.group(1).split(".")
         if ".".join(parts) in existing and ".".join(parts) not in MOVES:
@@ -156,6 +167,7 @@ def rewrite_text(text, file_mod_new, file_mod_old, is_init, existing):
     if file_mod_new is not None:
         text = FROM_RE.sub(rel_sub, text)
     text = ABS_FROM_RE.sub(abs_sub, text)
+    text = INLINE_FROM_RE.sub(inline_sub, text)
     return DOTTED_RE.sub(dotted_sub, text)
 
 
