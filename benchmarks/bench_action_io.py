@@ -36,7 +36,8 @@ ROOT = harness.ROOT
 
 import bpy  # noqa: E402
 
-from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 
 ACC = ROOT / "tests" / "data" / "acclaim"

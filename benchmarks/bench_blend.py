@@ -50,7 +50,7 @@ ROOT = harness.ROOT
 import bpy  # noqa: E402
 
 import blender_shapesig  # noqa: E402
-from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, blend_many  # noqa: E402
 from blender_shapesig.core.blend.feet import lock_feet  # noqa: E402

@@ -45,7 +45,8 @@ import bpy  # noqa: E402
 import blender_shapesig  # noqa: E402
 import dataclasses  # noqa: E402
 
-from blender_shapesig import action_changes, action_io, library  # noqa: E402
+from blender_shapesig.actions import action_changes, action_io  # noqa: E402
+from blender_shapesig.search import library  # noqa: E402
 from blender_shapesig.core import blas, search as index  # noqa: E402
 from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402

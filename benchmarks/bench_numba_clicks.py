@@ -71,7 +71,7 @@ def _open(path, n_actions):
 
         build_file(path, n_actions)
     bpy.ops.wm.open_mainfile(filepath=str(path))
-    from blender_shapesig import library
+    from blender_shapesig.search import library
 
     arm = bpy.data.objects["Rig"]
     bpy.context.view_layer.objects.active = arm
@@ -85,7 +85,7 @@ def _click(kind, settings):
     """One click; (seconds, what it gave: the ranked names or the new action's frame count)."""
     import bpy
 
-    from blender_shapesig import library
+    from blender_shapesig.search import library
 
     if kind == "blend":
         names = sorted(a.name for a in bpy.data.actions)

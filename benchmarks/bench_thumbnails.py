@@ -29,7 +29,8 @@ sys.path.insert(0, str(ROOT))
 import bpy  # noqa: E402
 
 import blender_shapesig  # noqa: E402
-from blender_shapesig import action_io, library, thumbnails  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
+from blender_shapesig.search import library, thumbnails  # noqa: E402
 from blender_shapesig.core import search as index  # noqa: E402
 from blender_shapesig.core.io.bvh import load_bvh  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402

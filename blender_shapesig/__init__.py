@@ -24,7 +24,7 @@ def _modules():
 
 
 def register():
-    from . import action_changes
+    from .actions import action_changes
 
     for module in _modules():
         module.register()
@@ -33,7 +33,8 @@ def register():
 
 
 def unregister():
-    from . import action_changes, thumbnails
+    from .actions import action_changes
+    from .search import thumbnails
 
     action_changes.stop_change_detection()
     thumbnails.free_previews()

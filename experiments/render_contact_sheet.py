@@ -28,7 +28,8 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bench_foot_drift import ANIM, ASF, CLIPS, blend_pair, load  # noqa: E402
-from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.blend import contacts, feet  # noqa: E402
 from blender_shapesig.readers.acclaim import import_acclaim  # noqa: E402
 

@@ -24,7 +24,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 import blender_shapesig  # noqa: E402
-from blender_shapesig import thumbnails  # noqa: E402
+from blender_shapesig.search import thumbnails  # noqa: E402
 from blender_shapesig.core import search as index  # noqa: E402
 from blender_shapesig.core.search import thumbnails as core_thumbs  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402

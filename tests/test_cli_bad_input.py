@@ -338,7 +338,8 @@ def degenerate_blend(tmp_path_factory):
 def _write_degenerate_blend(bpy, tmp_path_factory):
     import numpy as np
 
-    from blender_shapesig import action_io, compat
+    from blender_shapesig import compat
+    from blender_shapesig.actions import action_io
     from blender_shapesig.core.clip.clip import Clip
 
     bpy.ops.wm.read_factory_settings(use_empty=True)

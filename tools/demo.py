@@ -77,7 +77,7 @@ def trim_action(action, armature, fps=None):
     in the Action properties), so that search and blends read only the motion. Returns the kept (first, last)
     or None when there is nothing to trim. ``fps``: the action's rate (a BVH file's, which Blender's importer does
     not record; stored as ``shapesig_fps``, the property every reader of this package takes the rate from)."""
-    from blender_shapesig import action_io
+    from blender_shapesig.actions import action_io
     from blender_shapesig.core.clip.trim import detect_trim
 
     if fps is not None:
@@ -194,7 +194,7 @@ def blend(bpy, imported, name_a, name_b, report):
                                                                                bpy.data.actions[name_b])}
     from blender_shapesig.core.measure_words import OPTIONS
     from blender_shapesig.core.metrics import DEFAULT_DEPTH
-    from blender_shapesig.scene_motion import timing_text
+    from blender_shapesig.actions.scene_motion import timing_text
 
     report(f"- blended {name_a!r} with {name_b!r} at weight 0.5, time-aligned ({OPTIONS['depth'].label} "
            f"{DEFAULT_DEPTH}; source lengths "

@@ -57,7 +57,7 @@ def write_clips(spec_a, clips, out_path, rig=None):
             clip = replace(clip, meta=dict({k: rig.meta[k] for k in _SKELETON if k in rig.meta}, **clip.meta))
         write_bvh(clip, out_path)
         return [clips[0].name]
-    from ..write_blend_file import write_blend
+    from ..actions.write_blend_file import write_blend
 
     return write_blend(spec_a, clips, out_path)
 

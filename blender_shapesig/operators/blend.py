@@ -168,7 +168,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
     def _default_strides(self, obj):
         """Two cyclic actions and no ranges or loop asked for: the ranges start at one stride of each (whole takes
         shuffle, then take big strides; docs/blending.md), visible and changeable in the dialog."""
-        from ..blend_actions import stride_ranges
+        from ..blend.blend_actions import stride_ranges
 
         acts = [bpy.data.actions.get(n) if n else None for n in (self.action_a, self.action_b)]
         if self.loop or None in acts or acts[0] == acts[1] or tuple(self.range_a) != (0, 0) \
@@ -236,7 +236,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
 
     def _bones(self, obj):
         """The bone subset (None: every shared bone); ShapeSigError when the subset is empty."""
-        from ..blend_actions import selected_bone_names
+        from ..blend.blend_actions import selected_bone_names
 
         if self.bone_subset == "SELECTED":
             bones = selected_bone_names(obj)
@@ -281,9 +281,9 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
                     timing="nla" if self.timing == "NLA" else "bake")
 
     def execute(self, context):
-        from ..action_hashes import read_hash
-        from ..blend_actions import blend_actions
-        from ..results import changed_error
+        from ..actions.action_hashes import read_hash
+        from ..blend.blend_actions import blend_actions
+        from ..search.results import changed_error
 
         obj = context.active_object
         wm = context.window_manager if getattr(context, "window", None) is not None else None
@@ -323,7 +323,8 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
         return {"FINISHED"}
 
     def _assign(self, obj, result):
-        from .. import action_io, compat
+        from .. import compat
+        from ..actions import action_io
 
         if not result.strips:
             action_io.assign_action(obj, result.actions[0])
@@ -336,7 +337,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
 
 def _draw_rate(layout, op, name, prop):
     """A row: the action's frame rate as read (assumed ones say so) and the override field."""
-    from ..frame_rates import rate_of, rate_text
+    from ..actions.frame_rates import rate_of, rate_text
 
     act = bpy.data.actions.get(name) if name else None
     row = layout.row()
@@ -355,11 +356,11 @@ def _summary(result):
         clip = result.clips[0]
         text += f" ({(clip.frames - 1) / clip.fps:.2f} s)"
     elif result.actions:
-        from ..scene_motion import timing_text
+        from ..actions.scene_motion import timing_text
 
         text += f" ({timing_text(result.actions[0])})"
     if result.strips:
-        from ..blend_actions import TIMING_TRACK
+        from ..blend.blend_actions import TIMING_TRACK
 
         text += f" (editable timing: NLA track '{TIMING_TRACK}')"
     if result.unmatched:
@@ -389,7 +390,7 @@ class SHAPESIG_OT_bake_blend_timing(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        from ..blend_actions import timed_strips
+        from ..blend.blend_actions import timed_strips
 
         obj = _armature_or_message(cls, context)
         if obj is None:
@@ -401,8 +402,9 @@ class SHAPESIG_OT_bake_blend_timing(bpy.types.Operator):
         return True
 
     def execute(self, context):
-        from .. import action_io, compat
-        from ..blend_actions import bake_strip, timed_strips
+        from .. import compat
+        from ..actions import action_io
+        from ..blend.blend_actions import bake_strip, timed_strips
 
         obj = context.active_object
         made = []

@@ -5,7 +5,7 @@ calls ``results.step_moment`` and reports; the precondition is ``results.moment_
 import bpy
 from bpy.props import IntProperty
 
-from .. import library, results
+from ..search import library, results
 from .modal_job import tag_redraw
 
 __all__ = ["classes"]

@@ -36,7 +36,7 @@ class SHAPESIG_OT_set_frame_rate(bpy.types.Operator):
         return True
 
     def invoke(self, context, event):
-        from ..frame_rates import rate_of
+        from ..actions.frame_rates import rate_of
 
         act = self._action(context)
         if act is not None and not self.fps:
@@ -44,7 +44,7 @@ class SHAPESIG_OT_set_frame_rate(bpy.types.Operator):
         return context.window_manager.invoke_props_dialog(self, width=300)
 
     def execute(self, context):
-        from ..frame_rates import found_rate, rate_text, record
+        from ..actions.frame_rates import found_rate, rate_text, record
 
         act = self._action(context)
         if act is None:

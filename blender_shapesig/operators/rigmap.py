@@ -10,7 +10,7 @@ import bpy
 from bpy.props import EnumProperty, StringProperty
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
-from .. import rigmap
+from ..rigs import rigmap
 from ..core import rigs
 from ..core.errors import ShapeSigError
 

@@ -10,16 +10,16 @@ import time
 import bpy
 from bpy.props import BoolProperty
 
-from .. import library, rank_job, results
+from ..search import library, rank_job, results
 from ..core import search as index
 from ..core.elastic.explain import top_joints
 from ..core.measure_words import OPTIONS
 from ..core.errors import ShapeSigError, error_line
 # names kept for scripts and tests written against this module (they live in ``library``)
-from ..library import get_cache
+from ..search.library import get_cache
 from ..properties import index_level, uses_local
 from .modal_job import ModalJob, tag_redraw
-from ..scene_motion import timing_text
+from ..actions.scene_motion import timing_text
 
 __all__ = ["classes"]
 

@@ -8,7 +8,7 @@ import bpy
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from ..core.errors import ShapeSigError, check_integer
-from ..scene_motion import timing_text
+from ..actions.scene_motion import timing_text
 
 __all__ = ["SHAPESIG_OT_transition", "classes"]
 
@@ -66,7 +66,7 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
 
     def _rank(self, obj, current):
         """The ranked places for the chosen action, shown in the dialog (the first two preset the frames)."""
-        from ..transitions import ranked_cuts
+        from ..blend.transitions import ranked_cuts
 
         other = bpy.data.actions.get(self.action_b) if self.action_b else None
         if other is None or other == current:
@@ -103,8 +103,9 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
         row.prop(self, "assign")
 
     def execute(self, context):
-        from .. import action_io, compat
-        from ..transitions import make_transition
+        from .. import compat
+        from ..actions import action_io
+        from ..blend.transitions import make_transition
 
         obj = context.active_object
         try:
@@ -121,7 +122,7 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
             self.report({"ERROR"}, f"Transition: {exc}")
             return {"CANCELLED"}
         if self.strips:
-            from ..transitions import place_as_strips
+            from ..blend.transitions import place_as_strips
 
             try:
                 place_as_strips(obj, result)

@@ -8,7 +8,8 @@ import os
 
 import bpy
 
-from .. import library, rigmap
+from ..rigs import rigmap
+from ..search import library
 from ..core.errors import ShapeSigError
 
 __all__ = ["classes", "SHAPESIG_UL_bone_map", "draw_bone_map", "bone_rows", "unmapped_rows"]

@@ -8,12 +8,12 @@ import json
 
 import bpy
 
-from .. import library, result_rows
+from ..search import library, result_rows
 from ..core.elastic.explain import top_joints
 from ..core.measure_words import ENGINES, MEASURES, OPTIONS, PANEL_NAME, measure_words
 from ..core.metrics import LOCAL
 from ..properties import column_word
-from ..results import expected_hash, take_moments
+from ..search.results import expected_hash, take_moments
 
 # the "Why different" box: bars of the largest shares, and the cost over time in this many cells
 EXPLAIN_BARS = 5
@@ -127,7 +127,7 @@ def _draw_query(layout, s, obj):
 
 def _draw_rate(col, action):
     """The action's frame rate (assumed ones say so, in the warning colour) and the button to set it."""
-    from ..frame_rates import rate_of, rate_text
+    from ..actions.frame_rates import rate_of, rate_text
 
     fps, known, how = rate_of(action)
     row = col.row(align=True)
@@ -296,7 +296,7 @@ def _draw_explanation(layout, item):
     if key == "groups":
         col.label(text="Joints: " + ", ".join(f"{n} {v:.0%}" for n, v in top_joints(ex, 3)))
     if item.why_query_path and item.why_result_path:  # both clips' key poses, matched by the alignment
-        from ..thumbnails import icon_of
+        from ..search.thumbnails import icon_of
 
         for text, path in (("Query", item.why_query_path), ("This result, at the matched times", item.why_result_path)):
             icon = icon_of(path)

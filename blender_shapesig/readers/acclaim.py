@@ -9,7 +9,8 @@ import os
 import bpy
 import numpy as np
 
-from .. import action_io, action_spaces, compat
+from .. import compat
+from ..actions import action_io, action_spaces
 from ..core.clip.clip import Clip
 from ..core.errors import ShapeSigError
 from ..core.io.acclaim import ASF_TO_BLENDER, parse_amc, parse_asf, to_blender_axes

@@ -8,14 +8,15 @@ import os
 
 import bpy
 
-from .. import action_io, action_spaces, compat
-from ..bone_channels import bone_channels
+from .. import compat
+from ..actions import action_io, action_spaces
+from ..actions.bone_channels import bone_channels
 from ..core.clip.clip import Clip
 from ..core.errors import ParseError, ShapeSigError
 from ..core.io.files import check_file
 from ..core.io.blend_file import check_blend
 from .blend_isolated import BLEND_CHILD_TIMEOUT, BLEND_IN_PROCESS_ENV, read_blend_isolated  # noqa: F401
-from ..owners import find_owner
+from ..actions.owners import find_owner
 from .scratch import id_snapshot, remove_new_ids
 
 __all__ = ["read_blend_file", "read_blend_here", "rig_of", "BLEND_IN_PROCESS_ENV"]

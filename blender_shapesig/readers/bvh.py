@@ -10,7 +10,7 @@ import tempfile
 
 import bpy
 
-from .. import action_io
+from ..actions import action_io
 from ..core.errors import ParseError, ShapeSigError
 from ..core.io.files import check_file
 from ..core.io.bvh import bvh_text, check_bvh

@@ -11,11 +11,12 @@ import re
 
 import bpy
 
-from .. import action_io, compat
-from ..bone_channels import bone_channels
+from .. import compat
+from ..actions import action_io
+from ..actions.bone_channels import bone_channels
 from ..core.errors import ParseError, ShapeSigError
 from ..core.io.interchange import check_interchange
-from ..owners import find_owner
+from ..actions.owners import find_owner
 from .scratch import quiet_fds, scratch_scene
 
 __all__ = ["read_interchange_here", "animation_name"]

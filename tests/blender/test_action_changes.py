@@ -7,7 +7,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_changes, action_io, compat  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_changes, action_io  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data" / "acclaim"

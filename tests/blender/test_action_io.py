@@ -9,7 +9,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_hashes, action_io, compat  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_hashes, action_io  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 from blender_shapesig.core.errors import ShapeSigError  # noqa: E402
 

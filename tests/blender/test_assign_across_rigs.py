@@ -10,8 +10,10 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, frame_rates, library, rigmap  # noqa: E402
-from blender_shapesig.action_hashes import read_hash  # noqa: E402
+from blender_shapesig.actions import action_io, frame_rates  # noqa: E402
+from blender_shapesig.rigs import rigmap  # noqa: E402
+from blender_shapesig.search import library  # noqa: E402
+from blender_shapesig.actions.action_hashes import read_hash  # noqa: E402
 from blender_shapesig.core import search as search  # noqa: E402
 from blender_shapesig.core import rigs  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402

@@ -8,7 +8,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import library, preferences, rank_job, rigmap  # noqa: E402
+from blender_shapesig import preferences  # noqa: E402
+from blender_shapesig.rigs import rigmap  # noqa: E402
+from blender_shapesig.search import library, rank_job  # noqa: E402
 from blender_shapesig.core import search as index, rigs  # noqa: E402
 from blender_shapesig.readers.bvh import import_armature  # noqa: E402
 

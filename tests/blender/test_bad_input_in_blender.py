@@ -20,8 +20,9 @@ from hypothesis import strategies as st
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig import library as search_library  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
+from blender_shapesig.search import library as search_library  # noqa: E402
 from blender_shapesig.core.io.sources import read  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402
 from blender_shapesig.core.clip.clip import Clip  # noqa: E402

@@ -8,8 +8,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat  # noqa: E402
-from blender_shapesig.blend_actions import TIMING_TRACK, timed_strips  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
+from blender_shapesig.blend.blend_actions import TIMING_TRACK, timed_strips  # noqa: E402
 from blender_shapesig.core.blend import pose_steps  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from tests.helpers.blender_clips import angle, buffer_hash, import_bvh, read_keyed, reopen_hashes  # noqa: E402
@@ -216,7 +217,7 @@ def test_cyclic_actions_default_to_one_stride(rig):
     """Walk x run: the dialog opens with one stride of each (cycles found after the converter's rest frame and ramp,
     B at A's phase), says so in one line, and blends them (the same as those ranges given by hand); the ranges are
     fields to change; the same ranges left for other actions are not used."""
-    from blender_shapesig.blend_actions import stride_ranges
+    from blender_shapesig.blend.blend_actions import stride_ranges
 
     from types import SimpleNamespace
 

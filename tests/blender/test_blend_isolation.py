@@ -11,7 +11,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.io.sources import read  # noqa: E402
 from blender_shapesig.readers import blend_file as blend_reader  # noqa: E402
 from blender_shapesig.readers import blend_isolated  # noqa: E402

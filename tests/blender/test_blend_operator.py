@@ -7,7 +7,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, default_frames  # noqa: E402
 from blender_shapesig.core.blend.feet import lock_feet  # noqa: E402
 from tests.helpers.blender_clips import (action_fcurves, angle, buffer_hash, import_bvh, read_keyed,  # noqa: E402
@@ -68,7 +69,7 @@ def test_blend_writes_a_new_action(rig):
 
 
 def _up(arm, bone):
-    from blender_shapesig.action_spaces import up_in_bone_frame
+    from blender_shapesig.actions.action_spaces import up_in_bone_frame
 
     return up_in_bone_frame(arm, bone)
 
@@ -89,7 +90,7 @@ def test_weight_zero_and_one_reproduce_the_sources(rig):
 def test_blend_actions_progress_counts_blends_and_writes_and_a_cancel_creates_nothing(rig):
     """``progress(done, total)``: one call per blend, then one per written action; True cancels (Cancelled) and
     removes what was written."""
-    from blender_shapesig.blend_actions import blend_actions
+    from blender_shapesig.blend.blend_actions import blend_actions
     from blender_shapesig.core.errors import Cancelled
 
     arm, walk, run = rig, bpy.data.actions["walk"], bpy.data.actions["run"]

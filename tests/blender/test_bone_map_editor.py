@@ -15,7 +15,8 @@ import bpy
 import numpy as np
 import pytest
 
-from blender_shapesig import library, rigmap
+from blender_shapesig.rigs import rigmap
+from blender_shapesig.search import library
 from blender_shapesig.core import rigs
 from blender_shapesig.core.io import sources
 from blender_shapesig.readers.bvh import import_armature
@@ -90,7 +91,7 @@ def test_map_survives_save_and_reopen_in_a_fresh_process(daz, tmp_path):
     path = tmp_path / "mapped.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     code = ("import bpy, json, sys; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
-            "from blender_shapesig import rigmap; "
+            "from blender_shapesig.rigs import rigmap; "
             "arm = next(o for o in bpy.data.objects if o.type == 'ARMATURE'); "
             "print('MAP=' + json.dumps(rigmap.stored_map(arm)))")
     out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, cwd=ROOT,
@@ -260,8 +261,8 @@ def test_blend_across_rigs_reads_through_the_stored_map(empty_file, data_dir):
     made = [x for x in bpy.data.actions if x not in before]
     assert len(made) == 1
     # written onto A's (Daz) rig: its bones, the mapped joints blended
-    from blender_shapesig import action_io
-    from blender_shapesig.blend_actions import blend_actions
+    from blender_shapesig.actions import action_io
+    from blender_shapesig.blend.blend_actions import blend_actions
 
     out = action_io.read_action(made[0], armature=daz, exclude_unkeyed=True)
     assert {"lThigh", "rShin", "hip"} <= set(out.bones)

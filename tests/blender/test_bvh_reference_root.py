@@ -56,7 +56,7 @@ def test_the_imported_action_reads_the_same_root_motion(empty_file, tmp_path, da
     """The action Blender's importer made (read by ``action_io.read_action``, as Find Similar reads the file's
     actions) carries the hips' walk too: forward kinematics of the read clip equals Blender's pose heads below the
     static ROOT, and its root path equals the bpy-free reader's."""
-    from blender_shapesig import action_io
+    from blender_shapesig.actions import action_io
 
     path = tmp_path / "reference_root.bvh"
     path.write_text(reference_root_layout((data_dir / "bvh" / "07_01.bvh").read_text(),

@@ -9,7 +9,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.io.sources import read  # noqa: E402
 from blender_shapesig.readers.blend_file import read_blend_file  # noqa: E402
 from blender_shapesig.readers.bvh import import_bvh  # noqa: E402

@@ -11,9 +11,11 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat, control_rigs, frame_rates, retarget  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_io, control_rigs, frame_rates  # noqa: E402
+from blender_shapesig.rigs import retarget  # noqa: E402
 from blender_shapesig.core.clip.prepare import retime  # noqa: E402
-from blender_shapesig.bone_channels import bone_channels  # noqa: E402
+from blender_shapesig.actions.bone_channels import bone_channels  # noqa: E402
 from blender_shapesig.core import search as index, rigs  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 from tests.helpers.walks_runs_idles import library, read, walks_first  # noqa: E402
@@ -144,7 +146,7 @@ def test_find_similar_and_assign_from_the_panel_on_a_rigify_rig(rigify, tmp_path
     thighs swing with the run."""
     import shutil
 
-    from blender_shapesig import library
+    from blender_shapesig.search import library
     from blender_shapesig.core import search as search
 
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))

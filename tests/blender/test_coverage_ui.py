@@ -7,7 +7,8 @@ from types import SimpleNamespace
 
 import bpy
 
-from blender_shapesig import library, result_rows, rigmap
+from blender_shapesig.rigs import rigmap
+from blender_shapesig.search import library, result_rows
 from blender_shapesig.core import rigs
 from blender_shapesig.core.search import rank_clips
 from blender_shapesig.core.io import sources

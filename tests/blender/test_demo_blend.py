@@ -10,7 +10,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

@@ -9,11 +9,11 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, frame_rates  # noqa: E402
-from blender_shapesig.blend_actions import blend_actions  # noqa: E402
+from blender_shapesig.actions import action_io, frame_rates  # noqa: E402
+from blender_shapesig.blend.blend_actions import blend_actions  # noqa: E402
 from blender_shapesig.core.blend import feet  # noqa: E402
 from blender_shapesig.core.geometry import so3  # noqa: E402
-from blender_shapesig.library import owner_armature  # noqa: E402
+from blender_shapesig.search.library import owner_armature  # noqa: E402
 from tests.helpers.mixed_scene import activate, build, save_reopen  # noqa: E402
 
 

@@ -8,7 +8,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import frame_rates  # noqa: E402
+from blender_shapesig.actions import frame_rates  # noqa: E402
 from tests.helpers.mixed_scene import DATA, TRUE_FPS, activate, build, save_reopen  # noqa: E402
 
 
@@ -68,7 +68,7 @@ def test_blend_lasts_the_weighted_average_in_seconds_when_rates_are_found(mixed)
 
 
 def test_blend_with_an_assumed_rate_says_so(mixed, capsys):
-    from blender_shapesig.blend_actions import blend_actions
+    from blender_shapesig.blend.blend_actions import blend_actions
 
     arm = bpy.data.objects["07-walk"]
     result = blend_actions(arm, bpy.data.actions["07_01"], bpy.data.actions["09_02"], [0.5])

@@ -147,7 +147,7 @@ def test_against_daz_friendly_bvh_of_the_same_take(empty_file):
 def test_core_clip_mapped_onto_the_armature_equals_the_imported_action(empty_file):
     """clip_to_pose(core clip) = what the importer wrote (so core-computed clips, e.g. blends, can be written
     onto an imported armature), and reading the imported action gives the same pose rotations."""
-    from blender_shapesig import action_io
+    from blender_shapesig.actions import action_io
     from blender_shapesig.core.io.acclaim import load_acclaim
     from blender_shapesig.readers.acclaim import clip_to_pose
 

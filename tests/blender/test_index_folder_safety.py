@@ -11,7 +11,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import library  # noqa: E402
+from blender_shapesig.search import library  # noqa: E402
 from blender_shapesig.core import search as index  # noqa: E402
 from tests.helpers.blender_clips import import_bvh  # noqa: E402
 

@@ -239,7 +239,7 @@ def test_reading_into_a_users_scene_reads_the_same_and_restores_it(files):
 def test_the_panel_folder_library_ranks_fbx_and_glb_clips_with_one_child(files, empty_file, tmp_path, monkeypatch):
     """Find Similar with a clip folder of an FBX and a GLB (three clips): indexed step by step (the modal job's
     progress), every clip ranked, one child start-up for the folder."""
-    from blender_shapesig import library, rank_job
+    from blender_shapesig.search import library, rank_job
     from blender_shapesig.core import search as search
 
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
@@ -270,10 +270,12 @@ def test_assign_of_an_fbx_result_retargets_it_onto_the_active_armature(files, em
     and an AMASS .npz ranks their clips; Assign of the FBX walk makes a new action on the CC armature through both bone maps: every
     joint both rigs have moves with the FBX clip's angular velocity in the comparison space (correlation >= 0.9);
     the FBX file is not changed."""
-    from blender_shapesig import action_io, library, rigmap
+    from blender_shapesig.actions import action_io
+    from blender_shapesig.rigs import rigmap
+    from blender_shapesig.search import library
     from blender_shapesig.core import search as search
     from blender_shapesig.core import rigs
-    from blender_shapesig import frame_rates
+    from blender_shapesig.actions import frame_rates
     from blender_shapesig.core.clip.prepare import retime
     from blender_shapesig.core.geometry import so3
 

@@ -13,7 +13,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import library, rank_job  # noqa: E402
+from blender_shapesig.search import library, rank_job  # noqa: E402
 from blender_shapesig.core import search as search
 from blender_shapesig.core.io import sources  # noqa: E402
 from tests.helpers.hostile import hostile_library  # noqa: E402

@@ -8,7 +8,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import compat, frame_rates, rig_library  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import frame_rates  # noqa: E402
+from blender_shapesig.search import rig_library  # noqa: E402
 from blender_shapesig.core import search as search  # noqa: E402
 from tests.helpers.mixed_scene import DATA, activate, build, one_frame_pose, save_reopen  # noqa: E402
 
@@ -82,7 +84,7 @@ def test_one_pass_players_equal_asking_each_armature(mixed):
     """``owners.playing_map`` (one pass over the armatures, what the library asks per click) gives every action
     the armatures ``owners.players`` finds by asking each armature and each slot's users: here with an action in
     an NLA strip of another armature, one action played by two armatures and one played by none."""
-    from blender_shapesig import owners
+    from blender_shapesig.actions import owners
 
     arms = [o for o in bpy.data.objects if o.type == "ARMATURE"]
     walk, run = bpy.data.objects["07-walk"], bpy.data.objects["09_02"]

@@ -9,7 +9,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_io, compat  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core import search as search  # noqa: E402
 from blender_shapesig.core.search.moments.windows import retimed_excerpt  # noqa: E402
 from tests.helpers.blender_clips import import_bvh  # noqa: E402

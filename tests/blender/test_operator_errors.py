@@ -10,7 +10,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import errors_ui, library, operators  # noqa: E402
+from blender_shapesig import errors_ui, operators  # noqa: E402
+from blender_shapesig.search import library  # noqa: E402
 from tests.helpers.stand_in import stand_in  # noqa: E402
 from tests.helpers.operator_scene import cache_env, operator_error, rig  # noqa: E402,F401 - fixtures
 
@@ -55,7 +56,8 @@ def _invoke_error(op):
 
 
 def test_result_and_blend_operators_report_any_failure_in_one_line(rig, monkeypatch):
-    from blender_shapesig import blend_actions, results
+    from blender_shapesig.blend import blend_actions
+    from blender_shapesig.search import results
 
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
     actions = sorted(a.name for a in bpy.data.actions)

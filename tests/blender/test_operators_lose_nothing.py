@@ -16,7 +16,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import compat, library, results  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.search import library, results  # noqa: E402
 from blender_shapesig.core import search as index
 from blender_shapesig.core.io import sources  # noqa: E402
 from blender_shapesig.core.errors import MAX_INBETWEENS  # noqa: E402

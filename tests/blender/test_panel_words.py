@@ -14,7 +14,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import frame_rates, library  # noqa: E402
+from blender_shapesig.actions import frame_rates  # noqa: E402
+from blender_shapesig.search import library  # noqa: E402
 from blender_shapesig.core import search as search  # noqa: E402
 from blender_shapesig.core.measure_words import ENGINES, MEASURES, OPTIONS, PANEL_NAME, THESIS_SYMBOLS  # noqa: E402
 from tests.helpers.mixed_scene import activate, build, one_frame_pose  # noqa: E402

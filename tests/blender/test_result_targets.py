@@ -8,7 +8,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import library, results  # noqa: E402
+from blender_shapesig.search import library, results  # noqa: E402
 from tests.helpers.blender_clips import BVH, import_bvh  # noqa: E402
 from tests.helpers.operator_scene import cache_env, operator_error, rig  # noqa: E402,F401 - fixtures
 

@@ -6,7 +6,8 @@ import json
 import bpy
 import pytest
 
-from blender_shapesig import library, rigmap
+from blender_shapesig.rigs import rigmap
+from blender_shapesig.search import library
 from blender_shapesig.core import rigs
 from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.readers.bvh import import_armature

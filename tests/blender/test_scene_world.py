@@ -21,7 +21,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import compat, frame_rates, library  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import frame_rates  # noqa: E402
+from blender_shapesig.search import library  # noqa: E402
 from blender_shapesig.core import search as search  # noqa: E402
 from tests.helpers.turned_characters import (import_bvh, quiet, scale_location_keys, select_only,  # noqa: E402
                                              turned, world_heads)
@@ -196,7 +198,7 @@ def _scene_seconds(action):
 @pytest.mark.parametrize("scene_fps", [24, 30])
 def test_assigned_clips_play_at_their_true_speed(scene24, tmp_path, scene_fps):
     from blender_shapesig.core.io import sources
-    from blender_shapesig.scene_motion import timing_text
+    from blender_shapesig.actions.scene_motion import timing_text
 
     bpy.context.scene.render.fps = scene_fps
     lib = tmp_path / "rates"
@@ -238,7 +240,7 @@ def test_blends_play_for_the_weight_average_of_their_sources(scene24, scene_fps)
 
 
 def test_a_blend_with_editable_timing_plays_its_true_duration_in_a_24_fps_scene(scene24):
-    from blender_shapesig.blend_actions import timed_strips
+    from blender_shapesig.blend.blend_actions import timed_strips
 
     arm = import_bvh(WALK, "walk")
     other = import_bvh(DATA / "bvh" / "07_02.bvh", "walk2")
@@ -338,7 +340,7 @@ def test_a_blend_of_two_walks_of_one_turned_rig_plants_its_feet_on_the_floor(sce
     """One rig (blended in its pose space): planted feet are found and kept with the world's up, not the
     armature's own Z (which is the world's -Y on a character the FBX importer turned): the same contacts as the
     same blend of the plain imports, toes on the floor, no joint jumps."""
-    from blender_shapesig.blend_actions import blend_actions
+    from blender_shapesig.blend.blend_actions import blend_actions
 
     def contacts(result):
         report = result.info["feet"][0]
@@ -356,7 +358,7 @@ def test_a_blend_of_two_walks_of_one_turned_rig_plants_its_feet_on_the_floor(sce
     result = blend_actions(arm, arm.animation_data.action, other.animation_data.action, [0.5], feet="lock",
                            rates=[120.0, 120.0])
     assert contacts(result) == want
-    from blender_shapesig import action_io
+    from blender_shapesig.actions import action_io
 
     action_io.assign_action(arm, result.actions[0])
     low, step = _lowest_and_step(arm, _frames(arm.animation_data.action))

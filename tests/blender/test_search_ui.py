@@ -13,7 +13,8 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import action_changes, action_io, compat  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.actions import action_changes, action_io  # noqa: E402
 from blender_shapesig.core import search as search, rigs  # noqa: E402
 from blender_shapesig.core.metrics import clip_distance  # noqa: E402
 from tests.helpers.blender_clips import BVH, CLIPS, import_bvh  # noqa: E402
@@ -46,7 +47,7 @@ def rig(empty_file, cache_env):
 
 
 def _cache():
-    from blender_shapesig import library
+    from blender_shapesig.search import library
 
     return library.get_cache(bpy.context)
 
@@ -72,7 +73,8 @@ def test_registered(addon):
         assert hasattr(bpy.types, cls)
     assert {bpy.types.SHAPESIG_PT_search_view3d.bl_category, bpy.types.SHAPESIG_PT_search_nla.bl_category} == {"ShapeSig"}
     assert hasattr(bpy.types.Scene, "shapesig")
-    from blender_shapesig import library, preferences
+    from blender_shapesig import preferences
+    from blender_shapesig.search import library
 
     # the add-on's module name as imported (bl_ext.<repo>.blender_shapesig when installed as an extension)
     assert preferences.ShapeSigPreferences.bl_idname == addon.__name__ == library.ADDON_ID
@@ -172,7 +174,7 @@ def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_en
     assert "0 computed" in bpy.context.window_manager.shapesig_results.message
     # corrupt one entry file on disk, and forget the session's memory layer: it is detected and rebuilt
     files[0].write_bytes(b"garbage")
-    from blender_shapesig import library
+    from blender_shapesig.search import library
 
     library.CACHES.clear()
     assert bpy.ops.shapesig.build_index() == {"FINISHED"}
@@ -304,7 +306,7 @@ def test_build_index_modal_steps_and_escape(rig):
     assert not s.index_running and bpy.context.window_manager.shapesig_results.message.startswith("cancelled; index: 2 of 6")
     assert op.reports[-1][0] == {"WARNING"}
     # what was done stays indexed: a second, complete run computes only the other four, then ranks
-    from blender_shapesig.library import missing_count
+    from blender_shapesig.search.library import missing_count
 
     assert missing_count(ctx, s) == 4
     op = stand_in(Op)
@@ -340,7 +342,7 @@ def test_actions_of_another_rig_are_read_with_it_and_mapped(rig):
         assert "shares only" not in bpy.context.window_manager.shapesig_results.message
     row = rows[names.index(amc_action)]
     assert row.shared == rows[0].shared >= 19  # sim: the canonical joints both rigs have
-    from blender_shapesig.library import owner_armature
+    from blender_shapesig.search.library import owner_armature
 
     assert owner_armature(bpy.data.actions[amc_action], rig) == amc_rig
     assert owner_armature(bpy.data.actions["walk2"], rig) == rig  # no armature plays it: the query's
@@ -363,7 +365,7 @@ def test_query_with_only_location_keys_is_a_clear_error(rig):
 def test_action_items_have_typed_keys_and_poll_owns_preconditions(rig):
     """An action's cache key is the text of its ActionKey (hash, armature digest, frame range); a result is an
     action because its item is an ActionItem. Preconditions are refused by poll, with the reason."""
-    from blender_shapesig import library
+    from blender_shapesig.search import library
 
     s = bpy.context.scene.shapesig
     _obj, action, q = library.query_item(bpy.context, s)

@@ -24,7 +24,9 @@ import dataclasses, json, sys
 sys.path.insert(0, sys.argv[1])
 import bpy
 import blender_shapesig
-from blender_shapesig import action_changes, action_io, compat, library
+from blender_shapesig import compat
+from blender_shapesig.actions import action_changes, action_io
+from blender_shapesig.search import library
 from blender_shapesig.core.io.bvh import load_bvh
 from blender_shapesig.readers.bvh import import_armature
 

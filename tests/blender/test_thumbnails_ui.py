@@ -18,7 +18,7 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig import thumbnails  # noqa: E402
+from blender_shapesig.search import thumbnails  # noqa: E402
 from blender_shapesig.core import search as search  # noqa: E402
 from blender_shapesig.core.search import thumbnails as core_thumbs  # noqa: E402
 from tests.helpers.png import read_png  # noqa: E402
@@ -33,7 +33,7 @@ ROOT = str(pathlib.Path(__file__).resolve().parents[2])
 def demo(empty_file, monkeypatch, tmp_path):
     """The six demo clips (walks 07_01 07_02 08_01, runs 09_02 09_03, jump 13_32) as actions; 'walk1' active."""
     monkeypatch.setenv(search.CACHE_ENV, str(tmp_path / "index"))
-    from blender_shapesig import library
+    from blender_shapesig.search import library
 
     library.CACHES.clear()
     arm = import_bvh(f"{CLIPS['walk1']}.bvh", "walk1", fake_user=True)
@@ -92,7 +92,7 @@ import json, os, sys, time
 sys.path.insert(0, sys.argv[1])
 import bpy, addon_utils
 import blender_shapesig
-from blender_shapesig import thumbnails
+from blender_shapesig.search import thumbnails
 blender_shapesig.register()
 bpy.ops.wm.read_factory_settings(use_empty=True)
 addon_utils.enable("io_anim_bvh", default_set=False)

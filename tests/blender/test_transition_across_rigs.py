@@ -16,9 +16,10 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig.action_hashes import action_hash  # noqa: E402
+from blender_shapesig.actions.action_hashes import action_hash  # noqa: E402
 
-from blender_shapesig import compat, transitions  # noqa: E402
+from blender_shapesig import compat  # noqa: E402
+from blender_shapesig.blend import transitions  # noqa: E402
 from tests.helpers.turned_characters import turned, world_heads  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"

@@ -16,9 +16,9 @@ import pytest
 
 bpy = pytest.importorskip("bpy")
 
-from blender_shapesig.action_hashes import action_hash  # noqa: E402
+from blender_shapesig.actions.action_hashes import action_hash  # noqa: E402
 
-from blender_shapesig import action_io  # noqa: E402
+from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.blend.transition import transition  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parent.parent / "data"

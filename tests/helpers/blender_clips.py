@@ -70,7 +70,7 @@ def angle(Ra, Rb):
 
 
 def read_keyed(name, arm, **kw):
-    from blender_shapesig import action_io
+    from blender_shapesig.actions import action_io
 
     return action_io.read_action(bpy.data.actions[name], armature=arm, exclude_unkeyed=True, **kw)
 

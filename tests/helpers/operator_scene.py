@@ -6,7 +6,7 @@ one-line error of a refused operator call)."""
 import bpy
 import pytest
 
-from blender_shapesig import library
+from blender_shapesig.search import library
 from blender_shapesig.core import search as index
 from tests.helpers.blender_clips import import_bvh
 

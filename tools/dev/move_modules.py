@@ -18,28 +18,17 @@ import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 PKG = "blender_shapesig"
-MOVES = {  # issue 40: one engine shape (core/index -> core/search, one subpackage per engine)
-    "core.index": "core.search",
-    "core.index.cache_folder": "core.search.cache_folder",
-    "core.index.dedupe": "core.search.dedupe",
-    "core.index.entry": "core.search.signature.entry",
-    "core.index.words": "core.search.signature.words",
-    "core.index.local": "core.search.local.features",
-    "core.index.local_action": "core.search.local.action",
-    "core.index.local_dtw": "core.search.local.dtw",
-    "core.index.local_library": "core.search.local.library",
-    "core.index.local_rank": "core.search.local.rank",
-    "core.index.local_store": "core.search.local.store",
-    "core.index.take": "core.search.local.take",
-    "core.index.rank": "core.search.rank",
-    "core.index.store": "core.search.store",
-    "core.index.thumbnails": "core.search.thumbnails",
-    "core.index.windows": "core.search.moments.windows",
+# The Blender layer in rooms (issue 40); the earlier table (core in subpackages) is in this file's git history.
+ROOMS = {
+    "actions": ["action_io", "action_hashes", "action_changes", "action_spaces", "bone_channels", "owners",
+                "frame_rates", "scene_motion", "control_rigs", "write_blend_file"],
+    "search": ["library", "rig_library", "rank_job", "result_rows", "results", "thumbnails"],
+    "rigs": ["rigmap", "retarget"],
+    "blend": ["blend_actions", "transitions"],
 }
-NEW_PACKAGES = ["core.search", "core.search.local", "core.search.signature", "core.search.moments"]
-FILE_MOVES = {  # old file -> new file (relative to the package folder)
-    "core/index/__init__.py": "core/search/__init__.py",
-}
+MOVES = {name: f"{room}.{name}" for room, names in ROOMS.items() for name in names}
+NEW_PACKAGES = list(ROOMS)
+FILE_MOVES = {}  # old file -> new file (relative to the package folder), for files that are not modules
 
 
 def module_file(mod):
@@ -74,7 +63,7 @@ def resolve(level, module, pkg_of_file):
 def relative(target, pkg_of_file):
     """``target`` (dotted, below the package) written relative to a file in package ``pkg_of_file``."""
     a = pkg_of_file.split(".") if pkg_of_file else []
-    b = target.split(".")
+    b = target.split(".") if target else []
     i = 0
     while i < len(a) and i < len(b) and a[i] == b[i]:
         i += 1
@@ -83,8 +72,11 @@ def relative(target, pkg_of_file):
 
 FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from (?P<dots>\.+)(?P<mod>[\w.]*) import "
                      r"(?P<names>\([^)]*\)|[^\n#]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.M)
-ABS_FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from " + PKG + r"\.(?P<mod>[\w.]+) import "
+ABS_FROM_RE = re.compile(r"^(?P<indent>[ \t]*)from " + PKG + r"(?:\.(?P<mod>[\w.]+))? import "
                          r"(?P<names>\([^)]*\)|[^\n#]*?)(?P<tail>[ \t]*(#[^\n]*)?)$", re.M)
+# an import inside a code string, after a quote or "; " and up to ";", a quote or an escaped newline
+INLINE_FROM_RE = re.compile(r"(?:(?<=[\"';])|(?<=\\n))(?P<lead> ?)from " + PKG + r"(?:\.(?P<mod>[\w.]+))? import "
+                            r"(?P<names>[\w ,]+?)(?=;|[\"']|\\n)")
 DOTTED_RE = re.compile(r"(?<![\w.])(?<!from )" + PKG + r"\.([A-Za-z_][\w]*(?:\.[A-Za-z_][\w]*)*)")
 
 
@@ -105,7 +97,7 @@ def groups_for(target, items, existing):
     for item in items:
         name, _, alias = item.partition(" as ")
         name, alias = name.strip(), alias.strip()
-        sub = f"{target}.{name}"
+        sub = f"{target}.{name}" if target else name
         if sub in MOVES:
             new_pkg, _, new_name = MOVES[sub].rpartition(".")
             if new_name != name and not alias:
@@ -120,11 +112,15 @@ def groups_for(target, items, existing):
 
 
 def emit(m, groups, items, write_mod):
-    out = []
-    for key, names in groups:
-        text = m["names"] if len(groups) == 1 and names == items else ", ".join(names)
-        out.append(m["indent"] + f"from {write_mod(key)} import {text}")
-    return "\n".join(out) + m["tail"]
+    """One ``from`` line per new package, the package itself first, then its subpackages by name; a ``noqa``
+    comment is kept on every line."""
+    if len(groups) == 1 and groups[0][1] == items:
+        return m["indent"] + f"from {write_mod(groups[0][0])} import {m['names']}" + m["tail"]
+    lines = [m["indent"] + f"from {write_mod(key)} import {', '.join(names)}"
+             for key, names in sorted(groups, key=lambda g: (g[0] != "", g[0]))]
+    if "noqa" in m["tail"]:
+        return "\n".join(line + m["tail"] for line in lines)
+    return "\n".join(lines) + m["tail"]
 
 
 def rewrite_text(text, file_mod_new, file_mod_old, is_init, existing):
@@ -144,7 +140,15 @@ def rewrite_text(text, file_mod_new, file_mod_old, is_init, existing):
 
     def abs_sub(m):
         items = split_names(m["names"])
-        return emit(m, groups_for(m["mod"], items, existing), items, lambda k: f"{PKG}.{k}")
+        return emit(m, groups_for(m["mod"] or "", items, existing), items, lambda k: f"{PKG}.{k}" if k else PKG)
+
+    def inline_sub(m):
+        items = split_names(m["names"])
+        groups = sorted(groups_for(m["mod"] or "", items, existing), key=lambda g: (g[0] != "", g[0]))
+        if len(groups) == 1 and groups[0][1] == items:
+            return m["lead"] + f"from {PKG}{'.' + groups[0][0] if groups[0][0] else ''} import {m['names']}"
+        return m["lead"] + "; ".join(f"from {PKG}{'.' + k if k else ''} import {', '.join(names)}"
+                                     for k, names in groups)
 
     def dotted_sub(m):
         parts = m.group(1).split(".")
@@ -163,6 +167,7 @@ def rewrite_text(text, file_mod_new, file_mod_old, is_init, existing):
     if file_mod_new is not None:
         text = FROM_RE.sub(rel_sub, text)
     text = ABS_FROM_RE.sub(abs_sub, text)
+    text = INLINE_FROM_RE.sub(inline_sub, text)
     return DOTTED_RE.sub(dotted_sub, text)
 
 
@@ -197,9 +202,6 @@ def main():
             if not init.exists():
                 init.write_text("")
                 subprocess.run(["git", "add", str(init)], cwd=ROOT, check=True)
-        old_package = ROOT / PKG / "core" / "index"
-        if old_package.exists() and not any(p.suffix == ".py" for p in old_package.iterdir()):
-            subprocess.run(["rm", "-rf", str(old_package)], check=True)
     existing = new_modules()
     files = [pathlib.Path(f).resolve() for f in args.files] if args.files else sorted(
         p for p in ROOT.rglob("*.py") if "__pycache__" not in p.parts and not any(

@@ -9,8 +9,8 @@ import json
 import os
 from typing import Dict, List, Optional, Tuple, Union
 
-from .core import rigs
-from .core.errors import ShapeSigError
+from ..core import rigs
+from ..core.errors import ShapeSigError
 
 __all__ = ["PROP", "armature_parents", "armature_report", "unmapped_joints", "detect_armature_map", "stored_map", "store_map", "clear_map",
            "armature_map", "rows", "export_map", "import_map", "saved_maps", "best_saved_map", "skipped_maps",
@@ -40,7 +40,7 @@ def armature_report(obj) -> rigs.RigReport:
     bones = _armature_data(obj).bones
     parents = {b.name: (b.parent.name if b.parent else None) for b in bones}
     if getattr(obj, "type", None) == "ARMATURE":
-        from . import control_rigs
+        from ..actions import control_rigs
 
         if control_rigs.is_control_rig(obj):  # read through its deform bones: their map (control_rigs)
             parents = control_rigs.deform_parents(obj)
@@ -98,7 +98,7 @@ def maps_folder(context=None, auto_only=False) -> str:
     """The preferences' folder of saved maps ("" when not set; with ``auto_only``, "" unless Auto-Pick is on)."""
     import bpy
 
-    from .preferences import get_preferences
+    from ..preferences import get_preferences
 
     prefs = get_preferences(context)
     if prefs is None or not getattr(prefs, "maps_folder", "") or (auto_only and not prefs.auto_pick_map):
@@ -243,7 +243,7 @@ def onto_comparison(a, armature, b, other, bones=None, allow_partial=False):
     (``bone_map_of``); ``bones`` (a subset of ``armature``'s bones, or None) becomes their joints. ShapeSigError
     (one line) when a bone of the subset has no joint or the coverage is below ``core.rigs.MIN_COVERAGE`` (unless
     ``allow_partial``)."""
-    from .core.metrics import check_coverage
+    from ..core.metrics import check_coverage
 
     ma, mb = rigs.apply_bone_map(a, bone_map_of(armature)), rigs.apply_bone_map(b, bone_map_of(other))
     check_coverage(ma, mb, allow_partial)

@@ -10,9 +10,10 @@ from typing import Dict, List, Set
 
 import bpy
 
-from . import action_io, rigmap
-from .core.errors import ShapeSigError
-from .owners import animated_bones, find_owner, playing_map
+from ..actions import action_io
+from ..rigs import rigmap
+from ..core.errors import ShapeSigError
+from ..actions.owners import animated_bones, find_owner, playing_map
 
 __all__ = ["MIN_JOINTS", "library_actions", "rig_joints"]
 

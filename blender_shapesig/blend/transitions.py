@@ -7,8 +7,8 @@ docs/transitions.md.
 
 from dataclasses import dataclass, field
 
-from . import frame_rates, scene_motion
-from .core.errors import ShapeSigError
+from ..actions import frame_rates, scene_motion
+from ..core.errors import ShapeSigError
 
 __all__ = ["TransitionResult", "read_pair", "ranked_cuts", "make_transition", "write_transition", "place_as_strips",
            "GENERATORS"]
@@ -31,7 +31,7 @@ def _read(action, armature, fps):
 
 def read_pair(armature, action_a, action_b, rates=(None, None)):
     """(A, B) as clips in armature space on their own rigs, at ``rates`` (None: each action's own rate)."""
-    from .library import owner_armature
+    from ..search.library import owner_armature
 
     if action_a == action_b:
         raise ShapeSigError(f"A and B are the same action {action_a.name!r}; choose two different actions")
@@ -42,7 +42,7 @@ def read_pair(armature, action_a, action_b, rates=(None, None)):
 
 def ranked_cuts(armature, action_a, action_b, top=5):
     """The ``top`` best cuts as (A frame, B frame, cost) in each action's own scene frames."""
-    from .core.blend.transition import best_cuts
+    from ..core.blend.transition import best_cuts
 
     a, b = read_pair(armature, action_a, action_b)
     return [(c.a_frame + a.frame_start, c.b_frame + b.frame_start, c.cost) for c in best_cuts(a, b, top=top)]
@@ -52,7 +52,7 @@ def _library(armature, exclude):
     """Every other action of the file that can be read on its owner's rig (the bridge library)."""
     import bpy
 
-    from .library import owner_armature
+    from ..search.library import owner_armature
 
     clips = []
     for act in bpy.data.actions:
@@ -72,7 +72,7 @@ def make_transition(armature, action_a, action_b, *, cut=None, frames=None, gene
     scene frames; None: the best cut) with ``frames`` generated frames (None: 0.3 s) made by ``generator``
     ("geodesic", or "library": a bridge from the file's other actions); one new action on ``armature``."""
     from .blend_actions import unique_action_name
-    from .core.blend.transition import transition
+    from ..core.blend.transition import transition
 
     if generator not in GENERATORS:
         raise ShapeSigError(f"generator: expected one of {', '.join(GENERATORS)}, got {generator!r}")
@@ -103,7 +103,8 @@ def place_as_strips(armature, result):
     generated frames, B's part (each can then be moved or scaled in the NLA editor), split halfway between their
     frames at the scene's rate; the bones take the action's rotation modes and the armature's active action is
     cleared so the track plays (the one it had is stashed when it would lose its last user). Returns the track."""
-    from . import action_io, compat
+    from .. import compat
+    from ..actions import action_io
 
     act, clip, info = result.action, result.clip, result.info
     first, last = (float(x) for x in act.frame_range)

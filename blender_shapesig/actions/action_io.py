@@ -10,16 +10,16 @@ import math
 import bpy
 import numpy as np
 
-from . import compat
+from .. import compat
 from .action_hashes import action_hash, read_hash
 from .action_spaces import _rest_frames, to_armature_space, to_pose_space
 from .bone_channels import PROPS as _PROPS, bone_channels
-from .core.clip.clip import Clip
-from .core.errors import ShapeSigError, check_frame_range
-from .core.clip.skeleton import fold_root_motion, rest_meta
-from .core.io.files import check_frames
+from ..core.clip.clip import Clip
+from ..core.errors import ShapeSigError, check_frame_range
+from ..core.clip.skeleton import fold_root_motion, rest_meta
+from ..core.io.files import check_frames
 # the rotation maths is core.geometry.so3's; the channel conversions are re-exported here, where callers know them
-from .core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels
+from ..core.geometry.so3 import EULER_MODES, ROTATION_MODES, channels_from_matrices, matrices_from_channels
 
 __all__ = ["read_action", "write_action", "assign_action", "action_hash", "read_hash", "armature_actions",
            "EULER_MODES", "SPACES"]

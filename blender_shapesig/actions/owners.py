@@ -9,8 +9,8 @@ command line's ``blend`` all ask here."""
 
 import bpy
 
-from . import compat
-from .core.errors import ShapeSigError
+from .. import compat
+from ..core.errors import ShapeSigError
 
 __all__ = ["find_owner", "players", "playing_map", "slot_hint", "fitting", "animated_bones"]
 

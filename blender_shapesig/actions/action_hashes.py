@@ -11,7 +11,7 @@ import hashlib
 
 import numpy as np
 
-from . import compat
+from .. import compat
 
 __all__ = ["action_hash", "read_hash"]
 

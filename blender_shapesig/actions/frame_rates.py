@@ -13,7 +13,7 @@ from typing import Dict, Iterable, List, Optional, Tuple
 
 import bpy
 
-from .core.errors import ShapeSigError
+from ..core.errors import ShapeSigError
 
 __all__ = ["RATE", "HOW", "scene_rate", "stored_rate", "found_rate", "rate_of", "record", "mixed_note",
            "rate_text", "forget"]
@@ -47,7 +47,7 @@ def stored_rate(action) -> Optional[float]:
 
 def _folders(context=None) -> List[str]:
     """Where source files are looked for: the .blend's folder, the search's folders (else the preferences')."""
-    from .preferences import get_preferences
+    from ..preferences import get_preferences
 
     out = [os.path.dirname(bpy.data.filepath)] if bpy.data.filepath else []
     scene = getattr(context or bpy.context, "scene", None)
@@ -84,7 +84,7 @@ def _frame_count(action) -> int:
 def found_rate(action, context=None) -> Optional[Tuple[float, str]]:
     """(fps, path) of the action's source BVH file: named like the action (a ".001" suffix dropped) with as many
     frames as the action keys, in the folders ``_folders`` names; None when there is none."""
-    from .core.io.bvh import motion_header
+    from ..core.io.bvh import motion_header
 
     name = _SUFFIX.sub("", action.name)
     frames, folders = _frame_count(action), tuple(_folders(context))
@@ -119,7 +119,7 @@ def rate_of(action, context=None) -> Tuple[float, bool, str]:
 
 def record(action, fps, how) -> None:
     """Store ``fps`` on the action (``RATE``) and where it came from (``HOW``)."""
-    from .core.clip.prepare import check_fps
+    from ..core.clip.prepare import check_fps
 
     action[RATE] = float(check_fps(float(fps), "frame rate"))
     action[HOW] = str(how)

@@ -10,9 +10,9 @@ axes and time", and docs/rigs.md, "Rig kinds".
 """
 
 from . import action_io, action_spaces, control_rigs, frame_rates
-from .core.clip.clip import Clip
-from .core.clip.prepare import retime
-from .core.clip.skeleton import from_world_axes, to_world_axes
+from ..core.clip.clip import Clip
+from ..core.clip.prepare import retime
+from ..core.clip.skeleton import from_world_axes, to_world_axes
 
 __all__ = ["read_motion", "write_motion", "at_scene_rate", "in_world", "in_armature_axes", "timing_text"]
 

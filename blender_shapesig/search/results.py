@@ -9,12 +9,15 @@ import json
 
 import bpy
 
-from . import action_io, compat, library, retarget, rigmap, scene_motion
-from .action_hashes import read_hash
-from .core.io import sources
-from .core.errors import ShapeSigError
-from .core.measure_words import ENGINES
-from .properties import results_of
+from .. import compat
+from ..actions import action_io, scene_motion
+from ..rigs import retarget, rigmap
+from . import library
+from ..actions.action_hashes import read_hash
+from ..core.io import sources
+from ..core.errors import ShapeSigError
+from ..core.measure_words import ENGINES
+from ..properties import results_of
 
 __all__ = ["selected_action", "result_action", "start_preview", "stop_preview", "preview_result", "assign_result",
            "window_action", "explain_result", "expected_hash", "check_action", "changed_error", "take_moments",
@@ -90,7 +93,7 @@ def result_action(settings, obj, row):
 
 
 def _on_name(source, obj):
-    from .blend_actions import unique_action_name
+    from ..blend.blend_actions import unique_action_name
 
     return unique_action_name(f"{source} on {obj.name}")
 
@@ -163,7 +166,7 @@ def window_action(settings, obj, row):
 def explain_result(context, settings):
     """Why the selected result differs from the query (``core.elastic.explain.explain_clips``, on its window for a
     moment): stored as JSON in ``row.explain``; returns the explanation."""
-    from .core.elastic.explain import explain_clips
+    from ..core.elastic.explain import explain_clips
 
     library.check_problem(library.result_problem(context, settings))
     obj, _action, q = library.query_item(context, settings)

@@ -17,16 +17,17 @@ import numpy as np
 
 import bpy
 
-from . import action_changes, action_spaces, frame_rates, rigmap, scene_motion
-from .core import search as index
-from .core.io import sources
-from .core.measure_words import OPTIONS
-from .core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
-from .core.io.files import skipped_line
-from .owners import find_owner
+from ..actions import action_changes, action_spaces, frame_rates, scene_motion
+from ..rigs import rigmap
+from ..core import search as index
+from ..core.io import sources
+from ..core.measure_words import OPTIONS
+from ..core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
+from ..core.io.files import skipped_line
+from ..actions.owners import find_owner
 from .rig_library import library_actions
-from .preferences import ADDON_ID, get_preferences
-from .properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, uses_local
+from ..preferences import ADDON_ID, get_preferences
+from ..properties import PANEL_MAX_LEVEL, index_level, results_of, settings_of, uses_local
 
 __all__ = ["ActionKey", "ActionItem", "CACHES", "cache_dir", "get_cache", "settings_of", "armature_digest",
            "owner_armature", "action_item", "search_problem", "result_problem", "preview_problem", "query_item",
@@ -197,7 +198,7 @@ def _check_values(settings):
 def _read_options(settings):
     """(trim, fps) every clip of a search is read with: the Trim toggle, the FPS field (0: each clip's
     own rate; else refused unless plausible, ``prepare.check_fps``)."""
-    from .core.clip.prepare import check_fps
+    from ..core.clip.prepare import check_fps
 
     fps = check_fps(settings.fps, "FPS") if settings.fps else None
     return settings.trim, fps
@@ -401,7 +402,7 @@ COSTLY_LEVEL = 4
 def index_cost(context, settings):
     """(clips not indexed yet, estimated seconds, estimated bytes) of indexing the library at the settings'
     level, each clip assumed to move as many joints as the query (read once here)."""
-    from .core.signatures.signatures import log_signature_dim
+    from ..core.signatures.signatures import log_signature_dim
 
     cache = get_cache(context)
     todo = [it for it in index_items(context, settings) if not cache.contains(it.key, settings.level)]

@@ -7,9 +7,9 @@ rows are ordered by. See docs/dev/blender_layer.md.
 
 import json
 
-from .core.io import sources
+from ..core.io import sources
 from .library import ActionItem
-from .properties import results_of
+from ..properties import results_of
 
 __all__ = ["store_results", "SIM_COLUMN", "ELASTIC_COLUMN", "LOCAL_COLUMN"]
 

@@ -14,10 +14,10 @@ from typing import Optional
 import bpy
 import bpy.utils.previews
 
-from .core.errors import ShapeSigError
-from .core.search import thumbnails as core_thumbs
-from .core.raster import png_bytes
-from .properties import results_of
+from ..core.errors import ShapeSigError
+from ..core.search import thumbnails as core_thumbs
+from ..core.raster import png_bytes
+from ..properties import results_of
 
 __all__ = ["previews", "free_previews", "icon_of", "ThumbJob", "start_job", "current_job", "window_fraction",
            "why_pictures", "STEP_SECONDS"]

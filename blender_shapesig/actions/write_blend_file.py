@@ -8,12 +8,12 @@ import bpy
 from mathutils import Matrix
 
 from . import action_io
-from .compat import remove_action
-from .core.errors import ShapeSigError
-from .core.io.sources import ClipSpec
-from .readers.acclaim import import_acclaim
-from .readers.blend_file import read_blend_file
-from .readers.bvh import import_armature
+from ..compat import remove_action
+from ..core.errors import ShapeSigError
+from ..core.io.sources import ClipSpec
+from ..readers.acclaim import import_acclaim
+from ..readers.blend_file import read_blend_file
+from ..readers.bvh import import_armature
 
 __all__ = ["source_armature", "build_rig", "write_blend"]
 
@@ -68,7 +68,7 @@ def source_armature(spec: ClipSpec):
     if spec.ext == ".bvh":
         arm, _frame_time = import_armature(spec.path)
     elif spec.ext in (".fbx", ".glb", ".gltf"):
-        from .readers.interchange import import_armature_of
+        from ..readers.interchange import import_armature_of
 
         return import_armature_of(spec.path, spec.action)  # the character as Blender's importer brings it
     elif spec.ext in (".amc",):

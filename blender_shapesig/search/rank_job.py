@@ -7,11 +7,13 @@ line; ``rank_into_settings`` runs a whole click synchronously. The library itsel
 
 import time
 
-from . import frame_rates, library, rigmap, thumbnails
-from .core import search as index
-from .core.search.engines import engine_for
-from .core.errors import ShapeSigError
-from .properties import column_word, index_level, results_of, uses_local
+from ..actions import frame_rates
+from ..rigs import rigmap
+from . import library, thumbnails
+from ..core import search as index
+from ..core.search.engines import engine_for
+from ..core.errors import ShapeSigError
+from ..properties import column_word, index_level, results_of, uses_local
 from .result_rows import ELASTIC_COLUMN, SIM_COLUMN, store_results
 
 __all__ = ["RankJob", "rank_into_settings"]

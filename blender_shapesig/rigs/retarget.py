@@ -13,11 +13,12 @@ from typing import Tuple
 
 import numpy as np
 
-from . import action_spaces, control_rigs, rigmap, scene_motion
-from .core import rigs
-from .core.clip.clip import Clip
-from .core.clip.skeleton import rest_meta
-from .core.errors import ShapeSigError
+from ..actions import action_spaces, control_rigs, scene_motion
+from . import rigmap
+from ..core import rigs
+from ..core.clip.clip import Clip
+from ..core.clip.skeleton import rest_meta
+from ..core.errors import ShapeSigError
 
 __all__ = ["rest_clip", "needs_retarget", "onto_armature", "Retargeted", "action_on_armature"]
 

@@ -14,13 +14,14 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import action_io, compat
+from .. import compat
+from . import action_io
 from .action_hashes import read_hash
-from .core.clip.clip import Clip
-from .core.clip.skeleton import rest_meta
-from .core.errors import ShapeSigError, check_frame_range
-from .core.io.files import check_frames
-from .core.geometry.so3 import nearest_rotation
+from ..core.clip.clip import Clip
+from ..core.clip.skeleton import rest_meta
+from ..core.errors import ShapeSigError, check_frame_range
+from ..core.io.files import check_frames
+from ..core.geometry.so3 import nearest_rotation
 
 __all__ = ["is_control_rig", "is_rigify", "deform_bones", "deform_parents", "deform_rest_clip", "evaluated_clip",
            "write_onto_controls", "RIGIFY_CONTROLS", "IK_FK"]
@@ -365,7 +366,7 @@ def write_onto_controls(clip: Clip, armature, name: str):
     is not assigned. ShapeSigError when the armature has none of these controls."""
     from dataclasses import replace
 
-    from .core.clip import skeleton
+    from ..core.clip import skeleton
 
     obj = _armature(armature)
     if clip.meta.get("rotation_space") != "armature":

@@ -10,11 +10,13 @@ from typing import List, Optional, Sequence
 import bpy
 import numpy as np
 
-from . import action_io, action_spaces, compat, control_rigs, frame_rates, rigmap, scene_motion
-from .core.blend import make_blends
-from .core.errors import ShapeSigError
-from .core.metrics import DEFAULT_DEPTH
-from .core.progress import check as check_progress
+from .. import compat
+from ..actions import action_io, action_spaces, control_rigs, frame_rates, scene_motion
+from ..rigs import rigmap
+from ..core.blend import make_blends
+from ..core.errors import ShapeSigError
+from ..core.metrics import DEFAULT_DEPTH
+from ..core.progress import check as check_progress
 
 __all__ = ["BlendResult", "blend_actions", "unique_action_name", "selected_bone_names", "stride_ranges",
            "bake_strip", "timed_strips", "TIMING_TRACK"]
@@ -55,8 +57,8 @@ def _read_all(armature, actions, bones, rates=None, allow_partial=False):
     """(clips on their own rigs, clips in the comparison space or None, bones, across): every action read with the
     armature that plays it (at ``rates[i]`` when given, else its own rate); through the bone maps when one is of
     another rig (``rigmap``)."""
-    from .core.rigs import apply_bone_map
-    from .library import owner_armature
+    from ..core.rigs import apply_bone_map
+    from ..search.library import owner_armature
 
     owners = [armature] + [owner_armature(act, armature) for act in actions[1:]]
     across = any(rigmap.across_rigs(armature, o) for o in owners[1:])
@@ -92,8 +94,8 @@ def stride_ranges(armature, action_a, action_b):
     at A's phase (the strides Loop blends: ``core.blend.cycle.one_cycle``), looked for after a converter's rest
     frame and ramp (``core.clip.trim``), or None when either shows no clear cycle or cannot be read (the Blend
     dialog's default ranges)."""
-    from .core.blend.cycle import one_cycle
-    from .core.clip.trim import trim_clip
+    from ..core.blend.cycle import one_cycle
+    from ..core.clip.trim import trim_clip
 
     try:
         own, mapped, _bones, _across = _read_all(armature, [action_a, action_b], None, allow_partial=True)
@@ -179,7 +181,7 @@ def blend_actions(armature, action_a, action_b, weights, *, align=True, depth=DE
 
 def _write_timed(clip, armature, name):
     """(the action of the pose curve, the NLA strip playing it with the blended clock as animated Strip Time)."""
-    from .core.blend import editable_timing
+    from ..core.blend import editable_timing
 
     curve, keys = editable_timing(clip)
     action = action_io.write_action(curve, armature=armature, name=name, fake_user=True)
@@ -231,7 +233,7 @@ def timed_strips(armature):
 def bake_strip(armature, strip, name=None):
     """A new action (fake user) holding what ``strip`` plays: its action's pose curve at the Strip Time of every
     scene frame of the strip (``core.blend.sample_at``). The strip and its action are left as they are."""
-    from .core.blend import sample_at
+    from ..core.blend import sample_at
 
     fc = strip.fcurves.find("strip_time")
     if fc is None:

@@ -9,10 +9,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from .core.clip.clip import Clip
-from .core.errors import ShapeSigError
-from .core.clip.skeleton import from_world_axes, to_world_axes
-from .core.geometry.so3 import nearest_rotation
+from ..core.clip.clip import Clip
+from ..core.errors import ShapeSigError
+from ..core.clip.skeleton import from_world_axes, to_world_axes
+from ..core.geometry.so3 import nearest_rotation
 
 __all__ = ["to_armature_space", "to_pose_space", "object_matrix", "world_matrix", "up_in_bone_frame"]
 

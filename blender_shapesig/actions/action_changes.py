@@ -13,7 +13,7 @@ import os
 
 import bpy
 
-from . import compat
+from .. import compat
 from .action_hashes import read_hash
 from .bone_channels import bone_channels
 
