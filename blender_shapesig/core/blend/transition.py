@@ -133,7 +133,10 @@ def place(a, b, i, j, frames):
     if min(np.linalg.norm(va), np.linalg.norm(vb)) * a.fps < STANDING * ba.leg:  # one of them stands
         shared = _planted_shift(a, out, i, j, ba, bb, up)
         if shared is not None:
-            travel = shared
+            turn, travel = shared
+            X[:, tops] = turn[None, None] @ X[:, tops]
+            root = root @ turn.T
+            angle = angle + float(so3.heading(turn, up))
     root = root + travel
     out = _clip_from(b, X, root, b.name, b.frame_start, {}, translated=translated)
     return out, {"turn_degrees": round(float(np.degrees(angle)), 4),
@@ -141,12 +144,15 @@ def place(a, b, i, j, frames):
 
 
 STANDING = 0.25  # leg lengths per second: a root slower than this on the ground stands
+MAX_FOOT_TURN = np.radians(30.0)  # the most B is turned about up to put its planted feet on A's
 
 
 def _planted_shift(a, b, i, j, ba, bb, up):
-    """The ground move that puts ``b``'s heels down at frame ``j`` on ``a``'s heels down at frame ``i`` (the mean
-    over the feet down in both, ``Body.contacts``); None when no heel is down in both or the move is longer than
-    half a leg (then not the same stance)."""
+    """(turn (3, 3) about up through the origin, move (3,) on the ground) that put ``b``'s planted feet at frame
+    ``j`` on ``a``'s at ``i``: the least-squares rigid fit on the ground of the heels and balls of the feet whose
+    heel is down in both (``Body.contacts``), so a foot's heading matches as well as its heel (else its ball slides
+    as the foot turns over the gap); the move alone when the fit would turn more than MAX_FOOT_TURN. None when no
+    heel is down in both or the move is longer than half a leg (then not the same stance)."""
     from .contacts import feet_positions, legs_of
 
     down = [side for side, col in (("L", 0), ("R", 2)) if ba.contacts[i, col] and bb.contacts[j, col]]
@@ -156,9 +162,21 @@ def _planted_shift(a, b, i, j, ba, bb, up):
         pa, pb = feet_positions(a, legs_of(a)), feet_positions(b, legs_of(b))
     except ShapeSigError:
         return None
-    d = np.mean([pa[side]["heel"][i] - pb[side]["heel"][j] for side in down], axis=0)
-    d = d - (d @ up) * up
-    return d if np.linalg.norm(d) <= 0.5 * ba.leg else None
+    flat = lambda v: v - np.outer(v @ up, up)  # noqa: E731
+    qa = flat(np.array([pa[side][point][i] for side in down for point in ("heel", "ball")]))
+    qb = flat(np.array([pb[side][point][j] for side in down for point in ("heel", "ball")]))
+    ca, cb = qa.mean(axis=0), qb.mean(axis=0)
+    # the turn about up that best lays B's points (about their mean) on A's: 2-D Procrustes
+    ref = so3._horizontal_reference(up)
+    side_ref = np.cross(up, ref)
+    za = (qa - ca) @ ref + 1j * ((qa - ca) @ side_ref)
+    zb = (qb - cb) @ ref + 1j * ((qb - cb) @ side_ref)
+    theta = float(np.angle(np.sum(za * np.conj(zb)))) if np.abs(np.sum(za * np.conj(zb))) > 1e-12 else 0.0
+    if abs(theta) > MAX_FOOT_TURN:
+        theta = 0.0
+    turn = so3.exp(theta * up)
+    d = flat((ca - turn @ cb)[None])[0]
+    return (turn, d) if np.linalg.norm(d) <= 0.5 * ba.leg else None
 
 
 def transition(a, b, *, cut=None, frames=None, library=None):

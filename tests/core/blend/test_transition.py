@@ -248,3 +248,28 @@ def test_from_standing_b_is_placed_on_the_planted_heel():
     for side in shared:
         span = heels[side][i:i + n + 2, :2]
         assert np.linalg.norm(span - span[0], axis=1).max() < 0.02
+
+
+@pytest.mark.parametrize("b_name", ["bvh/07_02.bvh", "bvh/08_01.bvh"])
+def test_from_standing_b_is_placed_on_the_planted_foot_with_its_heading(b_name):
+    """Standing (13_32's end) into a walk that starts on the same foot: B's planted foot, heel *and* ball, comes down
+    on A's (a rigid fit on the ground of both points, ``transition._planted_shift``), so the foot need not turn
+    over the gap, where its ball would slide (before: the heel fitted alone, the ball 1.2 and 2.3 cm off)."""
+    from blender_shapesig.core.blend.contacts import feet_positions
+    from blender_shapesig.core.clip.skeleton import unit_meters, up_vector
+
+    a, b = _read("bvh/13_32.bvh"), _read(b_name)
+    joined = transition(a, b)
+    info = joined.meta["transition"]
+    i, n, j = info["cut"]["a_frame"], info["frames"], info["cut"]["b_frame"]
+    ba, bb = Body(a), Body(b)
+    shared = [s for s, col in (("L", 0), ("R", 2)) if ba.contacts[i, col] and bb.contacts[j, col]]
+    assert shared
+    legs = legs_of(joined)
+    unit = unit_meters(joined, [(t, f) for t, _s, f in legs.values()])
+    up = up_vector(joined)
+    feet = feet_positions(joined, legs)
+    for side in shared:
+        for point in ("heel", "ball"):
+            d = feet[side][point][i + n + 1] - feet[side][point][i]  # B's first frame against A's cut frame
+            assert np.linalg.norm(d - (d @ up) * up) * unit < 0.005, (side, point)
