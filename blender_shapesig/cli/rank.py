@@ -5,37 +5,18 @@ import sys
 from . import common as c
 
 
-def library_items(specs, args, skipped=None):
-    """Library items of the CLIP arguments, keyed by ``ClipSpec.key`` (file bytes, skeleton, action, crop): a
-    cached file is not even read again. A folder stands for the clip files in it (``sources.discover``; an
-    ``.amc`` finds its own ``.asf`` there). Missing files and unknown types fail here, at once; a file that is
-    not a regular file or is over a cap (``core.io.files``), or a folder's file that cannot be keyed (an ``.amc``
-    whose skeleton is not found), is skipped into ``skipped`` (when given)."""
-    import os
+def library_items(specs, args, skipped):
+    """Library items of the CLIP arguments (``core.io.sources.Library``), keyed by ``ClipSpec.key`` (file bytes,
+    skeleton, action, crop): a cached file is not even read again. A folder stands for the clip files in it (an
+    ``.amc`` finds its own ``.asf`` there). Missing files and unknown types fail here, at once; a file that is not
+    a regular file or is over a cap (``core.io.files``), or a folder's file that cannot be keyed, is skipped into
+    ``skipped``."""
+    from ..core.io.sources import Library
 
-    from ..core.errors import ShapeSigError, UnreadableFileError
-    from ..core.io.sources import discover, spec_item
-
-    members = []
-    for s in specs:
-        if os.path.isdir(s):
-            members += [(f, True) for f in discover([s], skipped=skipped)]
-        else:
-            members.append((s, False))
-    items = []
-    for s, in_folder in members:
-        try:
-            items.append(spec_item(c.clip_spec(s, args.asf, c.crop_of(args), args.bone_map).check()))
-        except UnreadableFileError as exc:
-            if skipped is None:
-                raise
-            skipped.append(exc)
-        except ShapeSigError as exc:
-            if skipped is None or not in_folder:
-                raise
-            skipped.append(exc)
+    lib = Library(specs, lambda text: c.clip_spec(text, args.asf, c.crop_of(args), args.bone_map))
+    items = lib.items()
+    skipped += lib.skipped
     return items
-
 
 
 def library_or_refuse(specs, args, verb):

@@ -9,7 +9,7 @@ import os
 import time
 
 from ..core.search import dedupe as core_dedupe
-from ..core.errors import ShapeSigError
+from ..core.errors import ShapeSigError, UnreadableFileError
 from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 from . import parallel
 
@@ -17,33 +17,18 @@ __all__ = ["dedupe_library", "library_items", "sign_library"]
 
 
 def library_items(paths, unreadable=None, **options):
-    """``(items, skipped)``: a LibraryItem per clip source found in ``paths`` (``sources.discover``; a
-    ``ClipSpec`` in ``paths`` is taken as it is, e.g. an .amc with its own skeleton), and a one-line reason
-    for each source whose key cannot be made (an .amc without a unique .asf, a missing file). Files the readers
-    do not open (not regular files, over a cap: ``core.io.files``) are never opened; their UnreadableFileErrors
-    also go to ``unreadable`` when given."""
-    from ..core.io import sources
+    """``(items, skipped)``: a LibraryItem per clip source found in ``paths`` (``core.io.sources.Library``, not
+    strict: a ``ClipSpec`` in ``paths`` is taken as it is, e.g. an .amc with its own skeleton), and a one-line reason
+    for each source whose key cannot be made (an .amc without a unique .asf). Files the readers do not open (not
+    regular files, over a cap: ``core.io.files``) are never opened; their UnreadableFileErrors also go to
+    ``unreadable`` when given. A path that does not exist is refused."""
+    from ..core.io.sources import ClipSpec, Library
 
-    given = [p for p in paths if isinstance(p, sources.ClipSpec)]
-    names = [p for p in paths if not isinstance(p, sources.ClipSpec)]
-    specs = list(given)
-    items, skipped = [], []
-    refused = []
-    found = sources.discover(names, skipped=refused) if names else []
-    skipped += [str(e) for e in refused]
+    lib = Library(paths, lambda text: ClipSpec.parse(text, **options), strict=False, unique=True)
+    items = lib.items()
     if unreadable is not None:
-        unreadable += refused
-    for text in found:
-        try:
-            specs.append(sources.ClipSpec.parse(text, **options))
-        except (ShapeSigError, OSError) as exc:
-            skipped.append(f"{text}: {exc}")
-    for spec in specs:
-        try:
-            items.append(sources.spec_item(spec.check()))
-        except (ShapeSigError, OSError) as exc:
-            skipped.append(str(exc) if spec.text in str(exc) else f"{spec.text}: {exc}")
-    return items, skipped
+        unreadable += [e for e in lib.skipped if isinstance(e, UnreadableFileError)]
+    return items, lib.skipped_lines()
 
 
 def sign_library(items, level, store, mapper, chunk=8):

@@ -10,7 +10,7 @@ import hashlib
 import os
 import time
 from dataclasses import dataclass
-from typing import Callable, List, Optional, Sequence
+from typing import Callable, Iterator, List, Optional, Sequence
 
 import numpy as np
 
@@ -23,7 +23,7 @@ from .registry import EXTENSIONS, NAMED_CLIPS, extensions_text, reader_for, regi
 
 __all__ = [
     "EXTENSIONS", "ClipSpec", "LibraryItem", "register_reader", "reader_for", "discover",
-    "read", "read_one", "after_read", "clip_address", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "trim_ends", "trim_key",
+    "read", "read_one", "after_read", "clip_address", "bone_map_key", "file_key", "clip_key", "clip_item", "library", "Library", "trim_ends", "trim_key",
     "unique_labels", "file_identity", "load_file_keys", "file_keys_record",
 ]
 
@@ -398,11 +398,77 @@ def spec_item(spec: ClipSpec, load: Optional[Callable] = None) -> LibraryItem:
 
 
 def library(paths, recursive=True, load=None, **options) -> List[LibraryItem]:
-    """Library items for sources (files, ``FILE.blend#ACTION``, folders searched for clip files).
+    """Library items for sources (files, ``FILE.blend#ACTION``, folders searched for clip files), each once
+    (``Library``: a source that cannot be keyed raises; files the readers never open are left out).
 
     ``options``: ClipSpec fields for every source (``asf``, ``start``, ``end``, ``fps``, ``trim``). Files are read only
     when their key is not in the cache."""
-    return [spec_item(ClipSpec.parse(s, **options), load) for s in discover(paths, recursive)]
+    return Library(paths, lambda text: ClipSpec.parse(text, **options), unique=True, recursive=recursive,
+                   load=load).items()
+
+
+class Library:
+    """A library as a person names it: the items of ``sources`` (clip files, ``FILE#ACTION``, folders, ready
+    ``ClipSpec``s), keyed one at a time by ``members()`` (a folder's file hashed at its turn, for a progress bar),
+    with the sources it left out and why (the command line's ``rank`` and ``index``, ``dedupe`` and ``library``
+    make theirs with it). ``spec(text)``: the ``ClipSpec`` of a path (default ``ClipSpec.parse``);
+    ``load(spec)``: how an item reads its clips (default ``sources.read``). Files the readers never open (not
+    regular files, over a cap: ``core.io.files``) and a folder's files that cannot be keyed (an ``.amc`` without its
+    skeleton) are skipped into ``skipped``; a source named directly that does not exist raises, and with ``strict``
+    (the default) so does one that cannot be keyed. ``unique``: a source met again (named twice, or named and in a
+    folder given too) is left out. ``skipped``: ShapeSigErrors, ``skipped_lines()`` one line each naming its
+    source."""
+
+    def __init__(self, sources, spec: Optional[Callable] = None, *, strict=True, unique=False, recursive=True,
+                 load=None):
+        self.sources = [sources] if isinstance(sources, (str, os.PathLike, ClipSpec)) else list(sources)
+        self.spec, self.strict, self.unique = spec or ClipSpec.parse, strict, unique
+        self.recursive, self.load = recursive, load
+        self.skipped: List[ShapeSigError] = []
+        self._named = {}  # id of a skipped error -> the source text it is about
+
+    def members(self) -> Iterator[LibraryItem]:
+        """Each member's item, keyed at its turn, in the order given (a folder's files sorted by path)."""
+        seen = set()
+        for src in self.sources:
+            folder = not isinstance(src, ClipSpec) and os.path.isdir(src)
+            for one in discover([src], self.recursive, skipped=self.skipped) if folder else [src]:
+                text = one.text if isinstance(one, ClipSpec) else os.fspath(one)
+                if self.unique and text in seen:
+                    continue
+                seen.add(text)
+                yield from self._keyed(one, named=not folder)
+
+    def items(self) -> List[LibraryItem]:
+        return list(self.members())
+
+    def _keyed(self, src, named):
+        text = src.text if isinstance(src, ClipSpec) else os.fspath(src)
+        try:
+            spec = src if isinstance(src, ClipSpec) else self.spec(text)
+            item = spec_item(spec.check(), self.load)
+        except UnreadableFileError as exc:
+            self.skipped.append(exc)
+            return
+        except OSError as exc:  # a file that went away or cannot be read while its key was made
+            self.skipped.append(UnreadableFileError(f"cannot be read ({exc.strerror or exc})", text))
+            return
+        except ShapeSigError as exc:
+            missing = isinstance(exc, ParseError) and not os.path.lexists(ClipSpec.parse(text).path)
+            if named and (self.strict or missing):
+                raise
+            self._named[id(exc)] = text
+            self.skipped.append(exc)
+            return
+        yield item
+
+    def skipped_lines(self) -> List[str]:
+        """One line per skipped source, naming it."""
+        out = []
+        for exc in self.skipped:
+            text, line = self._named.get(id(exc)), str(exc)
+            out.append(f"{text}: {line}" if text and text not in line else line)
+        return out
 
 
 def as_items(members: Sequence) -> List[LibraryItem]:
