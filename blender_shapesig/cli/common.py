@@ -7,6 +7,7 @@ import math
 import os
 import sys
 
+from ..core.io.text import json_float as finite  # noqa: F401 (the commands' name for it)
 from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
 PROG = "blender_shapesig"
@@ -82,14 +83,6 @@ def write_text(stream, text):
     encoding = getattr(stream, "encoding", None) or "utf-8"
     stream.write(text.encode(encoding, "backslashreplace").decode(encoding, "strict"))
     stream.flush()
-
-
-def finite(x):
-    """A float for JSON: NaN / inf become None (JSON has no NaN)."""
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def progress_bar(args, desc, total=None):

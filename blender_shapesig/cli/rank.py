@@ -157,15 +157,7 @@ def run(args):
         seen[r.key] = seen.get(r.key, 0) + (len(group) > 1)
         path = item.path if item is not None else None
         action = clip_address(item.source or path, r.name, r.source)[1] if path else None
-        trim = trimmed_range(r.trimmed)  # trim: the frames compared (null: the whole clip); trimmed: [head, tail]
-        rows.append({"clip": r.name, "distance": c.finite(r.distance), "elastic": c.finite(r.elastic),
-                     "path": path, "action": action, "coverage": r.coverage,
-                     "unmapped": list(r.unmapped), "partial": bool(r.partial),
-                     "trim": trim["frames"], "trimmed": trim["cut"]})
-        if r.start is not None:
-            rows[-1].update(start=r.start, end=r.end)
-        if r.metric:  # the local search: the measure of the row (sim3 for clips it cannot read) and both stages
-            rows[-1].update(metric=r.metric, first_stage=c.finite(r.first_stage), dtw=c.finite(r.dtw))
+        rows.append(r.as_dict(path=path, action=action))  # the one row serialiser (core.search.rows)
         if args.explain and len(rows) <= args.explain:
             rows[-1]["explain"] = _explanation(query, item, r, args)
     if args.thumbnails:

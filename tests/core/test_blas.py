@@ -6,7 +6,7 @@ import pytest
 from blender_shapesig.core import blas
 from blender_shapesig.core import search as search
 from blender_shapesig.core.io import sources
-from blender_shapesig.core.search import rank
+from blender_shapesig.core.search.signature import index as signature_index
 from blender_shapesig.core.io.acclaim import load_acclaim
 
 needs_openblas = pytest.mark.skipif(blas.blas_threads() is None, reason="numpy's OpenBLAS not found")
@@ -44,13 +44,13 @@ def test_one_thread_inside_restored_after_also_on_error_and_nested(two_threads):
 @needs_openblas
 def test_index_entries_and_ranking_run_on_one_thread(two_threads, data_dir, monkeypatch):
     seen = []
-    make_entry = rank.make_entry
+    make_entry = signature_index.make_entry
 
     def spy(*args, **kwargs):
         seen.append(blas.blas_threads())
         return make_entry(*args, **kwargs)
 
-    monkeypatch.setattr(rank, "make_entry", spy)
+    monkeypatch.setattr(signature_index, "make_entry", spy)
     d = data_dir / "acclaim"
     a = load_acclaim(str(d / "07_01.amc"), str(d / "07-walk.asf"))
     b = load_acclaim(str(d / "07_02.amc"), str(d / "07-walk.asf"))

@@ -1,5 +1,5 @@
-"""Text and numbers of motion files, shared by the format parsers (ASF, AMC, BVH), and file names as data
-(``shown_name`` for a terminal or a message, ``plot_name`` for matplotlib)."""
+"""Text and numbers of motion files, shared by the format parsers (ASF, AMC, BVH), file names as data
+(``shown_name`` for a terminal or a message, ``plot_name`` for matplotlib) and numbers for JSON (``json_float``)."""
 
 import math
 import os
@@ -7,7 +7,15 @@ import os
 from ..errors import ParseError
 from .files import read_bytes
 
-__all__ = ["decode_text", "read_text", "finite_float", "shown_name", "plot_name"]
+__all__ = ["decode_text", "read_text", "finite_float", "json_float", "shown_name", "plot_name"]
+
+
+def json_float(x):
+    """A float for JSON: NaN and infinities become None (JSON has no NaN); None stays None."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 def shown_name(name) -> str:

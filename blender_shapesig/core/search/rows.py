@@ -6,6 +6,8 @@ docs/search.md.
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
+from ..clip.trim import trimmed_range
+from ..io.text import json_float
 from ..rigs import below_minimum
 
 __all__ = ["FEW_SHARED", "RankResult", "RankList", "coverage_rule"]
@@ -42,14 +44,18 @@ class RankResult:
     first_stage: Optional[float] = None  # the local search: the first stage's distance of the clip
     dtw: Optional[float] = None  # the local search: the second stage's DTW distance (the shortlist only)
 
-    def as_dict(self):
-        out = {"clip": self.name, "distance": self.distance, "elastic": self.elastic, "frames": self.frames,
-               "source": self.source, "coverage": self.coverage, "unmapped": list(self.unmapped),
-               "partial": self.partial}
-        if self.metric:
-            out.update(metric=self.metric, first_stage=self.first_stage, dtw=self.dtw)
+    def as_dict(self, **where):
+        """The row as the command line's JSON writes it: ``where`` (e.g. its ``path`` and ``action``) after
+        ``elastic``; ``trim`` / ``trimmed`` the frames compared and cut (``clip.trim.trimmed_range``); a moment's
+        ``start`` / ``end``; the local search's measure and stages. Non-finite numbers are null."""
+        trim = trimmed_range(self.trimmed)
+        out = {"clip": self.name, "distance": json_float(self.distance), "elastic": json_float(self.elastic), **where,
+               "coverage": self.coverage, "unmapped": list(self.unmapped), "partial": bool(self.partial),
+               "trim": trim["frames"], "trimmed": trim["cut"]}
         if self.start is not None:
             out.update(start=self.start, end=self.end)
+        if self.metric:  # the local search: the measure of the row (sim3 for clips it cannot read) and both stages
+            out.update(metric=self.metric, first_stage=json_float(self.first_stage), dtw=json_float(self.dtw))
         return out
 
 

@@ -174,4 +174,4 @@ def test_cli_rank_defaults_to_local_and_keeps_sim3(capsys, data_dir, tmp_path):
 def test_rank_help_names_the_default(capsys):
     assert cli.main(["rank", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
-    assert "The default search is 'local'" in text and "--metric sim3" in text
+    assert "The default search, --metric local, is Motion and pose" in text and "--metric sim3" in text
