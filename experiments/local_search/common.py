@@ -84,7 +84,8 @@ def clip_features(clip, settings=ls.DEFAULT):
     rig (its own proportions) but the hips, relative to the hips, in the hips' heading frame, in leg lengths."""
     f = ls.features(clip, settings)
     heads, _ = ls.rig_positions(clip)
-    names = [j for j in ls._ORDER[1:] if j in heads]
+    from blender_shapesig.core.rigs.names import CANONICAL_PARENTS
+    names = [j for j in list(CANONICAL_PARENTS)[1:] if j in heads]
     P = np.stack([heads[j] for j in names], axis=1) - heads["hips"][:, None]
     side = (heads["thigh.L"] - heads["thigh.R"]) + (heads["upper_arm.L"] - heads["upper_arm.R"])
     P = ls._resample(P, clip.fps, settings.rate)

@@ -120,3 +120,15 @@ for _w in (2.0, 3.0, 4.0):
 add("act3.0", action_weight=3.0)
 add("act1.5", action_weight=1.5)
 add("act1.0", action_weight=1.0)
+
+# issue 41: the still windows' motion parts on the unit sphere (``local._stillness``), weight after "still"
+for _c in (0.5, 1.0, 1.5, 2.0):
+    add(f"still{_c}", still=_c)
+    add(f"act2.0_still{_c}", action_weight=2.0, still=_c)
+for _c in (1.0, 1.5):
+    add(f"still{_c}_mix2", still=_c, mix=2.0)
+    add(f"still{_c}_k10", still=_c, shortlist=10)
+    add(f"act2.0_still{_c}_mix2", action_weight=2.0, still=_c, mix=2.0)
+    add(f"act4.0_still{_c}", action_weight=4.0, still=_c)
+    add(f"still{_c}_mw0.7", still=_c, motion_weight=0.7)
+
