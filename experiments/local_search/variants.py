@@ -15,8 +15,9 @@ def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **
 
 
 add("default")
-add("issue29", action_weight=0.0)  # = the default (no action part)
-add("action", action_weight=2.0)  # issue 41's action part at its chosen weight (= act2.0)
+add("issue29", action_weight=0.0, still=0.0)  # the default before issue 41 (no action part, no stillness coordinate)
+add("action", action_weight=2.0, still=0.0)  # issue 41's action part at its chosen weight, without stillness
+add("still", still=1.0)  # issue 41's stillness coordinate (local.STILL): the default now
 add("raw", normalize="none")
 add("global2", global_weight=2.0)
 add("centered_global2", sequence="centered", global_weight=2.0)
