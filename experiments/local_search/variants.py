@@ -56,12 +56,18 @@ def evaluate(items, feats, variant, kind="loo"):
     labels = [it.label for it in items]
     E = entries(feats["full"], settings)
     D1 = first_matrix(E, E)
+    M = None
+    if cm.MIRROR:  # each query also as its mirror image, the nearer counts
+        M = entries([cm.mirrored(f) for f in feats["full"]], settings)
+        D1 = np.minimum(D1, first_matrix(M, E))
     cache = {}
 
     def d2(a, b, qe, ce):
         key = (a, b)
         if key not in cache:
             cache[key] = ls.rerank(qe, [ce], band, free)[0]
+            if M is not None:
+                cache[key] = min(cache[key], ls.rerank(M[a], [ce], band, free)[0])
         return cache[key]
 
     prot = cm.protocol(items, kind)
@@ -79,6 +85,8 @@ def evaluate(items, feats, variant, kind="loo"):
             continue
         Qc = entries(feats[crop], settings)
         Dc = first_matrix(Qc, E)
+        if cm.MIRROR:
+            Dc = np.minimum(Dc, first_matrix(entries([cm.mirrored(f) for f in feats[crop]], settings), E))
         ok = ok1 = 0
         for q in everyone:
             order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band, free)[0], mix,
@@ -133,3 +141,19 @@ for _c in (1.0, 1.5):
     add(f"act4.0_still{_c}", action_weight=4.0, still=_c)
     add(f"still{_c}_mw0.7", still=_c, motion_weight=0.7)
 
+
+# issue 41: the pelvis' path in a window as a part of its own (``Settings.travel``), the second stage with the pelvis'
+# height (``Settings.height``)
+for _t in (0.5, 1.0, 1.5, 2.0):
+    add(f"travel{_t}", travel=_t)
+for _t in (1.0, 1.5):
+    for _v in (0.25, 0.5):
+        add(f"travel{_t}_vel{_v}", travel=_t, velocity_weight=_v)
+    add(f"travel{_t}_mix2", travel=_t, mix=2.0)
+    add(f"travel{_t}_mix4", travel=_t, mix=4.0)
+
+add("height", height=1.0)  # the second stage's key points at the pelvis' height about its median
+add("travel1.0_height", travel=1.0, height=1.0)
+add("travel1.5_height", travel=1.5, height=1.0)
+add("travel1.0_height_k10", travel=1.0, height=1.0, shortlist=10)
+add("travel1.0_centered", travel=1.0, sequence="centered")

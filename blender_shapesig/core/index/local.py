@@ -72,19 +72,23 @@ class Settings:
     def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
                  turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
                  scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE,
-                 action_weight=ACTION_WEIGHT, active=0.0, still=STILL):
+                 action_weight=ACTION_WEIGHT, active=0.0, still=STILL, travel=0.0, height=0.0):
         self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
         self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
         self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
-        # issue 41 (``local_action``): the action part's weight, the share of the largest window energy kept
+        # issue 41 (``local_action``): the action part's weight, the share of the largest window energy kept; the
+        # options ``travel`` (the pelvis' path in a window as a part of its own, unit length) and ``height`` (the
+        # second stage's key points at the pelvis' height about its median) are off: experiments/local_search/RESULTS.md
         self.action_weight, self.active = float(action_weight), float(active)
-        self.still = float(still)
+        self.still, self.travel, self.height = float(still), float(travel), float(height)
 
     def key(self):
         extra = (self.action_weight, self.active) if (self.action_weight or self.active) else ()
         extra += ("still", self.still) if self.still else ()
+        extra += ("travel", self.travel) if self.travel else ()
+        extra += ("height", self.height) if self.height else ()
         return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
                 self.global_weight, self.max_windows, self.max_sequence) + extra
@@ -227,6 +231,9 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
         parts = [settings.pose_weight * base, settings.motion_weight * lvl1, settings.motion_weight * lvl2, scale]
         if settings.still:
             parts.append(settings.still * settings.motion_weight * _stillness(lvl1, lvl2))
+        if settings.travel:
+            trav = _unit_rows(motion[starts + w - 1] - motion[starts], 0.25)
+            parts += [settings.travel * trav, settings.travel * settings.still * _stillness(trav)]
         if act is not None:
             parts.append(settings.action_weight * local_action.window_action(act, starts, w))
         V = np.column_stack(parts)
@@ -253,6 +260,11 @@ def _sequence(feat, settings):
         seq = seq - seq.mean(axis=0)
     if settings.action_weight and settings.sequence != "pose_only":
         seq = np.column_stack([seq, settings.action_weight * local_action.sequence_channels(feat)])
+    if settings.height and settings.sequence == "pose":  # every key point at the pelvis' height about its median
+        pz = feat["motion"][:, 2]
+        seq = seq.reshape(len(seq), -1, 3).copy()
+        seq[..., 2] += settings.height * (pz - np.median(pz))[:, None]
+        seq = seq.reshape(len(seq), -1)
     if settings.velocity_weight:
         vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
         seq = np.column_stack([seq, settings.velocity_weight * vel])
