@@ -84,7 +84,8 @@ def clip_features(clip, settings=ls.DEFAULT):
     rig (its own proportions) but the hips, relative to the hips, in the hips' heading frame, in leg lengths."""
     f = ls.features(clip, settings)
     heads, _ = ls.rig_positions(clip)
-    names = [j for j in ls._ORDER[1:] if j in heads]
+    from blender_shapesig.core.rigs.names import CANONICAL_PARENTS
+    names = [j for j in list(CANONICAL_PARENTS)[1:] if j in heads]
     P = np.stack([heads[j] for j in names], axis=1) - heads["hips"][:, None]
     side = (heads["thigh.L"] - heads["thigh.R"]) + (heads["upper_arm.L"] - heads["upper_arm.R"])
     P = ls._resample(P, clip.fps, settings.rate)
@@ -161,3 +162,38 @@ def dtw_matrix(seqs, band=None, step=1):
 
 def cross_matrix(fn, A, B):
     return np.array([[fn(a, b) for b in B] for a in A])
+
+
+def _z_combine(d1, d2, mix=ls.MIX, dg=None, global_weight=0.0):
+    """The shortlist's score with each stage as a z-score over the shortlist (its spread, not its mean, as the
+    unit): both stages count by how far they separate the candidates (experiment, ``LS_COMBINE=z``)."""
+    def z(x):
+        x = np.asarray(x, float)
+        fin = x[np.isfinite(x)]
+        if len(fin) < 2:
+            return x * 0.0
+        return (x - fin.mean()) / max(fin.std(), 1e-12)
+    s = z(d2)
+    if mix:
+        s = s + mix * z(d1)
+    return s
+
+
+if os.environ.get("LS_COMBINE") == "z":
+    ls.combine = _z_combine
+
+
+def mirrored(feat):
+    """The local features of the clip's mirror image (left and right swapped): key points swapped in pairs
+    (``local.POINTS`` order), the lateral axis (x) and the turned angle negated (experiment: ``LS_MIRROR=1``, a
+    query also as its mirror image, the nearer counts)."""
+    pose = np.asarray(feat["pose"], float).reshape(len(feat["pose"]), -1, 3).copy()
+    pose = pose[:, [0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9]]
+    pose[..., 0] *= -1
+    motion = np.asarray(feat["motion"], float).copy()
+    motion[:, 0] *= -1
+    motion[:, 3] *= -1
+    return {**feat, "pose": pose.reshape(len(pose), -1), "motion": motion}
+
+
+MIRROR = os.environ.get("LS_MIRROR") == "1"

@@ -86,6 +86,7 @@ def main(argv=None):
     ap.add_argument("--variants", default="default")
     ap.add_argument("--tslearn", action="store_true")
     ap.add_argument("--misses", action="store_true", help="print every wrong first match")
+    ap.add_argument("--mirror", action="store_true", help="each query also as its mirror image (the nearer counts)")
     args = ap.parse_args(argv)
     items, feats = cm.cached(os.path.join(args.out, f"rigset_features_{cm.FEATURES}.pkl"), lambda: load(args.data))
     counts = Counter(it.label for it in items)
@@ -107,11 +108,18 @@ def main(argv=None):
         E = vs.entries(feats, settings)
         D1 = weighted_matrix(E, feats, settings, float(name.split("wchamfer")[1])) if "wchamfer" in name \
             else vs.first_matrix(E, E)
+        if args.mirror:
+            M = vs.entries([cm.mirrored(f) for f in feats], settings)
+            D1 = np.minimum(D1, vs.first_matrix(M, E))
         o1, o2 = [], []
         for q, c in zip(queries, cands):
             c = np.asarray(c)
             o1.append(c[np.argsort(D1[q, c], kind="stable")])
-            o2.append(cm.two_stage_order(D1[q], c, k, lambda j, q=q: vs.ls.rerank(E[q], [E[j]], band, free)[0], mix))
+            if args.mirror:
+                d2 = lambda j, q=q: min(vs.ls.rerank(E[q], [E[j]], band, free)[0], vs.ls.rerank(M[q], [E[j]], band, free)[0])  # noqa: E731
+            else:
+                d2 = lambda j, q=q: vs.ls.rerank(E[q], [E[j]], band, free)[0]  # noqa: E731
+            o2.append(cm.two_stage_order(D1[q], c, k, d2, mix))
         p1, p2 = per_class(o1, items, queries), per_class(o2, items, queries)
         print(f"rigs {name:24s} stage1 {fmt(p1)}\n     {'':24s} 2 stages {fmt(p2)}")
         if args.misses:

@@ -15,8 +15,9 @@ def add(name, shortlist=ls.SHORTLIST, band=ls.BAND, free=ls.FREE, mix=ls.MIX, **
 
 
 add("default")
-add("issue29", action_weight=0.0)  # = the default (no action part)
-add("action", action_weight=2.0)  # issue 41's action part at its chosen weight (= act2.0)
+add("issue29", action_weight=0.0, still=0.0)  # the default before issue 41 (no action part, no stillness coordinate)
+add("action", action_weight=2.0, still=0.0)  # issue 41's action part at its chosen weight, without stillness
+add("still", still=1.0)  # issue 41's stillness coordinate (local.STILL): the default now
 add("raw", normalize="none")
 add("global2", global_weight=2.0)
 add("centered_global2", sequence="centered", global_weight=2.0)
@@ -55,12 +56,18 @@ def evaluate(items, feats, variant, kind="loo"):
     labels = [it.label for it in items]
     E = entries(feats["full"], settings)
     D1 = first_matrix(E, E)
+    M = None
+    if cm.MIRROR:  # each query also as its mirror image, the nearer counts
+        M = entries([cm.mirrored(f) for f in feats["full"]], settings)
+        D1 = np.minimum(D1, first_matrix(M, E))
     cache = {}
 
     def d2(a, b, qe, ce):
         key = (a, b)
         if key not in cache:
             cache[key] = ls.rerank(qe, [ce], band, free)[0]
+            if M is not None:
+                cache[key] = min(cache[key], ls.rerank(M[a], [ce], band, free)[0])
         return cache[key]
 
     prot = cm.protocol(items, kind)
@@ -78,6 +85,8 @@ def evaluate(items, feats, variant, kind="loo"):
             continue
         Qc = entries(feats[crop], settings)
         Dc = first_matrix(Qc, E)
+        if cm.MIRROR:
+            Dc = np.minimum(Dc, first_matrix(entries([cm.mirrored(f) for f in feats[crop]], settings), E))
         ok = ok1 = 0
         for q in everyone:
             order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band, free)[0], mix,
@@ -120,3 +129,31 @@ for _w in (2.0, 3.0, 4.0):
 add("act3.0", action_weight=3.0)
 add("act1.5", action_weight=1.5)
 add("act1.0", action_weight=1.0)
+
+# issue 41: the still windows' motion parts on the unit sphere (``local._stillness``), weight after "still"
+for _c in (0.5, 1.0, 1.5, 2.0):
+    add(f"still{_c}", still=_c)
+    add(f"act2.0_still{_c}", action_weight=2.0, still=_c)
+for _c in (1.0, 1.5):
+    add(f"still{_c}_mix2", still=_c, mix=2.0)
+    add(f"still{_c}_k10", still=_c, shortlist=10)
+    add(f"act2.0_still{_c}_mix2", action_weight=2.0, still=_c, mix=2.0)
+    add(f"act4.0_still{_c}", action_weight=4.0, still=_c)
+    add(f"still{_c}_mw0.7", still=_c, motion_weight=0.7)
+
+
+# issue 41: the pelvis' path in a window as a part of its own (``Settings.travel``), the second stage with the pelvis'
+# height (``Settings.height``)
+for _t in (0.5, 1.0, 1.5, 2.0):
+    add(f"travel{_t}", travel=_t)
+for _t in (1.0, 1.5):
+    for _v in (0.25, 0.5):
+        add(f"travel{_t}_vel{_v}", travel=_t, velocity_weight=_v)
+    add(f"travel{_t}_mix2", travel=_t, mix=2.0)
+    add(f"travel{_t}_mix4", travel=_t, mix=4.0)
+
+add("height", height=1.0)  # the second stage's key points at the pelvis' height about its median
+add("travel1.0_height", travel=1.0, height=1.0)
+add("travel1.5_height", travel=1.5, height=1.0)
+add("travel1.0_height_k10", travel=1.0, height=1.0, shortlist=10)
+add("travel1.0_centered", travel=1.0, sequence="centered")

@@ -318,7 +318,7 @@ def test_folder_library_keys_follow_file_contents(data_dir, tmp_path):
     third = search.rank_clips(q, search.folder_library(tmp_path, asf=str(tmp_path / "07-walk.asf")),
                               cache=search.SignatureCache(cache_dir), metric="sim")
     assert third.stats["misses"] == 1 and third.stats["disk_hits"] == 2
-    with pytest.raises(ShapeSigError, match="does not exist"):
+    with pytest.raises(ShapeSigError, match="not found"):
         search.folder_library(tmp_path / "nope")
 
 
@@ -370,7 +370,7 @@ def test_file_items_for_command_line_specs(data_dir, tmp_path):
     assert cropped[0].key != items[0].key
     (clip,) = cropped[0].clips()
     assert (clip.frame_start, clip.frames) == (10, 51)
-    with pytest.raises(ShapeSigError, match="does not exist"):
+    with pytest.raises(ShapeSigError, match="not found"):
         search.folder_library([str(tmp_path / "x.blend#walk")])
     # a reader named by module path (.blend's lives in the Blender layer) is imported when first needed: without it, one line
     from blender_shapesig.core.io import registry

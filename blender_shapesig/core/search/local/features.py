@@ -8,7 +8,8 @@ directions do not matter; plus the hips' path in that turning frame and the turn
 channels), all at ``RATE`` samples per second. **First stage** (``index_entry``, ``first_stage``): the clip's
 sliding windows (``WINDOWS``: 0.5 and 1 s, hop a quarter window), each described by its mean pose (the basepoint)
 and the level-2 log-signature of its path (level 1 = displacement, level 2 = Levy areas, brought to degree one by a
-signed square root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window), projected by a
+signed square root), normalized to unit length part by part (eq. 9.1 of the thesis, window by window; a still
+window's motion parts, below a floor, get a stillness coordinate that puts them on the unit sphere too), projected by a
 fixed, data-independent random matrix to ``DIM`` numbers and stored as float16; two clips are at the symmetric mean of
 their windows' nearest-window distances (a Chamfer distance): crops, start phase and the number of cycles do not
 matter. **Second stage** (``rerank``): the shortlist again by dynamic time warping of the key points' positions
@@ -51,6 +52,10 @@ MAX_SEQUENCE = 200
 # it raises the rig set from 30 to 35 of 51, HDM05's mAP to 0.983 and cmu_large to 49/49, but one crop probe of
 # cmu_mixed_format flips to the same take's other file at a tie (experiments/local_search/RESULTS.md)
 ACTION_WEIGHT = 0.0
+# weight of each window's stillness coordinate (``_stillness``): with it every window's motion parts lie on the unit
+# sphere and a still window is sqrt(2) from a moving one, as two unrelated motions are; without it (0) a standing
+# clip was nearer every short action than clips of its class (issue 41, docs/search.md "Short actions")
+STILL = 1.0
 MIX = 1.0  # weight of the first stage in the shortlist's final score (``combine``)
 FREE = 0.15  # the second stage may leave out this fraction of either sequence at each end
 BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer sequence (plus the length difference)
@@ -67,17 +72,23 @@ class Settings:
     def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
                  turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
                  scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE,
-                 action_weight=ACTION_WEIGHT, active=0.0):
+                 action_weight=ACTION_WEIGHT, active=0.0, still=STILL, travel=0.0, height=0.0):
         self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
         self.sequence, self.velocity_weight, self.scale_weight = sequence, velocity_weight, scale_weight
         self.global_weight, self.max_windows, self.max_sequence = global_weight, max_windows, max_sequence
-        # issue 41 (``local_action``): the action part's weight, the share of the largest window energy kept
+        # issue 41 (``local_action``): the action part's weight, the share of the largest window energy kept; the
+        # options ``travel`` (the pelvis' path in a window as a part of its own, unit length) and ``height`` (the
+        # second stage's key points at the pelvis' height about its median) are off: experiments/local_search/RESULTS.md
         self.action_weight, self.active = float(action_weight), float(active)
+        self.still, self.travel, self.height = float(still), float(travel), float(height)
 
     def key(self):
         extra = (self.action_weight, self.active) if (self.action_weight or self.active) else ()
+        extra += ("still", self.still) if self.still else ()
+        extra += ("travel", self.travel) if self.travel else ()
+        extra += ("height", self.height) if self.height else ()
         return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
                 self.global_weight, self.max_windows, self.max_sequence) + extra
@@ -176,6 +187,12 @@ def _unit_rows(x, floor):
     return x / np.maximum(n, floor)
 
 
+def _stillness(*parts):
+    """(windows, len(parts)): per normalized motion part (length <= 1), sqrt(1 - length^2): 0 for a moving window,
+    1 for a still one, so that [part, stillness] lies on the unit sphere."""
+    return np.column_stack([np.sqrt(np.maximum(0.0, 1.0 - (p * p).sum(axis=1))) for p in parts])
+
+
 _PROJECTIONS = {}
 
 
@@ -212,6 +229,11 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
         scale = np.zeros((len(starts), len(settings.windows)))
         scale[:, k] = settings.scale_weight
         parts = [settings.pose_weight * base, settings.motion_weight * lvl1, settings.motion_weight * lvl2, scale]
+        if settings.still:
+            parts.append(settings.still * settings.motion_weight * _stillness(lvl1, lvl2))
+        if settings.travel:
+            trav = _unit_rows(motion[starts + w - 1] - motion[starts], 0.25)
+            parts += [settings.travel * trav, settings.travel * settings.still * _stillness(trav)]
         if act is not None:
             parts.append(settings.action_weight * local_action.window_action(act, starts, w))
         V = np.column_stack(parts)
@@ -238,6 +260,11 @@ def _sequence(feat, settings):
         seq = seq - seq.mean(axis=0)
     if settings.action_weight and settings.sequence != "pose_only":
         seq = np.column_stack([seq, settings.action_weight * local_action.sequence_channels(feat)])
+    if settings.height and settings.sequence == "pose":  # every key point at the pelvis' height about its median
+        pz = feat["motion"][:, 2]
+        seq = seq.reshape(len(seq), -1, 3).copy()
+        seq[..., 2] += settings.height * (pz - np.median(pz))[:, None]
+        seq = seq.reshape(len(seq), -1)
     if settings.velocity_weight:
         vel = np.gradient(feat["motion"], axis=0) * float(feat["rate"]) if len(seq) > 1 else feat["motion"] * 0
         seq = np.column_stack([seq, settings.velocity_weight * vel])
