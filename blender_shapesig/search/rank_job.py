@@ -24,11 +24,12 @@ class RankJob:
     operator steps it from a timer; headless it runs the steps in a loop):
 
     1. key each member (``SearchLibrary.members``: a folder file is hashed at its turn, never before the
-       progress bar) and index it when the store does not hold it, one clip per step (``index.iter_entries``;
+       progress bar) and index it when the store does not hold it, one clip per step (the engine's ``indexed`` and
+       ``index``, ``core.search.engines``, as the command line's rank;
        what is done stays cached when the click is cancelled; clips that fail are counted apart, files that
        are not regular files or are over a cap were skipped unopened and are reported once);
-    2. rank every readable clip (``index.rank_clips``; fast: everything is in the store): by the local search
-       (Similarity: Motion and pose, the default: its own second stage included), else by sim^n;
+    2. rank every readable clip (``rank_clips`` with that engine; fast: everything is in the store): by the local
+       search (Similarity: Motion and pose, the default: its own second stage included), moments, else by sim^n;
     3. sim^n with Re-rank K, the d_S* of the first K rows, one per step (``rank_clips`` with the elastic metric on
        the one clip: the same pair increments and DP as its re-rank).
 

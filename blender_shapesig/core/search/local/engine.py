@@ -16,7 +16,7 @@ __all__ = ["LocalEngine"]
 
 
 def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partial, top=None):
-    """(results, warnings, skipped, compared) of the local search: the readable clips by ``local_rank.rank_local``;
+    """(results, warnings, skipped, compared) of the local search: the readable clips by ``local.rank.rank_local``;
     the clips its features refuse after them, by sim3 on their shared bones, with one warning."""
     q = query_local_entry(query, store)
     warnings, skipped = [], []
