@@ -183,19 +183,27 @@ def remembered_file_keys(cache):
         cache.write_fingerprints(FILE_KEYS_RECORD, record)
 
 
-def cache_dir(args, search):
-    """The signature cache folder of ``rank`` and ``dedupe``: --cache DIR, else $SHAPESIG_CACHE_DIR, else the
-    per-user cache (``core.search.default_cache_dir``); None (memory only) with --no-cache. The cache makes its own
-    subfolder there; when it cannot, it goes on in memory only with one warning (``SignatureCache.warning``)."""
+def open_cache(args, search):
+    """The signature cache of ``rank``, ``index`` and ``dedupe``: in --cache DIR, else $SHAPESIG_CACHE_DIR, else the
+    per-user cache (``core.search.default_cache_dir``); in memory only with --no-cache. The cache makes its own
+    subfolder there; when it cannot, it goes on in memory only with one warning (``SignatureCache.warning``), except
+    in a folder the user names with --cache: that is an error (docs/cli.md)."""
     if getattr(args, "no_cache", False):
         if args.cache:
             raise CommandError("--cache and --no-cache contradict each other")
-        return None
-    if args.cache:  # a folder the user names: one that cannot be used is an error (docs/cli.md)
-        probe = search.SignatureCache(args.cache)
-        if probe.warning:
-            raise CommandError(f"--cache {shown(args.cache)}: {probe.warning.split(' (', 1)[-1].rsplit(');', 1)[0]}")
-    return args.cache or search.default_cache_dir()
+        return search.SignatureCache(None)
+    cache = search.SignatureCache(args.cache or search.default_cache_dir())
+    if args.cache and cache.warning:
+        raise CommandError(f"--cache {shown(args.cache)}: {cache.warning.split(' (', 1)[-1].rsplit(');', 1)[0]}")
+    return cache
+
+
+def cache_dir(args, search):
+    """The folder ``open_cache`` opens (None with --no-cache), for a command that opens it itself (``dedupe``);
+    a --cache DIR that cannot be used is refused here the same way."""
+    if getattr(args, "no_cache", False) or args.cache:
+        return open_cache(args, search).root
+    return search.default_cache_dir()
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ def run(args):
 
     sched = c.check_scheduler(args.scheduler)
     t0 = time.perf_counter()
-    cache = index.SignatureCache(c.cache_dir(args, index))
+    cache = c.open_cache(args, index)  # one open of the folder (its sweep lists every entry)
     with c.remembered_file_keys(cache):
         items, _skipped = library_or_refuse(args.paths, args, "index")
     with parallel.scheduler(sched) as s, c.progress_bar(args, "indexing") as bar:

@@ -126,7 +126,7 @@ def run(args):
     from ..core.measure_words import ENGINES, MEASURES, metric_phrase
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
-    cache = index.SignatureCache(c.cache_dir(args, index))
+    cache = c.open_cache(args, index)  # one open of the folder (its sweep lists every entry)
     with c.remembered_file_keys(cache):
         query = read_one(spec)
         # the query is keyed like the library: its signature is a cache hit when it was indexed before

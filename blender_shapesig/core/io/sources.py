@@ -446,7 +446,7 @@ class Library:
         text = src.text if isinstance(src, ClipSpec) else os.fspath(src)
         try:
             spec = src if isinstance(src, ClipSpec) else self.spec(text)
-            item = spec_item(spec.check(), self.load)
+            item = spec_item(spec.check() if named else spec, self.load)  # a folder's files: checked by discover
         except UnreadableFileError as exc:
             self.skipped.append(exc)
             return

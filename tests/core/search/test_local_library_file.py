@@ -45,7 +45,7 @@ def test_ranking_from_the_library_file_equals_the_per_file_store_and_the_search(
     assert open_library(str(pack)).arrays["windows"].shape[1] == ls.DIM
     fresh = index.SignatureCache(cache)
     again = index.rank_clips(q, items, cache=fresh)
-    assert fresh.stats["writes"] == 0 and isinstance(fresh._lib.arrays["windows"], np.memmap)
+    assert fresh.stats["writes"] == 0 and isinstance(fresh._lib.arrays["windows"].base, np.memmap)
     assert _names(again) == _names(first)
     # the truth: core.search.local.features on entries computed here
     entries = [ls.index_entry(c) for it in items for c in it.clips()]

