@@ -3,11 +3,9 @@ arguments into ``core.io.sources.ClipSpec`` s, and the option groups (clip readi
 
 import argparse
 import contextlib
-import math
 import os
 import sys
 
-from ..core.io.text import json_float as finite  # noqa: F401 (the commands' name for it)
 from ..core.metrics import DEFAULT_DEPTH, DEFAULT_LEVEL
 
 PROG = "blender_shapesig"

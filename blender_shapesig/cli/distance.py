@@ -6,6 +6,7 @@ from . import common as c
 def run(args):
     from ..core.metrics import compare_clips, metric_label, parse_metric
     from ..core.clip.trim import trim_note, trimmed_range
+    from ..core.io.text import json_float
 
     base, level = parse_metric(args.metric, args.level)
     a = c.load_one(args.a, args.asf, c.crop_of(args), args.bone_map)
@@ -13,7 +14,7 @@ def run(args):
     got = compare_clips(a, b, base, level=level, depth=args.depth, allow_partial=args.allow_partial)
     d = got["distance"]
     label = metric_label(base, level)
-    out = {"distance": c.finite(d), "metric": label, "a": c.display_name(a), "b": c.display_name(b),
+    out = {"distance": json_float(d), "metric": label, "a": c.display_name(a), "b": c.display_name(b),
            "bones": got["bones"], "coverage": got["coverage"], "unmapped": got["unmapped"]}
     if base == "elastic":
         out["depth"] = args.depth

@@ -166,12 +166,10 @@ def _planted_shift(a, b, i, j, ba, bb, up):
     qa = flat(np.array([pa[side][point][i] for side in down for point in ("heel", "ball")]))
     qb = flat(np.array([pb[side][point][j] for side in down for point in ("heel", "ball")]))
     ca, cb = qa.mean(axis=0), qb.mean(axis=0)
-    # the turn about up that best lays B's points (about their mean) on A's: 2-D Procrustes
-    ref = so3._horizontal_reference(up)
-    side_ref = np.cross(up, ref)
-    za = (qa - ca) @ ref + 1j * ((qa - ca) @ side_ref)
-    zb = (qb - cb) @ ref + 1j * ((qb - cb) @ side_ref)
-    theta = float(np.angle(np.sum(za * np.conj(zb)))) if np.abs(np.sum(za * np.conj(zb))) > 1e-12 else 0.0
+    # the turn about up that best lays B's points (about their mean) on A's: 2-D Procrustes, atan2 of the summed
+    # cross (about up) and dot products of the centred pairs
+    pa_c, pb_c = qa - ca, qb - cb
+    theta = float(np.arctan2(np.sum(np.cross(pb_c, pa_c) @ up), np.sum(pb_c * pa_c)))
     if abs(theta) > MAX_FOOT_TURN:
         theta = 0.0
     turn = so3.exp(theta * up)

@@ -437,13 +437,12 @@ class Library:
                 if self.unique and text in seen:
                     continue
                 seen.add(text)
-                yield from self._keyed(one, named=not folder)
+                yield from self._keyed(one, text, named=not folder)
 
     def items(self) -> List[LibraryItem]:
         return list(self.members())
 
-    def _keyed(self, src, named):
-        text = src.text if isinstance(src, ClipSpec) else os.fspath(src)
+    def _keyed(self, src, text, named):
         try:
             spec = src if isinstance(src, ClipSpec) else self.spec(text)
             item = spec_item(spec.check() if named else spec, self.load)  # a folder's files: checked by discover

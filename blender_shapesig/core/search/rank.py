@@ -12,14 +12,10 @@ from ..errors import ShapeSigError
 from ..io.sources import as_items
 from ..metric_names import DEFAULT_METRIC
 from .engines import engine_for
-from .indexing import build_index, clip_items, compute_entries, folder_library, iter_entries
-from .rows import FEW_SHARED, RankList, RankResult, coverage_rule
-from .signature.engine import EXACT_POOL
-from .signature.index import item_entries
+from .rows import RankList
 from .store import SignatureCache
 
-__all__ = ["EXACT_POOL", "FEW_SHARED", "RankResult", "RankList", "coverage_rule", "clip_items", "folder_library",
-           "item_entries", "iter_entries", "compute_entries", "build_index", "rank_clips"]
+__all__ = ["rank_clips"]
 
 
 @one_blas_thread()

@@ -2,7 +2,7 @@
 and on disk in a folder it owns (``<the folder named>/blender_shapesig-cache/``, marked by a ``CACHEDIR.TAG`` it
 wrote: one ``<sha1>.npz`` per library item, a manifest, the light pack), deleting nothing it did not write and
 going on in memory with one ``warning`` when the folder cannot be used (the folder's checks: ``cache_folder``). It
-never loads clips nor computes entries (``rank.iter_entries`` does). See docs/search.md, "The index and its cache".
+never loads clips nor computes entries (``indexing.iter_entries`` does). See docs/search.md, "The index and its cache".
 """
 
 import io
