@@ -45,23 +45,25 @@ def store_results(settings, results, items, query_name, order_by=SIM_COLUMN, que
     labels = sources.unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
     out.results.clear()
     for r, (is_action, spec, target, name) in zip(results, kinds):
+        d = r.as_dict()  # the one row serialiser (core.search.rows): what ``rank --json`` prints for the row
         row = out.results.add()
         row.name = row.clip_name = name
         row.label = name if is_action else labels.pop()
-        row.distance = r.distance
-        row.has_elastic, row.elastic = r.elastic is not None, (r.elastic if r.elastic is not None else 0.0)
-        row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, r.partial
+        row.distance = r.distance  # the float itself: the JSON's is None when not finite
+        row.has_elastic, row.elastic = d["elastic"] is not None, d["elastic"] or 0.0
+        row.approximate, row.frames, row.shared, row.partial = r.approximate, r.frames, r.shared, d["partial"]
         row.is_action, row.spec, row.target, row.written = is_action, spec, target, ""
         row.source = name if is_action else spec
-        row.coverage = getattr(r, "coverage", 1.0)  # joints compared / joints both rigs have (core.rigs)
-        row.unmapped = ", ".join(getattr(r, "unmapped", ()))
+        row.coverage = d["coverage"]  # joints compared / joints both rigs have (core.rigs)
+        row.unmapped = ", ".join(d["unmapped"])
         # the matched window, when the ranking reports one (else 0..0: the whole clip, ``frames`` long)
-        row.frame_first, row.frame_last = getattr(r, "start", None) or 0, getattr(r, "end", None) or 0
+        row.frame_first, row.frame_last = d.get("start") or 0, d.get("end") or 0
         row.window_action = ""
-        row.explain = json.dumps(r.explain) if getattr(r, "explain", None) else ""
-        trimmed = getattr(r, "trimmed", ())  # the frames compared when trimming cut some
+        row.explain = json.dumps(r.explain) if r.explain else ""
         # kept / read apart from the moment's window: Assign and Preview of a trimmed clip give the whole action
-        row.kept_first, row.kept_last = trimmed[:2] if trimmed else (0, 0)
-        row.read_first, row.read_last = trimmed[2:] if trimmed else (0, 0)
+        kept, cut = d["trim"], d["trimmed"]
+        trimmed = kept is not None  # a trim record: the frames compared when trimming cut some
+        row.kept_first, row.kept_last = kept if trimmed else (0, 0)
+        row.read_first, row.read_last = (kept[0] - cut[0], kept[1] + cut[1]) if trimmed else (0, 0)
     out.results_index, out.query_name, out.order_by = 0, query_name, order_by
     out.query_bones, out.seconds = query_bones, seconds
