@@ -6,6 +6,7 @@ does is the computation's to document: the index loops stop and keep what they h
 bar on stderr (the command line and the evaluation). A stage that wants to name its item knows its own list."""
 
 import sys
+import time
 
 from .errors import Cancelled
 
@@ -37,11 +38,14 @@ class Counter:
 
 class Bar:
     """``progress(done, total)`` drawn as a tqdm bar on stderr titled ``desc``; a silent callable when ``enabled``
-    is False, when tqdm is missing, or for fewer than two units. Never cancels. Use as a context manager (or
-    ``close``)."""
+    is False, when tqdm is missing, or for fewer than two units. The bar appears once the work has gone on for
+    ``DELAY`` seconds (a warm query, every entry a cache hit, draws none and never imports tqdm; a bar that
+    ``total`` opens at once is drawn at once). Never cancels. Use as a context manager (or ``close``)."""
+
+    DELAY = 0.5  # seconds: tqdm's own ``delay`` idea, without importing tqdm for work that ends sooner
 
     def __init__(self, desc, enabled=True, total=None):
-        self.desc, self.enabled, self._bar, self._done = desc, enabled, None, 0
+        self.desc, self.enabled, self._bar, self._done, self._since = desc, enabled, None, 0, None
         if total is not None:
             self._open(total)
 
@@ -58,6 +62,10 @@ class Bar:
 
     def __call__(self, done, total):
         if self._bar is None and self.enabled:
+            now = time.monotonic()
+            self._since = now if self._since is None else self._since
+            if now - self._since < self.DELAY or done >= total:
+                return
             self._open(total)
         if self._bar is not None and done > self._done:
             self._bar.update(done - self._done)

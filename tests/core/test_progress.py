@@ -89,7 +89,14 @@ def test_counter_reports_the_running_count():
     assert rec.calls == [(2, 9), (2, 9), (4, 9), (7, 9)]
 
 
-def test_bar_draws_on_stderr_and_never_cancels(capsys):
+def test_bar_draws_on_stderr_and_never_cancels(capsys, monkeypatch):
+    with progress.Bar("fast") as bar:  # work done within DELAY (a warm query): no bar
+        assert [bar(k, 4) for k in range(5)] == [None] * 5
+    assert capsys.readouterr().err == ""
+    with progress.Bar("opened", total=4) as bar:  # a total given: drawn at once
+        bar(1, 4)
+    assert "opened" in capsys.readouterr().err
+    monkeypatch.setattr(progress.Bar, "DELAY", 0.0)  # work that goes on: drawn
     with progress.Bar("loading") as bar:
         assert [bar(k, 4) for k in range(5)] == [None] * 5
     assert "loading" in capsys.readouterr().err
@@ -240,7 +247,8 @@ def test_make_blends_reports_blends_and_cancels(clips, n):
 
 # ------------------------------------------------------------------------------------- the command line
 
-def test_command_line_draws_its_bars_through_the_adapter(data_dir, tmp_path, capsys):
+def test_command_line_draws_its_bars_through_the_adapter(data_dir, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(progress.Bar, "DELAY", 0.0)  # these small inputs finish within the bar's delay
     bvh = [str(data_dir / "bvh" / f"{n}.bvh") for n in ("07_01", "07_02", "09_02")]
     code = cli.main(["matrix", *bvh, "--metric", "sim2", "--out", str(tmp_path), "--no-figures", "--workers", "1",
                      "--end", "60"])

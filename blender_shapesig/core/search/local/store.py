@@ -45,6 +45,10 @@ _ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "t
            "take_mask": np.uint8}
 
 
+class _Rows(list):
+    """A library file's rows of one cached file whose entries are not made yet (``LocalEntries._pack_entries``)."""
+
+
 def _entry(m, arrays):
     if m.get("refused"):
         return {"name": m["name"], "refused": str(m["refused"])}
@@ -95,8 +99,17 @@ class LocalEntries:
         if lib.format != self._format():
             return
         self._lib = lib
-        for name, size, mtime, meta, rows in lib.files:
-            self._lpack[name] = (size, mtime, meta, [lib.entry(m, r) for m, r in zip(meta["clips"], rows)])
+        for name, size, mtime, meta, rows in lib.files:  # entries made when read (``_pack_entries``)
+            self._lpack[name] = (size, mtime, meta, _Rows(rows))
+
+    def _pack_entries(self, name):
+        """The entries of the pack's file ``name``, made from the library file at their first read (a library
+        file also holds the files of other settings, kept until their files go: nobody reads those)."""
+        size, mtime, meta, got = self._lpack[name]
+        if isinstance(got, _Rows):
+            got = [self._lib.entry(m, r) for m, r in zip(meta["clips"], got)]
+            self._lpack[name] = (size, mtime, meta, got)
+        return got
 
     def _pack_local(self, fn, meta, entries):
         if self._lpack is None:
@@ -112,7 +125,7 @@ class LocalEntries:
         with self._lock:
             if self._lib is None:
                 return
-            lists = [got[3] for got in (self._lpack or {}).values()] + list(self._local.values())
+            lists = [self._pack_entries(name) for name in (self._lpack or {})] + list(self._local.values())
             for entries in lists:
                 for e in entries:
                     if e.pop("_rows", None) is not None:
@@ -129,7 +142,8 @@ class LocalEntries:
         if MAPPED_FILES_LOCKED:
             self.release_library()
         with self._lock:
-            files = [(name, size, mtime, meta, entries) for name, (size, mtime, meta, entries) in self._lpack.items()
+            files = [(name, size, mtime, meta, self._pack_entries(name))
+                     for name, (size, mtime, meta, _) in list(self._lpack.items())
                      if os.path.exists(os.path.join(self.path, name))]
             try:
                 self._atomic_write(os.path.join(self.path, LOCAL_PACK),
@@ -154,7 +168,7 @@ class LocalEntries:
         got = self._lpack.get(os.path.basename(fn))
         if got is not None and (got[0], got[1]) == (st.st_size, st.st_mtime_ns) and got[2].get("key") == key \
                 and got[2].get("settings") == settings_key:
-            return got[3]
+            return self._pack_entries(os.path.basename(fn))
         try:
             with np.load(fn, allow_pickle=False) as z:
                 meta = json.loads(bytes(z["meta"]).decode("utf-8"))
