@@ -32,7 +32,7 @@ import _common as harness  # noqa: E402  (puts the repository on sys.path)
 
 ROOT = harness.ROOT
 
-from blender_shapesig.core.signatures import signatures as sg, tensor  # noqa: E402
+from blender_shapesig.core.signatures import lyndon, signatures as sg, tensor  # noqa: E402
 from blender_shapesig.core.io.acclaim import load_acclaim  # noqa: E402
 
 try:
@@ -97,8 +97,8 @@ def main(argv=None):
         row("development: rotation vectors log(R[k+1] R[k]^T) (in every curve-level call)",
             timed(lambda: sg.development_increments(R0), args.repeat))
         # --- numpy: one-off Lyndon projection (cold: clear the caches first)
-        for fn in (tensor._is_lyndon, tensor.lyndon_words, tensor._factorization, tensor._bracket_matrix,
-                   tensor._projection_level):
+        for fn in (lyndon._is_lyndon, lyndon.lyndon_words, lyndon._factorization, lyndon._bracket_matrix,
+                   lyndon._projection_level):
             fn.cache_clear()
         t_proj, _ = once(lambda: tensor.lyndon_projection(d, n))
         row("numpy prepare (Lyndon projection, once per dim/level)", t_proj)

@@ -10,7 +10,7 @@ import os
 
 import numpy as np
 
-from ..core.search.dedupe import choose_keeper, copy_facts
+from ..core.search.dedupe_keeper import choose_keeper, copy_facts
 from ..core.measure_words import MEASURES
 from ..core.io.sources import clip_address
 from ..core.io.text import plot_name
@@ -42,8 +42,8 @@ def speed_trace(entry):
 
 def _cluster_png(members, entries, labels):
     """Two panels: each member's joint speed on its own seconds, and its time map onto the first member
-    (``core.search.dedupe.time_map``: the diagonal for a copy, a curve for a re-timed or trimmed one)."""
-    from ..core.search.dedupe import time_map
+    (``core.search.dedupe_check.time_map``: the diagonal for a copy, a curve for a re-timed or trimmed one)."""
+    from ..core.search.dedupe_check import time_map
     from ..core.errors import ShapeSigError
     from ..evaluation.plots import pyplot
 

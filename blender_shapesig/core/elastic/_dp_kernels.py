@@ -1,6 +1,6 @@
 """DP kernels of the elastic distance: ``dp_numba`` (JIT-compiled, cached, releases the GIL; ``HAVE_NUMBA`` says
-whether it exists; ``threads=2`` splits a large band's columns over two threads), ``gram`` (the Gram matrix of the
-DP's SRVT matrices) and the penalty terms both kernels share; the pure numpy kernel ``dp_numpy`` is in
+whether it exists; ``threads=2`` splits a large band's columns over two threads: ``_dp_threads``), ``gram`` (the
+Gram matrix of the DP's SRVT matrices) and the penalty terms both kernels share; the pure numpy kernel ``dp_numpy`` is in
 ``_dp_numpy``. Both kernels take the same arguments, return ``(value, nodes)`` and evaluate every candidate with one
 floating-point expression in one order, so their results are identical. The maths is in ``elastic``; the
 floating-point contract is in docs/elastic.md, "Implementation notes".
@@ -9,6 +9,7 @@ floating-point contract is in docs/elastic.md, "Implementation notes".
 import numpy as np
 
 from . import _workspace
+from ._dp_threads import PARALLEL_MIN_NODES, ROW_BLOCK, column_split, dp_two_threads
 
 try:  # numba is optional: Blender's Python does not ship it
     import numba as _numba
@@ -364,53 +365,6 @@ def gram(Q0, Q1, work=False):
     return G[:n0]
 
 
-# Two threads for one DP only above this many band nodes (below, starting the second thread costs more than
-# it saves); ``_ROW_BLOCK`` rows per hand-over between them.
-PARALLEL_MIN_NODES = 20_000
-_ROW_BLOCK = 12
-_POOL = []
-
-
-def _column_split(lo, hi, n1, share=0.5):
-    """The column s with a ``share`` of the band's nodes before it (the columns j < s to the helper thread, the
-    others to the calling one)."""
-    count = np.zeros(n1 + 2, dtype=np.int64)
-    np.add.at(count, lo[1:], 1)
-    np.add.at(count, hi[1:] + 1, -1)
-    per_column = np.cumsum(count)[:n1 + 1]
-    total = np.cumsum(per_column)
-    return int(np.searchsorted(total, total[-1] * share)) + 1
-
-
-def _dp_two_threads(A, args, n0, n1, split):
-    """Rows of the DP in blocks on two threads: the left columns (j < split) depend only on left columns of earlier
-    rows, so a helper thread runs through them freely; this thread computes the right columns of a block of rows
-    once the helper has finished the left columns of that block (a node reads rows before its own only). Every
-    node is computed by the same code as in one thread: the values are bit-identical."""
-    import threading
-    from concurrent.futures import ThreadPoolExecutor
-
-    if not _POOL:
-        _POOL.append(ThreadPoolExecutor(max_workers=1, thread_name_prefix="shapesig-dp"))
-    blocks = list(range(1, n0 + 1, _ROW_BLOCK)) + [n0 + 1]
-    done = [threading.Event() for _ in blocks[:-1]]
-
-    def left():
-        for b in range(len(done)):
-            _dp_rows(A, *args, blocks[b], blocks[b + 1], 0, split - 1)
-            done[b].set()
-
-    fut = _POOL[0].submit(left)
-    try:
-        for b in range(len(done)):
-            while not done[b].wait(0.05):
-                if fut.done():  # the helper failed: re-raise its error
-                    fut.result()
-            _dp_rows(A, *args, blocks[b], blocks[b + 1], split, n1)
-    finally:
-        fut.result()
-
-
 def _thin_index(di, dj):
     """Table indices of the thin steps: col_step[a] of (a, 1), row_step[b] of (1, b) (-1: none); once per table."""
     return _workspace.memo(("thin", di.tobytes(), dj.tobytes()), lambda: _make_thin_index(di, dj))
@@ -427,8 +381,8 @@ def _make_thin_index(di, dj):
 
 
 def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_path=True, threads=1, work=False):
-    """``threads`` = 2: the rows' column halves on two threads (``_dp_two_threads``) when the band has at least
-    ``PARALLEL_MIN_NODES`` nodes; the result is the same bit for bit. ``work``: the DP values in this thread's
+    """``threads`` = 2: the rows' column halves on two threads (``_dp_threads.dp_two_threads``) when the band has at
+    least ``PARALLEL_MIN_NODES`` nodes; the result is the same bit for bit. ``work``: the DP values in this thread's
     reused array (``_workspace``)."""
     if not HAVE_NUMBA:
         raise RuntimeError("numba is not available")
@@ -442,9 +396,9 @@ def dp_numba(G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, want_p
     col_step, row_step = _thin_index(di, dj)
     args = (G, B0, B1, h0, h1, lam, di, dj, start, ea, eb, coef, lo, hi, r, P1, P2, col_step, row_step)
     nodes = int(np.sum(hi - lo + 1))
-    split = _column_split(lo, hi, n1) if threads > 1 and nodes >= PARALLEL_MIN_NODES and n0 > _ROW_BLOCK else 0
+    split = column_split(lo, hi, n1) if threads > 1 and nodes >= PARALLEL_MIN_NODES and n0 > ROW_BLOCK else 0
     if 0 < split <= n1:
-        _dp_two_threads(A, args, n0, n1, split)
+        dp_two_threads(_dp_rows, A, args, n0, n1, split)
     else:
         _dp_rows(A, *args, 1, n0 + 1, 0, n1)
     value = float(A[-1, -1])

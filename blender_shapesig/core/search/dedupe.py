@@ -1,9 +1,9 @@
 """Near-duplicate clusters of a library, the pure logic of ``dedupe`` (never imports bpy, dask or matplotlib): a
 signature k-NN graph on a common bone tuple (``common_entry``, ``knn_graph``; ``pair_sim`` is ``rank``'s sim^n), the
-elastic check of its candidate pairs on the comparison time base (``check_pairs``), the thresholds
-(``relative_threshold``), the same take in another file (``take_vector``, ``is_conversion``: the search's twin test),
-complete-linkage ``clusters``, which test a near miss failed (``DedupeResult.failed``) and which copy of a cluster to
-keep (``choose_keeper``). See docs/search.md, "Library report (dedupe)".
+elastic check of its candidate pairs on the comparison time base (``check_pairs``, owned by ``dedupe_check``), the
+thresholds (``relative_threshold``), the same take in another file (``take_vector``, ``is_conversion``: the search's
+twin test), complete-linkage ``clusters``, which test a near miss failed (``DedupeResult.failed``) and which copy of
+a cluster to keep (``choose_keeper``, owned by ``dedupe_keeper``). See docs/search.md, "Library report (dedupe)".
 """
 
 import time
@@ -13,19 +13,16 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..clip.clip import Clip
-from ..errors import ShapeSigError
-from .signature.entry import IndexEntry, curve_from_increments, entry_distance, pair_increments
-from .local import take as take_mod
-from .signature.words import word_codes
-from ..geometry import so3
-from ..distances import clip_distance
 from ..elastic import DEFAULT_DEPTH
+from ..errors import ShapeSigError
 from ..measure_words import MEASURES, OPTIONS
-from ..metric_names import time_base_smoothing
-from ..clip.prepare import prepare_clip
 from ..rigs import JOINTS
 from ..signatures.signatures import ZERO_NORM
+from .dedupe_check import check_pairs, elastic_check, pair_curves, prepared_pair, srvt_energy, time_map
+from .dedupe_keeper import COMMON_RATES, KEEP_TIE, choose_keeper, copy_facts
+from .local import take as take_mod
+from .signature.entry import IndexEntry, entry_distance
+from .signature.words import word_codes
 
 __all__ = ["DEFAULT_K", "SIM_RATIO", "THRESHOLD_RATIO", "Edge", "DedupeResult", "common_entry", "pair_sim", "knn_graph",
            "pair_curves", "prepared_pair", "time_map", "srvt_energy", "elastic_check", "check_pairs", "relative_threshold", "sample_edges",
@@ -267,70 +264,6 @@ def knn_graph(entries: Sequence[IndexEntry], k=DEFAULT_K, pool=None) -> List[Edg
 
 # ---------------------------------------------------------------------------------------- stage 2
 
-def pair_curves(a: IndexEntry, b: IndexEntry) -> Tuple[Clip, Clip]:
-    """Two clips rebuilt from the entries' increments on the bones both have (in ``a``'s order; bones still in
-    both dropped), each at its own frame rate."""
-    in_b = set(b.bones)
-    shared = [x for x in a.bones if x in in_b]
-    if not shared:
-        raise ShapeSigError(f"clips {a.name!r} and {b.name!r} share no bones")
-    ia, ib = pair_increments(a, b, shared)
-    moving = {a.bones[j] for j in a.moving} | {b.bones[j] for j in b.moving}
-    kept = [x for x in shared if x in moving] or shared  # pair_increments' columns (all when nothing moves)
-    return (Clip(a.name, kept, curve_from_increments(ia), fps=a.fps),
-            Clip(b.name, kept, curve_from_increments(ib), fps=b.fps))
-
-
-def srvt_energy(R) -> float:
-    """|q|^2 of a curve's SRVT (per-joint norm): sum over joints of the integral of |eta|, i.e. the total angle
-    its joints turn through (independent of the parametrization)."""
-    return float(np.linalg.norm(so3.relative_rotvecs(R), axis=-1).sum())
-
-
-def prepared_pair(a: IndexEntry, b: IndexEntry) -> Tuple[Clip, Clip]:
-    """``pair_curves`` on the comparison time base with the elastic low-pass (what ``elastic_check`` compares).
-    ShapeSigError when the two share no bones."""
-    smooth = time_base_smoothing("elastic")
-    ca, cb = pair_curves(a, b)
-    return prepare_clip(ca, smooth=smooth), prepare_clip(cb, smooth=smooth)
-
-
-def time_map(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[np.ndarray, np.ndarray]:
-    """``(ta, tb)``: the optimal alignment of ``b`` onto ``a`` (``elastic.elastic_align`` of the prepared pair)
-    as matching times in seconds of each clip (the diagonal for a copy, a curve for a re-timed one)."""
-    from ..elastic.elastic import elastic_align
-
-    pa, pb = prepared_pair(a, b)
-    warp, _ = elastic_align(pa.rotations, pb.rotations, depth=depth)
-    return warp[:, 0] * (pa.frames - 1) / pa.fps, warp[:, 1] * (pb.frames - 1) / pb.fps
-
-
-def elastic_check(a: IndexEntry, b: IndexEntry, depth=DEFAULT_DEPTH) -> Tuple[float, float]:
-    """``(d, r)``: d_S* of two entries (increments loaded) on the comparison time base (``prepare.prepare_clip``
-    with the elastic low-pass, then ``metrics.clip_distance``) and the *relative* distance
-    r = d / sqrt(|q_a|^2 + |q_b|^2) (``srvt_energy`` of the prepared curves). r is scale-free (0 for a copy,
-    about 1 for unrelated motions; d_S* itself grows with how much the clips move), so one threshold fits
-    short runs and long takes. (inf, inf) when the two share no moving bone.
-
-    Identical prepared curves (an exact copy under another name) give (0, 0) without the DP: the DP sums
-    |q_a|^2 + |q_b|^2 - 2 <q_a, q_b> along the path, and that cancellation leaves a rounding residue of
-    about sqrt(eps) |q| (1e-8 relative, 30 fps lattice) instead of 0, so ``--threshold 0`` would keep nothing."""
-    try:
-        pa, pb = prepared_pair(a, b)
-    except ShapeSigError:
-        return float("inf"), float("inf")
-    if pa.rotations.shape == pb.rotations.shape and np.array_equal(pa.rotations, pb.rotations):
-        return 0.0, 0.0  # the same curve: d_S* = 0 exactly (the DP's energy form leaves ~sqrt(eps |q|^2))
-    d = float(clip_distance(pa, pb, "elastic", depth=depth, time_base=False))
-    energy = srvt_energy(pa.rotations) + srvt_energy(pb.rotations)
-    return d, (d / np.sqrt(energy) if energy > 0 else (0.0 if d == 0 else float("inf")))
-
-
-def check_pairs(pairs, depth=DEFAULT_DEPTH) -> List[Tuple[float, float]]:
-    """``elastic_check`` of each ``(a, b)`` pair of entries: one task of the parallel check."""
-    return [elastic_check(a, b, depth) for a, b in pairs]
-
-
 def relative_threshold(values, ratio) -> float:
     """``ratio`` * the median of the finite values (0 when there are none)."""
     v = np.asarray([x for x in values if x is not None and np.isfinite(x)], np.float64)
@@ -462,60 +395,3 @@ def find_duplicates(entries: Sequence[IndexEntry], k=DEFAULT_K, threshold=None, 
     out.components = chain_components(len(entries), confirmed)
     timings["linkage"] = time.perf_counter() - t0
     return out
-
-
-_SAME = {"seconds": "length", "fps": "frame rate", "trimmed": "trim"}
-# durations within this fraction of the longest are a tie (the next rule decides)
-KEEP_TIE = 0.02
-
-
-# the usual frame rates of motion files: a rate known to within the comparison time base's step snaps to one
-COMMON_RATES = (24.0, 25.0, 30.0, 48.0, 50.0, 60.0, 72.0, 90.0, 100.0, 120.0, 144.0, 180.0, 240.0, 250.0, 480.0)
-
-
-def copy_facts(entry) -> Dict[str, float]:
-    """What tells copies apart, from an index entry: ``fps`` (the clip's own rate), ``seconds`` (its length at that
-    rate) and ``trimmed`` (rest-pose / ramp frames cut at its ends). The entry keeps the clip's frame count and the
-    compared curve's, whose length is the clip's rounded down to the time base's step (1 / ``entry.fps``): the
-    rate lies in an interval, and is the usual rate inside it (``COMMON_RATES``) when there is one."""
-    step = 1.0 / entry.fps if entry.fps > 0 else 0.0
-    lower = (entry.frames - 1) * step
-    frames = entry.clip_frames or entry.frames
-    if lower <= 0 or frames < 2:
-        fps = 0.0
-    else:
-        lo, hi = (frames - 1) / (lower + step), (frames - 1) / lower
-        usual = [r for r in COMMON_RATES if lo <= r <= hi]
-        fps = min(usual, key=lambda r: abs(r - 0.5 * (lo + hi))) if usual else 0.5 * (lo + hi)
-    t = tuple(entry.trimmed)
-    trimmed = (t[0] - t[2]) + (t[3] - t[1]) if len(t) == 4 else 0
-    return {"seconds": float((frames - 1) / fps) if fps else 0.0, "fps": float(fps), "trimmed": int(trimmed)}
-
-
-def choose_keeper(entries) -> Tuple[int, List[str]]:
-    """(index, reasons): the copy of a cluster to keep: the longest (durations within ``KEEP_TIE`` tie), then
-    the highest frame rate (within 1 %), then the least trimmed; the reasons name the rule that decided and the
-    ties before it, in words."""
-    facts = [copy_facts(e) for e in entries]
-    alive = list(range(len(entries)))
-    reasons = []
-    rules = (("seconds", "longest", lambda f: f"{f:.2f} s", KEEP_TIE, max),
-             ("fps", "highest frame rate", lambda f: f"{f:.0f} fps", 0.01, max),
-             ("trimmed", "least trimmed", lambda f: f"{f:.0f} frames cut", None, min))
-    for key, word, fmt, tol, pick in rules:
-        best = pick(facts[i][key] for i in alive)
-        if tol is None:
-            keep = [i for i in alive if facts[i][key] == best]
-        else:
-            keep = [i for i in alive if abs(facts[i][key] - best) <= tol * max(abs(best), 1e-9)]
-        others = sorted({fmt(facts[i][key]) for i in alive if i not in keep})
-        if others:
-            reasons.append(f"{word}: {fmt(best)} (others {', '.join(others)})")
-        elif len(alive) > 1:
-            reasons.append(f"same {_SAME[key]} ({fmt(best)})")
-        alive = keep
-        if len(alive) == 1:
-            break
-    if len(alive) > 1:
-        reasons.append("otherwise alike: the first in the library")
-    return alive[0], reasons

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.spatial.transform import Rotation
 
-from blender_shapesig.core.elastic import _dp_kernels, elastic
+from blender_shapesig.core.elastic import _dp_kernels, _dp_threads, elastic
 from blender_shapesig.core.geometry.curves import l2_distance, move_to_identity, srvt
 from blender_shapesig.core.elastic.elastic import (
     elastic_align,
@@ -357,13 +357,13 @@ def test_two_threads_identical_dp_table_large_pair(penalty):
             t["eb"], prob.coef, prob.lo, prob.hi, r, P1, P2) + _dp_kernels._thin_index(t["di"], t["dj"])
     n0, n1 = prob.G.shape
     assert int(np.sum(prob.hi - prob.lo + 1)) >= _dp_kernels.PARALLEL_MIN_NODES
-    split = _dp_kernels._column_split(prob.lo, prob.hi, n1)
+    split = _dp_threads.column_split(prob.lo, prob.hi, n1)
     assert 0 < split <= n1
     one = np.full((n0 + 1, n1 + 1), np.inf)
     one[0, 0] = 0.0
     two = one.copy()
     _dp_kernels._dp_rows(one, *args, 1, n0 + 1, 0, n1)
-    _dp_kernels._dp_two_threads(two, args, n0, n1, split)
+    _dp_threads.dp_two_threads(_dp_kernels._dp_rows, two, args, n0, n1, split)
     assert np.isfinite(one[-1, -1])
     assert np.array_equal(one, two)  # inf where unreachable in both, every finite value bit for bit
     wa, da, ia = elastic_align(R0, R1, penalty=penalty, method="numba", return_info=True, threads=1)

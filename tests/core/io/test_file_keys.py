@@ -1,4 +1,4 @@
-"""File keys remembered between processes (``sources.load_file_keys`` / ``file_keys_record``, kept by the command
+"""File keys remembered between processes (``file_keys.load_file_keys`` / ``file_keys_record``, kept by the command
 line in the cache folder): a file whose size, mtime, inode and change time are the recorded ones is keyed without
 being read; an edit that restores size and mtime (its change time moves) is read again, as is a file recorded while
 it could still be changing (git's racy rule); the command line's second ``rank`` reads no library file to key it
@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from blender_shapesig.core.io import sources
+from blender_shapesig.core.io import file_keys, sources
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 BVH = ROOT / "tests" / "data" / "bvh"
@@ -23,9 +23,9 @@ BVH = ROOT / "tests" / "data" / "bvh"
 @pytest.fixture
 def fresh(monkeypatch):
     """An empty memory of file keys (a new process), and a count of the files hashed."""
-    monkeypatch.setattr(sources, "_FILE_KEYS", {})
-    monkeypatch.setattr(sources, "_RECORDED", {})
-    monkeypatch.setattr(sources, "_HASHED", {})
+    monkeypatch.setattr(file_keys, "_FILE_KEYS", {})
+    monkeypatch.setattr(file_keys, "_RECORDED", {})
+    monkeypatch.setattr(file_keys, "_HASHED", {})
     hashed = []
     real = hashlib.sha1
 
@@ -33,14 +33,14 @@ def fresh(monkeypatch):
         hashed.append(1)
         return real(*a)
 
-    monkeypatch.setattr(sources.hashlib, "sha1", counting)
+    monkeypatch.setattr(file_keys.hashlib, "sha1", counting)
     return hashed
 
 
 def _new_process(monkeypatch, record):
-    monkeypatch.setattr(sources, "_FILE_KEYS", {})
-    monkeypatch.setattr(sources, "_RECORDED", {})
-    monkeypatch.setattr(sources, "_HASHED", {})
+    monkeypatch.setattr(file_keys, "_FILE_KEYS", {})
+    monkeypatch.setattr(file_keys, "_RECORDED", {})
+    monkeypatch.setattr(file_keys, "_HASHED", {})
     return sources.load_file_keys(json.loads(json.dumps(record)))  # as stored: through JSON
 
 
@@ -48,7 +48,7 @@ def test_a_recorded_file_is_keyed_without_reading_it(tmp_path, fresh, monkeypatc
     paths = [tmp_path / f"{i}.bvh" for i in range(3)]
     for i, p in enumerate(paths):
         p.write_bytes(f"clip {i}\n".encode())
-    time.sleep(sources.RACY_NS / 1e9 + 0.1)  # the files settle before they are hashed
+    time.sleep(file_keys.RACY_NS / 1e9 + 0.1)  # the files settle before they are hashed
     keys = [sources.file_key(p, "x") for p in paths]
     assert len(fresh) == 3
     record = sources.file_keys_record()
@@ -63,7 +63,7 @@ def test_a_recorded_file_is_keyed_without_reading_it(tmp_path, fresh, monkeypatc
 def test_an_edit_that_restores_size_and_mtime_is_read_again(tmp_path, fresh, monkeypatch):
     p = tmp_path / "a.bvh"
     p.write_bytes(b"clip A\n")
-    time.sleep(sources.RACY_NS / 1e9 + 0.1)
+    time.sleep(file_keys.RACY_NS / 1e9 + 0.1)
     before = sources.file_key(p)
     record = sources.file_keys_record()
     st = p.stat()
@@ -101,14 +101,14 @@ def test_the_second_rank_reads_no_library_file_to_key_it(tmp_path):
     lib.mkdir()
     for name in ("07_01", "07_02", "09_02"):
         (lib / f"{name}.bvh").write_bytes((BVH / f"{name}.bvh").read_bytes())
-    time.sleep(sources.RACY_NS / 1e9 + 0.1)
+    time.sleep(file_keys.RACY_NS / 1e9 + 0.1)
     cmd = ["rank", str(lib / "07_01.bvh"), str(lib), "--json", "--no-progress", "--cache", str(tmp_path / "cache")]
     # the command line in a fresh process, counting the files it hashes to key them
     probe = ("import runpy, sys, hashlib\n"
-             "from blender_shapesig.core.io import sources\n"
+             "from blender_shapesig.core.io import file_keys\n"
              "seen = []\n"
              "real = hashlib.sha1\n"
-             "sources.hashlib = type('H', (), {'sha1': staticmethod(lambda *a: (seen.append(1), real(*a))[1])})\n"
+             "file_keys.hashlib = type('H', (), {'sha1': staticmethod(lambda *a: (seen.append(1), real(*a))[1])})\n"
              "sys.argv = ['blender_shapesig'] + sys.argv[1:]\n"
              "try:\n"
              "    runpy.run_module('blender_shapesig', run_name='__main__')\n"
