@@ -22,7 +22,7 @@ from ..rigs import rigmap
 from ..core import search as index
 from ..core.io import sources
 from ..core.measure_words import OPTIONS
-from ..core.errors import ShapeSigError, UnreadableFileError, check_frame_range, check_integer
+from ..core.errors import ShapeSigError, check_frame_range, check_integer
 from ..core.io.files import skipped_line
 from ..actions.owners import find_owner
 from .rig_library import library_actions
@@ -289,54 +289,52 @@ def _file_actions(settings, obj, owners=None):
         yield action
 
 
-def _folder_specs(context, settings, skipped):
-    """The folders' clip files as ClipSpecs, not keyed yet; files the readers do not open go to ``skipped``."""
+def _folder_library(context, settings) -> sources.Library:
+    """The folders' clip files as a ``sources.Library`` (found now, keyed one per step by its ``members``): the
+    command line's library, with the panel's read options."""
     folders = _folders(context, settings)
     if not folders:
         raise ShapeSigError("no library folders: add some in the panel or the add-on preferences")
     asf = bpy.path.abspath(settings.asf.strip()) if settings.asf.strip() else None
     if asf is not None and not os.path.isfile(asf):
         raise ShapeSigError(f"the skeleton file {asf} does not exist")
+    missing = next((f for f in folders if not os.path.isdir(f)), None)
+    if missing is not None:
+        raise ShapeSigError(f"library folder {missing!r} does not exist")
     trim, fps = _read_options(settings)
-    return [sources.ClipSpec.parse(s, start=settings.crop_start or None, asf=asf, trim=trim, fps=fps)
-            for s in sources.discover(folders, skipped=skipped)]
-
-
-def _spec_item(spec, skipped):
-    """The LibraryItem of a folder file (its key hashes the file), or None with the reason in ``skipped``."""
-    try:
-        return sources.spec_item(spec)
-    except (ShapeSigError, OSError) as exc:
-        skipped.append(exc if isinstance(exc, ShapeSigError) else UnreadableFileError(
-            f"cannot be read ({exc.strerror or exc})", spec.path))
-        return None
+    files = sources.Library(folders, lambda text: sources.ClipSpec.parse(
+        text, start=settings.crop_start or None, asf=asf, trim=trim, fps=fps), strict=False)
+    files.found()  # a folder that does not exist is refused now; files the readers never open are skipped
+    return files
 
 
 @dataclass
 class SearchLibrary:
     """What a search reads: the query (its action and item), the file's actions as items, and the folders' clip
-    files as ClipSpecs that are keyed only in ``members``, one per step, so that hashing the files runs inside
-    the progress loop (Esc reaches it). ``skipped``: the files left out (not regular files, unreadable, over a
-    cap: one-line ShapeSigErrors)."""
+    files (``files``, a ``sources.Library``) that are keyed only in ``members``, one per step, so that hashing the
+    files runs inside the progress loop (Esc reaches it). ``skipped``: the files left out (not regular files,
+    unreadable, over a cap: one-line ShapeSigErrors)."""
 
     action: object
     query: ActionItem
     actions: list
-    specs: list
-    skipped: list
+    files: Optional[sources.Library] = None
     unkeyed: int = 0  # members that could not be keyed (their reasons are in ``skipped``)
 
     @property
+    def skipped(self) -> list:
+        return self.files.skipped if self.files is not None else []
+
+    @property
     def size(self) -> int:  # the query, the actions, the folder files
-        return 1 + len(self.actions) + len(self.specs)
+        return 1 + len(self.actions) + (len(self.files) if self.files is not None else 0)
 
     def members(self):
         """Yield each member's LibraryItem, the query first; a folder file is keyed at its turn (None when it
         cannot be: its reason joins ``skipped``)."""
         yield self.query
         yield from self.actions
-        for spec in self.specs:
-            item = _spec_item(spec, self.skipped)
+        for item in self.files.members(holes=True) if self.files is not None else ():
             self.unkeyed += item is None
             yield item
 
@@ -347,7 +345,7 @@ class SearchLibrary:
 def search_library(context, settings) -> SearchLibrary:
     """The query and the library without reading or hashing a clip file (``SearchLibrary``)."""
     obj, action, q = query_item(context, settings)
-    actions, specs, skipped = [], [], []
+    actions, files = [], None
     trim, fps = _read_options(settings)
     if settings.use_file_actions:
         digests, owners = {}, {}
@@ -356,8 +354,8 @@ def search_library(context, settings) -> SearchLibrary:
         actions = [it for it in actions if it.key != q.key]
         action_changes.save_store()  # for the next session (written when they changed)
     if settings.use_folders:
-        specs = _folder_specs(context, settings, skipped)
-    return SearchLibrary(action, q, actions, specs, skipped)
+        files = _folder_library(context, settings)
+    return SearchLibrary(action, q, actions, files)
 
 
 def library_items(context, settings, obj=None) -> List[sources.LibraryItem]:

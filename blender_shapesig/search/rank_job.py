@@ -43,7 +43,7 @@ class RankJob:
         self.lib = library.search_library(context, settings)  # no clip file read or hashed yet
         self.action, self.query = self.lib.action, self.lib.query
         self.query_name = self.action.name  # the action may be removed while the click runs
-        if not self.lib.actions and not self.lib.specs:
+        if self.lib.size < 2:  # the query alone
             raise ShapeSigError("the library is empty: no other action animates this armature"
                                 + (" or matches the filter" if settings.name_filter else "")
                                 + ("" if settings.use_folders else "; add folders of clips")

@@ -353,18 +353,29 @@ class Library:
         self.recursive, self.load = recursive, load
         self.skipped: List[ShapeSigError] = []
         self._named = {}  # id of a skipped error -> the source text it is about
+        self._found = None
 
-    def members(self) -> Iterator[LibraryItem]:
-        """Each member's item, keyed at its turn, in the order given (a folder's files sorted by path)."""
-        seen = set()
-        for src in self.sources:
-            folder = not isinstance(src, ClipSpec) and os.path.isdir(src)
-            for one in discover([src], self.recursive, skipped=self.skipped) if folder else [src]:
-                text = one.text if isinstance(one, ClipSpec) else os.fspath(one)
-                if self.unique and text in seen:
-                    continue
-                seen.add(text)
-                yield from self._keyed(one, text, named=not folder)
+    def found(self) -> list:
+        """(source, text, named) per member, folders' files found (once; a folder that does not exist raises)."""
+        if self._found is None:
+            self._found, seen = [], set()
+            for src in self.sources:
+                folder = not isinstance(src, ClipSpec) and os.path.isdir(src)
+                for one in discover([src], self.recursive, skipped=self.skipped) if folder else [src]:
+                    text = one.text if isinstance(one, ClipSpec) else os.fspath(one)
+                    if not (self.unique and text in seen):
+                        seen.add(text), self._found.append((one, text, not folder))
+        return self._found
+
+    def __len__(self) -> int:  # members found, keyed or not (a progress bar's total)
+        return len(self.found())
+
+    def members(self, holes=False) -> Iterator[Optional[LibraryItem]]:
+        """Each member's item, keyed at its turn, in the order given (a folder's files sorted by path); ``holes``:
+        None for a member that was skipped (one step of a progress bar each)."""
+        for one, text, named in self.found():
+            got = list(self._keyed(one, text, named))
+            yield from got or ([None] if holes else [])
 
     def items(self) -> List[LibraryItem]:
         return list(self.members())
