@@ -70,3 +70,13 @@ def test_unique_leaves_a_source_met_again_out(folder):
     assert [it.name for it in Library([named, str(folder), named], strict=False, unique=True).items()] == \
         ["07_01", "09_02"]
     assert [it.name for it in library([named, str(folder)])] == ["07_01", "09_02"]
+
+
+def test_holes_give_one_step_per_member_found(folder):
+    """A progress bar's library (the panel's folders): ``len`` counts the members found (the FIFO is left out at
+    discovery, unopened), ``members(holes=True)`` yields one step each, None for the .amc that cannot be keyed."""
+    lib = Library([str(folder)], strict=False)
+    assert len(lib) == 3
+    got = list(lib.members(holes=True))
+    assert [None if it is None else it.name for it in got] == ["07_01", "09_02", None]
+    assert [it.name for it in Library([str(folder)]).members()] == ["07_01", "09_02"]
