@@ -89,7 +89,7 @@ def main(argv=None):
         built = index.build_index(items, cache=cache)
         t_build = time.perf_counter() - t0
         skey = local.settings_key()
-        local_bytes = [os.path.getsize(cache.local_file_for(it.key, skey)) for it in items]
+        local_bytes = [os.path.getsize(cache.local.file_for(it.key, skey)) for it in items]
         sig_bytes = [os.path.getsize(cache.file_for(it.key, index.DEFAULT_LEVEL)) for it in items]
         ranked = {}
 

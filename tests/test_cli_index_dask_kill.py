@@ -37,7 +37,7 @@ def library(data_dir, tmp_path):
 def _stored(folder, cache):
     store, skey = index.SignatureCache(cache), ls.settings_key()
     items = [sources.spec_item(sources.ClipSpec(str(folder / f))) for f in sorted(os.listdir(folder))]
-    return sum(store.contains_local(it.key, skey) for it in items)
+    return sum(store.local.contains(it.key, skey) for it in items)
 
 
 def _warm_up():

@@ -177,7 +177,7 @@ def index_items(items, store, sched=None, progress=None, batch=64):
     from ..core.search.local import features as local
 
     skey = local.settings_key()
-    todo = [it for it in items if not store.contains_local(it.key, skey)]
+    todo = [it for it in items if not store.local.contains(it.key, skey)]
     errors, computed = [], 0
     done = len(items) - len(todo)
     if progress:
@@ -188,7 +188,7 @@ def index_items(items, store, sched=None, progress=None, batch=64):
                 if err:
                     errors.append(err)
                     continue
-                store.put_local(it.key, skey, entries)
+                store.local.put(it.key, skey, entries)
                 computed += 1
             done += len(chunk)
             if progress:
@@ -197,6 +197,6 @@ def index_items(items, store, sched=None, progress=None, batch=64):
         store.save_pack()  # what was stored is in the library file even when the cluster failed
     clips = 0
     for it in items:
-        got = store.get_local(it.key, skey)
+        got = store.local.get(it.key, skey)
         clips += sum(1 for e in got or () if not e.get("refused"))
     return clips, computed, errors

@@ -386,7 +386,7 @@ def index_steps(lib: SearchLibrary, level, cache, errors, local=False, computed=
 def missing_count(context, settings) -> int:
     """How many of the query and library clips the settings' search (the local one: its own entries) lacks."""
     cache, level = get_cache(context), index_level(settings)
-    return sum(not (cache.contains_local(it.key) if uses_local(settings) else cache.contains(it.key, level))
+    return sum(not (cache.local.contains(it.key) if uses_local(settings) else cache.contains(it.key, level))
                for it in index_items(context, settings))
 
 

@@ -509,7 +509,7 @@ def test_corrupt_or_outdated_cache_is_discarded_and_rebuilt(library, rig):
     cache = search_library.get_cache(bpy.context)
     # the local search reads its own entries (half the files: every one damaged is discarded and rebuilt); the
     # signature entries only where it needs them
-    local_files = [f for f in files if any(f == pathlib.Path(cache.local_file_for(k, key)) for k, key in cache._local)]
+    local_files = [f for f in files if any(f == pathlib.Path(cache.local.file_for(k, key)) for k, key in cache.local._local)]
     assert local_files and cache.stats["invalid"] >= len(local_files)
     again = {r.name: r.distance for r in bpy.context.window_manager.shapesig_results.results}
     assert again.keys() == first.keys()

@@ -61,7 +61,7 @@ def _load_heavy(e: IndexEntry, z, i):
             raise ValueError("bad shapes")
 
 
-class SignatureCache(LocalEntries):
+class SignatureCache:
     """Index entries keyed by (content key, level), kept in memory and, with a ``path``, on disk.
 
     ``path``: the folder named by the user; the files live in its subfolder ``CACHE_SUBDIR`` (``self.path``
@@ -91,7 +91,7 @@ class SignatureCache(LocalEntries):
         self._heavy = {}    # (key, level, name) -> bytes of loaded heavy arrays, insertion = recency order
         self._lock = threading.RLock()
         self._sketch_memo = None
-        self._local_init()  # the local search's entries (local_store.LocalEntries)
+        self.local = LocalEntries(self)  # the local search's entries, a namespace of their own
         self._pack = None   # entry file name -> (size, mtime_ns, meta, sketches): the light pack (see save_pack)
         self._pack_dirty = False
         self.stats = {"hits": 0, "disk_hits": 0, "misses": 0, "invalid": 0, "writes": 0}
@@ -159,7 +159,7 @@ class SignatureCache(LocalEntries):
         """Delete what this cache writes in its own folder (entry files, the pack, its temporary files), and
         nothing else."""
         self._pack, self._pack_dirty = {}, False
-        self._lpack, self._lpack_dirty = {}, False
+        self.local = LocalEntries(self)
         for n in os.listdir(self.path):
             if _OWN_FILE.fullmatch(n):
                 try:
@@ -301,9 +301,9 @@ class SignatureCache(LocalEntries):
 
     def save_pack(self):
         """Write the light pack when entries were read or written since it was loaded (``rank_clips`` and
-        ``build_index`` call it at the end), and the local entries' pack (``save_local_pack``). Entries whose
+        ``build_index`` call it at the end), and the local entries' pack (``local.save_pack``). Entries whose
         files are gone are left out."""
-        self.save_local_pack()
+        self.local.save_pack()
         if self.path is None or not self._pack_dirty:
             return
         if not self._writable:
@@ -424,7 +424,7 @@ class SignatureCache(LocalEntries):
             self._mem.clear()
             self._heavy.clear()
             self._sketch_memo = None
-            self._local_init()
+            self.local = LocalEntries(self)
             if self.path is not None:
                 self._remove_entry_files()
 

@@ -45,7 +45,7 @@ def test_ranking_from_the_library_file_equals_the_per_file_store_and_the_search(
     assert open_library(str(pack)).arrays["windows"].shape[1] == ls.DIM
     fresh = index.SignatureCache(cache)
     again = index.rank_clips(q, items, cache=fresh)
-    assert fresh.stats["writes"] == 0 and isinstance(fresh._lib.arrays["windows"].base, np.memmap)
+    assert fresh.stats["writes"] == 0 and isinstance(fresh.local._lib.arrays["windows"].base, np.memmap)
     assert _names(again) == _names(first)
     # the truth: core.search.local.features on entries computed here
     entries = [ls.index_entry(c) for it in items for c in it.clips()]
@@ -76,7 +76,7 @@ def test_added_changed_removed_clips_and_a_damaged_file(lib_dir, tmp_path, data_
     store = index.SignatureCache(cache)
     again = index.rank_clips(q, items, cache=store)
     assert _names(again) == _names(want)
-    assert store.pack_warning and "\n" not in store.pack_warning and store.stats["invalid"] >= 1
+    assert store.local.warning and "\n" not in store.local.warning and store.stats["invalid"] >= 1
     assert open_library(str(pack)).arrays["windows"].shape[0] > 0
     # garbage in place of the header: refused too
     pack.write_bytes(b"SHAPESIG-LPACK2\n" + b"\xff" * 64)
@@ -123,7 +123,7 @@ def test_index_command_json_and_dask(capsys, lib_dir, tmp_path):
     assert json.loads(capsys.readouterr().out)["computed"] == n
     a, b = index.SignatureCache(cache), index.SignatureCache(cache2)
     for it in _items(lib_dir):
-        ea, eb = a.get_local(it.key, ls.settings_key()), b.get_local(it.key, ls.settings_key())
+        ea, eb = a.local.get(it.key, ls.settings_key()), b.local.get(it.key, ls.settings_key())
         assert np.array_equal(np.asarray(ea[0]["windows"]), np.asarray(eb[0]["windows"]))
     assert cli.main(["index", str(lib_dir), "--scheduler", "nonsense"]) == 2
 
@@ -286,15 +286,15 @@ def test_a_cache_of_an_older_recipe_keeps_working(lib_dir, tmp_path):
             for c in items[0].clips()]
     for e in olds:
         e["name"] = "old"
-    old.put_local(items[0].key, "an older recipe", olds)
-    old.save_local_pack()
+    old.local.put(items[0].key, "an older recipe", olds)
+    old.local.save_pack()
     store = index.SignatureCache(folder)
     got = index.rank_clips(q, items, cache=store)  # reads the old pack, writes the new one
     assert _names(got) == _names(index.rank_clips(q, items, cache=None))
     reopened = index.SignatureCache(folder)
-    back = reopened.get_local(items[0].key, "an older recipe")
+    back = reopened.local.get(items[0].key, "an older recipe")
     assert back is not None and "take" not in back[0] and len(back[0]["windows"]) == len(olds[0]["windows"])
-    fresh = reopened.get_local(items[0].key, ls.settings_key())
+    fresh = reopened.local.get(items[0].key, ls.settings_key())
     assert fresh is not None and fresh[0]["take_mask"].any()
-    reopened.release_library()
+    reopened.local.release()
     assert "take" not in back[0] and isinstance(fresh[0]["take"], np.ndarray)

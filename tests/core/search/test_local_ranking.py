@@ -104,7 +104,7 @@ def test_local_entries_live_in_the_signature_cache(clips, tmp_path):
     third = index.rank_clips(q, lib, cache=index.SignatureCache(tmp_path))
     assert third.stats["misses"] == 0 and [(r.name, r.distance) for r in third] == [(r.name, r.distance) for r in first]
     cache = index.SignatureCache(tmp_path)
-    victim = cache.local_file_for(sources.clip_item(lib[0]).key, ls.settings_key())
+    victim = cache.local.file_for(sources.clip_item(lib[0]).key, ls.settings_key())
     with open(victim, "wb") as fh:
         fh.write(b"not a zip")
     fourth = index.rank_clips(q, lib, cache=cache)

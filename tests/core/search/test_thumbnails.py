@@ -154,6 +154,6 @@ def test_no_picture_without_an_index_folder_or_legs(tmp_path):
         T.thumbnail(_item("bvh/09_02.bvh"), SignatureCache(None))
     refused = {"name": "arm", "refused": "local search needs the legs"}
     cache = SignatureCache(tmp_path)
-    cache.put_local("k", __import__("blender_shapesig.core.search.local.features", fromlist=["x"]).settings_key(), [refused])
+    cache.local.put("k", __import__("blender_shapesig.core.search.local.features", fromlist=["x"]).settings_key(), [refused])
     with pytest.raises(ShapeSigError, match="no picture of 'arm'"):
         T.thumbnail(sources.LibraryItem("arm", "k", lambda: []), cache)

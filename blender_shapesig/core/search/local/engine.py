@@ -60,7 +60,7 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
 
 
 class LocalEngine:
-    """The local search; its entries live in the store beside the signature entries (``store.contains_local``)."""
+    """The local search; its entries live in the store beside the signature entries (``store.local.contains``)."""
 
     id = LOCAL
     needs_index = True
@@ -70,7 +70,7 @@ class LocalEngine:
         return ENGINES["local"]
 
     def indexed(self, item, store) -> bool:
-        return store.contains_local(item.key)
+        return store.local.contains(item.key)
 
     def index(self, item, store, errors) -> bool:
         """Index one item when the store lacks it; False when it could not be read (one line in ``errors``)."""

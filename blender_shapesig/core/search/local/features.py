@@ -101,7 +101,7 @@ _KEYS = {}
 
 
 def settings_key(settings: Settings = DEFAULT) -> str:
-    """The settings as text: part of a stored entry's key (``SignatureCache.put_local``; remembered by value: a
+    """The settings as text: part of a stored entry's key (``SignatureCache.local.put``; remembered by value: a
     click asks once per library item)."""
     k = settings.key()
     text = _KEYS.get(k)

@@ -39,10 +39,10 @@ def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.
     """The item's local entries, one per clip: from the store, else computed from its clips (read only then).
     ``skey``: ``local.settings_key(settings)`` when the caller has it (a library's loop)."""
     skey = skey or local.settings_key(settings)
-    got = store.get_local(item.key, skey)
+    got = store.local.get(item.key, skey)
     if got is None:
         got = [_entry(c, settings) for c in item.clips()]
-        store.put_local(item.key, skey, got)
+        store.local.put(item.key, skey, got)
     return got
 
 
@@ -117,7 +117,7 @@ def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST,
     if not pairs:
         return []
     entries = [e for _, e in pairs]
-    d1 = local.first_stage(q, store.local_stack(entries), keep=local.PREFILTER)
+    d1 = local.first_stage(q, store.local.stack(entries), keep=local.PREFILTER)
     order = np.argsort(d1, kind="stable")
     head = order[:max(int(shortlist), 1)]
     score, d2 = local.shortlist_scores(q, [entries[i] for i in head], d1[head], mix)

@@ -1,4 +1,4 @@
-"""The signature cache's part for the local search (``LocalEntries``, mixed into ``store.SignatureCache``): every
+"""The signature cache's namespace for the local search (``LocalEntries``, a store's ``local``): every
 item's local entries (``local.index_entry``, about 16 KB a clip, or a clip's one-line refusal) in a file of their own
 beside its signature entries, named by the item's key and the settings' key; all of them also in one pack
 (``LOCAL_PACK``), so that a new process (a command-line ``rank``) reads a library's entries in one read; and the
@@ -22,7 +22,7 @@ __all__ = ["LOCAL_PACK", "LocalEntries", "hashed_name"]
 
 LOCAL_PACK = "local_pack.bin"
 # Windows does not replace a file this process has memory-mapped: the library file is closed before it is written
-# again (``LocalEntries.release_library``); elsewhere the old mapping stays valid and nothing is copied
+# again (``LocalEntries.release``); elsewhere the old mapping stays valid and nothing is copied
 MAPPED_FILES_LOCKED = os.name == "nt"
 
 
@@ -63,21 +63,30 @@ def _entry(m, arrays):
 
 
 class LocalEntries:
-    """Local-search entries keyed by (item key, settings key); needs the cache's ``path``, ``_lock``, ``stats``,
-    ``_writable``, ``_atomic_write``, ``_memory_only`` and ``FORMAT`` (``store.CACHE_FORMAT``)."""
+    """Local-search entries keyed by (item key, settings key): the ``local`` namespace of a ``store.SignatureCache``
+    (``cache``), whose folder, lock, stats and safe writes it uses."""
 
-    def _local_init(self):
+    def __init__(self, cache):
+        self._cache = cache
         self._local = {}          # (key, settings key) -> [entry]
         self._local_memo = None   # the last library's stack
         self._lpack = None        # file name -> (size, mtime_ns, meta, entries): the pack, once loaded
         self._lpack_dirty = False
         self._lib = None          # the opened library file (local_library.LibraryFile)
-        self.pack_warning = None  # one line when the library file was damaged (it is rebuilt)
+        self.warning = None       # one line when the library file was damaged (it is rebuilt)
+
+    @property
+    def path(self):
+        return self._cache.path
+
+    @property
+    def _lock(self):
+        return self._cache._lock
 
     def _format(self):
-        return self.FORMAT  # the cache's one version of its files (store.CACHE_FORMAT)
+        return self._cache.FORMAT  # the cache's one version of its files (store.CACHE_FORMAT)
 
-    def local_file_for(self, key, settings_key):
+    def file_for(self, key, settings_key):
         return os.path.join(self.path, hashed_name(f"{key}|LOCAL|{settings_key}|F{self._format()}") + ".npz")
 
     # -- the pack: every local file's entries in one memory-mapped file (``local_library``), used while the file
@@ -92,8 +101,8 @@ class LocalEntries:
         except FileNotFoundError:
             return
         except (OSError, ValueError, KeyError, TypeError) as exc:
-            self.pack_warning = f"the library file was damaged and is rebuilt ({exc})"
-            self._discard(fn)
+            self.warning = f"the library file was damaged and is rebuilt ({exc})"
+            self._cache._discard(fn)
             self._lpack_dirty = True
             return
         if lib.format != self._format():
@@ -118,7 +127,7 @@ class LocalEntries:
         self._lpack[os.path.basename(fn)] = (st.st_size, st.st_mtime_ns, meta, entries)
         self._lpack_dirty = True
 
-    def release_library(self):
+    def release(self):
         """Close the memory-mapped library file: every entry read from it gets its arrays copied into memory (in
         place, so lists holding the entries follow) and the store forgets the map, so that the file can be
         replaced; the next process maps the new one."""
@@ -135,33 +144,33 @@ class LocalEntries:
             self._local_memo = None
             self._lib = None
 
-    def save_local_pack(self):
+    def save_pack(self):
         """Write the pack when local entries were read or written since it was loaded (files gone: left out)."""
-        if self.path is None or not self._lpack_dirty or not self._writable:
+        if self.path is None or not self._lpack_dirty or not self._cache._writable:
             return
         if MAPPED_FILES_LOCKED:
-            self.release_library()
+            self.release()
         with self._lock:
             files = [(name, size, mtime, meta, self._pack_entries(name))
                      for name, (size, mtime, meta, _) in list(self._lpack.items())
                      if os.path.exists(os.path.join(self.path, name))]
             try:
-                self._atomic_write(os.path.join(self.path, LOCAL_PACK),
+                self._cache._atomic_write(os.path.join(self.path, LOCAL_PACK),
                                    lambda f: write_library(f, files, self._format()))
             except OSError as exc:
-                self._memory_only(exc)
+                self._cache._memory_only(exc)
                 return
             self._lpack_dirty = False
 
     # -- files
     def _read_local(self, key, settings_key):
-        fn = self.local_file_for(key, settings_key)
+        fn = self.file_for(key, settings_key)
         try:
             st = os.lstat(fn)
         except OSError:
             return None
         if not stat.S_ISREG(st.st_mode):  # a FIFO would hang np.load: never opened
-            self._discard(fn)
+            self._cache._discard(fn)
             return None
         if self._lpack is None:
             self._load_local_pack()
@@ -181,7 +190,7 @@ class LocalEntries:
             self._pack_local(fn, meta, out)
             return out
         except Exception:  # noqa: BLE001 - any unreadable file is discarded (its item is computed again)
-            self._discard(fn)
+            self._cache._discard(fn)
             return None
 
     def _write_local(self, key, settings_key, entries):
@@ -192,42 +201,42 @@ class LocalEntries:
                 arrays.update({f"{k}{i}": np.asarray(e[k], dt) for k, dt in _ARRAYS.items() if k in e})
         buf = io.BytesIO()
         np.savez(buf, **arrays)
-        fn = self.local_file_for(key, settings_key)
-        self._atomic_write(fn, buf.getvalue())
-        self.stats["writes"] += 1
+        fn = self.file_for(key, settings_key)
+        self._cache._atomic_write(fn, buf.getvalue())
+        self._cache.stats["writes"] += 1
         self._pack_local(fn, meta, list(entries))
 
     # -- public
-    def get_local(self, key, settings_key):
+    def get(self, key, settings_key):
         """The local-search entries stored for (key, settings key), or None (a miss)."""
         with self._lock:
             got = self._local.get((key, settings_key))
             if got is None and self.path is not None:
                 got = self._read_local(key, settings_key)
                 if got is not None:
-                    self.stats["disk_hits"] += 1
+                    self._cache.stats["disk_hits"] += 1
                     self._local[(key, settings_key)] = got
-            self.stats["hits" if got is not None else "misses"] += 1
+            self._cache.stats["hits" if got is not None else "misses"] += 1
             return got
 
-    def put_local(self, key, settings_key, entries):
+    def put(self, key, settings_key, entries):
         """Store the local-search entries of (key, settings key) (memory, and disk when the cache has a folder)."""
         with self._lock:
-            if self.path is not None and self._writable:
+            if self.path is not None and self._cache._writable:
                 try:
                     self._write_local(key, settings_key, entries)
                 except OSError as exc:
-                    self._memory_only(exc)
+                    self._cache._memory_only(exc)
             self._local[(key, settings_key)] = list(entries)
 
-    def contains_local(self, key, settings_key=None):
+    def contains(self, key, settings_key=None):
         """True when the local-search entries of (key, settings key; default ``local.DEFAULT``'s) are cached
         (memory or disk), reading nothing."""
         settings_key = settings_key or local.settings_key()
         return (key, settings_key) in self._local or (
-            self.path is not None and os.path.exists(self.local_file_for(key, settings_key)))
+            self.path is not None and os.path.exists(self.file_for(key, settings_key)))
 
-    def local_stack(self, entries):
+    def stack(self, entries):
         """``local.stack`` of the entries (the library's windows in one block), memoized for the last list of
         entries: a repeated query over the same library does not restack them. Entries read from the library file
         are not copied: the block is the file's memory map, with their rows and the prefilter's coarse windows."""
