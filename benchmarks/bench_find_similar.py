@@ -1,13 +1,14 @@
 """Find Similar in a .blend with many actions (the bpy module, headless): change detection, library items,
 ranking with the built index; the one-off index build; the index's memory.
 
-    .venv/bin/python benchmarks/bench_find_similar.py [--actions 1000] [--blend FILE] [--repeat 5] [--json OUT]
+    .venv/bin/python benchmarks/bench_find_similar.py [--actions 1000] [--blend FILE] [--mixed] [--repeat 5] [--json OUT]
 
 1. The file: an armature imported from tests/data/bvh/07_01.bvh (43 bones, Blender's importer) and ``--actions``
    actions written with ``action_io.write_action`` from the six test BVH clips (read by ``core.io.bvh``,
    every 4th frame: 30 fps as in the issue's file), each cropped differently (16-84 frames, 132 F-curves each,
-   1,000 distinct contents). Saved to ``--blend`` (built once,
-   reused when it exists).
+   1,000 distinct contents). With ``--mixed`` (give another ``--blend``): 33-130-frame crops at 120, 30 and 60 fps,
+   the 60 fps third without a recorded rate (the scene's assumed). Saved to ``--blend`` (built once, reused when it
+   exists).
 2. Index build (the one-off cost): ``library.library_items`` + ``core.search.build_index`` into a fresh folder:
    actions per second; the same-run baseline: the build again into another folder with OpenBLAS's own threads.
 3. A click (what the search operator does, without writing the UI results): the query item,
@@ -60,18 +61,40 @@ def _at_30fps(clip):
                                fps=30.0)
 
 
-def build_file(path, n_actions):
+def _every(clip, step):
+    """Every ``step``-th frame of a 120 fps clip (120 / step fps)."""
+    return dataclasses.replace(clip, rotations=clip.rotations[::step], root_translation=clip.root_translation[::step],
+                               fps=clip.fps / step)
+
+
+# ``--mixed``: a file as an animator's: clips of 33-130 frames at three rates, one in three without a recorded rate
+# (the scene's assumed: ``frame_rates.rate_of``), the others recorded as the importers record them
+MIXED = ((1, True), (4, True), (2, False))  # (every step-th frame of the 120 fps source, rate recorded)
+
+
+def build_file(path, n_actions, mixed=False):
+    from blender_shapesig.actions import frame_rates
+
     bpy.ops.wm.read_factory_settings(use_empty=True)
     arm, _ = import_armature(str(BVH / "07_01.bvh"))
     arm.name = "Rig"
     bpy.data.actions.remove(arm.animation_data.action)
-    clips = [_at_30fps(load_bvh(p)) for p in sorted(BVH.glob("*.bvh"))]
+    sources = [load_bvh(p) for p in sorted(BVH.glob("*.bvh"))]
+    clips = [_every(c, 4) for c in sources]
     t0 = time.perf_counter()
     for n in range(n_actions):
         clip = clips[n % len(clips)]
         k = n // len(clips)  # every action a different crop: 1,000 distinct contents (and index entries)
         start, end = 2 + k % 10, clip.frame_end - k // 10
+        if mixed:
+            step, recorded = MIXED[n % len(MIXED)]
+            clip = _every(sources[n % len(sources)], step)
+            length = 33 + (n * 37) % 98  # 33-130 frames
+            start = 1 + (n * 13) % max(clip.frames - length, 1)
+            end = min(start + length - 1, clip.frame_end)
         a = action_io.write_action(clip.crop(start, end), armature=arm, name=f"{clip.name}_{n:04d}")
+        if mixed and recorded:
+            frame_rates.record(a, clip.fps, "import")
         if n == 0:
             action_io.assign_action(arm, a)
     build_s = time.perf_counter() - t0
@@ -205,16 +228,18 @@ def main(argv=None):
     ap.add_argument("--json", type=pathlib.Path)
     ap.add_argument("--fresh", type=int, default=3, help="fresh sessions timed with and without stored fingerprints")
     ap.add_argument("--fresh-click", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--mixed", action="store_true",
+                    help="a file of 33-130-frame actions at 120, 30 and 60 fps, a third without a recorded rate")
     ap.add_argument("--similarity", choices=("local", "sim"), default="local",
                     help="the panel's Similarity: local (Motion and pose, the default) or sim (Motion only)")
     args = ap.parse_args(argv)
     SIMILARITY[0] = args.similarity
     if args.fresh_click:
         return fresh_click(args.blend)
-    out = {"actions": args.actions, "load_average_1min": os.getloadavg()[0]}
+    out = {"actions": args.actions, "mixed": args.mixed, "load_average_1min": os.getloadavg()[0]}
     blender_shapesig.register()
     if not args.blend.exists():
-        out["file_build_s"] = round(build_file(args.blend, args.actions), 1)
+        out["file_build_s"] = round(build_file(args.blend, args.actions, args.mixed), 1)
     bpy.ops.wm.open_mainfile(filepath=str(args.blend))
     context = bpy.context
     arm = bpy.data.objects["Rig"]

@@ -112,16 +112,14 @@ def find_owner(action, armatures=None, prefer=None, bone_names=None, played=None
             return hinted
         raise ShapeSigError(f"action {action.name!r} is played by {len(playing)} armatures ({_names(playing)}); "
                             f"assign it to one of them only")
-    hinted = slot_hint(action, armatures)
-    if hinted is not None and fitting(action, [hinted], bone_names=bone_names):
-        return hinted  # (it is among the fitting armatures)
     fits = fitting(action, armatures, bone_names=bone_names)
-    if hinted is not None and not fits:
+    if len(fits) == 1:
+        return fits[0]  # whatever a slot is named after (a hint that fits is this one; one that does not loses)
+    hinted = slot_hint(action, armatures)
+    if hinted is not None and (hinted in fits or not fits):
         return hinted
     if prefer is not None and prefer in fits:
         return prefer
-    if len(fits) == 1:
-        return fits[0]
     if len(fits) > 1:
         raise ShapeSigError(f"action {action.name!r} is played by no armature and fits {len(fits)} armatures "
                             f"({_names(fits)}); assign it to its armature (or keep one of them in the file)")
