@@ -18,7 +18,7 @@ from blender_shapesig.core.io import sources
 
 pytest.importorskip("bpy", reason="BVH files are read with Blender's importer")
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 D = ROOT / "tests" / "data"
 ACC, BVH = D / "acclaim", D / "bvh"
 
