@@ -1,6 +1,6 @@
-"""The shape of the package: modules of a readable size, functions that fit on a screen or two, the layering rule
-that core never reaches into the Blender layer (checked statically here; tests/core/test_no_bpy.py imports every
-core module with bpy blocked) and no import cycles."""
+"""The shape of the package: modules of a readable size (every line counted), functions that fit on a screen or two,
+the layering rule that core never reaches into the Blender layer (checked statically here; tests/core/test_no_bpy.py
+imports every core module with bpy blocked) and no import cycles."""
 
 import ast
 import pathlib
@@ -9,7 +9,11 @@ import re
 import pytest
 
 PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "blender_shapesig"
-MAX_MODULE_LINES = 450      # non-blank lines
+MAX_MODULE_LINES = 450      # every line, blank ones too
+# modules over the limit, each with its reason; the exception goes when the module is split
+KNOWN_LONG = {
+    "blender_shapesig/core/search/local/features.py": "split pending (issue 41 work)",
+}
 MAX_FUNCTION_LINES = 120    # lines from 'def' to the last line of the body
 BLENDER_LAYER = ("bpy", "mathutils", "bpy_extras", "addon_utils")
 
@@ -22,10 +26,20 @@ def _rel(path):
     return path.relative_to(PACKAGE.parent).as_posix()
 
 
-@pytest.mark.parametrize("path", _modules(), ids=_rel)
+@pytest.mark.parametrize("path", [p for p in _modules() if _rel(p) not in KNOWN_LONG], ids=_rel)
 def test_module_size(path):
-    lines = [ln for ln in path.read_text(encoding="utf-8").splitlines() if ln.strip()]
-    assert len(lines) <= MAX_MODULE_LINES, f"{_rel(path)}: {len(lines)} non-blank lines"
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= MAX_MODULE_LINES, f"{_rel(path)}: {len(lines)} lines"
+
+
+def test_known_long_modules_are_still_long():
+    """Each exception names a module that exists and is still over the limit: once it is split, this fails until
+    its line in ``KNOWN_LONG`` goes."""
+    for rel in KNOWN_LONG:
+        path = PACKAGE.parent / rel
+        assert path.is_file(), f"{rel}: gone; drop it from KNOWN_LONG"
+        n = len(path.read_text(encoding="utf-8").splitlines())
+        assert n > MAX_MODULE_LINES, f"{rel}: {n} lines now; drop it from KNOWN_LONG"
 
 
 def test_function_sizes():

@@ -71,7 +71,7 @@ def test_no_message_names_a_command_line_flag():
 from blender_shapesig.core.measure_words import ENGINES, MEASURES, OPTIONS, PANEL_NAME, THESIS_SYMBOLS  # noqa: E402
 
 SYMBOL = re.compile("|".join(THESIS_SYMBOLS))
-# a Python exception's name or a traceback in a text a person reads (tests/blender/test_panel_words.py too)
+# a Python exception's name or a traceback in a text a person reads (tests/blender/panels/test_panel_words.py too)
 EXCEPTION_NAME = re.compile(r"\w*Error\b|\w*Exception\b|Traceback|NoneType|\bErrno\b")
 ALL_WORDS = {f"{table}[{key!r}]": words for table, group in (("ENGINES", ENGINES), ("MEASURES", MEASURES),
                                                               ("OPTIONS", OPTIONS)) for key, words in group.items()}

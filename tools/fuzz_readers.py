@@ -37,7 +37,7 @@ message, NaN, a different result, a hang, a crash) is a failure: listed at the e
 copies the failing cases' files into DIR.
 
 The mutators (``mutate``) and the checks (``check_clip``, ``read_acclaim_case``) are also used by the
-bounded fuzz tests in ``tests/core/io/test_fuzz_readers.py`` and ``tests/blender/test_bad_input_in_blender.py``.
+bounded fuzz tests in ``tests/core/io/test_fuzz_readers.py`` and ``tests/blender/operators/test_bad_input_in_blender.py``.
 """
 
 import argparse

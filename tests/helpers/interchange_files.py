@@ -1,4 +1,4 @@
-"""The FBX and glTF files of tests/blender/test_interchange.py, written by Blender's own exporters from a real CMU
+"""The FBX and glTF files of tests/blender/readers/test_interchange.py, written by Blender's own exporters from a real CMU
 walk, in a process of their own (``python -m tests.helpers.interchange_files OUT``), so that no exporter's garbage
 is left in the process that goes on testing (in Blender 4.2 such garbage, collected after its data was freed,
 crashed later tests now and then)."""

@@ -1,5 +1,5 @@
 """Planted near-duplicates: copies of BVH clips that a library report must put in their original's cluster
-(``experiments/dedupe_check.py``, ``tests/test_dedupe.py``).
+(``experiments/dedupe_check.py``, ``tests/dedupe/test_dedupe.py``).
 
 * ``renamed``: the same bytes under another name;
 * ``rate``: every ``step``-th frame, the frame time multiplied by ``step`` (120 fps -> 60 fps);

@@ -3,7 +3,7 @@ ROOT above the old root (which keeps its six channels and carries the walk) and 
 position channels of the other joints equal their OFFSETs, as these exporters write them). ``turn`` turns the old
 root's horizontal path about the vertical (BVH Y) around its first frame, the body's facing unchanged: a forward walk
 becomes a walk to the side (``turn=90``: to the body's left for these CMU files) with the same limbs.
-(``tests/blender/test_bvh_reference_root.py``, ``tests/core/io/test_bvh_root_motion.py``.)"""
+(``tests/blender/readers/test_bvh_reference_root.py``, ``tests/core/io/test_bvh_root_motion.py``.)"""
 
 import numpy as np
 

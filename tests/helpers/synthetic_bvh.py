@@ -1,6 +1,6 @@
 """A small BVH file that exercises the naming and parsing rules of the readers (``SYNTHETIC``, its text), shared by
 the reader's test (tests/core/io/test_bvh_reader.py) and its comparison with Blender's importer
-(tests/blender/test_bvh_reader_vs_importer.py)."""
+(tests/blender/readers/test_bvh_reader_vs_importer.py)."""
 
 # spaces in a name, a repeated name, a joint without channels, an End Site, X-Y-Z and Y-X-Z orders, a root with
 # positions in another order, CR LF line ends, more data lines than "Frames:" (the importer reads them all)

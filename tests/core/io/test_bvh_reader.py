@@ -1,6 +1,6 @@
 """Our bpy-free BVH reader (``core.io.bvh.load_bvh``): rotations against an independent reading of the
 Euler channels (scipy), names and channel orders as Blender's importer makes them, errors naming the line.
-Its equality with Blender's importer is tests/blender/test_bvh_reader_vs_importer.py."""
+Its equality with Blender's importer is tests/blender/readers/test_bvh_reader_vs_importer.py."""
 
 import pathlib
 

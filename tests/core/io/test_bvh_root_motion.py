@@ -2,7 +2,7 @@
 walk in the hips' channels; ``tests/helpers/reference_root.py``) reaches the comparison space and the search: the
 same take with the walk on its ROOT reads as the same clip (hips path, rotations), and a walk turned to the side or
 backward finds the same-direction walk first, far ahead of the others. Equality with Blender's importer:
-tests/blender/test_bvh_reference_root.py."""
+tests/blender/readers/test_bvh_reference_root.py."""
 
 import numpy as np
 import pytest
