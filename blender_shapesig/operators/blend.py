@@ -12,6 +12,7 @@ from ..core.clip.prepare import check_fps
 from ..core.errors import MAX_INBETWEENS, ShapeSigError, check_integer, check_weight
 from ..core.measure_words import OPTIONS
 from ..core.metrics import DEFAULT_DEPTH
+from .preconditions import armature_or_message, two_actions_or_message
 
 __all__ = ["SHAPESIG_OT_blend_actions", "SHAPESIG_OT_bake_blend_timing", "classes", "parse_extra"]
 
@@ -33,15 +34,6 @@ def parse_extra(text):
             raise ShapeSigError(f"extra actions: expected NAME=WEIGHT entries separated by commas, got {part!r}") \
                 from None
     return out
-
-
-def _armature_or_message(cls, context):
-    """The active object when it is an armature, else None with the poll message set."""
-    obj = context.active_object
-    if obj is None or obj.type != "ARMATURE":
-        cls.poll_message_set("The active object must be an armature")
-        return None
-    return obj
 
 
 class SHAPESIG_OT_blend_actions(bpy.types.Operator):
@@ -144,12 +136,7 @@ class SHAPESIG_OT_blend_actions(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if _armature_or_message(cls, context) is None:
-            return False
-        if len(bpy.data.actions) < 2:
-            cls.poll_message_set("Blending needs two actions in the file")
-            return False
-        return True
+        return armature_or_message(cls, context) is not None and two_actions_or_message(cls, "Blending")
 
     def invoke(self, context, event):
         obj = context.active_object
@@ -392,7 +379,7 @@ class SHAPESIG_OT_bake_blend_timing(bpy.types.Operator):
     def poll(cls, context):
         from ..blend.blend_actions import timed_strips
 
-        obj = _armature_or_message(cls, context)
+        obj = armature_or_message(cls, context)
         if obj is None:
             return False
         if not timed_strips(obj):

@@ -9,6 +9,7 @@ from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from ..core.errors import ShapeSigError, check_integer
 from ..actions.scene_motion import timing_text
+from .preconditions import armature_or_message, two_actions_or_message
 
 __all__ = ["SHAPESIG_OT_transition", "classes"]
 
@@ -45,17 +46,13 @@ class SHAPESIG_OT_transition(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        obj = context.active_object
-        if obj is None or obj.type != "ARMATURE":
-            cls.poll_message_set("The active object must be an armature")
+        obj = armature_or_message(cls, context)
+        if obj is None:
             return False
         if obj.animation_data is None or obj.animation_data.action is None:
             cls.poll_message_set("The armature needs an active action to start from")
             return False
-        if len(bpy.data.actions) < 2:
-            cls.poll_message_set("A transition needs two actions in the file")
-            return False
-        return True
+        return two_actions_or_message(cls, "A transition")
 
     def invoke(self, context, event):
         current = context.active_object.animation_data.action
