@@ -68,7 +68,7 @@ def _explanation(query, item, result, args):
     return None if clip is None else explain_clips(query, clip, window, depth=args.depth)
 
 
-def _thumbnails(folder, query_item, by_key, results, rows, cache, args=None):
+def _thumbnails(folder, query_item, results, rows, cache, args=None):
     """``--thumbnails DIR``: the query's and every row's picture of key poses (``core.search.thumbnails``, made once
     in the cache folder) written into DIR as ``query.png``, ``01_<clip>.png``, ...; each row's ``"thumbnail"`` is
     its file (null with a warning when the clip has no key points, e.g. no legs). Returns the query's file."""
@@ -91,7 +91,7 @@ def _thumbnails(folder, query_item, by_key, results, rows, cache, args=None):
         return path
 
     for i, (r, row) in enumerate(zip(results, rows), 1):
-        item = (by_key.get(r.key) or [None])[0]
+        item = r.item
         window = frame_window(r.start, r.end, r.frames, r.trimmed)
         row["thumbnail"] = None if item is None else picture(item, r.name, window, f"{i:02d}_{r.name}")
     query = picture(query_item, query_item.name, None, "query")
@@ -145,23 +145,18 @@ def run(args):
         warnings.insert(0, cache.warning)
     for w in warnings:
         c.say("warning", w)
-    # each result maps back to the argument it came from: "path" as given, "action" for a clip of a file that holds
-    # several (a .blend, a .glb: sources.clip_address)
-    by_key, seen = {}, {}
-    for it in items:
-        by_key.setdefault(it.key, []).append(it)  # byte-identical copies (same key) are told apart in order
+    # each result names the argument it came from (``RankResult.item``): "path" as given, "action" for a clip of a
+    # file that holds several (a .blend, a .glb: sources.clip_address)
     rows = []
     for r in results:
-        group = by_key.get(r.key) or [None]
-        item = group[min(seen.get(r.key, 0), len(group) - 1)]
-        seen[r.key] = seen.get(r.key, 0) + (len(group) > 1)
+        item = r.item
         path = item.path if item is not None else None
         action = clip_address(item.source or path, r.name, r.source)[1] if path else None
         rows.append(r.as_dict(path=path, action=action))  # the one row serialiser (core.search.rows)
         if args.explain and len(rows) <= args.explain:
             rows[-1]["explain"] = _explanation(query, item, r, args)
     if args.thumbnails:
-        out_thumbs = _thumbnails(args.thumbnails, query_item, by_key, results, rows, cache, args)
+        out_thumbs = _thumbnails(args.thumbnails, query_item, results, rows, cache, args)
     stats = dict(getattr(results, "stats", {}) or {})
     label = stats.get("metric", "sim2 windows") if args.windows else metric_label(base, level)
     notes = [trim_note(query)] + [trim_note(r.name, r.trimmed) for r in results]

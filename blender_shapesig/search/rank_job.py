@@ -128,7 +128,6 @@ class RankJob:
         self.warnings = self.errors + self.ranked.warnings
         # clips (a .blend item may hold several)
         self.compared = self.ranked.stats.get("compared" if windows else "library", len(items))
-        self.by_key = {it.key: it for it in items}
         self._head = list(self.ranked[:cut]) if self.rerank and cut is not None else []
         self.total = self.done + len(self._head)
         if not self._head:
@@ -136,7 +135,7 @@ class RankJob:
 
     def _elastic(self, r):
         """d_S* of one row: rank_clips' elastic metric on that one clip (shared bones, the same depth)."""
-        one = index.rank_clips(self.query, [self.by_key[r.key]], metric="elastic", cache=self.cache,
+        one = index.rank_clips(self.query, [r.item], metric="elastic", cache=self.cache,
                                depth=self.settings.depth)
         r.elastic = next((x.distance for x in one if x.name == r.name), float("nan"))
 
@@ -159,9 +158,9 @@ class RankJob:
         entries = None if self.local else self.cache.get(self.query.key, self.level)  # local: no signatures
         q_bones = len(entries[0].bones) if entries else len(self.query.clips()[0].bones)
         column = self.order_by  # "sim", "elastic" or "local": the measure's key (core.measure_words)
-        store_results(self.settings, self.rows, self.items, self.query_name, column, q_bones,
+        store_results(self.settings, self.rows, self.query_name, column, q_bones,
                       time.perf_counter() - self.t0)
-        thumbnails.start_job(self.cache, self.rows, self.by_key, self.query, self.query_name)  # in the background
+        thumbnails.start_job(self.cache, self.rows, self.query, self.query_name)  # in the background
         out = results_of()
         msg = (f"{len(self.rows)} results from {self.compared} clips, sorted by {column_word(column)}; "
                f"{self.indexed} newly indexed")

@@ -1,6 +1,7 @@
 """The search's rows in the window manager's results (Blender layer): ``store_results`` writes ranked rows into
 ``properties.results_of`` in the ranking's order, each with what it names (an action of this file by its read hash
-at the search, or a clip file by its identity: ``_row_sources``, through the library item each result came from)
+at the search, or a clip file by its identity: ``_row_sources``, through the library item each result came from,
+``RankResult.item``)
 and the frames it matched; ``SIM_COLUMN``, ``ELASTIC_COLUMN`` and ``LOCAL_COLUMN`` are the keys of the column the
 rows are ordered by. See docs/dev/blender_layer.md.
 """
@@ -14,14 +15,13 @@ from ..properties import results_of
 __all__ = ["store_results", "SIM_COLUMN", "ELASTIC_COLUMN", "LOCAL_COLUMN"]
 
 
-def _row_sources(results, items):
-    """(is_action, clip file spec, target identity, name) per result, through the library item each came from (by
-    key): an action's read hash at the search and its name now (a cached entry keeps the name it was indexed
-    under: an action renamed since is named as it is now), a file's ``sources.file_identity``."""
-    by_key = {it.key: it for it in items}
+def _row_sources(results):
+    """(is_action, clip file spec, target identity, name) per result, through the library item it came from
+    (``RankResult.item``): an action's read hash at the search and its name now (a cached entry keeps the name it
+    was indexed under: an action renamed since is named as it is now), a file's ``sources.file_identity``."""
     out = []
     for r in results:
-        item = by_key.get(r.key)
+        item = r.item
         if isinstance(item, ActionItem):
             out.append((True, "", item.action_key.read_hash if item.action_key is not None else "", item.action))
             continue
@@ -36,12 +36,12 @@ def _row_sources(results, items):
 SIM_COLUMN, ELASTIC_COLUMN, LOCAL_COLUMN = "sim", "elastic", "local"
 
 
-def store_results(settings, results, items, query_name, order_by=SIM_COLUMN, query_bones=0, seconds=0.0):
+def store_results(settings, results, query_name, order_by=SIM_COLUMN, query_bones=0, seconds=0.0):
     """Write ranked rows into the window manager's results (``properties.results_of``), in ``results``' order,
     which is ascending in the column ``order_by`` (SIM_COLUMN, ELASTIC_COLUMN or LOCAL_COLUMN) within each tier
     (whole-body matches, then partial ones)."""
     out = results_of()
-    kinds = _row_sources(results, items)
+    kinds = _row_sources(results)
     labels = sources.unique_labels([kind[1] for kind in kinds if not kind[0]])[::-1]
     out.results.clear()
     for r, (is_action, spec, target, name) in zip(results, kinds):

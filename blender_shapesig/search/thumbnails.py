@@ -134,13 +134,13 @@ def current_job() -> Optional[ThumbJob]:
     return _STATE["job"]
 
 
-def start_job(cache, rows, items_by_key, query_item, query_name) -> ThumbJob:
+def start_job(cache, rows, query_item, query_name) -> ThumbJob:
     """Start making the pictures of ``rows`` (RankResults, in the order of the result rows) and of the query, in
     the background (a timer); returns the job."""
     out = results_of()
     tasks = [(None, query_item.name, query_item, None)]
     for i, r in enumerate(rows):
-        item = items_by_key.get(r.key)
+        item = r.item  # the library item the row came from
         if item is not None and i < len(out.results):
             window = window_fraction(out.results[i])
             tasks.append((i, r.name, item, window))

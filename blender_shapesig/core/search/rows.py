@@ -3,7 +3,7 @@ skipped clips and stats) and the coverage rule every engine applies to a row (``
 docs/search.md.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
 from ..clip.trim import trimmed_range
@@ -23,7 +23,8 @@ class RankResult:
     compared; ``approximate``: True when ``distance`` is a sketch estimate (only with a compact store);
     ``partial``: the clip shares fewer than FEW_SHARED of the query's moving bones, or (kept by ``allow_partial``)
     is below the coverage rule (``rigs.below_minimum``): ranked after the others; ``unmapped``: the canonical
-    joints both rigs have that are not compared."""
+    joints both rigs have that are not compared; ``item``: the library item the row came from (its path, its action,
+    how to read it again), set by every engine (not part of the JSON row)."""
 
     name: str
     distance: float
@@ -43,6 +44,7 @@ class RankResult:
     metric: str = ""  # the measure of ``distance`` ("local", "sim3", ...: a local ranking ranks some clips by sim3)
     first_stage: Optional[float] = None  # the local search: the first stage's distance of the clip
     dtw: Optional[float] = None  # the local search: the second stage's DTW distance (the shortlist only)
+    item: Optional[object] = field(default=None, repr=False, compare=False)  # the LibraryItem the row came from
 
     def as_dict(self, **where):
         """The row as the command line's JSON writes it: ``where`` (e.g. its ``path`` and ``action``) after

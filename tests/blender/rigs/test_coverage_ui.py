@@ -34,7 +34,7 @@ def test_result_rows_show_partial_matches_and_unmapped_joints(empty_file, tmp_pa
                   bone_map=str(tmp_path / "torso.json"))
     ranked = rank_clips(query, [bio, torso], metric="sim3", allow_partial=True)
     s = bpy.context.scene.shapesig
-    result_rows.store_results(s, ranked, [], "query", query_bones=len(query.bones))
+    result_rows.store_results(s, ranked, "query", query_bones=len(query.bones))
     res = library.results_of()
     rows = {r.clip_name: r for r in res.results}
     assert not rows["bio"].partial and rows["bio"].unmapped == "" and rows["bio"].coverage == 1.0

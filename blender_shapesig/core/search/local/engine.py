@@ -39,7 +39,7 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
             name=e["name"], distance=score, frames=e.get("frames", 0), key=item.key, source=item.source,
             trimmed=tuple(e.get("trimmed", ())), metric=LOCAL, first_stage=d1, dtw=d2, partial=low,
             shared=min(q.get("bones", 0), e.get("bones", 0)), coverage=float(got["coverage"]),
-            unmapped=tuple(got["unmapped"])))
+            unmapped=tuple(got["unmapped"]), item=item))
     results = full + part
     if refused:
         warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1]['name']}: "

@@ -244,7 +244,7 @@ def _moments(query, item, clip, level, scales, stride, allow_partial, warnings, 
                        source=clip.source or item.source, shared=shared, coverage=cov, partial=partial,
                        unmapped=tuple(got["unmapped"]),
                        start=_to_clip_frame(clip, compared, s), end=_to_clip_frame(clip, compared, e),
-                       metric=POSE_METRIC if seq is not None else ROTATION_METRIC)
+                       metric=POSE_METRIC if seq is not None else ROTATION_METRIC, item=item)
         out.append((r, (clip, (d, s, e), compared)))
     return out
 

@@ -43,11 +43,11 @@ def query_entry(query, level, store):
 
 
 
-def _result(e, d, shared, approximate=False, partial=False, got=None):
+def _result(item, e, d, shared, approximate=False, partial=False, got=None):
     got = got or {"coverage": 1.0, "unmapped": []}
     return RankResult(name=e.name, distance=float(d), frames=e.clip_frames or e.frames, key=e.key, source=e.source,
                       shared=shared, approximate=approximate, partial=partial, coverage=float(got["coverage"]),
-                      unmapped=tuple(got["unmapped"]), trimmed=e.trimmed)
+                      unmapped=tuple(got["unmapped"]), trimmed=e.trimmed, item=item)
 
 
 def _entry_coverage(q: IndexEntry, e: IndexEntry) -> dict:
@@ -74,9 +74,9 @@ def _rank_same_skeleton(q, same, store, npool, use_sketch, warnings, skipped, al
             continue
         _loaded(e, item, store)
         if q.exact and e.exact:
-            results.append(_result(e, entry_distance(q, e), len(q.bones), partial=partial, got=got))
+            results.append(_result(item, e, entry_distance(q, e), len(q.bones), partial=partial, got=got))
         else:
-            results.append(_result(e, sketch_distance(q, e), len(q.bones), approximate=True, partial=partial,
+            results.append(_result(item, e, sketch_distance(q, e), len(q.bones), approximate=True, partial=partial,
                                    got=got))
     return results
 
@@ -109,7 +109,7 @@ def rank_on_shared_bones(q, pairs, store, base, sig_level, level, depth, warning
         else:
             d = curve_distance(curve_from_increments(a, base), curve_from_increments(b, base), base, level=level,
                                depth=depth)
-        results.append(_result(e, d, len(shared), partial=partial or low, got=got))
+        results.append(_result(item, e, d, len(shared), partial=partial or low, got=got))
     return results
 
 
@@ -120,13 +120,12 @@ def _rerank_elastic(results, pairs, q, store, base, rerank, depth):
 
     full = sum(1 for r in results if not r.partial)
     head = results[:min(rerank, full)] if full else results[:rerank]
-    by_key = {(e.key, e.name): (item, e) for item, e in pairs}
+    by_item = {(id(item), e.name): e for item, e in pairs}
     for r in head:
         if base == "elastic":
             r.elastic = r.distance
             continue
-        item, e = by_key[(r.key, r.name)]
-        e = _loaded(e, item, store)
+        e = _loaded(by_item[(id(r.item), r.name)], r.item, store)
         bones = set(e.bones)
         a, b = pair_increments(q, e, [x for x in q.bones if x in bones])
         r.elastic = float(elastic_distance(curve_from_increments(a, "elastic"), curve_from_increments(b, "elastic"),
