@@ -1,9 +1,9 @@
 """DP kernels of the elastic distance: ``dp_numba`` (JIT-compiled, cached, releases the GIL; ``HAVE_NUMBA`` says
 whether it exists; ``threads=2`` splits a large band's columns over two threads: ``_dp_threads``), ``gram`` (the
-Gram matrix of the DP's SRVT matrices) and the penalty terms both kernels share; the pure numpy kernel ``dp_numpy`` is in
-``_dp_numpy``. Both kernels take the same arguments, return ``(value, nodes)`` and evaluate every candidate with one
-floating-point expression in one order, so their results are identical. The maths is in ``elastic``; the
-floating-point contract is in docs/elastic.md, "Implementation notes".
+Gram matrix of the DP's SRVT matrices) and the penalty terms both kernels share; the pure numpy kernel
+``dp_numpy`` is in ``_dp_numpy``. Both kernels take the same arguments, return ``(value, nodes)`` and evaluate
+every candidate with one floating-point expression in one order, so their results are identical. The maths is in
+``elastic``; the floating-point contract is in docs/elastic.md, "Implementation notes".
 """
 
 import numpy as np
