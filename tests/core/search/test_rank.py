@@ -478,3 +478,19 @@ def test_light_pack_answers_lookups_of_a_new_process_in_one_read(clips, tmp_path
     opened.clear()
     fresh = search.SignatureCache(tmp_path)
     assert all(fresh.get(it.key, 3) is not None for it in items) and len(opened) == 1 + len(items)
+
+
+@pytest.mark.parametrize("metric", ["local", "sim3"])
+def test_each_row_carries_the_item_it_came_from(data_dir, tmp_path, metric):
+    """Byte-identical copies (one key) in two folders are two rows, each naming its own file through its item;
+    every row's item is one of the library's and has the row's key (the command line and the panel read it)."""
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+        shutil.copy(data_dir / "bvh" / "07_02.bvh", tmp_path / sub / "07_02.bvh")
+    shutil.copy(data_dir / "bvh" / "09_02.bvh", tmp_path / "a" / "09_02.bvh")
+    items = sources.library([str(tmp_path / "a"), str(tmp_path / "b")])
+    query = sources.library([str(data_dir / "bvh" / "07_01.bvh")])[0]
+    got = search.rank_clips(query, items, metric=metric, cache=search.SignatureCache())
+    assert len(got) == 3 and all(any(r.item is it for it in items) and r.item.key == r.key for r in got)
+    copies = [r.item.path for r in got if r.name == "07_02"]
+    assert sorted(copies) == [str(tmp_path / "a" / "07_02.bvh"), str(tmp_path / "b" / "07_02.bvh")]
