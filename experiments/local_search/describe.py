@@ -5,7 +5,8 @@ reach and limbs' speeds as options) as a term of the local search's scores, each
 deviation over the library. Scores every set from cached features (``common.set_features``'s caches and
 ``rigs.py``'s): the rig set's 1-NN by label, HDM05 leave-one-actor-out, the CMU sets leave-one-out, the crop probes.
 
-  .venv/bin/python experiments/local_search/describe.py [--sets rigs,hdm05,cmu27,...] [--variants base,body_w2,...]
+  .venv/bin/python experiments/local_search/describe.py [--sets rigs,hdm05,cmu27,...] [--variants base,...]
+      [--base default|act2.0|k30|...] [--misses] [--tslearn]
 
 A variant is ``(columns, percentile, w1, w2)``: the descriptor's distance (root mean square of the scaled
 differences) added with weight ``w1`` to the first stage (each relative to its mean over the library) and with
@@ -166,11 +167,17 @@ def main(argv=None):
     ap.add_argument("--sets", default="rigs,hdm05,cmu27,cmu27_mixed,cmu_large,cmu_mixed_format")
     ap.add_argument("--variants", default="base,body_p95_a0.0_b2.0")
     ap.add_argument("--misses", action="store_true")
+    ap.add_argument("--tslearn", action="store_true", help="the rig set's DTW peer (tslearn, benchmark-only)")
     ap.add_argument("--base", default="default", help="the local search's variant (variants.py) under the term")
     args = ap.parse_args(argv)
     names = [v for pat in args.variants.split(",") for v in VARIANTS if v == pat or (pat.endswith("*") and v.startswith(pat[:-1]))]
     for s in args.sets.split(","):
         run = SetRun(s, args.base)
+        if args.tslearn and s == "rigs":  # the peer in the same run: 1-NN DTW on the 11 key points (``rigs.py``'s)
+            from tslearn.metrics import dtw as ts_dtw
+            seqs, labels = [f["pose"] for f in run.feats["full"]], [it.label for it in run.items]
+            hits = sum(labels[min(c, key=lambda j: ts_dtw(seqs[q], seqs[j]))] == labels[q] for q, c in run.prot)
+            print(f"{s:16s} DTW on the key points (tslearn, 30 Hz, no band) {hits}/{len(run.prot)}", flush=True)
         for v in names:
             print(fmt(s, args.base + ":" + v, run.evaluate(VARIANTS[v])), flush=True)
             if args.misses:
