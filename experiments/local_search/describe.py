@@ -28,7 +28,7 @@ from blender_shapesig.core.search.local import action as la, features as ls  # n
 
 OUT = os.path.join("out", "local_search")
 NAMES = ("speed", "forward", "sideways", "rise", "clearance", "vertical", "reach_forward", "reach_up", "arms",
-         "legs", "ground_speed", "ground_forward", "ground_sideways", "turn")
+         "legs", "ground_speed", "ground_forward", "ground_sideways", "turn", "extension")
 BODY = (0, 1, 2, 3, 4, 5)
 
 
@@ -51,14 +51,18 @@ def describe(feat, P=95.0):
     turn = abs(yaw[-1] - yaw[0]) / max((len(c) - 1) / rate, 1e-9)
     return np.array([np.median(np.hypot(fwd, side)), np.mean(fwd), abs(np.mean(side)), pc(pz) - pc(pz, 100 - P),
                      pc(low), pc(np.abs(up)), pc(c[:, 6]), pc(c[:, 7]), pc(c[:, 8]), pc(c[:, 9]),
-                     np.median(np.hypot(gf, gs)), np.mean(gf), abs(np.mean(gs)), turn])
+                     np.median(np.hypot(gf, gs)), np.mean(gf), abs(np.mean(gs)), turn,
+                     pc(np.gradient(np.linalg.norm(pose[:, [5, 6]] - pose[:, [1, 2]], axis=2), axis=0).max(axis=1) * rate
+                        if len(c) > 1 else np.zeros(len(c)))])
 
 
 VARIANTS = {"base": (BODY, 95.0, 0.0, 0.0)}
 for _cols, _cn in ((BODY, "body"), (tuple(range(10)), "all"), ((0, 1, 2, 3, 4, 5, 8, 9), "nohand"), ((3, 4, 5), "air"),
                    ((0, 1, 2), "travel"), ((1, 2, 3, 4, 5), "airdir"), ((3, 4), "lift"),
                    ((10, 11, 12, 3, 4, 5), "ground"), ((0, 1, 2, 3, 4, 5, 10, 11, 12), "bodyground"),
-                   ((0, 1, 2, 3, 4, 5, 13), "bodyturn"), ((10, 11, 12, 3, 4, 5, 13), "groundturn")):
+                   ((0, 1, 2, 3, 4, 5, 13), "bodyturn"), ((10, 11, 12, 3, 4, 5, 13), "groundturn"),
+                   ((0, 1, 2, 3, 4, 5, 10, 11, 12, 13), "bodygroundturn"),
+                   ((0, 1, 2, 3, 4, 5, 10, 11, 12, 14), "bodygroundext")):
     for _p in (80.0, 85.0, 90.0, 95.0, 100.0):
         for _w1 in (0.0, 0.1, 0.25, 0.5, 1.0):
             for _w2 in (0.5, 1.0, 2.0, 3.0):
@@ -67,6 +71,8 @@ for _cols, _cn in ((BODY, "body"), (tuple(range(10)), "all"), ((0, 1, 2, 3, 4, 5
                 VARIANTS[f"{_cn}_p{int(_p)}_a{_w1}_abs{_w2}"] = (_cols, _p, _w1, _w2, "abs")
             for _w2 in (0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0):  # unscaled: leg lengths (speeds times la.TIME)
                 VARIANTS[f"{_cn}_p{int(_p)}_a{_w1}_phys{_w2}"] = (_cols, _p, _w1, _w2, "phys")
+                for _u in (3, 5, 10):  # the description's nearest _u added to the shortlist
+                    VARIANTS[f"{_cn}_p{int(_p)}_a{_w1}_phys{_w2}_u{_u}"] = (_cols, _p, _w1, _w2, "phys", _u)
 
 
 def load(name):
@@ -114,6 +120,10 @@ class SetRun:
             b = b + w1 * Dd_row[cand] / max(Dd_row[cand].mean(), 1e-12)
         o = cand[np.argsort(b, kind="stable")]
         h = o[:self.k]
+        if self.union:  # the description's nearest join the shortlist
+            near = cand[np.argsort(Dd_row[cand], kind="stable")][:self.union]
+            h = np.array(list(dict.fromkeys(list(h) + list(near))))
+            o = np.concatenate([h, [j for j in o if j not in set(h)]])
         d2 = np.array([self.d2(tag, q, j, Q) for j in h])
         s = ls.combine(D1row[h], d2, self.mix)
         if w2:
@@ -124,12 +134,13 @@ class SetRun:
     def evaluate(self, variant):
         cols, P, w1, w2 = variant[:4]
         self.absolute = len(variant) > 4 and variant[4] in ("abs", "phys")
+        self.union = variant[5] if len(variant) > 5 else 0
         physical = len(variant) > 4 and variant[4] == "phys"
         cols = list(cols)
         X = np.array([describe(f, P) for f in self.feats["full"]])[:, cols]
         scale = np.maximum(X.std(axis=0), 1e-9)
         if physical:  # leg lengths; speeds as the distance in la.TIME (the action part's rule)
-            scale = np.array([1.0 / la.TIME if c in (0, 1, 2, 5, 8, 9, 10, 11, 12, 13) else 1.0 for c in cols])
+            scale = np.array([1.0 / la.TIME if c in (0, 1, 2, 5, 8, 9, 10, 11, 12, 13, 14) else 1.0 for c in cols])
 
         def dist(A):
             return np.sqrt((((A[:, None] - X[None]) / scale) ** 2).mean(-1))
