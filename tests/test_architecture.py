@@ -10,10 +10,6 @@ import pytest
 
 PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "blender_shapesig"
 MAX_MODULE_LINES = 450      # every line, blank ones too
-# modules over the limit, each with its reason; the exception goes when the module is split
-KNOWN_LONG = {
-    "blender_shapesig/core/search/local/features.py": "split pending (issue 41 work)",
-}
 MAX_FUNCTION_LINES = 120    # lines from 'def' to the last line of the body
 BLENDER_LAYER = ("bpy", "mathutils", "bpy_extras", "addon_utils")
 
@@ -26,20 +22,10 @@ def _rel(path):
     return path.relative_to(PACKAGE.parent).as_posix()
 
 
-@pytest.mark.parametrize("path", [p for p in _modules() if _rel(p) not in KNOWN_LONG], ids=_rel)
+@pytest.mark.parametrize("path", _modules(), ids=_rel)
 def test_module_size(path):
     lines = path.read_text(encoding="utf-8").splitlines()
     assert len(lines) <= MAX_MODULE_LINES, f"{_rel(path)}: {len(lines)} lines"
-
-
-def test_known_long_modules_are_still_long():
-    """Each exception names a module that exists and is still over the limit: once it is split, this fails until
-    its line in ``KNOWN_LONG`` goes."""
-    for rel in KNOWN_LONG:
-        path = PACKAGE.parent / rel
-        assert path.is_file(), f"{rel}: gone; drop it from KNOWN_LONG"
-        n = len(path.read_text(encoding="utf-8").splitlines())
-        assert n > MAX_MODULE_LINES, f"{rel}: {n} lines now; drop it from KNOWN_LONG"
 
 
 def test_function_sizes():

@@ -157,3 +157,7 @@ add("travel1.0_height", travel=1.0, height=1.0)
 add("travel1.5_height", travel=1.5, height=1.0)
 add("travel1.0_height_k10", travel=1.0, height=1.0, shortlist=10)
 add("travel1.0_centered", travel=1.0, sequence="centered")
+
+# issue 41, third pass: the shortlist's size with the description term (``describe.py --base``)
+for _k in (30, 40):
+    add(f"k{_k}", shortlist=_k)

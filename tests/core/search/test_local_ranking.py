@@ -13,7 +13,7 @@ import pytest
 from blender_shapesig import cli
 from blender_shapesig.core import search as index, rigs
 from blender_shapesig.core.errors import ShapeSigError
-from blender_shapesig.core.search.local import features as ls
+from blender_shapesig.core.search.local import description, features as ls
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.metrics import DEFAULT_METRIC, clip_distance, parse_metric
 
@@ -51,6 +51,9 @@ def test_rank_orders_and_scores_as_the_local_search(clips):
     d1 = ls.first_stage(qe, entries)
     head = list(np.argsort(d1, kind="stable")[:3])
     score = ls.combine(d1[head], ls.rerank(qe, [entries[i] for i in head]))
+    # plus what happens in the clips (``description``): the root mean square of their descriptions' differences
+    gap = np.array([np.sqrt(np.mean((entries[i]["describe"].astype(float) - qe["describe"]) ** 2)) for i in head])
+    score = score + description.WEIGHT * gap
     want = dict(zip((lib[i].name for i in head), score))
     rows = {r.name: r for r in got}
     for name, s in want.items():
@@ -76,6 +79,9 @@ def test_rank_local_rows_made_when_read_equal_the_rule(clips):
     order = np.argsort(d1, kind="stable")
     head = order[:2]
     score = ls.combine(d1[head], ls.rerank(qe, [entries[i] for i in head]))
+    # plus what happens in the clips (``description``): the root mean square of their descriptions' differences
+    gap = np.array([np.sqrt(np.mean((entries[i]["describe"].astype(float) - qe["describe"]) ** 2)) for i in head])
+    score = score + description.WEIGHT * gap
     want = [(int(head[k]), score[k], d1[head[k]]) for k in np.argsort(score, kind="stable")]
     want += [(int(i), max(score.max(), 2.0 * d1[i] / d1[head].mean()), d1[i]) for i in order[2:]]
     assert len(rows) == len(entries) == len(want)

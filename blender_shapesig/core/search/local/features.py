@@ -20,15 +20,17 @@ bpy. Measured in experiments/local_search/RESULTS.md.
 """
 
 import math
-from typing import Dict, List, Mapping, Optional, Sequence
+from typing import Dict, List, Mapping, Sequence
 
 import numpy as np
 
-from ...blas import one_blas_thread
 from ...clip.clip import Clip
 from ...rigs.body import POINTS, SEGMENTS, body_positions, rig_positions
-from . import action as local_action, dtw as local_dtw, take
+from . import action as local_action, description as local_description, dtw as local_dtw, take
 from .dtw import dtw
+# the first stage lives in ``stage_one``; its names stay importable from here
+from .stage_one import (PREFILTER, PREFILTER_SHARE, _chunks, _coarse_norms, _sq_dist, _take,  # noqa: F401
+                        coarse_distances, coarse_windows, first_stage, gather_rows, stack)
 
 
 __all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "ACTION_WEIGHT", "FREE",
@@ -72,7 +74,7 @@ class Settings:
     def __init__(self, rate=RATE, windows=WINDOWS, hop=HOP, dim=DIM, pose_weight=1.0, motion_weight=1.0,
                  turn_weight=0.5, normalize="parts", seed=29, step=2, sequence="pose", velocity_weight=0.0,
                  scale_weight=1.0, global_weight=0.0, max_windows=MAX_WINDOWS, max_sequence=MAX_SEQUENCE,
-                 action_weight=ACTION_WEIGHT, active=0.0, still=STILL, travel=0.0, height=0.0):
+                 action_weight=ACTION_WEIGHT, active=0.0, still=STILL, travel=0.0, height=0.0, describe=True):
         self.rate, self.windows, self.hop, self.dim = float(rate), tuple(windows), float(hop), dim
         self.pose_weight, self.motion_weight, self.turn_weight = pose_weight, motion_weight, turn_weight
         self.normalize, self.seed, self.step = normalize, seed, step
@@ -83,12 +85,15 @@ class Settings:
         # second stage's key points at the pelvis' height about its median) are off: experiments/local_search/RESULTS.md
         self.action_weight, self.active = float(action_weight), float(active)
         self.still, self.travel, self.height = float(still), float(travel), float(height)
+        # the entries carry what happens in the clip (``local_description``), a term of the shortlist's score
+        self.describe = bool(describe)
 
     def key(self):
         extra = (self.action_weight, self.active) if (self.action_weight or self.active) else ()
         extra += ("still", self.still) if self.still else ()
         extra += ("travel", self.travel) if self.travel else ()
         extra += ("height", self.height) if self.height else ()
+        extra += ("describe", local_description.PERCENTILE) if self.describe else ()
         return (RECIPE_VERSION, self.rate, self.windows, self.hop, self.dim, self.pose_weight, self.motion_weight, self.turn_weight,
                 self.normalize, self.seed, self.step, self.sequence, self.velocity_weight, self.scale_weight,
                 self.global_weight, self.max_windows, self.max_sequence) + extra
@@ -285,139 +290,15 @@ def entry_from_features(feat, settings: Settings = DEFAULT):
     V = window_vectors(feat, settings)
     if settings.dim:
         V = V @ _projection(V.shape[1], settings.dim, settings.seed).astype(np.float64)
-    return {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
-            "path": whole_path(feat).astype(np.float32)}
+    out = {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
+           "path": whole_path(feat).astype(np.float32)}
+    if settings.describe:
+        out["describe"] = local_description.describe(feat)
+    return out
 
 
 def entry_bytes(entry) -> int:
     return int(sum(np.asarray(v).nbytes for v in entry.values()))
-
-
-# ------------------------------------------------------------------------------------------------- stage one
-
-def _sq_dist(A, B):
-    d = (A * A).sum(1)[:, None] + (B * B).sum(1)[None] - 2.0 * (A @ B.T)
-    return np.maximum(d, 0.0)
-
-
-def stack(entries: Sequence) -> Dict[str, np.ndarray]:
-    """The library's windows in one block for ``first_stage`` (build it once per library): ``windows`` (all, DIM)
-    float32, their squared norms, ``bounds`` (each entry's first row, and the end) and each entry's rows
-    (``starts``, ``ends``). A library file (``local_library.LibraryFile.stack``) gives the same keys but the
-    ``bounds``, memory-mapped, its entries' rows in any order."""
-    wins = [np.asarray(e["windows"], dtype=np.float32) for e in entries]
-    W = np.concatenate(wins) if wins else np.zeros((0, 1), np.float32)
-    bounds = np.concatenate([[0], np.cumsum([len(w) for w in wins])]).astype(np.int64)
-    return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds, "starts": bounds[:-1], "ends": bounds[1:]}
-
-
-PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first_stage(keep=)``) ...
-PREFILTER_SHARE = 0.02  # ... and at least this share of the library (a larger library holds more near neighbours:
-# keeping 1,000 of 100,000 found 90 % of the exact top 10, 2 % 96 %; docs/performance.md, "At library scale")
-
-
-def _chunks(lengths, block):
-    """Slices of consecutive entries (``lengths`` their rows) of at most ``block`` rows each (an entry longer than
-    ``block`` alone), found without a loop per entry."""
-    first = np.concatenate([[0], np.cumsum(lengths)[:-1]]) // max(int(block), 1)
-    cuts = np.flatnonzero(np.diff(first)) + 1
-    return [slice(a, b) for a, b in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(lengths)]]))]
-
-
-def gather_rows(starts, ends):
-    """(rows, offsets): the row numbers of the entries' row ranges [starts, ends) one after another, and where each
-    entry's rows begin in them (a contiguous block of candidates is ``W[rows]``; ``reduceat`` by ``offsets``)."""
-    lengths = np.asarray(ends - starts, np.int64)
-    offsets = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
-    rows = np.repeat(np.asarray(starts, np.int64) - offsets, lengths) + np.arange(int(lengths.sum()), dtype=np.int64)
-    return rows, offsets
-
-
-def _take(A, rows):
-    """A[rows] read at once: a slice when the rows are consecutive (a memory map read in one piece)."""
-    if len(rows) and rows[-1] - rows[0] + 1 == len(rows):
-        return A[int(rows[0]):int(rows[-1]) + 1]
-    return A[rows]
-
-
-def coarse_windows(windows, k) -> np.ndarray:
-    """(k, DIM) float32: ``k`` of a clip's windows evenly spaced over them (repeated when it has fewer)."""
-    w = np.asarray(windows)
-    return np.asarray(w[np.linspace(0, len(w) - 1, k).round().astype(int)], np.float32)
-
-
-def coarse_distances(query, coarse, norms=None, block: int = 4096) -> np.ndarray:
-    """(entries,) the prefilter: the Chamfer distance of the query's windows subsampled like the entries'
-    (``coarse`` (entries, k, DIM), ``coarse_windows``, 4k of the query's) to each entry's k. ``norms``: the coarse
-    windows' squared norms (entries * k,) when the caller keeps them (``first_stage`` does, per library). Run
-    ``block`` entries at a time (the distances of a block stay in the processor's cache)."""
-    n, k = coarse.shape[0], coarse.shape[1]
-    q = coarse_windows(query["windows"], 4 * k)
-    qn = (q * q).sum(1)[:, None]
-    out = np.empty(n)
-    for a in range(0, n, block):
-        b = min(n, a + block)
-        C = np.asarray(coarse[a:b], np.float32).reshape(-1, coarse.shape[2])
-        cn = (C * C).sum(1) if norms is None else norms[a * k:b * k]
-        D = (qn + cn[None] - 2.0 * (q @ C.T)).reshape(len(q), b - a, k)  # squared distances
-        near = D[:, :, 0].copy()  # the nearest of an entry's k windows: k - 1 elementwise minima (not a
-        for j in range(1, k):     # reduction over a short axis, which numpy runs slowly)
-            np.minimum(near, D[:, :, j], out=near)
-        q_side = np.sqrt(np.maximum(near, 0.0)).mean(axis=0)
-        e_side = np.sqrt(np.maximum(D.min(axis=0), 0.0)).mean(axis=1)
-        out[a:b] = 0.5 * (q_side + e_side)
-    return out
-
-
-def _coarse_norms(lib):
-    """The library's coarse windows' squared norms, computed on its first query and kept in its block."""
-    got = lib.get("coarse_norms")
-    if got is None:
-        C = np.asarray(lib["coarse"], np.float32).reshape(-1, lib["coarse"].shape[2])
-        got = (C * C).sum(1)
-        lib["coarse_norms"] = got
-    return got
-
-
-def first_stage(query, library, block: int = 65536, keep: Optional[int] = None,
-                share: float = PREFILTER_SHARE) -> np.ndarray:
-    """(entries,) Chamfer distances: 1/2 (mean over the query's windows of the nearest entry window's distance + the
-    same from the entry's side). ``query``: an ``index_entry``; ``library``: a ``stack`` of entries (or a library
-    file's), or the entries. The entries' rows (a memory-mapped library's in any order) are gathered into
-    contiguous blocks of at most ``block`` rows, each compared in one product, with one BLAS thread (small
-    products). ``keep``: with a library that has ``coarse`` windows and more entries than ``keep`` (raised to
-    ``share`` of the entries when that is more), only that many nearest by ``coarse_distances`` are computed exactly;
-    the others come after them in the prefilter's order (the largest exact distance plus their coarse distance)."""
-    lib = library if isinstance(library, dict) and "starts" in library else stack(library)
-    q = np.asarray(query["windows"], dtype=np.float32)
-    qn = (q * q).sum(1)[:, None]
-    W, norms, starts, ends = lib["windows"], lib["norms"], lib["starts"], lib["ends"]
-    n = len(starts)
-    out = np.full(n, np.inf)
-    if n == 0:
-        return out
-    idx = np.arange(n)
-    coarse = None
-    with one_blas_thread():
-        keep = None if keep is None else max(int(keep), int(math.ceil(share * n)))
-        if keep is not None and lib.get("coarse") is not None and n > keep:
-            coarse = coarse_distances(query, lib["coarse"], _coarse_norms(lib))
-            idx = np.argpartition(coarse, keep)[:keep]
-            idx = idx[np.argsort(starts[idx], kind="stable")]  # the file's order: the map is read forward
-        lengths = ends[idx] - starts[idx]
-        for part in _chunks(lengths, block):
-            run = idx[part]
-            rows, rel = gather_rows(starts[run], ends[run])
-            D = qn + np.asarray(_take(norms, rows), np.float32)[None] \
-                - 2.0 * (q @ np.asarray(_take(W, rows), np.float32).T)
-            np.sqrt(np.maximum(D, 0.0, out=D), out=D)
-            q_side = np.minimum.reduceat(D, rel, axis=1).mean(axis=0)
-            e_side = np.add.reduceat(D.min(axis=0), rel) / lengths[part]
-            out[run] = 0.5 * (q_side + e_side)
-    if coarse is not None:
-        rest = np.isinf(out)
-        out[rest] = out[~rest].max() + coarse[rest]
-    return out
 
 
 # ------------------------------------------------------------------------------------------------- stage two
@@ -470,10 +351,14 @@ def held_distances(query, candidates: Sequence) -> np.ndarray:
 
 
 def shortlist_scores(query, candidates: Sequence, d1, mix: float = MIX, dg=None, global_weight: float = 0.0):
-    """(score, d2): the shortlist's final scores (``combine`` of the first stage's ``d1`` and the DTW ``d2``, the
-    query's twin first: ``take.twin_first``) and the DTW distances, for the candidates in the first stage's order."""
+    """(score, d2): the shortlist's final scores (``combine`` of the first stage's ``d1`` and the DTW ``d2``, plus
+    ``description.WEIGHT`` times how far apart what happens in the clips is, leg lengths,
+    ``description.description_distances``; the query's twin first: ``take.twin_first``) and the DTW distances, for
+    the candidates in the first stage's order."""
     d2 = rerank(query, candidates)
     score = combine(d1, d2, mix, dg, global_weight)
+    if local_description.WEIGHT:
+        score = score + local_description.WEIGHT * local_description.description_distances(query, candidates)
     return take.twin_first(query, candidates, score, lambda picked: held_distances(query, picked)), d2
 
 

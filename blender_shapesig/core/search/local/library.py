@@ -5,8 +5,8 @@ offsets, the file's total size; each distinct joint list once, a clip naming its
 share them) then the arrays, 64-byte aligned: ``windows`` (all windows stacked, float16, N x DIM)
 with their squared norms (float32), ``sequences`` (float16), ``paths`` (float32, 10 a clip), ``coarse`` (``COARSE``
 windows of each clip as float32, the prefilter of ``local.first_stage``), ``takes`` (float32, ``take.DIM`` a clip)
-and ``take_masks`` (uint8, one per canonical joint; none set: the entry has no take); a file written before the
-takes reads without them. A file whose header, sizes or row ranges do
+``take_masks`` (uint8, one per canonical joint; none set: the entry has no take) and ``descriptions`` (float32,
+``description.PARTS`` a clip; NaN: none); a file written before the takes or the descriptions reads without them. A file whose header, sizes or row ranges do
 not hold is refused in one line (ValueError); the cache then deletes and rebuilds it. See docs/search.md, "At library
 scale".
 """
@@ -16,7 +16,7 @@ import struct
 
 import numpy as np
 
-from . import features as local, take
+from . import description, features as local, take
 
 __all__ = ["MAGIC", "COARSE", "write_library", "open_library", "coarse_windows", "LibraryFile"]
 
@@ -32,6 +32,7 @@ JOINT_LISTS = ("joints", "still", "rig_joints")
 
 _NO_TAKE = np.zeros(take.DIM, np.float32)
 _NO_MASK = np.zeros(len(take.JOINTS), np.uint8)
+_NO_DESCRIPTION = np.full(len(description.PARTS), np.nan, np.float32)  # an older recipe's entry: read back as none
 
 
 def coarse_windows(windows, k=COARSE) -> np.ndarray:
@@ -75,7 +76,8 @@ def write_library(f, files, fmt):
     width = max([np.shape(e["sequence"])[1] for f in files for e in f[4] if not e.get("refused")] + [_SEQ_DIM])
     specs = [("windows", np.float16, (nw, dim)), ("norms", np.float32, (nw,)), ("sequences", np.float16, (nq, width)),
              ("paths", np.float32, (nc, 10)), ("coarse", np.float32, (nc, COARSE, dim)),
-             ("takes", np.float32, (nc, take.DIM)), ("take_masks", np.uint8, (nc, len(take.JOINTS)))]
+             ("takes", np.float32, (nc, take.DIM)), ("take_masks", np.uint8, (nc, len(take.JOINTS))),
+             ("descriptions", np.float32, (nc, len(description.PARTS)))]
     # the header's size must be known before the offsets: lay the arrays out after a generous estimate
     head = json.dumps({"format": fmt, "files": index, "lists": lists}).encode("utf-8")
     start = len(MAGIC) + 8 + len(head) + 4096
@@ -116,6 +118,8 @@ def write_library(f, files, fmt):
     put("takes", (np.asarray(e.get("take", _NO_TAKE), np.float32).reshape(take.DIM) for e in each()))
     put("take_masks", (np.asarray(e.get("take_mask", _NO_MASK), np.uint8).reshape(len(take.JOINTS))
                        for e in each()))
+    put("descriptions", (np.asarray(e.get("describe", _NO_DESCRIPTION), np.float32).reshape(len(description.PARTS))
+                         for e in each()))
     return nc
 
 
@@ -144,6 +148,8 @@ class LibraryFile:
              **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
         if "takes" in A and A["take_masks"][k].any():
             e.update(take=A["takes"][k], take_mask=A["take_masks"][k], seconds=np.float32(m.get("seconds", 0.0)))
+        if "descriptions" in A and np.isfinite(A["descriptions"][k]).all():
+            e["describe"] = A["descriptions"][k]
         return e
 
     def stack(self):

@@ -42,7 +42,7 @@ def _meta(e):
 
 # an entry's arrays (``local.index_entry``) and their types on disk (an older recipe's entries have no take)
 _ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "take": np.float32,
-           "take_mask": np.uint8}
+           "take_mask": np.uint8, "describe": np.float32}
 
 
 class _Rows(list):
