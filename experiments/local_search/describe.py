@@ -32,6 +32,12 @@ NAMES = ("speed", "forward", "sideways", "rise", "clearance", "vertical", "reach
 BODY = (0, 1, 2, 3, 4, 5)
 
 
+def extension_rate(pose, rate):
+    """(T,) how fast the faster hand moves away from its shoulder (leg lengths per second)."""
+    ext = np.linalg.norm(pose[:, [5, 6]] - pose[:, [1, 2]], axis=2)
+    return np.gradient(ext, axis=0).max(axis=1) * rate if len(ext) > 1 else np.zeros(len(ext))
+
+
 def describe(feat, P=95.0):
     """(10,) the clip's numbers (``NAMES``): leg lengths and leg lengths per second."""
     c = la.action_channels(feat)
@@ -52,8 +58,7 @@ def describe(feat, P=95.0):
     return np.array([np.median(np.hypot(fwd, side)), np.mean(fwd), abs(np.mean(side)), pc(pz) - pc(pz, 100 - P),
                      pc(low), pc(np.abs(up)), pc(c[:, 6]), pc(c[:, 7]), pc(c[:, 8]), pc(c[:, 9]),
                      np.median(np.hypot(gf, gs)), np.mean(gf), abs(np.mean(gs)), turn,
-                     pc(np.gradient(np.linalg.norm(pose[:, [5, 6]] - pose[:, [1, 2]], axis=2), axis=0).max(axis=1) * rate
-                        if len(c) > 1 else np.zeros(len(c)))])
+                     pc(extension_rate(pose, rate))])
 
 
 VARIANTS = {"base": (BODY, 95.0, 0.0, 0.0)}
@@ -103,7 +108,8 @@ class SetRun:
         labels = [it.label for it in self.items]
         if self.kind == "rigs":
             cnt = Counter(labels)
-            self.prot = [(q, [j for j in range(len(labels)) if j != q]) for q in range(len(labels)) if cnt[labels[q]] >= 2]
+            self.prot = [(q, [j for j in range(len(labels)) if j != q]) for q in range(len(labels))
+                         if cnt[labels[q]] >= 2]
         else:
             self.prot = cm.protocol(self.items, self.kind)
 
@@ -181,7 +187,8 @@ def main(argv=None):
     ap.add_argument("--tslearn", action="store_true", help="the rig set's DTW peer (tslearn, benchmark-only)")
     ap.add_argument("--base", default="default", help="the local search's variant (variants.py) under the term")
     args = ap.parse_args(argv)
-    names = [v for pat in args.variants.split(",") for v in VARIANTS if v == pat or (pat.endswith("*") and v.startswith(pat[:-1]))]
+    names = [v for pat in args.variants.split(",") for v in VARIANTS
+             if v == pat or (pat.endswith("*") and v.startswith(pat[:-1]))]
     for s in args.sets.split(","):
         run = SetRun(s, args.base)
         if args.tslearn and s == "rigs":  # the peer in the same run: 1-NN DTW on the 11 key points (``rigs.py``'s)

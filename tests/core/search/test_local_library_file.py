@@ -12,7 +12,7 @@ import pytest
 
 from blender_shapesig import cli
 from blender_shapesig.core import search as index
-from blender_shapesig.core.search.local import features as ls
+from blender_shapesig.core.search.local import description, features as ls
 from blender_shapesig.core.search.local.library import open_library
 from blender_shapesig.core.search.local.store import LOCAL_PACK
 from blender_shapesig.core.io import sources
@@ -47,6 +47,9 @@ def test_ranking_from_the_library_file_equals_the_per_file_store_and_the_search(
     again = index.rank_clips(q, items, cache=fresh)
     assert fresh.stats["writes"] == 0 and isinstance(fresh.local._lib.arrays["windows"].base, np.memmap)
     assert _names(again) == _names(first)
+    # the scores too: what happens in each clip (``description``) is read back from the file, not dropped
+    assert open_library(str(pack)).arrays["descriptions"].shape[1] == len(description.PARTS)
+    assert [r.distance for r in again] == pytest.approx([r.distance for r in first], rel=1e-6)
     # the truth: core.search.local.features on entries computed here
     entries = [ls.index_entry(c) for it in items for c in it.clips()]
     order = ls.search(ls.index_entry(q), entries)

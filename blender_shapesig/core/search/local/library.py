@@ -4,11 +4,11 @@ from an iterable of files' entries (``write_library``): a header (magic, JSON in
 offsets, the file's total size; each distinct joint list once, a clip naming its lists by number: a rig's clips
 share them) then the arrays, 64-byte aligned: ``windows`` (all windows stacked, float16, N x DIM)
 with their squared norms (float32), ``sequences`` (float16), ``paths`` (float32, 10 a clip), ``coarse`` (``COARSE``
-windows of each clip as float32, the prefilter of ``local.first_stage``), ``takes`` (float32, ``take.DIM`` a clip)
+windows of each clip as float32, the prefilter of ``local.first_stage``), ``takes`` (float32, ``take.DIM`` a clip),
 ``take_masks`` (uint8, one per canonical joint; none set: the entry has no take) and ``descriptions`` (float32,
-``description.PARTS`` a clip; NaN: none); a file written before the takes or the descriptions reads without them. A file whose header, sizes or row ranges do
-not hold is refused in one line (ValueError); the cache then deletes and rebuilds it. See docs/search.md, "At library
-scale".
+``description.PARTS`` a clip; NaN: none); a file written before the takes or the descriptions reads without them.
+A file whose header, sizes or row ranges do not hold is refused in one line (ValueError); the cache then deletes
+and rebuilds it. See docs/search.md, "At library scale".
 """
 
 import json
