@@ -2,7 +2,7 @@
 item's local entries (``local.index_entry``, about 16 KB a clip, or a clip's one-line refusal) in a file of their own
 beside its signature entries, named by the item's key and the settings' key; all of them also in one pack
 (``LOCAL_PACK``), so that a new process (a command-line ``rank``) reads a library's entries in one read; and the
-library's windows stacked once per library (``local_stack``). The safety rules are the cache's: atomic writes in
+library's windows stacked once per library (``stack``). The safety rules are the cache's: atomic writes in
 its own folder, an unreadable or outdated file deleted and computed again, a failed write turning the disk off.
 """
 
@@ -90,7 +90,7 @@ class LocalEntries:
         return os.path.join(self.path, hashed_name(f"{key}|LOCAL|{settings_key}|F{self._format()}") + ".npz")
 
     # -- the pack: every local file's entries in one memory-mapped file (``local_library``), used while the file
-    # has the same size and mtime; a damaged pack is deleted (one line in ``pack_warning``) and written again
+    # has the same size and mtime; a damaged pack is deleted (one line in ``warning``) and written again
     def _load_local_pack(self):
         self._lpack, self._lib = {}, None
         fn = os.path.join(self.path, LOCAL_PACK)
