@@ -3,16 +3,13 @@ the last known pose (pose relative to the root in its heading frame, joint and r
 frame matches the target's, with the root's displacement and turn between them matching the gap's, among segment
 lengths of 0.8 to 1.25 times the gap (a uniform time warp of the segment onto it); the segment is turned and moved
 onto the last known pose and offset (per joint on SO(3), the root linearly, faded with smoothstep weights) so it
-meets both ends exactly; the best segments (one per clip), a few more clips' segments chosen by the start's match
-alone and by the end's, and the velocity-carrying geodesic (``inbetween``, as a candidate of cost GEODESIC_COST: it
-takes over when no segment is close) are averaged frame by frame with weights 1 / (cost + COST_FLOOR), where a
-segment's cost weighs its start's match near the last known pose and its end's near the target (``gap_costs``,
-``Bridges.fill``). See docs/transitions.md, "Bridge from the library".
+meets both ends exactly; the best segments (one per clip) and the velocity-carrying geodesic (``inbetween``, as a
+candidate of cost GEODESIC_COST: it takes over when no segment is close) are averaged with weights
+1 / (cost + COST_FLOOR) (``Bridges.fill``). See docs/transitions.md, "Bridge from the library".
 """
 
 import os
 from dataclasses import replace
-from typing import NamedTuple
 
 import numpy as np
 
@@ -20,7 +17,7 @@ from ..errors import ShapeSigError
 from ..geometry import so3
 from .body import Body, aligned_and_root, on_rig, resample, same_rig
 
-__all__ = ["Bridges", "Segment", "as_bridges", "average", "gap_costs", "STRETCHES"]
+__all__ = ["Bridges", "as_bridges", "STRETCHES"]
 
 STRETCHES = (0.8, 0.9, 1.0, 1.1, 1.25)  # segment lengths tried, times the gap
 VELOCITY_SECONDS = 0.1   # velocities weigh as the displacement over this time
@@ -30,7 +27,6 @@ STRETCH_WEIGHT = 0.02    # cost of a stretch r away from 1: this times log(r)^2
 HISTORY = (3, 6, 9)      # frames before the seam matched too (the motion leading into the gap)
 HISTORY_WEIGHT = 0.5
 BRIDGES = 10             # the best segments (of as many clips) averaged, weighted 1 / (cost + COST_FLOOR)
-ONE_SIDED = 5            # and as many again by the start's match alone and by the end's (gap_costs)
 COST_FLOOR = 0.01
 GEODESIC_COST = 1.0      # the velocity-carrying geodesic joins the average as a candidate of this cost
 
@@ -109,12 +105,10 @@ class Bridges:
         mq = mask * q
         return np.maximum(norms[mk] - 2.0 * (F @ mq) + float(q @ mq), 0.0)
 
-    def search(self, before, after, frames, joints, count=1, one_sided=0):
-        """[``Segment``] of the best segments for a gap of ``frames`` between bodies ``before`` (last frame) and
-        ``after`` (first frame), best first: the ``count`` best by the whole cost (one per clip), then the
-        ``one_sided`` best by the start's match alone and as many by the end's (the move, turn and stretch terms
-        kept; one per clip, of clips not found before); empty when no library clip has the joints. Every
-        clip, start and length at once on the table."""
+    def search(self, before, after, frames, joints, count=1):
+        """[(clip index, start frame, length in frames, cost)] of the best segments (one per clip, the ``count``
+        best clips, best first) for a gap of ``frames`` between bodies ``before`` (last frame) and ``after`` (first
+        frame); empty when no library clip has the joints. Every clip, start and length at once on the table."""
         table = self._table(joints)
         if table is None:
             return []
@@ -134,7 +128,7 @@ class Bridges:
         dq = np.array([c * move[0] + s * move[1], -s * move[0] + c * move[1], move[2]])
         dyaw = after.yaw[0] - before.yaw[-1]
         lengths = sorted({max(1, int(round((frames + 1) * r))) for r in STRETCHES})
-        parts = np.full((3, len(lengths), len(F)), np.inf)  # start, end, the rest (move, turn, stretch)
+        costs = np.full((len(lengths), len(F)), np.inf)
         for row, L in enumerate(lengths):
             if L >= len(F):
                 continue
@@ -144,14 +138,20 @@ class Bridges:
             cy, sy = np.cos(yaw[i]), np.sin(yaw[i])
             local = np.stack([cy * d[:, 0] + sy * d[:, 1], -sy * d[:, 0] + cy * d[:, 1], d[:, 2]], axis=1)
             turn = np.angle(np.exp(1j * (yaw[i + L] - yaw[i] - dyaw)))
-            rest = (MOVE_WEIGHT * np.sum((local - dq) ** 2, axis=1) + TURN_WEIGHT * turn ** 2
-                    + STRETCH_WEIGHT * np.log(L / (frames + 1.0)) ** 2)
-            for k, part in enumerate((start_cost[i], end_cost[i + L], rest)):
-                parts[k, row, :len(i)] = np.where(same, part, np.inf)
+            cost = (start_cost[i] + end_cost[i + L] + MOVE_WEIGHT * np.sum((local - dq) ** 2, axis=1)
+                    + TURN_WEIGHT * turn ** 2 + STRETCH_WEIGHT * np.log(L / (frames + 1.0)) ** 2)
+            costs[row, :len(i)] = np.where(same, cost, np.inf)
+        best = np.min(costs, axis=0)
+        starts = np.flatnonzero(np.r_[True, clip[1:] != clip[:-1]])
+        ends = np.r_[starts[1:], len(F)]
+        per_clip = np.minimum.reduceat(best, starts)
         found = []
-        for rank, n in ((parts[0] + parts[1] + parts[2], count), (2.0 * parts[0] + parts[2], one_sided),
-                        (2.0 * parts[1] + parts[2], one_sided)):
-            found.extend(_best_per_clip(rank, n, parts, clip, first, lengths, found))
+        for c in np.argsort(per_clip, kind="stable")[:count]:
+            if not np.isfinite(per_clip[c]):
+                break
+            i = starts[c] + int(np.argmin(best[starts[c]:ends[c]]))
+            L = lengths[int(np.argmin(costs[:, i]))]
+            found.append((int(clip[i]), int(i - first[i]), L, float(best[i])))
         return found
 
     def fill(self, before, after, frames):
@@ -164,24 +164,24 @@ class Bridges:
         from ..blas import one_blas_thread
 
         with one_blas_thread():  # matrix-vector products: OpenBLAS's threads only cost here
-            found = self.search(bb, ba, frames, joints, BRIDGES, ONE_SIDED)
+            found = self.search(bb, ba, frames, joints, BRIDGES)
         if not found:
             return None
         X0, p0 = aligned_and_root(before)
         X1, p1 = aligned_and_root(after)
         rots, roots = [], []
-        for seg_ in found:
-            src = self.clips[seg_.clip]
-            seg = sample_at(src, np.linspace(seg_.start, seg_.start + seg_.length, frames + 2))
+        for k, start, length, _cost in found:
+            src = self.clips[k]
+            seg = sample_at(src, np.linspace(start, start + length, frames + 2))
             if same_rig(before, src):
                 X, root = aligned_and_root(seg)
-                root = root * (bb.leg / self.bodies[seg_.clip].leg)
+                root = root * (bb.leg / self.bodies[k].leg)
             else:
                 X, root = aligned_and_root(on_rig(replace(seg, fps=before.fps), before))
             X, root = _meet(before, X, root, X0[-1], p0[-1], X1[0], p1[0])
             rots.append(X[1:-1])
             roots.append(root[1:-1])
-        costs = list(gap_costs(found, frames))
+        costs = [c for *_x, c in found]
         if GEODESIC_COST is not None:
             from .inbetween import geodesic_gap, seam_velocities
 
@@ -190,65 +190,15 @@ class Bridges:
             X, root = geodesic_gap(X0[-1], p0[-1], w0, v0, X1[0], p1[0], w1, v1, frames, before.fps)
             rots.append(X)
             roots.append(root)
-            costs.append(np.full(frames, GEODESIC_COST))
-        X, root = average(np.array(rots), np.array(roots), 1.0 / (np.array(costs) + COST_FLOOR))
-        best = found[0]
-        info = {"clip": self.clips[best.clip].name, "source": self.clips[best.clip].source, "start": best.start,
-                "frames": best.length, "cost": round(best.cost, 6), "segments": len(found)}
+            costs.append(GEODESIC_COST)
+        w = np.array([1.0 / (c + COST_FLOOR) for c in costs])
+        w /= w.sum()
+        X = so3.nearest_rotation(np.einsum("k,k...->...", w, np.array(rots))) if len(rots) > 1 else rots[0]
+        root = np.einsum("k,k...->...", w, np.array(roots))
+        k, start, length, cost = found[0]
+        info = {"clip": self.clips[k].name, "source": self.clips[k].source, "start": int(start),
+                "frames": int(length), "cost": round(cost, 6), "segments": len(found)}
         return X, root, info
-
-
-class Segment(NamedTuple):
-    """A library segment for a gap: its clip (index in the library), start frame and length in frames (at the
-    library's rate), whole cost and the parts of it that match the start (the last known frames) and the end."""
-    clip: int
-    start: int
-    length: int
-    cost: float
-    start_cost: float
-    end_cost: float
-
-
-def _best_per_clip(rank, count, parts, clip, first, lengths, taken):
-    """The ``count`` best ``Segment``s by ``rank`` (lengths, table rows), one per clip, leaving out the clips
-    already in ``taken``."""
-    best = np.min(rank, axis=0)
-    starts = np.flatnonzero(np.r_[True, clip[1:] != clip[:-1]])
-    ends = np.r_[starts[1:], len(best)]
-    per_clip = np.minimum.reduceat(best, starts)
-    have = {t.clip for t in taken}
-    found = []
-    for c in np.argsort(per_clip, kind="stable"):
-        if len(found) >= count or not np.isfinite(per_clip[c]):
-            break
-        if int(clip[starts[c]]) in have:
-            continue
-        i = starts[c] + int(np.argmin(best[starts[c]:ends[c]]))
-        r = int(np.argmin(rank[:, i]))
-        a, e, m = (float(parts[k, r, i]) for k in range(3))
-        found.append(Segment(int(clip[i]), int(i - first[i]), lengths[r], a + e + m, a, e))
-    return found
-
-
-def gap_costs(found, frames):
-    """(segments, frames): each segment's cost at each generated frame, its start's match weighing the more the
-    nearer the frame is to the last known pose and its end's the nearer to the target:
-    ``2 (1 - s) start + 2 s end + rest`` with s = t / (frames + 1) (the whole cost at mid-gap)."""
-    s = np.arange(1, frames + 1) / (frames + 1.0)
-    a = np.array([f.start_cost for f in found])[:, None]
-    e = np.array([f.end_cost for f in found])[:, None]
-    rest = np.array([f.cost for f in found])[:, None] - a - e
-    return 2.0 * (1.0 - s)[None] * a + 2.0 * s[None] * e + rest
-
-
-def average(rots, roots, weights):
-    """(X (frames, bones, 3, 3), root (frames, 3)): the per-frame weighted mean of candidates ``rots`` (k, frames,
-    bones, 3, 3) and ``roots`` (k, frames, 3) with ``weights`` (k, frames) (normalised per frame): the chordal
-    mean of the rotations (the nearest rotation to their weighted sum), the weighted mean of the root heads."""
-    w = np.asarray(weights, float)
-    w = w / w.sum(axis=0, keepdims=True)
-    X = so3.nearest_rotation(np.einsum("kf,kf...->f...", w, rots)) if len(rots) > 1 else rots[0]
-    return X, np.einsum("kf,kf...->f...", w, roots)
 
 
 def _meet(rig, X, root, X0, p0, X1, p1):
