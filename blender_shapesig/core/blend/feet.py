@@ -369,10 +369,11 @@ def _pitch_to_floor(Wf, head, bone, up, floor, fps):
     return so3.exp(axis * need[:, None]) @ Wf
 
 
-def _ik_leg(X, W, heads, rest, leg, target, up=None, floor=None, fps=None):
+def _ik_leg(X, W, heads, rest, leg, target, up=None, floor=None, fps=None, turn=None):
     """Two-bone IK in place on X (world-aligned local rotations): thigh and shin turned so that the ankle reaches
-    ``target`` with the knee in the plane of the blended leg; the foot keeps its world rotation, pitched up where
-    its tail, or a toe's, would go below its ``floor`` (``_floors``, along ``up``; ``_pitch_to_floor``)."""
+    ``target`` with the knee in the plane of the blended leg; the foot keeps its world rotation (turned by the
+    world rotations ``turn`` (frames, 3, 3) about its head when given), pitched up where its tail, or a toe's,
+    would go below its ``floor`` (``_floors``, along ``up``; ``_pitch_to_floor``)."""
     thigh, shin, foot = leg
     hip, knee, ankle = heads[:, thigh], heads[:, shin], heads[:, foot]
     l1 = np.linalg.norm(rest.heads[shin] - rest.heads[thigh])
@@ -390,7 +391,7 @@ def _ik_leg(X, W, heads, rest, leg, target, up=None, floor=None, fps=None):
     new_shin_parent = Rt @ W[:, rest.ancestor[shin]]
     new_foot_parent = Rs @ Rt @ W[:, rest.ancestor[foot]]
     X[:, shin] = np.swapaxes(new_shin_parent, -1, -2) @ Ws
-    Wf = W[:, foot]
+    Wf = W[:, foot] if turn is None else turn @ W[:, foot]
     if floor is not None:
         reached = new_knee + np.einsum("fij,fj->fi", Rs @ Rt, ankle - knee)
         Wf = _pitch_to_floor(Wf, reached, rest.tails[foot] - rest.heads[foot], up, floor["ball"], fps)
