@@ -34,7 +34,8 @@ import numpy as np
 from _common import ROOT
 
 from blender_shapesig.core.blas import one_blas_thread  # noqa: E402
-from blender_shapesig.core.search.local import features as local, dtw as local_dtw, take  # noqa: E402
+from blender_shapesig.core.search.local import description, features as local, dtw as local_dtw, take  # noqa: E402
+from blender_shapesig.core.search.local.entry import JOINT_LISTS, LocalEntry  # noqa: E402
 from blender_shapesig.core.search.local.library import open_library, write_library  # noqa: E402
 from blender_shapesig.core.io import sources  # noqa: E402
 
@@ -50,8 +51,8 @@ def base_entries(folders):
                     clip = sources.read_one(sources.ClipSpec(os.path.join(dirpath, f)))
                     e = local.index_entry(clip)
                     # the joint lists the cache keeps with each clip (local_rank's entries): the header's size
-                    e["lists"] = {"joints": list(clip.bones), "still": list(clip.still_bones()),
-                                  "rig_joints": list(clip.meta.get("rig_joints") or ())}
+                    e.joints, e.still = tuple(clip.bones), tuple(clip.still_bones())
+                    e.rig_joints = tuple(clip.meta.get("rig_joints") or ())
                     out.append(e)
                 except Exception:  # noqa: BLE001 - clips the local features refuse are left out
                     pass
@@ -67,26 +68,26 @@ def copy(bases, seed):
     rng = np.random.default_rng(seed)
     b = bases[base_of(seed, len(bases))]
     rng.integers(len(bases))  # (the draw that picked the base; the same copies as before)
-    W, Q = np.asarray(b["windows"], np.float32), np.asarray(b["sequence"], np.float32)
+    W, Q = np.asarray(b.windows, np.float32), np.asarray(b.sequence, np.float32)
     f = rng.uniform(0.6, 1.0)
     nw, nq = max(2, int(len(W) * f)), max(4, int(len(Q) * f))
     w0, q0 = rng.integers(len(W) - nw + 1), rng.integers(len(Q) - nq + 1)
     s = rng.uniform(0.01, 0.15)
     W = W[w0:w0 + nw] + s * np.sqrt((W ** 2).mean()) * rng.standard_normal((nw, W.shape[1]))
     Q = Q[q0:q0 + nq] + s * np.sqrt((Q ** 2).mean()) * rng.standard_normal((nq, Q.shape[1]))
-    T = np.asarray(b["take"], np.float32)
+    T = np.asarray(b.take, np.float32)
     T = T + s * np.sqrt((T ** 2).mean()) * rng.standard_normal(T.shape)
-    return {"name": f"c{seed}", "windows": W.astype(np.float16), "sequence": Q.astype(np.float16),
-            "path": np.asarray(b["path"], np.float32), "take": T, "take_mask": b["take_mask"],
-            "seconds": np.float32(b["seconds"] * f)}
+    what = None if b.describe is None else (b.describe * rng.uniform(1 - s, 1 + s, b.describe.shape)).astype(np.float32)
+    return LocalEntry(W.astype(np.float16), Q.astype(np.float16), np.asarray(b.path, np.float32), describe=what,
+                      take=T, take_mask=b.take_mask, seconds=np.float32(b.seconds * f), name=f"c{seed}")
 
 
 def copy_seconds(bases, seed):
-    """``copy(bases, seed)["seconds"]`` without making the copy (the same draws)."""
+    """``copy(bases, seed).seconds`` without making the copy (the same draws)."""
     rng = np.random.default_rng(seed)
     b = bases[base_of(seed, len(bases))]
     rng.integers(len(bases))
-    return float(b["seconds"] * rng.uniform(0.6, 1.0))
+    return float(b.seconds * rng.uniform(0.6, 1.0))
 
 
 class Lazy:
@@ -99,12 +100,16 @@ class Lazy:
         return (copy(self.bases, s) for s in self.seeds)
 
 
+def _lists(e):
+    return {k: list(getattr(e, k)) for k in JOINT_LISTS}
+
+
 def build(fn, bases, n, per_file=100):
     files = []
     for f0 in range(0, n, per_file):
         seeds = range(f0, min(n, f0 + per_file))
         meta = {"clips": [dict(name=f"c{s}", frames=0, bones=0, trimmed=[], seconds=copy_seconds(bases, s),
-                               **bases[base_of(s, len(bases))]["lists"]) for s in seeds]}
+                               **_lists(bases[base_of(s, len(bases))])) for s in seeds]}
         files.append((f"file{f0}", 0, 0, meta, Lazy(bases, seeds)))
     with open(fn, "wb") as f:
         write_library(f, files, "bench")
@@ -115,7 +120,10 @@ def ranked(q, lib, block, entries_of, keep, top=10, previous=False, share=local.
     head = np.argsort(d1, kind="stable")[:local.SHORTLIST]
     cands = [entries_of(i) for i in head]
     if previous:
-        score = take.twin_first(q, cands, local.combine(d1[head], previous_rerank(q, cands)))
+        # the same rule as shortlist_scores (what happens in the clips, the twin) on the DTW as it ran before
+        score = local.combine(d1[head], previous_rerank(q, cands)) + description.WEIGHT * \
+            description.description_distances(q, cands)
+        score = take.twin_first(q, cands, score, lambda picked: local.held_distances(q, picked))
     else:
         score, _ = local.shortlist_scores(q, cands, d1[head])
     return [int(head[k]) for k in np.argsort(score, kind="stable")[:top]]
@@ -130,7 +138,7 @@ def _runs(starts, ends, idx):
 
 
 def previous_first_stage(query, lib, keep=None):
-    q = np.asarray(query["windows"], np.float32)
+    q = np.asarray(query.windows, np.float32)
     qn = (q * q).sum(1)[:, None]
     starts, ends = lib["starts"], lib["ends"]
     out, idx, coarse = np.full(len(starts), np.inf), np.arange(len(starts)), None
@@ -139,7 +147,7 @@ def previous_first_stage(query, lib, keep=None):
         if keep is not None and len(starts) > keep:
             C = np.asarray(lib["coarse"], np.float32)
             k = C.shape[1]
-            c = local.coarse_windows(query["windows"], 4 * k)
+            c = local.coarse_windows(query.windows, 4 * k)
             C = C.reshape(-1, C.shape[2])
             D = (c * c).sum(1)[:, None] + (C * C).sum(1)[None] - 2.0 * (c @ C.T)
             D = np.sqrt(np.maximum(D, 0.0)).reshape(len(c), -1, k)
@@ -161,10 +169,10 @@ def previous_first_stage(query, lib, keep=None):
 
 
 def previous_rerank(query, cands):
-    a = np.asarray(query["sequence"], np.float64)
+    a = np.asarray(query.sequence, np.float64)
     out = []
     for c in cands:
-        b = np.asarray(c["sequence"], np.float64)
+        b = np.asarray(c.sequence, np.float64)
         d = local_dtw._dtw_numpy(a, b, max(local._band(len(a), len(b)), 1), min(int(local.FREE * len(a)), len(a) - 1),
                              min(int(local.FREE * len(b)), len(b) - 1))
         out.append(d / np.sqrt(len(a) + len(b)))

@@ -198,5 +198,5 @@ def index_items(items, store, sched=None, progress=None, batch=64):
     clips = 0
     for it in items:
         got = store.local.get(it.key, skey)
-        clips += sum(1 for e in got or () if not e.get("refused"))
+        clips += sum(1 for e in got or () if not e.refused)
     return clips, computed, errors

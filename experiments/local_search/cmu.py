@@ -60,7 +60,7 @@ def across_rigs(items, feats, variant, n_lib):
         cand = [j for j in range(n_lib) if j != q]
         order = cm.two_stage_order(ls.first_stage(E[q], E), cand, k,
                                    lambda j, q=q: ls.rerank(E[q], [E[j]], band, free)[0], mix,
-                                   lambda j, q=q: float(np.linalg.norm(E[q]["path"] - E[j]["path"])),
+                                   lambda j, q=q: float(np.linalg.norm(E[q].path - E[j].path)),
                                    settings.global_weight)
         ok += items[order[0]].label == items[q].label
     return ok

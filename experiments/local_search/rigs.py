@@ -54,7 +54,7 @@ def window_weights(feat, settings, floor=0.05):
 
 def weighted_matrix(E, feats, settings, floor):
     """The first stage with each side's mean weighted by its windows' energy (``local_action.window_weights``)."""
-    W = [np.asarray(e["windows"], np.float32) for e in E]
+    W = [np.asarray(e.windows, np.float32) for e in E]
     wt = [window_weights(f, settings, floor) for f in feats]
     n = len(E)
     D = np.zeros((n, n))

@@ -12,6 +12,7 @@ queries keep or gain a right first), and the margins: the right promotions' rati
 """
 
 import argparse
+import dataclasses
 import collections
 import math
 import os
@@ -29,6 +30,10 @@ CROPS = (("start", 0.1), ("end", 0.1))
 SETS = ("cmu27", "cmu27_mixed", "cmu_large", "cmu_mixed_format", "hdm05")
 
 
+def _with_take(e, t):
+    return dataclasses.replace(e, take=t.take, take_mask=t.take_mask, seconds=t.seconds)
+
+
 def takes(items, path):
     def make():
         out = {"full": [take.take_entry(it.mapped()) for it in items]}
@@ -40,10 +45,10 @@ def takes(items, path):
 
 def rows_of(name, items, feats, T, kind, length, only=None):
     settings, K, band, free, mix = vs.VARIANTS["default"]
-    E = [dict(e, **t) for e, t in zip(vs.entries(feats["full"], settings), T["full"])]
+    E = [_with_take(e, t) for e, t in zip(vs.entries(feats["full"], settings), T["full"])]
     lib = ls.stack(E)
     out = []
-    tags = [("full", E)] + [(c[0], [dict(e, **t) for e, t in zip(vs.entries(feats[c], settings), T[c])])
+    tags = [("full", E)] + [(c[0], [_with_take(e, t) for e, t in zip(vs.entries(feats[c], settings), T[c])])
                             for c in CROPS if c in feats]
     for tag, QE in tags:
         for q, cand in cm.protocol(items, kind):
@@ -56,7 +61,7 @@ def rows_of(name, items, feats, T, kind, length, only=None):
             score = ls.combine(d1[head], ls.rerank(QE[q], cands, band, free), mix)
             f = int(np.argmin(score))
             g = take.take_distances(QE[q], cands)
-            lengths = np.log([float(c["seconds"]) / float(QE[q]["seconds"]) for c in cands])
+            lengths = np.log([float(c.seconds) / float(QE[q].seconds) for c in cands])
             same = np.flatnonzero(np.abs(lengths) <= math.log(length))
             right = (lambda j: items[j].label == items[q].label) if tag == "full" else (lambda j: j == q)
             r = {"set": name, "tag": tag, "q": items[q].name, "right_first": bool(right(head[f])), "ratio": np.inf,
@@ -93,7 +98,7 @@ def main(argv=None):
     everyone = rig + others
     rf = cm.cached(os.path.join(args.out, f"rigs_features_{cm.FEATURES}.pkl"),
                    lambda: [cm.clip_features(it.mapped()) for it in everyone])
-    rT = cm.cached(os.path.join(args.out, "rigs_takes.pkl"), lambda: [take.take_entry(it.mapped()) for it in everyone])
+    rT = cm.cached(os.path.join(args.out, "rigs_takes_v2.pkl"), lambda: [take.take_entry(it.mapped()) for it in everyone])
     for n in (20, len(everyone)):
         items = everyone[:n]
         for it in items:  # the same take: the label is the take; a third copy among the others counts too
@@ -106,7 +111,7 @@ def main(argv=None):
         else:
             items, kind = cm.load_eval_set(os.path.join(cm.ROOT, "tools", "eval_sets", name + ".csv"), args.data_cmu), "loo"
         feats = cm.set_features(items, os.path.join(args.out, f"{name}_features_{cm.FEATURES}.pkl"))
-        rows += rows_of(name, items, feats, takes(items, os.path.join(args.out, f"{name}_takes.pkl")), kind,
+        rows += rows_of(name, items, feats, takes(items, os.path.join(args.out, f"{name}_takes_v2.pkl")), kind,
                         args.length)
     for ratio in (float(x) for x in args.ratios.split(",")):
         out = collections.OrderedDict()

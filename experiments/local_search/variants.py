@@ -74,7 +74,7 @@ def evaluate(items, feats, variant, kind="loo"):
     orders1 = [np.asarray(c)[np.argsort(D1[q, c], kind="stable")] for q, c in prot]
     s1 = cm.scores(orders1, labels, [q for q, _ in prot])
     gw = settings.global_weight
-    dg = lambda q, j: float(np.linalg.norm(E[q]["path"] - E[j]["path"]))  # noqa: E731
+    dg = lambda q, j: float(np.linalg.norm(E[q].path - E[j].path))  # noqa: E731
     orders = [cm.two_stage_order(D1[q], c, k, lambda j, q=q: d2(q, j, E[q], E[j]), mix,
                                  lambda j, q=q: dg(q, j), gw) for q, c in prot]
     s2 = cm.scores(orders, labels, [q for q, _ in prot])
@@ -90,7 +90,7 @@ def evaluate(items, feats, variant, kind="loo"):
         ok = ok1 = 0
         for q in everyone:
             order = cm.two_stage_order(Dc[q], everyone, k, lambda j, q=q: ls.rerank(Qc[q], [E[j]], band, free)[0], mix,
-                                       lambda j, q=q: float(np.linalg.norm(Qc[q]["path"] - E[j]["path"])), gw)
+                                       lambda j, q=q: float(np.linalg.norm(Qc[q].path - E[j].path)), gw)
             ok += order[0] == q
             ok1 += np.argmin(Dc[q]) == q
         crops[crop[0]] = (ok1, ok)

@@ -21,6 +21,7 @@ from ..signatures.signatures import ZERO_NORM
 from .dedupe_check import check_pairs, elastic_check, pair_curves, prepared_pair, srvt_energy, time_map
 from .dedupe_keeper import COMMON_RATES, KEEP_TIE, choose_keeper, copy_facts
 from .local import take as take_mod
+from .local.entry import Take
 from .signature.entry import IndexEntry, entry_distance
 from .signature.words import word_codes
 
@@ -202,7 +203,7 @@ def _norm(x) -> float:
     return float(np.sqrt((x * x).sum())) if len(x) else 0.0
 
 
-def take_vector(e: IndexEntry) -> Optional[dict]:
+def take_vector(e: IndexEntry) -> Optional[Take]:
     """The whole take's signature of an entry (``take.take_entry``'s, from the entry's increments: the same curve
     on the same time base), or None for an entry without canonical joints."""
     pos = _canonical_positions(e.bones)
@@ -216,8 +217,7 @@ def take_vector(e: IndexEntry) -> Optional[dict]:
     mask[list(pos)] = 1
     from ..signatures.signatures import increments_log_signature
 
-    return {"take": increments_log_signature(dx, 2), "take_mask": mask,
-            "seconds": max(e.frames - 1, 1) / float(e.fps or 1.0)}
+    return Take(increments_log_signature(dx, 2), mask, max(e.frames - 1, 1) / float(e.fps or 1.0))
 
 
 def is_conversion(a: IndexEntry, b: IndexEntry) -> bool:
@@ -232,7 +232,7 @@ def with_take(e: Edge, a: IndexEntry, b: IndexEntry, ta, tb) -> Edge:
     ``take_vector``s)."""
     if ta is None or tb is None or not is_conversion(a, b):
         return e
-    length = abs(float(np.log(max(ta["seconds"], 1e-9) / max(tb["seconds"], 1e-9))))
+    length = abs(float(np.log(max(ta.seconds, 1e-9) / max(tb.seconds, 1e-9))))
     return replace(e, take=float(take_mod.take_distances(ta, [tb])[0]), length=length)
 
 

@@ -40,7 +40,7 @@ _IDX = {p: i for i, p in enumerate(local.POINTS)}
 
 def poses_of(entry) -> np.ndarray:
     """(samples, points, 3) the key points of a local entry's ``sequence`` (``local.POINTS``; pelvis at 0)."""
-    seq = np.asarray(entry["sequence"], np.float64)
+    seq = np.asarray(entry.sequence, np.float64)
     n = len(local.POINTS)
     if seq.ndim != 2 or seq.shape[1] < 3 * n or len(seq) == 0:
         raise ShapeSigError("the clip's key points are missing from its index entry")
@@ -180,11 +180,11 @@ def local_entry_of(item, store, name: Optional[str] = None):
     """The local entry of clip ``name`` (None: the item's only or first clip) of a library item, from the store,
     else computed (the item's clips read); ShapeSigError when the local features refuse it (e.g. no legs)."""
     got = item_local_entries(item, store)
-    e = next((x for x in got if name is None or x["name"] == name), None)
+    e = next((x for x in got if name is None or x.name == name), None)
     if e is None:
         raise ShapeSigError(f"{item.name!r} has no clip {name!r}")
-    if e.get("refused"):
-        raise ShapeSigError(f"no picture of {e['name']!r}: {e['refused']}")
+    if e.refused:
+        raise ShapeSigError(f"no picture of {e.name!r}: {e.refused}")
     return e
 
 

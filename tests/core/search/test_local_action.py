@@ -2,6 +2,8 @@
 with known answers (a body rising off the ground, a walk forward and the same walk backward), and that the default
 recipe's key does not change while it is off."""
 
+from dataclasses import replace
+
 import numpy as np
 
 from blender_shapesig.core.search.local import features as local, action as local_action
@@ -74,10 +76,10 @@ def test_a_library_file_keeps_each_entrys_sequence_width(tmp_path):
     from blender_shapesig.core.search.local.store import _meta
 
     f = _features(speed=-1.0, lift=0.2)
-    narrow = dict(local.entry_from_features(f, local.Settings(action_weight=0.0)), name="narrow")
-    wide = dict(local.entry_from_features(f, local.Settings(action_weight=2.0)), name="wide")
+    narrow = replace(local.entry_from_features(f, local.Settings(action_weight=0.0)), name="narrow")
+    wide = replace(local.entry_from_features(f, local.Settings(action_weight=2.0)), name="wide")
     width = 3 * len(local.POINTS)
-    assert narrow["sequence"].shape[1] == width and wide["sequence"].shape[1] == width + 6
+    assert narrow.sequence.shape[1] == width and wide.sequence.shape[1] == width + 6
     fn = tmp_path / "pack.bin"
     files = [(n, 1, 1, {"clips": [_meta(e)]}, [e]) for n, e in (("a.bvh", narrow), ("b.bvh", wide))]
     with open(fn, "wb") as fh:
@@ -85,4 +87,4 @@ def test_a_library_file_keeps_each_entrys_sequence_width(tmp_path):
     lib = open_library(str(fn))
     for (name, size, mtime, meta, rows), e in zip(lib.files, (narrow, wide)):
         got = lib.entry(meta["clips"][0], rows[0])
-        assert np.array_equal(np.asarray(got["sequence"]), e["sequence"])
+        assert np.array_equal(np.asarray(got.sequence), e.sequence)

@@ -4,6 +4,7 @@ a damaged file is refused in one line and rebuilt; the first stage streamed over
 ``index`` command's JSON, also on a Dask LocalCluster."""
 
 import json
+from dataclasses import replace
 import os
 import shutil
 
@@ -15,6 +16,7 @@ from blender_shapesig.core import search as index
 from blender_shapesig.core.search.local import description, features as ls
 from blender_shapesig.core.search.local.library import open_library
 from blender_shapesig.core.search.local.store import LOCAL_PACK
+from tests.helpers.local_entries import entry
 from blender_shapesig.core.io import sources
 
 
@@ -89,20 +91,20 @@ def test_added_changed_removed_clips_and_a_damaged_file(lib_dir, tmp_path, data_
 
 def test_first_stage_over_row_ranges_in_any_order_and_the_prefilter():
     rng = np.random.default_rng(3)
-    entries = [{"windows": rng.standard_normal((rng.integers(2, 9), 8)).astype(np.float16)} for _ in range(40)]
-    q = {"windows": rng.standard_normal((5, 8)).astype(np.float16)}
+    entries = [entry(windows=rng.standard_normal((rng.integers(2, 9), 8)).astype(np.float16)) for _ in range(40)]
+    q = entry(windows=rng.standard_normal((5, 8)).astype(np.float16))
     block = ls.stack(entries)
     want = ls.first_stage(q, entries)
     # brute force, independent: the Chamfer by definition
     for i in (0, 17, 39):
-        D = np.linalg.norm(np.asarray(q["windows"], float)[:, None] - np.asarray(entries[i]["windows"], float)[None],
+        D = np.linalg.norm(np.asarray(q.windows, float)[:, None] - np.asarray(entries[i].windows, float)[None],
                            axis=2)
         assert want[i] == pytest.approx(0.5 * (D.min(1).mean() + D.min(0).mean()), rel=1e-4)
     perm = rng.permutation(40)  # the same rows, the entries in another order, and tiny blocks
     shuffled = dict(block, starts=block["starts"][perm], ends=block["ends"][perm])
     assert np.allclose(ls.first_stage(q, shuffled, block=7), want[perm], rtol=1e-6)
     # the prefilter: exact for the kept, the others after them in the prefilter's order
-    coarse = np.stack([ls.coarse_windows(e["windows"], 4) for e in entries])
+    coarse = np.stack([ls.coarse_windows(e.windows, 4) for e in entries])
     got = ls.first_stage(q, dict(block, coarse=coarse), keep=10)
     exact = np.isclose(got, want, rtol=1e-6)
     assert exact.sum() >= 10 and got[~exact].min() >= got[exact].max()
@@ -127,7 +129,7 @@ def test_index_command_json_and_dask(capsys, lib_dir, tmp_path):
     a, b = index.SignatureCache(cache), index.SignatureCache(cache2)
     for it in _items(lib_dir):
         ea, eb = a.local.get(it.key, ls.settings_key()), b.local.get(it.key, ls.settings_key())
-        assert np.array_equal(np.asarray(ea[0]["windows"]), np.asarray(eb[0]["windows"]))
+        assert np.array_equal(np.asarray(ea[0].windows), np.asarray(eb[0].windows))
     assert cli.main(["index", str(lib_dir), "--scheduler", "nonsense"]) == 2
 
 
@@ -235,11 +237,10 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
         joints = rig_a if i % 3 else rig_b
         clips.append({"name": f"c{i}", "frames": 10, "bones": len(joints), "trimmed": [], "joints": joints,
                       "still": joints[:2], "rig_joints": ["hips"]})
-        entries.append({"windows": rng.standard_normal((3, ls.DIM)).astype(np.float16),
-                        "sequence": rng.standard_normal((4, 3 * len(ls.POINTS))).astype(np.float16),
-                        "path": np.zeros(10, np.float32),
-                        "take": rng.standard_normal(take.DIM).astype(np.float32),
-                        "take_mask": (rng.random(len(take.JOINTS)) < 0.8).astype(np.uint8)})
+        entries.append(entry(windows=rng.standard_normal((3, ls.DIM)).astype(np.float16),
+                             sequence=rng.standard_normal((4, 3 * len(ls.POINTS))).astype(np.float16),
+                             take=rng.standard_normal(take.DIM).astype(np.float32),
+                             take_mask=(rng.random(len(take.JOINTS)) < 0.8).astype(np.uint8)))
     fn = tmp_path / "lib.bin"
     with open(fn, "wb") as f:
         ll.write_library(f, [("f", 1, 2, {"clips": clips}, entries)], "fmt")
@@ -251,9 +252,9 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
         return [lib.entry(m, r) for *_, meta, rows in lib.files for m, r in zip(meta["clips"], rows)]
 
     for want, e, got in zip(clips, entries, read_back(fn)):
-        assert got["joints"] == tuple(want["joints"]) and got["still"] == tuple(want["still"])
-        assert got["rig_joints"] == ("hips",)
-        assert np.array_equal(got["take"], e["take"]) and np.array_equal(got["take_mask"], e["take_mask"])
+        assert got.joints == tuple(want["joints"]) and got.still == tuple(want["still"])
+        assert got.rig_joints == ("hips",)
+        assert np.array_equal(got.take, e.take) and np.array_equal(got.take_mask, e.take_mask)
     # version 2: the same arrays, the lists written in each clip (the arrays start after a reserve of 4 KB)
     (n,) = struct.unpack("<Q", data[len(ll.MAGIC):len(ll.MAGIC) + 8])
     header = json.loads(data[len(ll.MAGIC) + 8:len(ll.MAGIC) + 8 + n])
@@ -268,7 +269,7 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
     (tmp_path / "v2.bin").write_bytes(v2 + b"\0" * (start - len(v2)) + data[start:])
     old = read_back(tmp_path / "v2.bin")
     for a, b in zip(read_back(fn), old):
-        assert a["joints"] == b["joints"] and np.array_equal(a["windows"], b["windows"])
+        assert a.joints == b.joints and np.array_equal(a.windows, b.windows)
     # a list number that is not in the table: refused in one line
     bad = data.replace(b'"rig_joints": 2', b'"rig_joints": 9', 1)
     assert bad != data
@@ -285,10 +286,7 @@ def test_a_cache_of_an_older_recipe_keeps_working(lib_dir, tmp_path):
     q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
     folder = tmp_path / "cache"
     old = index.SignatureCache(folder)
-    olds = [{k: v for k, v in ls.index_entry(c).items() if k not in ("take", "take_mask", "seconds")}
-            for c in items[0].clips()]
-    for e in olds:
-        e["name"] = "old"
+    olds = [replace(ls.index_entry(c), take=None, take_mask=None, seconds=0.0, name="old") for c in items[0].clips()]
     old.local.put(items[0].key, "an older recipe", olds)
     old.local.save_pack()
     store = index.SignatureCache(folder)
@@ -296,8 +294,8 @@ def test_a_cache_of_an_older_recipe_keeps_working(lib_dir, tmp_path):
     assert _names(got) == _names(index.rank_clips(q, items, cache=None))
     reopened = index.SignatureCache(folder)
     back = reopened.local.get(items[0].key, "an older recipe")
-    assert back is not None and "take" not in back[0] and len(back[0]["windows"]) == len(olds[0]["windows"])
+    assert back is not None and back[0].take is None and len(back[0].windows) == len(olds[0].windows)
     fresh = reopened.local.get(items[0].key, ls.settings_key())
-    assert fresh is not None and fresh[0]["take_mask"].any()
+    assert fresh is not None and fresh[0].take_mask.any()
     reopened.local.release()
-    assert "take" not in back[0] and isinstance(fresh[0]["take"], np.ndarray)
+    assert back[0].take is None and isinstance(fresh[0].take, np.ndarray)

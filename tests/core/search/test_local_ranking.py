@@ -52,7 +52,7 @@ def test_rank_orders_and_scores_as_the_local_search(clips):
     head = list(np.argsort(d1, kind="stable")[:3])
     score = ls.combine(d1[head], ls.rerank(qe, [entries[i] for i in head]))
     # plus what happens in the clips (``description``): the root mean square of their descriptions' differences
-    gap = np.array([np.sqrt(np.mean((entries[i]["describe"].astype(float) - qe["describe"]) ** 2)) for i in head])
+    gap = np.array([np.sqrt(np.mean((entries[i].describe.astype(float) - qe.describe) ** 2)) for i in head])
     score = score + description.WEIGHT * gap
     want = dict(zip((lib[i].name for i in head), score))
     rows = {r.name: r for r in got}
@@ -80,7 +80,7 @@ def test_rank_local_rows_made_when_read_equal_the_rule(clips):
     head = order[:2]
     score = ls.combine(d1[head], ls.rerank(qe, [entries[i] for i in head]))
     # plus what happens in the clips (``description``): the root mean square of their descriptions' differences
-    gap = np.array([np.sqrt(np.mean((entries[i]["describe"].astype(float) - qe["describe"]) ** 2)) for i in head])
+    gap = np.array([np.sqrt(np.mean((entries[i].describe.astype(float) - qe.describe) ** 2)) for i in head])
     score = score + description.WEIGHT * gap
     want = [(int(head[k]), score[k], d1[head[k]]) for k in np.argsort(score, kind="stable")]
     want += [(int(i), max(score.max(), 2.0 * d1[i] / d1[head].mean()), d1[i]) for i in order[2:]]

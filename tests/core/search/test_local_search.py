@@ -13,6 +13,7 @@ from blender_shapesig.core.search.local import features as ls
 from blender_shapesig.core.search.local import dtw as local_dtw
 from blender_shapesig.core import rigs
 from blender_shapesig.core.signatures import signatures
+from tests.helpers.local_entries import entry
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.errors import ShapeSigError
 
@@ -80,8 +81,8 @@ def test_the_shortlist_at_once_equals_one_dtw_at_a_time():
 
 def test_rerank_is_the_same_with_and_without_the_compiled_kernel(monkeypatch):
     rng = np.random.default_rng(12)
-    q = {"sequence": rng.standard_normal((20, 6)).astype(np.float16)}
-    cands = [{"sequence": rng.standard_normal((int(rng.integers(5, 30)), 6)).astype(np.float16)} for _ in range(7)]
+    q = entry(sequence=rng.standard_normal((20, 6)).astype(np.float16))
+    cands = [entry(sequence=rng.standard_normal((int(rng.integers(5, 30)), 6)).astype(np.float16)) for _ in range(7)]
     monkeypatch.setattr(local_dtw, "_kernel", lambda: None)
     batch = ls.rerank(q, cands)
     monkeypatch.setattr(local_dtw, "_kernel", lambda: local_dtw._dtw_loops)  # the compiled kernel's code, run by Python
@@ -100,12 +101,14 @@ def test_a_shortlist_does_not_load_the_compiled_kernel():
     code = """
 import numba, numpy as np
 from blender_shapesig.core.search.local import features as ls, dtw as local_dtw
+from blender_shapesig.core.search.local.entry import LocalEntry
 rng = np.random.default_rng(1)
-q = {"sequence": rng.standard_normal((20, 6))}
-cands = [{"sequence": rng.standard_normal((25, 6))} for _ in range(5)]
+entry = lambda sequence: LocalEntry(np.zeros((1, 1)), sequence, np.zeros(10))
+q = entry(rng.standard_normal((20, 6)))
+cands = [entry(rng.standard_normal((25, 6))) for _ in range(5)]
 before = ls.rerank(q, cands)
 assert not local_dtw.kernel_ready()
-local_dtw.dtw(q["sequence"], cands[0]["sequence"], 5)
+local_dtw.dtw(q.sequence, cands[0].sequence, 5)
 assert local_dtw.kernel_ready()
 assert np.allclose(ls.rerank(q, cands), before, rtol=1e-12, atol=0)
 print("ok")
@@ -127,12 +130,12 @@ def test_levy_areas_are_level_two_of_the_log_signature():
 
 def test_first_stage_is_the_symmetric_mean_of_nearest_window_distances():
     rng = np.random.default_rng(7)
-    q = {"windows": rng.standard_normal((5, 6)).astype(np.float16)}
-    lib = [{"windows": rng.standard_normal((k, 6)).astype(np.float16)} for k in (1, 4, 9)] + [q]
+    q = entry(windows=rng.standard_normal((5, 6)).astype(np.float16))
+    lib = [entry(windows=rng.standard_normal((k, 6)).astype(np.float16)) for k in (1, 4, 9)] + [q]
     got = ls.first_stage(q, lib)
-    A = q["windows"].astype(np.float64)
+    A = q.windows.astype(np.float64)
     for e, d in zip(lib, got):
-        B = e["windows"].astype(np.float64)
+        B = e.windows.astype(np.float64)
         D = np.sqrt(((A[:, None] - B[None]) ** 2).sum(-1))
         assert d == pytest.approx(0.5 * (D.min(1).mean() + D.min(0).mean()), abs=1e-5)
     assert got[-1] == pytest.approx(0.0, abs=1e-5)
@@ -236,7 +239,7 @@ def test_a_clip_cut_by_a_tenth_finds_its_source_first(library, crop):
 def test_index_entry_is_compact_and_refuses_clips_outside_the_comparison_space(library):
     clips, full = library
     assert all(ls.entry_bytes(e) <= 50 * 1024 for e in full.values())
-    assert all(e["windows"].dtype == np.float16 and e["windows"].shape[1] == ls.DIM for e in full.values())
+    assert all(e.windows.dtype == np.float16 and e.windows.shape[1] == ls.DIM for e in full.values())
     with pytest.raises(ShapeSigError, match="not mapped to body joints .map its bones in the Bone Map panel"):
         ls.features(clips["07_01.amc"])
     # a long clip keeps its entry under the cap (a longer hop, a lower rate for the sequence)
@@ -268,9 +271,9 @@ def test_held_distance_is_the_query_side_of_the_first_stage(library):
     q = full["07_01.amc"]
     cands = [full["07_01.bvh"], full["09_02.amc"], full["07_01.amc"]]
     got = ls.held_distances(q, cands)
-    A = np.asarray(q["windows"], np.float64)
+    A = np.asarray(q.windows, np.float64)
     for c, h in zip(cands, got):
-        B = np.asarray(c["windows"], np.float64)
+        B = np.asarray(c.windows, np.float64)
         near = [min(np.linalg.norm(a - b) for b in B) for a in A]
         assert h == pytest.approx(np.mean(near), rel=1e-3, abs=1e-3)
         # the first stage is the mean of both sides

@@ -11,6 +11,7 @@ from blender_shapesig.core import rigs
 from blender_shapesig.core.clip.prepare import prepare_clip
 from blender_shapesig.core.geometry import so3
 from blender_shapesig.core.search.local import take
+from blender_shapesig.core.search.local.entry import LocalEntry, Take
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.signatures import signatures as sg
 
@@ -52,15 +53,15 @@ def _layout(joints):
 def test_take_is_the_level_2_log_signature_of_the_development(walks):
     clip = walks["amc"]
     e = take.take_entry(clip)
-    assert e["take"].shape == (take.DIM,) and e["take"].dtype == np.float32
+    assert e.take.shape == (take.DIM,) and e.take.dtype == np.float32
     have = [j for j in take.JOINTS if j in clip.bones]
-    assert [take.JOINTS[k] for k in np.flatnonzero(e["take_mask"])] == have
-    got = e["take"][_layout(have)]
+    assert [take.JOINTS[k] for k in np.flatnonzero(e.take_mask)] == have
+    got = e.take[_layout(have)]
     want = _areas_closed_form(clip, have)
     assert np.allclose(got, want, rtol=1e-5, atol=1e-5 * np.abs(want).max())
     # the channels of joints the rig lacks are zeros
-    assert not np.any(e["take"][~_layout(have)])
-    assert e["seconds"] == pytest.approx((clip.frames - 1) / clip.fps)
+    assert not np.any(e.take[~_layout(have)])
+    assert e.seconds == pytest.approx((clip.frames - 1) / clip.fps)
 
 
 def test_distance_is_linear2_on_the_joints_both_rigs_have(walks):
@@ -84,7 +85,7 @@ def test_constant_bone_offsets_do_not_change_the_take(walks):
     rng = np.random.default_rng(3)
     Q = so3.exp(rng.normal(scale=0.6, size=(len(clip.bones), 3)))
     turned = dataclasses.replace(clip, rotations=clip.rotations @ Q[None])
-    a, b = take.take_entry(clip)["take"], take.take_entry(turned)["take"]
+    a, b = take.take_entry(clip).take, take.take_entry(turned).take
     assert np.allclose(a, b, atol=1e-4 * np.abs(a).max())
     assert take.take_distances(take.take_entry(clip), [take.take_entry(turned)])[0] < 1e-3 * np.linalg.norm(a)
 
@@ -93,7 +94,7 @@ def _entry(vec, seconds, mask=None):
     t = np.zeros(take.DIM, np.float32)
     t[:len(vec)] = vec
     m = np.ones(len(take.JOINTS), np.uint8) if mask is None else mask
-    return {"take": t, "take_mask": m, "seconds": np.float32(seconds)}
+    return Take(t, m, np.float32(seconds))
 
 
 def _shortlist():
@@ -139,7 +140,8 @@ def test_twin_rule_keeps_the_order_when_it_does_not_apply():
     zero = score.copy()
     zero[0] = 0.0
     assert np.array_equal(take.twin_first(q, c, zero), zero)
-    assert np.array_equal(take.twin_first({"name": "q"}, c, score), score)
+    assert np.array_equal(take.twin_first(LocalEntry(np.zeros((1, 1)), np.zeros((1, 1)), np.zeros(10), name="q"), c,
+                                          score), score)
     assert np.array_equal(take.twin_first(q, c[:1], score[:1]), score[:1])
 
 

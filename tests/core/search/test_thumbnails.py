@@ -13,6 +13,7 @@ import pytest
 from blender_shapesig.core.errors import ShapeSigError
 from blender_shapesig.core.search import SignatureCache
 from blender_shapesig.core.search import thumbnails as T
+from blender_shapesig.core.search.local.entry import Refusal
 from blender_shapesig.core.io import sources
 from blender_shapesig.core.raster import Canvas, png_bytes, write_png
 from tests.helpers.png import read_png
@@ -152,7 +153,7 @@ def test_window_is_marked_in_the_accent_colour(store):
 def test_no_picture_without_an_index_folder_or_legs(tmp_path):
     with pytest.raises(ShapeSigError, match="index folder"):
         T.thumbnail(_item("bvh/09_02.bvh"), SignatureCache(None))
-    refused = {"name": "arm", "refused": "local search needs the legs"}
+    refused = Refusal("arm", "local search needs the legs")
     cache = SignatureCache(tmp_path)
     cache.local.put("k", __import__("blender_shapesig.core.search.local.features", fromlist=["x"]).settings_key(), [refused])
     with pytest.raises(ShapeSigError, match="no picture of 'arm'"):

@@ -56,8 +56,8 @@ def describe(feat) -> np.ndarray:
 def description_distances(query, candidates) -> np.ndarray:
     """(len(candidates),) the root mean square of the differences of the entries' descriptions (leg lengths); zeros
     when the query or any candidate has none (an entry of an older recipe)."""
-    if "describe" not in query or any("describe" not in c for c in candidates):
+    if query.describe is None or any(c.describe is None for c in candidates):
         return np.zeros(len(candidates))
-    q = np.asarray(query["describe"], np.float64)
-    D = np.array([np.asarray(c["describe"], np.float64) for c in candidates]).reshape(len(candidates), -1)
+    q = np.asarray(query.describe, np.float64)
+    D = np.array([np.asarray(c.describe, np.float64) for c in candidates]).reshape(len(candidates), -1)
     return np.sqrt(((D - q) ** 2).mean(axis=1))

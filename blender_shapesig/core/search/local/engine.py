@@ -21,8 +21,8 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
     q = query_local_entry(query, store)
     warnings, skipped = [], []
     got = local_entries(items, store, progress, warnings)
-    ok = [(item, e) for item, e in got if not e.get("refused")]
-    refused = [(item, e) for item, e in got if e.get("refused")]
+    ok = [(item, e) for item, e in got if not e.refused]
+    refused = [(item, e) for item, e in got if e.refused]
     full, part = [], []
     ranked = rank_local(q, ok, store, shortlist or SHORTLIST)
     for i, score, d1, d2 in ranked:
@@ -30,23 +30,22 @@ def _rank_by_local(query, items, store, shortlist, progress, depth, allow_partia
             break
         item, e = ok[i]
         # the body is compared whole: every canonical joint both clips have (their rigs' other joints unmapped)
-        got = coverage_from(q.get("joints", ()), q.get("still", ()), q.get("rig_joints", ()), e.get("joints", ()),
-                            e.get("still", ()), e.get("rig_joints", ()))
-        low = coverage_rule(e["name"], got, allow_partial, warnings, skipped)
+        got = coverage_from(q.joints, q.still, q.rig_joints, e.joints, e.still, e.rig_joints)
+        low = coverage_rule(e.name, got, allow_partial, warnings, skipped)
         if low is None:
             continue
         (part if low else full).append(RankResult(
-            name=e["name"], distance=score, frames=e.get("frames", 0), key=item.key, source=item.source,
-            trimmed=tuple(e.get("trimmed", ())), metric=LOCAL, first_stage=d1, dtw=d2, partial=low,
-            shared=min(q.get("bones", 0), e.get("bones", 0)), coverage=float(got["coverage"]),
+            name=e.name, distance=score, frames=e.frames, key=item.key, source=item.source,
+            trimmed=tuple(e.trimmed), metric=LOCAL, first_stage=d1, dtw=d2, partial=low,
+            shared=min(q.bones, e.bones), coverage=float(got["coverage"]),
             unmapped=tuple(got["unmapped"]), item=item))
     results = full + part
     if refused:
-        warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1]['name']}: "
-                        f"{refused[0][1]['refused']}) are ranked after the others by {ENGINES['sim'].status}")
+        warnings.append(f"{len(refused)} clip(s) the local search cannot read ({refused[0][1].name}: "
+                        f"{refused[0][1].refused}) are ranked after the others by {ENGINES['sim'].status}")
     if refused and (top is None or len(results) < top):  # their rows only when they can be kept
         qs = query_entry(query, DEFAULT_LEVEL, store)
-        names = {(item.key, e["name"]) for item, e in refused}
+        names = {(item.key, e.name) for item, e in refused}
         refused_items = list({item.key: item for item, _ in refused}.values())
         pairs = [(item, e) for item, e in compute_entries(refused_items, DEFAULT_LEVEL, store, None, warnings)
                  if (item.key, e.name) in names]

@@ -28,6 +28,7 @@ from ...clip.clip import Clip
 from ...rigs.body import POINTS, SEGMENTS, body_positions, rig_positions
 from . import action as local_action, description as local_description, dtw as local_dtw, take
 from .dtw import dtw
+from .entry import LocalEntry
 # the first stage lives in ``stage_one``; its names stay importable from here
 from .stage_one import (PREFILTER, PREFILTER_SHARE, _chunks, _coarse_norms, _sq_dist, _take,  # noqa: F401
                         coarse_distances, coarse_windows, first_stage, gather_rows, stack)
@@ -248,12 +249,14 @@ def window_vectors(feat: Mapping[str, np.ndarray], settings: Settings = DEFAULT)
     return np.concatenate(out)
 
 
-def index_entry(clip: Clip, settings: Settings = DEFAULT) -> Dict[str, np.ndarray]:
-    """The compact arrays the search keeps per clip: ``windows`` (N, DIM) float16 (projected window descriptors),
-    ``sequence`` (T', 3 * points) float16 (the pose every ``settings.step``-th sample, for the second stage),
-    ``path`` (10,) and the whole take (``take.take_entry``: ``take``, ``take_mask``, ``seconds``)."""
+def index_entry(clip: Clip, settings: Settings = DEFAULT) -> LocalEntry:
+    """The compact arrays the search keeps per clip (a ``LocalEntry`` named as the clip): ``windows`` (N, DIM)
+    float16 (projected window descriptors), ``sequence`` (T', 3 * points) float16 (the pose every
+    ``settings.step``-th sample, for the second stage), ``path`` (10,), ``describe`` and the whole take
+    (``take.take_entry``: ``take``, ``take_mask``, ``seconds``)."""
     entry = entry_from_features(features(clip, settings), settings)
-    entry.update(take.take_entry(clip))
+    got = take.take_entry(clip)
+    entry.name, entry.take, entry.take_mask, entry.seconds = clip.name, got.take, got.take_mask, got.seconds
     return entry
 
 
@@ -290,15 +293,13 @@ def entry_from_features(feat, settings: Settings = DEFAULT):
     V = window_vectors(feat, settings)
     if settings.dim:
         V = V @ _projection(V.shape[1], settings.dim, settings.seed).astype(np.float64)
-    out = {"windows": V.astype(np.float16), "sequence": _sequence(feat, settings).astype(np.float16),
-           "path": whole_path(feat).astype(np.float32)}
-    if settings.describe:
-        out["describe"] = local_description.describe(feat)
-    return out
+    return LocalEntry(windows=V.astype(np.float16), sequence=_sequence(feat, settings).astype(np.float16),
+                      path=whole_path(feat).astype(np.float32),
+                      describe=local_description.describe(feat) if settings.describe else None)
 
 
-def entry_bytes(entry) -> int:
-    return int(sum(np.asarray(v).nbytes for v in entry.values()))
+def entry_bytes(entry: LocalEntry) -> int:
+    return entry.nbytes()
 
 
 # ------------------------------------------------------------------------------------------------- stage two
@@ -311,8 +312,8 @@ def rerank(query, candidates: Sequence, band: float = BAND, free: float = FREE) 
     """(len(candidates),) DTW distances of the query's pose sequence to each candidate's, divided by the square
     root of the sum of the two lengths (clips of other durations stay comparable); up to ``free`` of either
     sequence's length may be left out at each end (crops)."""
-    a = np.ascontiguousarray(query["sequence"], dtype=np.float64)
-    bs = [np.ascontiguousarray(c["sequence"], dtype=np.float64) for c in candidates]
+    a = np.ascontiguousarray(query.sequence, dtype=np.float64)
+    bs = [np.ascontiguousarray(c.sequence, dtype=np.float64) for c in candidates]
     if not bs:
         return np.empty(0)
     if not local_dtw.kernel_ready() and len(bs) > 1:  # numpy: the shortlist at once
@@ -345,8 +346,8 @@ def held_distances(query, candidates: Sequence) -> np.ndarray:
     """(len(candidates),) how well each candidate holds the query: the mean over the query's windows of the distance
     to the candidate's nearest window (the query's side of ``first_stage``; about 0 for the clip a crop was cut
     from)."""
-    q = np.asarray(query["windows"], np.float32)
-    return np.array([float(np.sqrt(_sq_dist(q, np.asarray(c["windows"], np.float32))).min(axis=1).mean())
+    q = np.asarray(query.windows, np.float32)
+    return np.array([float(np.sqrt(_sq_dist(q, np.asarray(c.windows, np.float32))).min(axis=1).mean())
                      for c in candidates])
 
 
@@ -363,8 +364,8 @@ def shortlist_scores(query, candidates: Sequence, d1, mix: float = MIX, dg=None,
 
 
 def path_distances(query, candidates) -> np.ndarray:
-    q = np.asarray(query["path"], float)
-    return np.array([np.linalg.norm(np.asarray(c["path"], float) - q) for c in candidates])
+    q = np.asarray(query.path, float)
+    return np.array([np.linalg.norm(np.asarray(c.path, float) - q) for c in candidates])
 
 
 def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MIX,

@@ -17,6 +17,7 @@ import struct
 import numpy as np
 
 from . import description, features as local, take
+from .entry import JOINT_LISTS, LocalEntry, Refusal
 
 __all__ = ["MAGIC", "COARSE", "write_library", "open_library", "coarse_windows", "LibraryFile"]
 
@@ -25,9 +26,6 @@ _READABLE = (MAGIC, b"SHAPESIG-LPACK2\n")  # version 2 kept each clip's joint li
 COARSE = 4  # windows of each clip kept for the prefilter (evenly spaced over its windows, both scales)
 _ALIGN = 64
 _SEQ_DIM = 3 * len(local.POINTS)  # an entry's sequence's width when its clip's meta does not say (older recipes)
-
-# an entry's joints (the clip's bones), still joints and the canonical joints its rig has: its rows' coverage
-JOINT_LISTS = ("joints", "still", "rig_joints")
 
 
 _NO_TAKE = np.zeros(take.DIM, np.float32)
@@ -63,17 +61,17 @@ def write_library(f, files, fmt):
         meta = dict(meta, clips=[dict(m, **{k: listed(m[k]) for k in JOINT_LISTS if k in m}) for m in meta["clips"]])
         r = []
         for e in entries:
-            if e.get("refused"):
+            if e.refused:
                 r.append((0, 0, 0, 0, -1))
                 continue
-            w, q = len(e["windows"]), len(e["sequence"])
+            w, q = len(e.windows), len(e.sequence)
             r.append((nw, nw + w, nq, nq + q, nc))
             nw, nq, nc = nw + w, nq + q, nc + 1
         index.append([name, int(size), int(mtime), meta, r])
         rows.append(r)
     dim = local.DIM
     # one width for every entry's sequence (recipes differ: the narrower are padded, read back at their width)
-    width = max([np.shape(e["sequence"])[1] for f in files for e in f[4] if not e.get("refused")] + [_SEQ_DIM])
+    width = max([np.shape(e.sequence)[1] for f in files for e in f[4] if not e.refused] + [_SEQ_DIM])
     specs = [("windows", np.float16, (nw, dim)), ("norms", np.float32, (nw,)), ("sequences", np.float16, (nq, width)),
              ("paths", np.float32, (nc, 10)), ("coarse", np.float32, (nc, COARSE, dim)),
              ("takes", np.float32, (nc, take.DIM)), ("take_masks", np.uint8, (nc, len(take.JOINTS))),
@@ -97,7 +95,7 @@ def write_library(f, files, fmt):
     def each():
         for (_, _, _, _, entries) in files:
             for e in entries:
-                if not e.get("refused"):
+                if not e.refused:
                     yield e
 
     def put(name, chunks):
@@ -107,19 +105,20 @@ def write_library(f, files, fmt):
             f.write(np.ascontiguousarray(c).tobytes())
         f.write(b"\0" * (_pad(f.tell() - at0)))
 
-    put("windows", (np.asarray(e["windows"], np.float16) for e in each()))
-    put("norms", (np.square(np.asarray(e["windows"], np.float32)).sum(1) for e in each()))
-    put("sequences", (np.pad(np.asarray(e["sequence"], np.float16), ((0, 0), (0, width - np.shape(e["sequence"])[1])))
+    put("windows", (np.asarray(e.windows, np.float16) for e in each()))
+    put("norms", (np.square(np.asarray(e.windows, np.float32)).sum(1) for e in each()))
+    put("sequences", (np.pad(np.asarray(e.sequence, np.float16), ((0, 0), (0, width - np.shape(e.sequence)[1])))
                       for e in each()))
-    put("paths", (np.asarray(e["path"], np.float32).reshape(10) for e in each()))
-    put("coarse", (coarse_windows(e["windows"]) for e in each()))
+    put("paths", (np.asarray(e.path, np.float32).reshape(10) for e in each()))
+    put("coarse", (coarse_windows(e.windows) for e in each()))
     # an entry made before the whole take was stored (an older recipe's, kept in the pack until its file goes) has
     # none: zeros, and a mask of no joints, which ``LibraryFile.entry`` reads back as no take
-    put("takes", (np.asarray(e.get("take", _NO_TAKE), np.float32).reshape(take.DIM) for e in each()))
-    put("take_masks", (np.asarray(e.get("take_mask", _NO_MASK), np.uint8).reshape(len(take.JOINTS))
+    put("takes", (np.asarray(_NO_TAKE if e.take is None else e.take, np.float32).reshape(take.DIM)
+                   for e in each()))
+    put("take_masks", (np.asarray(_NO_MASK if e.take is None else e.take_mask, np.uint8).reshape(len(take.JOINTS))
                        for e in each()))
-    put("descriptions", (np.asarray(e.get("describe", _NO_DESCRIPTION), np.float32).reshape(len(description.PARTS))
-                         for e in each()))
+    put("descriptions", (np.asarray(_NO_DESCRIPTION if e.describe is None else e.describe, np.float32)
+                         .reshape(len(description.PARTS)) for e in each()))
     return nc
 
 
@@ -138,18 +137,17 @@ class LibraryFile:
     def entry(self, m, row):
         """The entry of one clip (``meta["clips"][i]``, its row) with memory-mapped arrays."""
         if m.get("refused"):
-            return {"name": m["name"], "refused": str(m["refused"])}
+            return Refusal(m["name"], str(m["refused"]))
         w0, w1, q0, q1, k = row
         A = self.arrays
-        e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
-             "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "windows": A["windows"][w0:w1],
-             "sequence": A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))], "path": A["paths"][k],
-             "_rows": (id(self), w0, w1, k),
-             **{name: _joints(m.get(name, ())) for name in JOINT_LISTS}}
+        e = LocalEntry(windows=A["windows"][w0:w1], sequence=A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))],
+                       path=A["paths"][k], name=m["name"], frames=int(m.get("frames", 0)), bones=int(m.get("bones", 0)),
+                       trimmed=tuple(int(f) for f in m.get("trimmed", ())), rows=(id(self), w0, w1, k),
+                       **{name: _joints(m.get(name, ())) for name in JOINT_LISTS})
         if "takes" in A and A["take_masks"][k].any():
-            e.update(take=A["takes"][k], take_mask=A["take_masks"][k], seconds=np.float32(m.get("seconds", 0.0)))
+            e.take, e.take_mask, e.seconds = A["takes"][k], A["take_masks"][k], np.float32(m.get("seconds", 0.0))
         if "descriptions" in A and np.isfinite(A["descriptions"][k]).all():
-            e["describe"] = A["descriptions"][k]
+            e.describe = A["descriptions"][k]
         return e
 
     def stack(self):

@@ -6,7 +6,7 @@ take in another file first). ``rank.rank_clips`` turns it into rows (docs/search
 """
 
 from collections.abc import Sequence
-from typing import List, Tuple
+from typing import List, Tuple, Union
 
 import numpy as np
 
@@ -17,25 +17,27 @@ from ...measure_words import ENGINES, OPTIONS
 from ...io.sources import LibraryItem, as_items, clip_item
 from ...progress import wants_cancel
 from . import features as local
+from .entry import LocalEntry, Refusal
 from ..store import SignatureCache
 
 __all__ = ["item_local_entries", "local_entries", "query_local_entry", "rank_local", "RankedRows"]
 
 
-def _entry(clip: Clip, settings) -> dict:
+def _entry(clip: Clip, settings) -> Union[LocalEntry, Refusal]:
     try:
         if clip.frames < 2:
             raise ShapeSigError(f"clip {clip.name!r} has {clip.frames} frame; at least two are needed")
         e = local.index_entry(clip, settings)
     except ShapeSigError as exc:
-        return {"name": clip.name, "refused": error_line(exc)}
-    e.update(name=clip.name, frames=int(clip.frames), trimmed=tuple(int(f) for f in trim_record(clip)),
-             bones=len(clip.bones), joints=tuple(clip.bones), still=tuple(clip.still_bones()),
-             rig_joints=tuple(clip.meta.get("rig_joints") or ()))
+        return Refusal(clip.name, error_line(exc))
+    e.frames, e.trimmed, e.bones = int(clip.frames), tuple(int(f) for f in trim_record(clip)), len(clip.bones)
+    e.joints, e.still, e.rig_joints = tuple(clip.bones), tuple(clip.still_bones()), tuple(
+        clip.meta.get("rig_joints") or ())
     return e
 
 
-def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.DEFAULT, skey=None) -> List[dict]:
+def item_local_entries(item: LibraryItem, store: SignatureCache, settings=local.DEFAULT, skey=None
+                       ) -> List[Union[LocalEntry, Refusal]]:
     """The item's local entries, one per clip: from the store, else computed from its clips (read only then).
     ``skey``: ``local.settings_key(settings)`` when the caller has it (a library's loop)."""
     skey = skey or local.settings_key(settings)
@@ -64,7 +66,7 @@ def local_entries(items, store: SignatureCache, progress=None, errors=None, sett
     return out
 
 
-def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> dict:
+def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> LocalEntry:
     """The query's local entry (a Clip or a LibraryItem of one clip); a query the local features refuse is refused
     in one line that names the signature search instead."""
     item = clip_item(query) if isinstance(query, Clip) else query
@@ -73,8 +75,8 @@ def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> d
     got = item_local_entries(item, store, settings)
     if len(got) != 1:
         raise ShapeSigError(f"query {item.name!r} holds {len(got)} clips; choose one")
-    if got[0].get("refused"):
-        raise ShapeSigError(f"the local search cannot read the query ({got[0]['refused']}); "
+    if got[0].refused:
+        raise ShapeSigError(f"the local search cannot read the query ({got[0].refused}); "
                             f"rank it by {ENGINES['sim'].status} instead (in the panel, {OPTIONS['similarity'].label}: "
                             f"{ENGINES['sim'].label}; on the command line, a signature metric)")
     return got[0]
@@ -106,7 +108,7 @@ class RankedRows(Sequence):
         return i, max(self._worst, (1.0 + self._mix) * d / self._m1), d, None
 
 
-def rank_local(q: dict, pairs, store: SignatureCache, shortlist=local.SHORTLIST, mix=local.MIX
+def rank_local(q: LocalEntry, pairs, store: SignatureCache, shortlist=local.SHORTLIST, mix=local.MIX
                ) -> Sequence[Tuple[int, float, float, object]]:
     """[(index into ``pairs``, score, first-stage distance, DTW distance or None)], best first, for every pair
     (item, entry) of readable entries (a ``RankedRows``: rows after the shortlist are made when read). The

@@ -24,7 +24,7 @@ def stack(entries: Sequence) -> Dict[str, np.ndarray]:
     float32, their squared norms, ``bounds`` (each entry's first row, and the end) and each entry's rows
     (``starts``, ``ends``). A library file (``local_library.LibraryFile.stack``) gives the same keys but the
     ``bounds``, memory-mapped, its entries' rows in any order."""
-    wins = [np.asarray(e["windows"], dtype=np.float32) for e in entries]
+    wins = [np.asarray(e.windows, dtype=np.float32) for e in entries]
     W = np.concatenate(wins) if wins else np.zeros((0, 1), np.float32)
     bounds = np.concatenate([[0], np.cumsum([len(w) for w in wins])]).astype(np.int64)
     return {"windows": W, "norms": (W * W).sum(1), "bounds": bounds, "starts": bounds[:-1], "ends": bounds[1:]}
@@ -71,7 +71,7 @@ def coarse_distances(query, coarse, norms=None, block: int = 4096) -> np.ndarray
     windows' squared norms (entries * k,) when the caller keeps them (``first_stage`` does, per library). Run
     ``block`` entries at a time (the distances of a block stay in the processor's cache)."""
     n, k = coarse.shape[0], coarse.shape[1]
-    q = coarse_windows(query["windows"], 4 * k)
+    q = coarse_windows(query.windows, 4 * k)
     qn = (q * q).sum(1)[:, None]
     out = np.empty(n)
     for a in range(0, n, block):
@@ -108,7 +108,7 @@ def first_stage(query, library, block: int = 65536, keep: Optional[int] = None,
     ``share`` of the entries when that is more), only that many nearest by ``coarse_distances`` are computed exactly;
     the others come after them in the prefilter's order (the largest exact distance plus their coarse distance)."""
     lib = library if isinstance(library, dict) and "starts" in library else stack(library)
-    q = np.asarray(query["windows"], dtype=np.float32)
+    q = np.asarray(query.windows, dtype=np.float32)
     qn = (q * q).sum(1)[:, None]
     W, norms, starts, ends = lib["windows"], lib["norms"], lib["starts"], lib["ends"]
     n = len(starts)

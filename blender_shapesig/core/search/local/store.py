@@ -16,7 +16,8 @@ import stat
 import numpy as np
 
 from . import features as local
-from .library import JOINT_LISTS as _JOINT_LISTS, open_library, write_library
+from .entry import ARRAYS as _ARRAYS, JOINT_LISTS as _JOINT_LISTS, LocalEntry, Refusal
+from .library import open_library, write_library
 
 __all__ = ["LOCAL_PACK", "LocalEntries", "hashed_name"]
 
@@ -34,15 +35,12 @@ def hashed_name(text: str) -> str:
 
 
 def _meta(e):
-    return {"name": e["name"], "refused": e.get("refused", ""), "frames": int(e.get("frames", 0)),
-            "bones": int(e.get("bones", 0)), "trimmed": list(e.get("trimmed", ())),
-            "seconds": float(e.get("seconds", 0.0)), **{k: list(e.get(k, ())) for k in _JOINT_LISTS},
-            **({"seq_dim": int(np.shape(e["sequence"])[1])} if "sequence" in e else {})}
-
-
-# an entry's arrays (``local.index_entry``) and their types on disk (an older recipe's entries have no take)
-_ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "take": np.float32,
-           "take_mask": np.uint8, "describe": np.float32}
+    if e.refused:
+        return {"name": e.name, "refused": e.refused, "frames": 0, "bones": 0, "trimmed": [], "seconds": 0.0,
+                **{k: [] for k in _JOINT_LISTS}}
+    return {"name": e.name, "refused": "", "frames": int(e.frames), "bones": int(e.bones), "trimmed": list(e.trimmed),
+            "seconds": float(e.seconds), **{k: list(getattr(e, k)) for k in _JOINT_LISTS},
+            "seq_dim": int(np.shape(e.sequence)[1])}
 
 
 class _Rows(list):
@@ -51,13 +49,13 @@ class _Rows(list):
 
 def _entry(m, arrays):
     if m.get("refused"):
-        return {"name": m["name"], "refused": str(m["refused"])}
-    e = {"name": m["name"], "frames": int(m.get("frames", 0)), "bones": int(m.get("bones", 0)),
-         "trimmed": tuple(int(f) for f in m.get("trimmed", ())), "seconds": np.float32(m.get("seconds", 0.0)),
-         **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays},
-         **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS}}
-    if (e["windows"].ndim != 2 or e["sequence"].ndim != 2 or len(e["windows"]) == 0
-            or ("take" in e and e["take"].ndim != 1)):
+        return Refusal(m["name"], str(m["refused"]))
+    e = LocalEntry(name=m["name"], frames=int(m.get("frames", 0)), bones=int(m.get("bones", 0)),
+                   trimmed=tuple(int(f) for f in m.get("trimmed", ())), seconds=np.float32(m.get("seconds", 0.0)),
+                   **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays},
+                   **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS})
+    if (e.windows.ndim != 2 or e.sequence.ndim != 2 or len(e.windows) == 0
+            or (e.take is not None and e.take.ndim != 1)):
         raise ValueError("bad shapes")
     return e
 
@@ -137,10 +135,10 @@ class LocalEntries:
             lists = [self._pack_entries(name) for name in (self._lpack or {})] + list(self._local.values())
             for entries in lists:
                 for e in entries:
-                    if e.pop("_rows", None) is not None:
-                        for k in _ARRAYS:
-                            if k in e:  # (an older recipe's entry has no take)
-                                e[k] = np.array(e[k])
+                    if not e.refused and e.rows is not None:
+                        e.rows = None
+                        for k, v in e.arrays().items():  # (an older recipe's entry has no take)
+                            setattr(e, k, np.array(v))
             self._local_memo = None
             self._lib = None
 
@@ -197,8 +195,8 @@ class LocalEntries:
         meta = {"format": self._format(), "key": key, "settings": settings_key, "clips": [_meta(e) for e in entries]}
         arrays = {"meta": np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)}
         for i, e in enumerate(entries):
-            if not e.get("refused"):
-                arrays.update({f"{k}{i}": np.asarray(e[k], dt) for k, dt in _ARRAYS.items() if k in e})
+            if not e.refused:
+                arrays.update({f"{k}{i}": np.asarray(v, _ARRAYS[k]) for k, v in e.arrays().items()})
         buf = io.BytesIO()
         np.savez(buf, **arrays)
         fn = self.file_for(key, settings_key)
@@ -245,7 +243,7 @@ class LocalEntries:
         if memo is not None and memo[0] == key:
             return memo[2]
         lib = self._lib
-        rows = [e.get("_rows") for e in entries]
+        rows = [e.rows for e in entries]
         if entries and lib is not None and all(r is not None and r[0] == id(lib) for r in rows):
             R = np.asarray([r[1:] for r in rows], np.int64)
             k = R[:, 2]

@@ -14,6 +14,7 @@ from ...clip.clip import Clip
 from ...clip.prepare import SIGNATURE_SMOOTH_SECONDS, prepare_clip
 from ...rigs import JOINTS
 from ...signatures import signatures as sg
+from .entry import Take
 
 __all__ = ["JOINTS", "CHANNELS", "DIM", "TWIN_RATIO", "SAME_LENGTH", "take_entry", "take_distances", "twin_first"]
 
@@ -26,7 +27,7 @@ TWIN_RATIO = 0.5
 SAME_LENGTH = math.log(1.08)
 
 
-def take_entry(clip: Clip) -> dict:
+def take_entry(clip: Clip) -> Take:
     """``take`` (DIM,) float32: level 1 then level 2 (Lyndon basis) of the log-signature of the development of the
     comparison-space clip at the comparison rate, joint j in channels 3j..3j+2 of ``JOINTS`` (zeros where the rig
     has no such joint); ``take_mask`` (len(JOINTS),) uint8: the joints it has; ``seconds``: its span."""
@@ -39,7 +40,7 @@ def take_entry(clip: Clip) -> dict:
     mask = np.zeros(len(JOINTS), np.uint8)
     mask[have] = 1
     take = sg.increments_log_signature(dx, 2).astype(np.float32)
-    return {"take": take, "take_mask": mask, "seconds": np.float32((clip.frames - 1) / clip.fps)}
+    return Take(take, mask, np.float32((clip.frames - 1) / clip.fps))
 
 
 def _kept(mask_a, mask_b):
@@ -49,11 +50,11 @@ def _kept(mask_a, mask_b):
 
 def take_distances(query, candidates) -> np.ndarray:
     """(len(candidates),) Euclidean distances of the takes on the channels of the joints both have."""
-    q = np.asarray(query["take"], np.float64)
+    q = np.asarray(query.take, np.float64)
     out = np.empty(len(candidates))
     for i, c in enumerate(candidates):
-        keep = _kept(query["take_mask"], c["take_mask"])
-        d = q[keep] - np.asarray(c["take"], np.float64)[keep]
+        keep = _kept(query.take_mask, c.take_mask)
+        d = q[keep] - np.asarray(c.take, np.float64)[keep]
         out[i] = math.sqrt(float(d @ d))
     return out
 
@@ -67,12 +68,12 @@ def twin_first(query, candidates, score, held=None) -> np.ndarray:
     first's times (its distance / the gate), so the order and the shown scores agree. Entries without a take, or a
     first that is the query's exact copy (score 0): unchanged."""
     score = np.asarray(score, float)
-    if len(candidates) < 2 or "take" not in query or any("take" not in c for c in candidates):
+    if len(candidates) < 2 or query.take is None or any(c.take is None for c in candidates):
         return score
     first = int(np.argmin(score))
     if not score[first] > 0:
         return score
-    lengths = np.log(np.maximum([float(c["seconds"]) for c in candidates], 1e-9) / max(float(query["seconds"]), 1e-9))
+    lengths = np.log(np.maximum([float(c.seconds) for c in candidates], 1e-9) / max(float(query.seconds), 1e-9))
     same = np.flatnonzero(np.abs(lengths) <= SAME_LENGTH)
     if not len(same):
         return score
