@@ -62,12 +62,18 @@ def read_result(out, clip_type):
         return clips, None
 
 
-def main(argv):
-    args = json.loads(argv[-1])
+def boot(args):
+    """A reading child's first steps (this one's and ``_child_main``'s): the package and the parent's ``sys.path``
+    importable, then ``guard.guard_self`` (die with the parent)."""
     for p in [args["package_dir"]] + list(args["sys_path"]):
         if p not in sys.path:
             sys.path.append(p)
     importlib.import_module(f"{args['package']}.readers.guard").guard_self(args)
+
+
+def main(argv):
+    args = json.loads(argv[-1])
+    boot(args)
     reader = importlib.import_module(f"{args['package']}.readers.blend_file")
     errors = importlib.import_module(f"{args['package']}.core.errors")
     try:
