@@ -37,15 +37,16 @@ def _penalty_terms(di, dj, h0, h1):
 if HAVE_NUMBA:
 
     @_numba.njit(cache=True, nogil=True, inline="always")
+    def _term(G, k, o, m, ea, eb, coef, e):
+        """Term ``e`` of a step over the m nodes from column offset o: its coefficient and its row of G."""
+        return coef[e], G[k + ea[e], o + eb[e]:o + eb[e] + m]
+
+    @_numba.njit(cache=True, nogil=True, inline="always")
     def _accumulate(cr, G, k, o, m, ea, eb, coef, e, assign):
-        c1 = coef[e]
-        c2 = coef[e + 1]
-        c3 = coef[e + 2]
-        c4 = coef[e + 3]
-        g1 = G[k + ea[e], o + eb[e]:o + eb[e] + m]
-        g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
-        g3 = G[k + ea[e + 2], o + eb[e + 2]:o + eb[e + 2] + m]
-        g4 = G[k + ea[e + 3], o + eb[e + 3]:o + eb[e + 3] + m]
+        c1, g1 = _term(G, k, o, m, ea, eb, coef, e)
+        c2, g2 = _term(G, k, o, m, ea, eb, coef, e + 1)
+        c3, g3 = _term(G, k, o, m, ea, eb, coef, e + 2)
+        c4, g4 = _term(G, k, o, m, ea, eb, coef, e + 3)
         if assign:
             for t in range(m):
                 cr[t] = (c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t])
@@ -174,8 +175,7 @@ if HAVE_NUMBA:
                 B1a = B1[b, j0:j1 + 1]
                 bs = best[j0:j1 + 1]
                 r = eend - e
-                c1 = coef[e]
-                g1 = G[k + ea[e], o + eb[e]:o + eb[e] + m]
+                c1, g1 = _term(G, k, o, m, ea, eb, coef, e)
                 if r == 1:
                     if has_prev:
                         for t in range(m):
@@ -188,8 +188,7 @@ if HAVE_NUMBA:
                             if cand < bs[t]:
                                 bs[t] = cand
                 elif r == 2:
-                    c2 = coef[e + 1]
-                    g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
+                    c2, g2 = _term(G, k, o, m, ea, eb, coef, e + 1)
                     if has_prev:
                         for t in range(m):
                             cand = Ak[t] + ((b0 + B1a[t]) - (cr[t] + (c1 * g1[t] + c2 * g2[t])))
@@ -201,10 +200,8 @@ if HAVE_NUMBA:
                             if cand < bs[t]:
                                 bs[t] = cand
                 elif r == 3:
-                    c2 = coef[e + 1]
-                    g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
-                    c3 = coef[e + 2]
-                    g3 = G[k + ea[e + 2], o + eb[e + 2]:o + eb[e + 2] + m]
+                    c2, g2 = _term(G, k, o, m, ea, eb, coef, e + 1)
+                    c3, g3 = _term(G, k, o, m, ea, eb, coef, e + 2)
                     if has_prev:
                         for t in range(m):
                             cand = Ak[t] + ((b0 + B1a[t]) - (cr[t] + ((c1 * g1[t] + c2 * g2[t]) + c3 * g3[t])))
@@ -216,12 +213,9 @@ if HAVE_NUMBA:
                             if cand < bs[t]:
                                 bs[t] = cand
                 elif r == 4:
-                    c2 = coef[e + 1]
-                    g2 = G[k + ea[e + 1], o + eb[e + 1]:o + eb[e + 1] + m]
-                    c3 = coef[e + 2]
-                    g3 = G[k + ea[e + 2], o + eb[e + 2]:o + eb[e + 2] + m]
-                    c4 = coef[e + 3]
-                    g4 = G[k + ea[e + 3], o + eb[e + 3]:o + eb[e + 3] + m]
+                    c2, g2 = _term(G, k, o, m, ea, eb, coef, e + 1)
+                    c3, g3 = _term(G, k, o, m, ea, eb, coef, e + 2)
+                    c4, g4 = _term(G, k, o, m, ea, eb, coef, e + 3)
                     if has_prev:
                         for t in range(m):
                             cand = Ak[t] + ((b0 + B1a[t]) - (cr[t] + ((c1 * g1[t] + c2 * g2[t]) + (c3 * g3[t] + c4 * g4[t]))))
