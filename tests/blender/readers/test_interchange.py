@@ -183,14 +183,18 @@ def test_a_crashing_importer_is_one_line_and_the_next_file_reads(files, monkeypa
 
 
 def test_reading_leaves_the_open_file_as_it_was(files):
-    """In this process (what the child runs): the import's objects, actions and scene rate are gone after."""
+    """In this process (what the child runs): the import's objects, actions and scene rate are gone after. The glTF
+    file from Blender 4.4 on; on 4.2 the FBX file: there the glTF importer's in-process read crashes the bpy module
+    now and then (in Python's garbage collection after the import, CI and this stop's runs), and the product reads
+    glTF files in its reading child, where a crash is one line for that file."""
     from blender_shapesig.readers.interchange import read_interchange_here
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     before = ({o.name for o in bpy.data.objects}, {a.name for a in bpy.data.actions}, scene.render.fps)
-    clips = read_interchange_here(str(files / "walk.glb"))
-    assert sorted(c.meta["animation"] for c in clips) == ["07_01", "walk_short"]
+    gltf = bpy.app.version >= (4, 4)
+    clips = read_interchange_here(str(files / ("walk.glb" if gltf else "walk.fbx")))
+    assert sorted(c.meta["animation"] for c in clips) == (["07_01", "walk_short"] if gltf else ["Scene"])
     assert ({o.name for o in bpy.data.objects}, {a.name for a in bpy.data.actions}, scene.render.fps) == before
     assert os.path.isfile(files / "walk.glb")
 
