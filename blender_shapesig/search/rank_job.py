@@ -12,6 +12,7 @@ from ..rigs import rigmap
 from . import library, thumbnails
 from ..core import search as index
 from ..core.search.engines import engine_for
+from ..core.search.local.features import settings_key as local_settings_key
 from ..core.errors import ShapeSigError
 from ..properties import column_word, index_level, results_of, uses_local
 from .result_rows import ELASTIC_COLUMN, SIM_COLUMN, store_results
@@ -153,12 +154,22 @@ class RankJob:
         self.not_listed = max(self.compared - len(self.rows) - len(self.ranked.skipped), 0)
         self.seconds = time.perf_counter() - self.t0
 
+    def _query_bones(self) -> int:
+        """The query's bone count from its stored entry (the ranking just stored it), read again only without one."""
+        if self.local:
+            got = self.cache.local.get(self.query.key, local_settings_key())
+            if got and not got[0].refused:
+                return int(got[0].bones)
+        else:
+            got = self.cache.get(self.query.key, self.level)
+            if got:
+                return len(got[0].bones)
+        return len(self.query.clips()[0].bones)
+
     def store(self):
         """Write the rows and the status message; returns the message."""
-        entries = None if self.local else self.cache.get(self.query.key, self.level)  # local: no signatures
-        q_bones = len(entries[0].bones) if entries else len(self.query.clips()[0].bones)
         column = self.order_by  # "sim", "elastic" or "local": the measure's key (core.measure_words)
-        store_results(self.settings, self.rows, self.query_name, column, q_bones,
+        store_results(self.settings, self.rows, self.query_name, column, self._query_bones(),
                       time.perf_counter() - self.t0)
         thumbnails.start_job(self.cache, self.rows, self.query, self.query_name)  # in the background
         out = results_of()

@@ -158,10 +158,11 @@ def test_find_similar_defaults_to_motion_and_pose(rig):
     q = _read("walk1", rig)
     truth = search.rank_clips(q, [_read(n, rig) for n, _ in got])  # the default metric
     assert [(r.name, pytest.approx(r.distance, rel=1e-5)) for r in truth] == got
+    assert res.query_bones == len(q.bones)  # from the query's stored entry, as read
     cache = _cache()
     before = dict(cache.stats)
     assert bpy.ops.shapesig.rank() == {"FINISHED"}
-    assert cache.stats["misses"] == before["misses"] and _results() == got
+    assert cache.stats["misses"] == before["misses"] and _results() == got and res.query_bones == len(q.bones)
 
 
 def test_build_index_runs_synchronously_and_rebuilds_corrupt_files(rig, cache_env):
