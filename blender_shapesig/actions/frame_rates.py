@@ -150,6 +150,6 @@ def library_notes(lib) -> List[str]:
     line."""
     rates = [(lib.action.name, *rate_of(lib.action)[:2])] if lib.action is not None else []
     rates += [(it.action, *it.rate) for it in lib.actions]  # ``library.action_item`` records each one's
-    rates += [("", 1.0, True)] if lib.size > 1 + len(lib.actions) else []  # folder clips
+    rates += [("", 1.0, True)] if lib.files is not None and len(lib.files) else []  # folder clips
     note = mixed_note(rates)
     return [note] if note else []

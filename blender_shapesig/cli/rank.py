@@ -29,6 +29,7 @@ def library_or_refuse(specs, args, verb):
         raise c.CommandError(f"no clips to {verb}" + (f" ({skipped[0]})" if skipped else ""))
     return items, skipped
 
+
 def _rank_windows(query, items, args, progress):
     """``rank --windows``: moments of the clips (``core.search.moments``), the signature stage at level 2."""
     from ..core.search import rank_clips

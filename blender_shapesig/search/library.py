@@ -249,8 +249,9 @@ def _query_range(action, settings):
                              what=f"action {action.name!r}")
 
 
-def query_item(context, settings):
-    """(armature, action, ActionItem) of the query; ShapeSigError with a clear message otherwise."""
+def query_item(context, settings, digests=None):
+    """(armature, action, ActionItem) of the query; ShapeSigError with a clear message otherwise. ``digests``: as
+    ``action_item``'s (a library made with the query shares them: the armature is hashed once)."""
     check_problem(search_problem(context, settings))
     action_changes.refresh_fingerprints(context)
     action_changes.use_store(get_cache(context))  # fingerprints stored by an earlier session
@@ -261,7 +262,7 @@ def query_item(context, settings):
         frame_range, trim = _query_range(action, settings), "none"
     else:
         frame_range = _cropped_range(action, settings.crop_start)
-    return obj, action, action_item(action, obj, frame_range, trim=trim, fps=fps)
+    return obj, action, action_item(action, obj, frame_range, digests, trim=trim, fps=fps)
 
 
 def _folders(context, settings):
@@ -344,11 +345,12 @@ class SearchLibrary:
 
 def search_library(context, settings) -> SearchLibrary:
     """The query and the library without reading or hashing a clip file (``SearchLibrary``)."""
-    obj, action, q = query_item(context, settings)
+    digests = {}  # each armature hashed once (the query's and the library actions')
+    obj, action, q = query_item(context, settings, digests)
     actions, files = [], None
     trim, fps = _read_options(settings)
     if settings.use_file_actions:
-        digests, owners = {}, {}
+        owners = {}
         actions = [action_item(a, obj, _cropped_range(a, settings.crop_start), digests, trim, fps, owners)
                    for a in _file_actions(settings, obj, owners)]
         actions = [it for it in actions if it.key != q.key]

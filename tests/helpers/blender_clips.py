@@ -1,5 +1,5 @@
 """CMU clips of tests/data imported with Blender's own BVH importer, and what the Blender tests measure on actions:
-``import_bvh`` (one clip, its action renamed), ``buffer_hash`` (every F-curve's keyframe buffers hashed with
+``import_bvh`` (one clip, its action renamed), ``walk_with_run`` (the walk active, the run a library action), ``buffer_hash`` (every F-curve's keyframe buffers hashed with
 foreach_get), ``reopen_hashes`` (the same hashes of a saved file read in a fresh process), ``read_keyed`` (an action
 read by the package, unkeyed bones left out) and ``angle`` (the largest rotation angle between two rotation arrays,
 from the Frobenius distance)."""
@@ -39,6 +39,18 @@ def import_bvh(file_name, action_name, fake_user=False):
     if fake_user:
         obj.animation_data.action.use_fake_user = True
     return obj
+
+
+def walk_with_run():
+    """The walk 07_01's armature (active and selected, action 'walk') and the run 09_02's action 'run' (its armature
+    deleted, the action kept by a fake user); returns the armature."""
+    arm = import_bvh("07_01.bvh", "walk")
+    other = import_bvh("09_02.bvh", "run")
+    bpy.data.actions["run"].use_fake_user = True
+    bpy.data.objects.remove(other)
+    bpy.context.view_layer.objects.active = arm
+    arm.select_set(True)
+    return arm
 
 
 def action_fcurves(action):

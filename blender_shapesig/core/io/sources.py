@@ -364,7 +364,8 @@ class Library:
                 for one in discover([src], self.recursive, skipped=self.skipped) if folder else [src]:
                     text = one.text if isinstance(one, ClipSpec) else os.fspath(one)
                     if not (self.unique and text in seen):
-                        seen.add(text), self._found.append((one, text, not folder))
+                        seen.add(text)
+                        self._found.append((one, text, not folder))
         return self._found
 
     def __len__(self) -> int:  # members found, keyed or not (a progress bar's total)

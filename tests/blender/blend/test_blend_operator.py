@@ -11,21 +11,15 @@ from blender_shapesig import compat  # noqa: E402
 from blender_shapesig.actions import action_io  # noqa: E402
 from blender_shapesig.core.blend import blend_clips, default_frames  # noqa: E402
 from blender_shapesig.core.blend.feet import lock_feet  # noqa: E402
-from tests.helpers.blender_clips import (action_fcurves, angle, buffer_hash, import_bvh, read_keyed,  # noqa: E402
-                                         reopen_hashes)
+from tests.helpers.blender_clips import (action_fcurves, angle, buffer_hash, read_keyed,  # noqa: E402
+                                         reopen_hashes, walk_with_run)
 
 
 @pytest.fixture
 def rig(empty_file):
     """The walk's armature (active, action 'walk') and a second action 'run' (from the run's import,
     whose armature is deleted; the action keeps a fake user)."""
-    arm = import_bvh("07_01.bvh", "walk")
-    other = import_bvh("09_02.bvh", "run")
-    bpy.data.actions["run"].use_fake_user = True
-    bpy.data.objects.remove(other)
-    bpy.context.view_layer.objects.active = arm
-    arm.select_set(True)
-    return arm
+    return walk_with_run()
 
 
 def test_operator_is_registered_as_one_undo_step(addon):

@@ -13,7 +13,7 @@ bpy = pytest.importorskip("bpy")
 
 from blender_shapesig.search import library  # noqa: E402
 from blender_shapesig.core import search as index  # noqa: E402
-from tests.helpers.blender_clips import import_bvh  # noqa: E402
+from tests.helpers.blender_clips import walk_with_run  # noqa: E402
 
 DATA = pathlib.Path(__file__).resolve().parents[2] / "data"
 
@@ -33,12 +33,7 @@ def _untouched(folder, files):
 @pytest.fixture
 def scene(empty_file):
     """The walk 07_01 active (action 'walk') and 'run' (09_02) as a library action; no session caches."""
-    arm = import_bvh("07_01.bvh", "walk")
-    other = import_bvh("09_02.bvh", "run")
-    bpy.data.actions["run"].use_fake_user = True
-    bpy.data.objects.remove(other)
-    bpy.context.view_layer.objects.active = arm
-    arm.select_set(True)
+    arm = walk_with_run()
     library.CACHES.clear()
     yield arm
     library.CACHES.clear()
