@@ -322,10 +322,10 @@ def check_scheduler(name):
     """``--scheduler``'s value, checked before any clip is read (one line, exit 2, within 10 s): a local Dask
     scheduler (threads, processes, sync) or a ``tcp://host:port`` address where a Dask scheduler answers; the
     optional packages it needs (``dedupe.parallel.require_dask``)."""
-    from ..dedupe.parallel import LOCAL_SCHEDULERS, require_dask
-
     if not name:
         return name
+    from ..dedupe.parallel import LOCAL_SCHEDULERS, require_dask
+
     inproc = name.startswith("inproc://")  # a scheduler of this very process (Dask's LocalCluster in a program)
     if name not in LOCAL_SCHEDULERS and not inproc:
         import re

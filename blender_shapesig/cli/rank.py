@@ -55,6 +55,23 @@ def _fill_on(sched, items, cache, base, level, args):
         return sign_library(items, lvl, cache, parallel.mapper_for(s))[2]
 
 
+def _known_query(spec, cache, base, args):
+    """(the query's cached local entry, its item) when the default search ranks it (``cached_query_entry``), else
+    (None, None): any other search, or a query not cached or that cannot be keyed, is read (and refused) as before."""
+    from ..core.errors import ShapeSigError
+    from ..core.io.sources import spec_item
+    from ..core.metrics import LOCAL
+    from ..core.search.local.rank import cached_query_entry
+
+    if base != LOCAL or args.windows:
+        return None, None
+    try:
+        item = spec_item(spec)
+        return cached_query_entry(item, cache), item
+    except (ShapeSigError, OSError):
+        return None, None
+
+
 def _explanation(query, item, result, args):
     """``--explain``: the result's per-joint shares and alignment cost (``core.elastic.explain``), from its DP path when
     the moment search made one, else from the elastic alignment of the two clips (or of the window)."""
@@ -129,9 +146,11 @@ def run(args):
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
     cache = c.open_cache(args, index)  # one open of the folder (its sweep lists every entry)
     with c.remembered_file_keys(cache):
-        query = read_one(spec)
-        # the query is keyed like the library: its signature is a cache hit when it was indexed before
-        query_item = spec_item(spec, load=lambda _spec: query)
+        # the query is keyed like the library: its entry is a cache hit when it was indexed before, and then the
+        # default search does not read it at all
+        known, query_item = _known_query(spec, cache, base, args)
+        query = None if known else read_one(spec)
+        query_item = query_item if known else spec_item(spec, load=lambda _spec: query)
         items, skipped = library_or_refuse(args.clips, args, "rank")
     computed = _fill_on(sched, items, cache, base, level, args) if sched else None
     with c.progress_bar(args, "signatures") as bar:
@@ -155,21 +174,24 @@ def run(args):
         action = clip_address(item.source or path, r.name, r.source)[1] if path else None
         rows.append(r.as_dict(path=path, action=action))  # the one row serialiser (core.search.rows)
         if args.explain and len(rows) <= args.explain:
-            rows[-1]["explain"] = _explanation(query, item, r, args)
+            rows[-1]["explain"] = _explanation(query or query_item.clips()[0], item, r, args)
     if args.thumbnails:
         out_thumbs = _thumbnails(args.thumbnails, query_item, results, rows, cache, args)
     stats = dict(getattr(results, "stats", {}) or {})
     label = stats.get("metric", "sim2 windows") if args.windows else metric_label(base, level)
-    notes = [trim_note(query)] + [trim_note(r.name, r.trimmed) for r in results]
-    out = {"query": query.name, "metric": label, "results": rows, "query_trim": trimmed_range(query)["frames"],
-           "query_trimmed": trimmed_range(query)["cut"],
+    name, trim = (known.name, trimmed_range(known.trimmed, [known.first, known.first + known.frames - 1])) \
+        if known else (query.name, trimmed_range(query))
+    notes = [trim_note(name, known.trimmed) if known else trim_note(query)]
+    notes += [trim_note(r.name, r.trimmed) for r in results]
+    out = {"query": name, "metric": label, "results": rows, "query_trim": trim["frames"],
+           "query_trimmed": trim["cut"],
            "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}, "skipped": skipped}
     if args.thumbnails:
         out["query_thumbnail"] = out_thumbs
     if sched:
         out["computed"] = computed  # library files whose entries the scheduler computed
     search = ENGINES["moments"].label if args.windows else metric_phrase(label)
-    lines = [f"query: {c.shown(query.name)}  metric: {label} ({search})"]
+    lines = [f"query: {c.shown(name)}  metric: {label} ({search})"]
     elastic_word = MEASURES["elastic"].column.lower()
     for i, r in enumerate(rows, 1):
         el = "" if r["elastic"] is None else f"  {elastic_word} {r['elastic']:.6g}"

@@ -8,7 +8,6 @@ Imports no bpy. See docs/robustness.md."""
 import contextlib
 import os
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -94,6 +93,8 @@ def spawn(cmd, tmpdir, **popen_kw):
     tmp = os.path.join(tmpdir, "tmp")
     os.makedirs(tmp, exist_ok=True)
     env = dict(os.environ, TMPDIR=tmp, TMP=tmp, TEMP=tmp)
+    import subprocess
+
     proc = subprocess.Popen(cmd, env=env, start_new_session=True, **popen_kw)
     _LIVE[proc.pid] = proc
     return proc

@@ -19,7 +19,7 @@ from ..errors import ParseError, ShapeSigError, UnreadableFileError
 
 __all__ = ["MAX_FILE_MB_ENV", "MAX_BLEND_MB_ENV", "MAX_FRAMES_ENV", "DEFAULT_MAX_FILE_MB", "DEFAULT_MAX_BLEND_MB", "DEFAULT_MAX_FRAMES", "MAX_LINE_BYTES",
            "max_file_bytes", "max_frames", "file_problem", "check_file", "open_regular", "read_bytes",
-           "check_frames", "skipped_line", "memory_budget", "check_budget"]
+           "check_frames", "skipped_line", "memory_budget", "check_budget", "regular_within_cap"]
 
 MAX_FILE_MB_ENV = "SHAPESIG_MAX_FILE_MB"
 MAX_BLEND_MB_ENV = "SHAPESIG_MAX_BLEND_MB"
@@ -129,6 +129,16 @@ def _size_problem(size, path) -> Optional[str]:
 def _mb(nbytes) -> str:
     mb = nbytes / 2 ** 20
     return f"{mb:,.0f}" if mb >= 10 else f"{mb:.2g}"
+
+
+def regular_within_cap(path) -> bool:
+    """True when ``path`` is a regular file (following links) within the size cap, by one stat; False for
+    anything else (``check_file`` then says why)."""
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return False
+    return stat.S_ISREG(st.st_mode) and _size_problem(st.st_size, path) is None
 
 
 def check_file(path, cap=True) -> os.stat_result:

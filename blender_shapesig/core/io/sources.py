@@ -87,6 +87,8 @@ class ClipSpec:
     def check(self) -> "ClipSpec":
         """ParseError when the file is missing, a folder or of an unknown type (the command line's messages);
         UnreadableFileError when it is not a regular file or over the size cap (``core.io.files``)."""
+        if files.regular_within_cap(self.path) and self.ext in EXTENSIONS:
+            return self  # one stat for the common case; the messages below for the others
         if not os.path.lexists(self.path):
             raise ParseError("file not found", self.path)
         if os.path.isdir(self.path):

@@ -9,7 +9,6 @@ import errno
 import os
 import re
 import stat
-import tempfile
 
 from .local.store import LOCAL_PACK
 
@@ -41,6 +40,8 @@ def private_cache_dir() -> str:
     usable home or XDG cache folder; ``SignatureCache`` creates it mode 0700 and refuses it when it is a
     symlink, not a folder, owned by another user or writable by others."""
     uid = os.getuid() if hasattr(os, "getuid") else None
+    import tempfile
+
     return os.path.join(tempfile.gettempdir(), "blender_shapesig-" + (str(uid) if uid is not None else "user"))
 
 

@@ -9,7 +9,6 @@ import io
 import json
 import os
 import stat
-import tempfile
 import threading
 from typing import Optional
 
@@ -169,6 +168,8 @@ class SignatureCache:
 
     def _atomic_write(self, target, data):
         """Write ``data`` (bytes, or a callable writing to the open file) to a temporary file, then rename it."""
+        import tempfile  # (only when writing: 9 ms of a warm query's start)
+
         fd, tmp = tempfile.mkstemp(dir=self.path, prefix=_TMP_PREFIX, suffix=_TMP_SUFFIX)
         try:
             with os.fdopen(fd, "wb") as f:

@@ -235,7 +235,7 @@ def test_unwritable_after_open_gives_the_memory_ranking_and_one_warning(clips, t
         calls.append(args)
         raise error
 
-    monkeypatch.setattr(store_mod.tempfile, "mkstemp", fail)
+    monkeypatch.setattr("tempfile.mkstemp", fail)  # (the store imports tempfile when it writes)
     ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth
     assert len(calls) == 1  # one failed write, then memory only (not one attempt and warning per clip)
@@ -272,7 +272,7 @@ def test_read_only_cache_folder_still_reads_and_warns_once(clips, truth, tmp_pat
     def read_only(*args, **kwargs):
         raise OSError(errno.EROFS, "Read-only file system")
 
-    monkeypatch.setattr(store_mod.tempfile, "mkstemp", read_only)
+    monkeypatch.setattr("tempfile.mkstemp", read_only)
     cache = search.SignatureCache(tmp_path)
     ranked = search.rank_clips(clips[0], clips[1:], cache=cache, metric="sim")
     assert _ranked(ranked) == truth and ranked.stats["misses"] == 0

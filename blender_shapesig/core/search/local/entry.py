@@ -10,7 +10,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["LocalEntry", "Refusal", "Take", "ARRAYS", "JOINT_LISTS"]
+__all__ = ["LocalEntry", "Refusal", "Take", "ARRAYS", "JOINT_LISTS", "first_of"]
 
 # an entry's arrays and their types on disk (an older recipe's entries lack the optional ones: None)
 ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "take": np.float32,
@@ -34,7 +34,8 @@ class LocalEntry:
     """One clip's entry: ``windows`` (N, DIM) float16, the windows' descriptors (the first stage); ``sequence``
     (T', C) float16, the pose every few samples (the second stage); ``path`` (10,) float32, the whole clip's path;
     ``describe`` (description.PARTS,) float32, what happens in it; the whole take (``take``, ``take_mask``,
-    ``seconds``: ``Take``'s); the clip's ``name``, ``frames``, ``bones``, ``trimmed`` (``trim_record``) and
+    ``seconds``: ``Take``'s); the clip's ``name``, ``frames``, ``first`` frame (None in older entries), ``bones``,
+    ``trimmed`` (``trim_record``) and
     joint lists (``JOINT_LISTS``). ``rows``: where its arrays lie in the library file it was read from (its id,
     first and end window row, clip row), else None. Optional arrays are None in an older recipe's entries."""
 
@@ -47,6 +48,7 @@ class LocalEntry:
     seconds: float = 0.0
     name: str = ""
     frames: int = 0
+    first: Optional[int] = None
     bones: int = 0
     trimmed: Tuple[int, ...] = ()
     joints: Tuple[str, ...] = ()
@@ -71,3 +73,8 @@ class Refusal:
     name: str
     refused: str
 
+
+def first_of(meta) -> Optional[int]:
+    """The ``first`` frame of an entry's stored ``meta`` (None when an older entry has none)."""
+    first = meta.get("first")
+    return int(first) if isinstance(first, int) and not isinstance(first, bool) else None

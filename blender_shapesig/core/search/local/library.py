@@ -17,7 +17,7 @@ import struct
 import numpy as np
 
 from . import description, features as local, take
-from .entry import JOINT_LISTS, LocalEntry, Refusal
+from .entry import JOINT_LISTS, LocalEntry, Refusal, first_of
 
 __all__ = ["MAGIC", "COARSE", "write_library", "open_library", "coarse_windows", "LibraryFile"]
 
@@ -133,6 +133,7 @@ class LibraryFile:
 
     def __init__(self, fmt, files, arrays):
         self.format, self.files, self.arrays = fmt, files, arrays
+        self._has = None  # (has a take, has a description) per clip: made at the first entry, for all clips at once
 
     def entry(self, m, row):
         """The entry of one clip (``meta["clips"][i]``, its row) with memory-mapped arrays."""
@@ -141,12 +142,17 @@ class LibraryFile:
         w0, w1, q0, q1, k = row
         A = self.arrays
         e = LocalEntry(windows=A["windows"][w0:w1], sequence=A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))],
-                       path=A["paths"][k], name=m["name"], frames=int(m.get("frames", 0)), bones=int(m.get("bones", 0)),
+                       path=A["paths"][k], name=m["name"], frames=int(m.get("frames", 0)), first=first_of(m),
+                       bones=int(m.get("bones", 0)),
                        trimmed=tuple(int(f) for f in m.get("trimmed", ())), rows=(id(self), w0, w1, k),
                        **{name: _joints(m.get(name, ())) for name in JOINT_LISTS})
-        if "takes" in A and A["take_masks"][k].any():
+        if self._has is None:
+            self._has = (A["take_masks"].any(axis=1) if "takes" in A else None,
+                         np.isfinite(A["descriptions"]).all(axis=1) if "descriptions" in A else None)
+        has_take, has_description = self._has
+        if has_take is not None and has_take[k]:
             e.take, e.take_mask, e.seconds = A["takes"][k], A["take_masks"][k], np.float32(m.get("seconds", 0.0))
-        if "descriptions" in A and np.isfinite(A["descriptions"][k]).all():
+        if has_description is not None and has_description[k]:
             e.describe = A["descriptions"][k]
         return e
 

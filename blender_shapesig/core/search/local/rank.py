@@ -6,7 +6,7 @@ take in another file first). ``rank.rank_clips`` turns it into rows (docs/search
 """
 
 from collections.abc import Sequence
-from typing import List, Tuple, Union
+from typing import List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -20,7 +20,8 @@ from . import features as local
 from .entry import LocalEntry, Refusal
 from ..store import SignatureCache
 
-__all__ = ["item_local_entries", "local_entries", "query_local_entry", "rank_local", "RankedRows"]
+__all__ = ["item_local_entries", "local_entries", "query_local_entry", "cached_query_entry", "rank_local",
+           "RankedRows"]
 
 
 def _entry(clip: Clip, settings) -> Union[LocalEntry, Refusal]:
@@ -31,6 +32,7 @@ def _entry(clip: Clip, settings) -> Union[LocalEntry, Refusal]:
     except ShapeSigError as exc:
         return Refusal(clip.name, error_line(exc))
     e.frames, e.trimmed, e.bones = int(clip.frames), tuple(int(f) for f in trim_record(clip)), len(clip.bones)
+    e.first = int(clip.frame_start)
     e.joints, e.still, e.rig_joints = tuple(clip.bones), tuple(clip.still_bones()), tuple(
         clip.meta.get("rig_joints") or ())
     return e
@@ -79,6 +81,15 @@ def query_local_entry(query, store: SignatureCache, settings=local.DEFAULT) -> L
         raise ShapeSigError(f"the local search cannot read the query ({got[0].refused}); "
                             f"rank it by {ENGINES['sim'].status} instead (in the panel, {OPTIONS['similarity'].label}: "
                             f"{ENGINES['sim'].label}; on the command line, a signature metric)")
+    return got[0]
+
+
+def cached_query_entry(item: LibraryItem, store: SignatureCache, settings=local.DEFAULT) -> Optional[LocalEntry]:
+    """The query item's one local entry when the store holds it, reading nothing else (None otherwise, also for
+    a refused clip or an entry older than its ``first`` frame): what a ranking and its report need of the query."""
+    got = store.local.get(item.key, local.settings_key(settings))
+    if got is None or len(got) != 1 or got[0].refused or got[0].first is None:
+        return None
     return got[0]
 
 

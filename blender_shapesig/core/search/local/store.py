@@ -16,7 +16,7 @@ import stat
 import numpy as np
 
 from . import features as local
-from .entry import ARRAYS as _ARRAYS, JOINT_LISTS as _JOINT_LISTS, LocalEntry, Refusal
+from .entry import ARRAYS as _ARRAYS, JOINT_LISTS as _JOINT_LISTS, LocalEntry, Refusal, first_of
 from .library import open_library, write_library
 
 __all__ = ["LOCAL_PACK", "LocalEntries", "hashed_name"]
@@ -38,7 +38,8 @@ def _meta(e):
     if e.refused:
         return {"name": e.name, "refused": e.refused, "frames": 0, "bones": 0, "trimmed": [], "seconds": 0.0,
                 **{k: [] for k in _JOINT_LISTS}}
-    return {"name": e.name, "refused": "", "frames": int(e.frames), "bones": int(e.bones), "trimmed": list(e.trimmed),
+    return {"name": e.name, "refused": "", "frames": int(e.frames), "first": e.first, "bones": int(e.bones),
+            "trimmed": list(e.trimmed),
             "seconds": float(e.seconds), **{k: list(getattr(e, k)) for k in _JOINT_LISTS},
             "seq_dim": int(np.shape(e.sequence)[1])}
 
@@ -50,7 +51,7 @@ class _Rows(list):
 def _entry(m, arrays):
     if m.get("refused"):
         return Refusal(m["name"], str(m["refused"]))
-    e = LocalEntry(name=m["name"], frames=int(m.get("frames", 0)), bones=int(m.get("bones", 0)),
+    e = LocalEntry(name=m["name"], frames=int(m.get("frames", 0)), first=first_of(m), bones=int(m.get("bones", 0)),
                    trimmed=tuple(int(f) for f in m.get("trimmed", ())), seconds=np.float32(m.get("seconds", 0.0)),
                    **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays},
                    **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS})

@@ -78,7 +78,7 @@ def twin_first(query, candidates, score, held=None) -> np.ndarray:
     if not len(same):
         return score
     g = take_distances(query, candidates)
-    gate = TWIN_RATIO * float(np.median(g))
+    gate = TWIN_RATIO * _median(g)
     e = int(same[np.argmin(g[same])])
     if e == first or not g[e] < gate:
         return score
@@ -91,3 +91,11 @@ def twin_first(query, candidates, score, held=None) -> np.ndarray:
     out = score.copy()
     out[e] = score[first] * g[e] / gate
     return out
+
+
+def _median(v) -> float:
+    """``np.median`` of a 1-D array, the same value without importing ``numpy.ma`` (5 ms of a command's start)."""
+    s = np.sort(np.asarray(v, float).ravel())
+    if not len(s) or np.isnan(s[-1]):
+        return float("nan")
+    return float((s[(len(s) - 1) // 2] + s[len(s) // 2]) / 2)
