@@ -117,7 +117,7 @@ def build(fn, bases, n, per_file=100):
 
 def ranked(q, lib, block, entries_of, keep, top=10, previous=False, share=local.PREFILTER_SHARE):
     d1 = previous_first_stage(q, block, keep=keep) if previous else local.first_stage(q, block, keep=keep, share=share)
-    head = np.argsort(d1, kind="stable")[:local.SHORTLIST]
+    head = np.argsort(d1, kind="stable")[:local.SHORTLIST] if previous else local.nearest(d1, local.SHORTLIST)
     cands = [entries_of(i) for i in head]
     if previous:
         # the same rule as shortlist_scores (what happens in the clips, the twin) on the DTW as it ran before

@@ -181,3 +181,17 @@ def test_rank_help_names_the_default(capsys):
     assert cli.main(["rank", "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert "The default search, --metric local, is Motion and pose" in text and "--metric sim3" in text
+
+
+def test_nearest_is_the_head_of_a_stable_sort():
+    """``nearest(d, n)`` gives the first ``n`` of ``np.argsort(d, kind="stable")``: with ties at the cut (the lower
+    index first), with infinities, with NaNs among the first n, and n at or beyond the length."""
+    rng = np.random.default_rng(7)
+    for trial in range(200):
+        d = rng.integers(0, 6, int(rng.integers(1, 40))).astype(float)  # many ties
+        if trial % 3 == 1:
+            d[rng.integers(0, len(d), 3)] = np.inf
+        if trial % 5 == 2:
+            d[rng.integers(0, len(d), 2)] = np.nan
+        for n in (1, 2, 5, len(d), len(d) + 3):
+            assert ls.nearest(d, n).tolist() == np.argsort(d, kind="stable")[:n].tolist(), (d, n)

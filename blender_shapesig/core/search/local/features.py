@@ -31,13 +31,13 @@ from .dtw import dtw
 from .entry import LocalEntry
 # the first stage lives in ``stage_one``; its names stay importable from here
 from .stage_one import (PREFILTER, PREFILTER_SHARE, _chunks, _coarse_norms, _sq_dist, _take,  # noqa: F401
-                        coarse_distances, coarse_windows, first_stage, gather_rows, stack)
+                        coarse_distances, coarse_windows, first_stage, gather_rows, nearest, stack)
 
 
 __all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQUENCE", "MIX", "ACTION_WEIGHT", "FREE",
            "BAND",
            "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
-           "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack",
+           "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack", "nearest",
            "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows", "first_stage", "dtw",
            "rerank", "path_distances", "combine", "search"]
 

@@ -98,12 +98,18 @@ class RankedRows(Sequence):
     None), best first. The shortlist's rows are made at once; a row after it only when it is read (a panel keeping
     the first ten of 100,000 clips reads a few dozen)."""
 
-    def __init__(self, head_rows, order, d1, worst, m1, mix):
-        self._head, self._order, self._d1 = head_rows, order, d1
+    def __init__(self, head_rows, d1, worst, m1, mix):
+        self._head, self._d1, self._rest = head_rows, d1, None
         self._worst, self._m1, self._mix = worst, m1, mix
 
     def __len__(self):
-        return len(self._head) + len(self._order)
+        return len(self._d1)
+
+    def _order(self):
+        """The rows after the shortlist in the first stage's order (sorted at the first read of one)."""
+        if self._rest is None:
+            self._rest = np.argsort(self._d1, kind="stable")[len(self._head):]
+        return self._rest
 
     def __getitem__(self, k):
         if isinstance(k, slice):
@@ -114,7 +120,7 @@ class RankedRows(Sequence):
             raise IndexError(k)
         if k < len(self._head):
             return self._head[k]
-        i = int(self._order[k - len(self._head)])
+        i = int(self._order()[k - len(self._head)])
         d = float(self._d1[i])
         return i, max(self._worst, (1.0 + self._mix) * d / self._m1), d, None
 
@@ -131,10 +137,9 @@ def rank_local(q: LocalEntry, pairs, store: SignatureCache, shortlist=local.SHOR
         return []
     entries = [e for _, e in pairs]
     d1 = local.first_stage(q, store.local.stack(entries), keep=local.PREFILTER)
-    order = np.argsort(d1, kind="stable")
-    head = order[:max(int(shortlist), 1)]
+    head = local.nearest(d1, max(int(shortlist), 1))  # the rest is sorted only when read (100,000: 9 ms)
     score, d2 = local.shortlist_scores(q, [entries[i] for i in head], d1[head], mix)
     m1 = max(float(np.mean(d1[head])), 1e-12)
     by = np.argsort(score, kind="stable")
     rows = [(int(head[k]), float(score[k]), float(d1[head[k]]), float(d2[k])) for k in by]
-    return RankedRows(rows, order[len(head):], d1, float(score.max()), m1, mix)
+    return RankedRows(rows, d1, float(score.max()), m1, mix)

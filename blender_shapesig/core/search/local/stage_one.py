@@ -11,7 +11,7 @@ import numpy as np
 
 from ...blas import one_blas_thread
 
-__all__ = ["stack", "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows",
+__all__ = ["stack", "nearest", "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows",
            "first_stage"]
 
 def _sq_dist(A, B):
@@ -33,6 +33,18 @@ def stack(entries: Sequence) -> Dict[str, np.ndarray]:
 PREFILTER = 1000  # clips the prefilter keeps for the exact first stage (``first_stage(keep=)``) ...
 PREFILTER_SHARE = 0.02  # ... and at least this share of the library (a larger library holds more near neighbours:
 # keeping 1,000 of 100,000 found 90 % of the exact top 10, 2 % 96 %; docs/performance.md, "At library scale")
+
+
+def nearest(d, n) -> np.ndarray:
+    """The indices of the ``n`` smallest of ``d`` in the order of ``np.argsort(d, kind="stable")`` (ties by index),
+    without sorting the rest."""
+    d = np.asarray(d)
+    if n >= len(d):
+        return np.argsort(d, kind="stable")
+    cand = np.flatnonzero(d <= np.partition(d, n - 1)[n - 1])
+    if len(cand) < n:  # NaNs among the first n: the whole sort's rule
+        return np.argsort(d, kind="stable")[:n]
+    return cand[np.argsort(d[cand], kind="stable")][:n]
 
 
 def _chunks(lengths, block):
@@ -72,13 +84,15 @@ def coarse_distances(query, coarse, norms=None, block: int = 4096) -> np.ndarray
     ``block`` entries at a time (the distances of a block stay in the processor's cache)."""
     n, k = coarse.shape[0], coarse.shape[1]
     q = coarse_windows(query.windows, 4 * k)
-    qn = (q * q).sum(1)[:, None]
+    qn, q2 = (q * q).sum(1)[:, None], -2.0 * q  # (-2 q) C^T is -2 (q C^T) to the bit: one product, no copies
     out = np.empty(n)
     for a in range(0, n, block):
         b = min(n, a + block)
         C = np.asarray(coarse[a:b], np.float32).reshape(-1, coarse.shape[2])
         cn = (C * C).sum(1) if norms is None else norms[a * k:b * k]
-        D = (qn + cn[None] - 2.0 * (q @ C.T)).reshape(len(q), b - a, k)  # squared distances
+        D = q2 @ C.T
+        D += qn + cn[None]
+        D = D.reshape(len(q), b - a, k)  # squared distances
         near = D[:, :, 0].copy()  # the nearest of an entry's k windows: k - 1 elementwise minima (not a
         for j in range(1, k):     # reduction over a short axis, which numpy runs slowly)
             np.minimum(near, D[:, :, j], out=near)
@@ -109,7 +123,7 @@ def first_stage(query, library, block: int = 65536, keep: Optional[int] = None,
     the others come after them in the prefilter's order (the largest exact distance plus their coarse distance)."""
     lib = library if isinstance(library, dict) and "starts" in library else stack(library)
     q = np.asarray(query.windows, dtype=np.float32)
-    qn = (q * q).sum(1)[:, None]
+    qn, q2 = (q * q).sum(1)[:, None], -2.0 * q
     W, norms, starts, ends = lib["windows"], lib["norms"], lib["starts"], lib["ends"]
     n = len(starts)
     out = np.full(n, np.inf)
@@ -127,8 +141,8 @@ def first_stage(query, library, block: int = 65536, keep: Optional[int] = None,
         for part in _chunks(lengths, block):
             run = idx[part]
             rows, rel = gather_rows(starts[run], ends[run])
-            D = qn + np.asarray(_take(norms, rows), np.float32)[None] \
-                - 2.0 * (q @ np.asarray(_take(W, rows), np.float32).T)
+            D = q2 @ np.asarray(_take(W, rows), np.float32).T
+            D += qn + np.asarray(_take(norms, rows), np.float32)[None]
             np.sqrt(np.maximum(D, 0.0, out=D), out=D)
             q_side = np.minimum.reduceat(D, rel, axis=1).mean(axis=0)
             e_side = np.add.reduceat(D.min(axis=0), rel) / lengths[part]
