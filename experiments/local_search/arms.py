@@ -14,7 +14,8 @@ weight times min(1, the query's strike / sgate); ``tcols``/``wt``: the same for 
 (library) / ``sbeta`` (shortlist): the first stage minus beta times each candidate's mean distance to its ``kh``
 nearest (a hub's is small); ``w2``: the adopted description's weight; ``ugate``: the union only for a query whose
 strike is at least ``ugate``; ``dcols``/``wd``: the adopted description's columns (``description.PARTS``) counted
-again with weight ``wd`` (the direction of travel).
+again with weight ``wd`` (the direction of travel); ``wfloor``: the first stage's means weighted by the windows'
+energy, at least ``wfloor`` of the largest (``rigs.weighted_matrix``; whole clips only, the crops keep the default's).
 """
 
 import argparse
@@ -112,8 +113,15 @@ class Run(dsc.SetRun):
         return r
 
     def evaluate2(self, cols=(), a=0.0, w3=0.0, u=0, w2=2.0, gate=False, sgate=0.0, tcols=(), wt=0.0, beta=0.0,
-                  sbeta=0.0, kh=3, ugate=0.0, dcols=(), wd=0.0):
+                  sbeta=0.0, kh=3, ugate=0.0, dcols=(), wd=0.0, wfloor=0.0):
         XA, cols, tcols = self._arms(), list(cols), list(tcols)
+        if not hasattr(self, "_d1"):
+            self._d1 = {0.0: self.D1}
+        if wfloor not in self._d1:  # the first stage with each side's mean weighted by its windows' energy
+            import rigs
+            import variants as vs
+            self._d1[wfloor] = rigs.weighted_matrix(self.E, self.feats["full"], vs.VARIANTS["default"][0], wfloor)
+        self.D1 = self._d1[wfloor]
         XB = np.array([de.describe(f) for f in self.feats["full"]], float)
         labels = [it.label for it in self.items]
 
