@@ -19,6 +19,7 @@ _PACK = "light_pack.bin"  # the light pack's file name (see SignatureCache.save_
 # The cache's own folder inside the folder a user names (--cache, $SHAPESIG_CACHE_DIR, the Index Folder), its
 # marker (the Cache Directory Tagging format: backup tools skip the folder) and the names of what it writes.
 CACHE_SUBDIR = "blender_shapesig-cache"
+PRIVATE_PREFIX = "blender_shapesig-"  # the per-user fallback folder's name: this and the user's id
 _TAG = "CACHEDIR.TAG"
 _TAG_TEXT = ("Signature: 8a477f597d28d172789f06886806bc55\n"
              "# This file is a cache directory tag created by blender_shapesig.\n"
@@ -42,7 +43,7 @@ def private_cache_dir() -> str:
     uid = os.getuid() if hasattr(os, "getuid") else None
     import tempfile
 
-    return os.path.join(tempfile.gettempdir(), "blender_shapesig-" + (str(uid) if uid is not None else "user"))
+    return os.path.join(tempfile.gettempdir(), PRIVATE_PREFIX + (str(uid) if uid is not None else "user"))
 
 
 def _user_cache_base():
@@ -107,17 +108,18 @@ def _sweep(folder):
     import time
 
     now = time.time()
-    for n in os.listdir(folder):
-        if not _OWN_FILE.fullmatch(n):
-            continue
-        fn = os.path.join(folder, n)
-        try:
-            st = os.lstat(fn)
-            stale = n.startswith(_TMP_PREFIX) and n.endswith(_TMP_SUFFIX) and now - st.st_mtime > _STALE_SECONDS
-            if not stat.S_ISREG(st.st_mode) or stale:
-                os.remove(fn)
-        except OSError:
-            pass
+    with os.scandir(folder) as listing:  # the kind of each file from the listing: a stat only for temporary files
+        for e in listing:
+            n = e.name
+            if not _OWN_FILE.fullmatch(n):
+                continue
+            try:
+                stale = n.startswith(_TMP_PREFIX) and n.endswith(_TMP_SUFFIX) and \
+                    now - e.stat(follow_symlinks=False).st_mtime > _STALE_SECONDS
+                if not e.is_file(follow_symlinks=False) or stale:
+                    os.remove(e.path)
+            except OSError:
+                pass
 
 
 def _marked(folder) -> bool:

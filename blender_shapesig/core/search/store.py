@@ -16,8 +16,8 @@ import numpy as np
 
 from ..signatures import signatures
 from .cache_folder import (
-    _ENTRY_FILE, _OWN_FILE, _PACK, _TAG, _TAG_TEXT, _TMP_PREFIX, _TMP_SUFFIX, CACHE_SUBDIR, _check_own_folder,
-    _check_private, _marked, _Refused, _sweep, private_cache_dir,
+    _ENTRY_FILE, _OWN_FILE, _PACK, _TAG, _TAG_TEXT, _TMP_PREFIX, _TMP_SUFFIX, CACHE_SUBDIR, PRIVATE_PREFIX,
+    _check_own_folder, _check_private, _marked, _Refused, _sweep, private_cache_dir,
 )
 from .signature.entry import IndexEntry
 from .local.store import LocalEntries, hashed_name
@@ -105,7 +105,8 @@ class SignatureCache:
     def _open(self, folder):
         """Make (or find) the cache's own folder, marked by ``_TAG``; a folder of that name holding files but
         no marker is not ours: refused, untouched."""
-        if os.path.abspath(self.root) == os.path.abspath(private_cache_dir()):
+        root = os.path.abspath(self.root)
+        if os.path.basename(root).startswith(PRIVATE_PREFIX) and root == os.path.abspath(private_cache_dir()):
             _check_private(self.root)
         os.makedirs(self.root, exist_ok=True)
         try:
