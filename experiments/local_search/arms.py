@@ -156,13 +156,7 @@ class Run(dsc.SetRun):
         orders = [order("full", self.E, self.D1[q], q, c, DB[q], DA[q], DT[q], X[q], DD[q]) for q, c in self.prot]
         qs = [q for q, _ in self.prot]
         acc, mAP = cm.scores(orders, labels, qs)
-        per, self.misses = {}, []
-        for q, o in zip(qs, orders):
-            if labels[o[0]] != labels[q]:
-                self.misses.append(f"{self.items[q].name} ({labels[q]}) -> {self.items[o[0]].name} ({labels[o[0]]})")
-            p = per.setdefault(labels[q], [0, 0])
-            p[0] += labels[o[0]] == labels[q]
-            p[1] += 1
+        per, self.misses = cm.per_class(self.items, labels, qs, orders)
         crops, everyone = {}, list(range(len(self.items)))
         for side, (Q, Dc, cf) in self.crops.items():
             Bc, Xc = np.array([de.describe(f) for f in cf], float), XA[side]

@@ -135,6 +135,18 @@ def scores(orders, labels, queries):
     return float(np.mean(hits)), float(np.mean(aps))
 
 
+def per_class(items, labels, queries, orders):
+    """({label: [first results of that label, queries]}, the misses as lines "query (label) -> first (label)")."""
+    per, misses = {}, []
+    for q, o in zip(queries, orders):
+        if labels[o[0]] != labels[q]:
+            misses.append(f"{items[q].name} ({labels[q]}) -> {items[o[0]].name} ({labels[o[0]]})")
+        p = per.setdefault(labels[q], [0, 0])
+        p[0] += labels[o[0]] == labels[q]
+        p[1] += 1
+    return per, misses
+
+
 def protocol(items, kind):
     """[(query, candidates)]: "loao" (the clips of the other groups) or "loo" (every other clip)."""
     n = len(items)
