@@ -3,9 +3,10 @@ the last known pose (pose relative to the root in its heading frame, joint and r
 frame matches the target's, with the root's displacement and turn between them matching the gap's, among segment
 lengths of 0.8 to 1.25 times the gap (a uniform time warp of the segment onto it); the segment is turned and moved
 onto the last known pose and offset (per joint on SO(3), the root linearly, faded with smoothstep weights) so it
-meets both ends exactly; the best segments (one per clip) and the velocity-carrying geodesic (``inbetween``, as a
-candidate of cost GEODESIC_COST: it takes over when no segment is close) are averaged with weights
-1 / (cost + COST_FLOOR) (``Bridges.fill``). See docs/transitions.md, "Bridge from the library".
+meets both ends exactly, and carries the last known velocities in over its first CARRY_SECONDS (``_carry``); the
+best segments (one per clip) and the velocity-carrying geodesic (``inbetween``, as a candidate of cost
+GEODESIC_COST: it takes over when no segment is close) are averaged with weights 1 / (cost + COST_FLOOR)
+(``Bridges.fill``). See docs/transitions.md, "Bridge from the library".
 """
 
 import os
@@ -16,6 +17,7 @@ import numpy as np
 from ..errors import ShapeSigError
 from ..geometry import so3
 from .body import Body, aligned_and_root, on_rig, resample, same_rig
+from .inbetween import geodesic_gap, seam_velocities
 
 __all__ = ["Bridges", "as_bridges", "STRETCHES"]
 
@@ -29,6 +31,7 @@ HISTORY_WEIGHT = 0.5
 BRIDGES = 10             # the best segments (of as many clips) averaged, weighted 1 / (cost + COST_FLOOR)
 COST_FLOOR = 0.01
 GEODESIC_COST = 1.0      # the velocity-carrying geodesic joins the average as a candidate of this cost
+CARRY_SECONDS = 0.5      # each segment carries the context's last velocity in over at most this time
 
 
 def _features(body, joints):
@@ -169,23 +172,25 @@ class Bridges:
             return None
         X0, p0 = aligned_and_root(before)
         X1, p1 = aligned_and_root(after)
+        w0, v0 = seam_velocities(X0, p0, before.fps, True)
         rots, roots = [], []
         for k, start, length, _cost in found:
             src = self.clips[k]
-            seg = sample_at(src, np.linspace(start, start + length, frames + 2))
+            step = length / (frames + 1.0)
+            lead = 1 if start >= step else 0  # the source frame before the start, when the clip has it
+            seg = sample_at(src, np.linspace(start - lead * step, start + length, frames + 2 + lead))
             if same_rig(before, src):
                 X, root = aligned_and_root(seg)
                 root = root * (bb.leg / self.bodies[k].leg)
             else:
                 X, root = aligned_and_root(on_rig(replace(seg, fps=before.fps), before))
-            X, root = _meet(before, X, root, X0[-1], p0[-1], X1[0], p1[0])
-            rots.append(X[1:-1])
-            roots.append(root[1:-1])
+            X, root = _meet(before, X, root, X0[-1], p0[-1], X1[0], p1[0], lead)
+            if w0 is not None:
+                X, root = _carry(X, root, lead, w0, v0, before.fps)
+            rots.append(X[lead + 1:-1])
+            roots.append(root[lead + 1:-1])
         costs = [c for *_x, c in found]
         if GEODESIC_COST is not None:
-            from .inbetween import geodesic_gap, seam_velocities
-
-            w0, v0 = seam_velocities(X0, p0, before.fps, True)
             w1, v1 = seam_velocities(X1, p1, before.fps, False)
             X, root = geodesic_gap(X0[-1], p0[-1], w0, v0, X1[0], p1[0], w1, v1, frames, before.fps)
             rots.append(X)
@@ -201,28 +206,41 @@ class Bridges:
         return X, root, info
 
 
-def _meet(rig, X, root, X0, p0, X1, p1):
-    """The segment (frames + 2 poses) turned about up and moved so its first pose's root heading and position are
-    the last known pose's, then offset to meet X0, p0 and X1, p1 exactly (smoothstep fade)."""
+def _meet(rig, X, root, X0, p0, X1, p1, lead=0):
+    """The segment (``lead`` poses before its start, then frames + 2 poses) turned about up and moved so its start's
+    (``X[lead]``) root heading and position are the last known pose's, then offset to meet X0, p0 and X1, p1 exactly
+    (smoothstep fade from the start; the poses before it take the start's offset)."""
     from ..clip.skeleton import rest_of, up_vector
 
     rest = rest_of(rig)
     up = up_vector(rig)
     tops = np.flatnonzero(rest.ancestor < 0)
     r = rest.root if rest.root is not None else int(tops[0])
-    angle = float(so3.heading(X0[r], up) - so3.heading(X[0, r], up))
+    angle = float(so3.heading(X0[r], up) - so3.heading(X[lead, r], up))
     T = so3.exp(angle * up)
     X = X.copy()
     X[:, tops] = T[None, None] @ X[:, tops]
-    root = (root - root[0]) @ T.T + p0
-    n = len(X)
-    s = np.arange(n) / float(n - 1)
-    w = s * s * (3.0 - 2.0 * s)
-    d0 = so3.log(np.swapaxes(X[0], -1, -2) @ X0)
+    root = (root - root[lead]) @ T.T + p0
+    s = np.arange(len(X) - lead) / float(len(X) - lead - 1)
+    w = np.r_[np.zeros(lead), s * s * (3.0 - 2.0 * s)]
+    d0 = so3.log(np.swapaxes(X[lead], -1, -2) @ X0)
     d1 = so3.log(np.swapaxes(X[-1], -1, -2) @ X1)
     X = X @ so3.exp((1.0 - w)[:, None, None] * d0[None] + w[:, None, None] * d1[None])
-    root = root + (1.0 - w)[:, None] * (p0 - root[0]) + w[:, None] * (p1 - root[-1])
+    root = root + (1.0 - w)[:, None] * (p0 - root[lead]) + w[:, None] * (p1 - root[-1])
     return X, root
+
+
+def _carry(X, root, lead, w0, v0, fps):
+    """The met segment (``_meet``) carrying the context's last body velocities ``w0`` and root velocity ``v0`` in:
+    ``X exp(f0(t) (w0 - ws))``, ``root + f0(t) (v0 - vs)``, ws and vs the segment's own velocities into its start
+    (from the pose before it: equal to the context's when the library holds the take, which then comes back as it
+    is), or out of it without a pose before (``lead`` 0: a segment at its clip's first frame), and
+    ``f0 = t (1 - t/T)^2`` (zero after T = min(the gap, CARRY_SECONDS); f0(0) = 0, f0'(0) = 1: generator 1's start
+    term, undamped)."""
+    ws, vs = seam_velocities(X[:2], root[:2], fps, False)
+    t = np.maximum(np.arange(len(X)) - lead, 0) / float(fps)
+    f0 = t * (1.0 - np.minimum(t / min(t[-1], CARRY_SECONDS), 1.0)) ** 2
+    return X @ so3.exp(f0[:, None, None] * (w0 - ws)[None]), root + f0[:, None] * (v0 - vs)[None]
 
 
 def as_bridges(library, fps):

@@ -1,7 +1,8 @@
 """Transitions (core.blend.transition) against independent truth: a real take split in two overlapping parts is
 rejoined at its true cut; a cut is the same after B is turned and moved on the ground, and the ground fit gives back
 that turn; a constant-velocity motion is in-betweened exactly (the geodesic with its velocities); a bridge from a
-library holding the take gives back the take's own frames; the joined clip keeps A and B's own motion and has no
+library holding the take gives back the take's own frames, and a bridge carries the context's velocity into a
+segment at rest; the joined clip keeps A and B's own motion and has no
 root or joint jump beyond the sources' at its seams, also across rigs and frame rates."""
 
 import pathlib
@@ -104,6 +105,35 @@ def test_bridge_from_a_library_holding_the_take_gives_its_frames(walk, run):
     assert gap.meta["inbetween"]["clip"] == walk.name and gap.meta["inbetween"]["segments"] == 2
     err = np.degrees(so3.angle(np.swapaxes(gap.rotations, -1, -2) @ truth)).max(axis=0)
     assert np.delete(err, legs).max() < 2.0 and err.max() < 5.0
+
+
+def test_bridge_carries_the_context_velocity_into_a_segment_at_rest(walk):
+    """The context turns its joints at constant body velocities w and moves its root at v into a pose the only
+    library clip holds still: the bridge's segment (and the geodesic it is averaged with) start with the context's
+    velocity (carry factor f0(t) = t (1 - t/T)^2, f0'(0) = 1), not at rest."""
+    rng = np.random.default_rng(5)
+    r = walk.bones.index(walk.root_bone)
+    moved = [i for i in range(len(walk.bones)) if i != r and i not in sum(legs_of(walk).values(), ())]
+    w = np.zeros((len(walk.bones), 3))
+    w[moved] = rng.normal(scale=1.0, size=(len(moved), 3))
+    v = np.array([40.0, -15.0, 0.0])
+    P, p = walk.rotations[0], walk.root_translation[0]
+    t = (np.arange(30) - 29) / walk.fps  # the context's last frame at t = 0, on the still pose
+    still = replace(walk, rotations=np.repeat(P[None], 200, axis=0), root_translation=np.repeat(p[None], 200, axis=0),
+                    frame_start=1, name="still")
+    before = replace(walk, rotations=P[None] @ so3.exp(t[:, None, None] * w[None]),
+                     root_translation=p + t[:, None] * v, frame_start=1, name="context")
+    frames = 60
+    gap = inbetween(before, still.crop(1, 20), frames, library=[still])
+    assert gap.meta["inbetween"]["generator"] == "bridge"
+    dt = 1.0 / walk.fps
+    a1, a2 = (so3.log(np.swapaxes(P, -1, -2) @ gap.rotations[k]) for k in (0, 1))
+    p1, p2 = gap.root_translation[0] - p, gap.root_translation[1] - p
+    # the velocity at the seam from the first two generated frames, second order (exact for a quadratic)
+    np.testing.assert_allclose(((4 * a1 - a2) / (2 * dt))[moved], w[moved], rtol=0, atol=0.02 * np.abs(w).max())
+    np.testing.assert_allclose((4 * p1 - p2) / (2 * dt), v, rtol=0, atol=0.02 * np.abs(v).max())
+    # and the gap ends on the still pose
+    np.testing.assert_allclose(gap.rotations[-1][moved], P[moved], atol=1e-3)
 
 
 def _steps(clip):
