@@ -86,9 +86,10 @@ class ClipSpec:
 
     def check(self) -> "ClipSpec":
         """ParseError when the file is missing, a folder or of an unknown type (the command line's messages);
-        UnreadableFileError when it is not a regular file or over the size cap (``core.io.files``)."""
-        if files.regular_within_cap(self.path) and self.ext in EXTENSIONS:
-            return self  # one stat for the common case; the messages below for the others
+        UnreadableFileError when it is not a regular file or over the size cap (``core.io.files``). One stat
+        for a readable file; the messages' tests only for the others."""
+        if self.ext in EXTENSIONS and files.regular_within_cap(self.path):
+            return self
         if not os.path.lexists(self.path):
             raise ParseError("file not found", self.path)
         if os.path.isdir(self.path):
@@ -328,10 +329,8 @@ def spec_item(spec: ClipSpec, load: Optional[Callable] = None) -> LibraryItem:
 
 def library(paths, recursive=True, load=None, **options) -> List[LibraryItem]:
     """Library items for sources (files, ``FILE.blend#ACTION``, folders searched for clip files), each once
-    (``Library``: a source that cannot be keyed raises; files the readers never open are left out).
-
-    ``options``: ClipSpec fields for every source (``asf``, ``start``, ``end``, ``fps``, ``trim``). Files are read only
-    when their key is not in the cache."""
+    (``Library``: a source that cannot be keyed raises; files the readers never open are left out). ``options``:
+    ClipSpec fields for every source (``asf``, ``start``, ``end``, ``fps``, ``trim``); files read only when not cached."""
     return Library(paths, lambda text: ClipSpec.parse(text, **options), unique=True, recursive=recursive,
                    load=load).items()
 
