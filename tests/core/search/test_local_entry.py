@@ -14,7 +14,7 @@ def _entry(rng, name, with_take=True):
                    sequence=rng.standard_normal((7, 3 * len(local.POINTS))).astype(np.float16),
                    path=rng.standard_normal(10).astype(np.float32),
                    name=name, frames=40, bones=3, trimmed=(2, 39, 1, 40), joints=("a", "b", "c"), still=("c",),
-                   rig_joints=("hips",))
+                   rig_joints=("hips",), first=1 if with_take else None)  # (an older entry has no first frame)
     if with_take:
         e.take, e.seconds = rng.standard_normal(take.DIM).astype(np.float32), np.float32(1.3)
         e.take_mask = (rng.random(len(take.JOINTS)) < 0.5).astype(np.uint8)
@@ -28,8 +28,8 @@ def _same(a, b):
         assert (x is None) == (y is None), k
         if x is not None:
             assert np.asarray(y).dtype == dt and np.array_equal(np.asarray(x), np.asarray(y)), k
-    assert (a.name, a.frames, a.bones, tuple(a.trimmed), a.joints, a.still, a.rig_joints) == \
-        (b.name, b.frames, b.bones, tuple(b.trimmed), b.joints, b.still, b.rig_joints)
+    assert (a.name, a.frames, a.first, a.bones, tuple(a.trimmed), a.joints, a.still, a.rig_joints) == \
+        (b.name, b.frames, b.first, b.bones, tuple(b.trimmed), b.joints, b.still, b.rig_joints)
     assert float(a.seconds) == float(b.seconds)
 
 
