@@ -29,9 +29,9 @@ def build_parser(command=None):
         description="Shape analysis of motion-capture clips: SRVT elastic distance, geodesic blends, signatures.",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for one in COMMANDS:
-        if command is None or command not in map(_name, COMMANDS) or _name(one) == command:
-            one.add_parser(sub)
+    only = [one for one in COMMANDS if _name(one) == command]
+    for one in only or COMMANDS:
+        one.add_parser(sub)
     return parser
 
 

@@ -140,7 +140,7 @@ def run(args):
     if args.explain < 0:
         raise c.CommandError("--explain must be 0 or more")
     from ..core.io.sources import clip_address, read_one, spec_item
-    from ..core.clip.trim import trim_note, trimmed_range
+    from ..core.clip.trim import trim_note, trim_record, trimmed_range
     from ..core.measure_words import ENGINES, MEASURES, metric_phrase
 
     spec = c.clip_spec(args.query, args.asf, c.crop_of(args), args.bone_map)
@@ -179,10 +179,10 @@ def run(args):
         out_thumbs = _thumbnails(args.thumbnails, query_item, results, rows, cache, args)
     stats = dict(getattr(results, "stats", {}) or {})
     label = stats.get("metric", "sim2 windows") if args.windows else metric_label(base, level)
-    name, trim = (known.name, trimmed_range(known.trimmed, [known.first, known.first + known.frames - 1])) \
-        if known else (query.name, trimmed_range(query))
-    notes = [trim_note(name, known.trimmed) if known else trim_note(query)]
-    notes += [trim_note(r.name, r.trimmed) for r in results]
+    name, record, first, frames = (known.name, known.trimmed, known.first, known.frames) if known else \
+        (query.name, trim_record(query), query.frame_start, query.frames)
+    trim = trimmed_range(record, [first, first + frames - 1])
+    notes = [trim_note(name, record)] + [trim_note(r.name, r.trimmed) for r in results]
     out = {"query": name, "metric": label, "results": rows, "query_trim": trim["frames"],
            "query_trimmed": trim["cut"],
            "cache": {k: stats[k] for k in ("hits", "misses") if k in stats}, "skipped": skipped}

@@ -135,10 +135,9 @@ def regular_within_cap(path) -> bool:
     """True when ``path`` is a regular file (following links) within the size cap, by one stat; False for
     anything else (``check_file`` then says why)."""
     try:
-        st = os.stat(path)
-    except (OSError, ValueError):
+        return _checked(os.fspath(path), True)[1] is None
+    except ValueError:  # a path with a NUL byte
         return False
-    return stat.S_ISREG(st.st_mode) and _size_problem(st.st_size, path) is None
 
 
 def check_file(path, cap=True) -> os.stat_result:

@@ -10,7 +10,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["LocalEntry", "Refusal", "Take", "ARRAYS", "JOINT_LISTS", "first_of"]
+__all__ = ["LocalEntry", "Refusal", "Take", "ARRAYS", "JOINT_LISTS", "meta_fields"]
 
 # an entry's arrays and their types on disk (an older recipe's entries lack the optional ones: None)
 ARRAYS = {"windows": np.float16, "sequence": np.float16, "path": np.float32, "take": np.float32,
@@ -74,7 +74,13 @@ class Refusal:
     refused: str
 
 
-def first_of(meta) -> Optional[int]:
-    """The ``first`` frame of an entry's stored ``meta`` (None when an older entry has none)."""
+def meta_fields(meta) -> dict:
+    """``LocalEntry``'s fields other than its arrays and ``seconds`` from the entry's stored ``meta`` (an entry
+    file's or the library file's): name, frames, ``first`` (None when an older entry has none), bones, trimmed and
+    the joint lists."""
     first = meta.get("first")
-    return int(first) if isinstance(first, int) and not isinstance(first, bool) else None
+    lists = {k: meta.get(k, ()) for k in JOINT_LISTS}  # (a library file's are tuples already)
+    return dict(name=meta["name"], frames=int(meta.get("frames", 0)),
+                first=int(first) if isinstance(first, int) and not isinstance(first, bool) else None,
+                bones=int(meta.get("bones", 0)), trimmed=tuple(int(f) for f in meta.get("trimmed", ())),
+                **{k: v if isinstance(v, tuple) else tuple(str(j) for j in v) for k, v in lists.items()})

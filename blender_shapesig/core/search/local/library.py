@@ -17,7 +17,7 @@ import struct
 import numpy as np
 
 from . import description, features as local, take
-from .entry import JOINT_LISTS, LocalEntry, Refusal, first_of
+from .entry import JOINT_LISTS, LocalEntry, Refusal, meta_fields
 
 __all__ = ["MAGIC", "COARSE", "write_library", "open_library", "coarse_windows", "LibraryFile"]
 
@@ -122,10 +122,6 @@ def write_library(f, files, fmt):
     return nc
 
 
-def _joints(v):
-    return v if isinstance(v, tuple) else tuple(str(j) for j in v)
-
-
 class LibraryFile:
     """An opened library file: ``files`` [[name, size, mtime_ns, meta, rows]] (rows: (w0, w1, q0, q1, clip) per
     clip, clip -1 when refused) and the memory-mapped arrays by name (``windows``, ``norms``, ``sequences``,
@@ -142,10 +138,7 @@ class LibraryFile:
         w0, w1, q0, q1, k = row
         A = self.arrays
         e = LocalEntry(windows=A["windows"][w0:w1], sequence=A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))],
-                       path=A["paths"][k], name=m["name"], frames=int(m.get("frames", 0)), first=first_of(m),
-                       bones=int(m.get("bones", 0)),
-                       trimmed=tuple(int(f) for f in m.get("trimmed", ())), rows=(id(self), w0, w1, k),
-                       **{name: _joints(m.get(name, ())) for name in JOINT_LISTS})
+                       path=A["paths"][k], rows=(id(self), w0, w1, k), **meta_fields(m))
         if self._has is None:
             self._has = (A["take_masks"].any(axis=1) if "takes" in A else None,
                          np.isfinite(A["descriptions"]).all(axis=1) if "descriptions" in A else None)

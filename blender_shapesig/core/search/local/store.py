@@ -16,7 +16,7 @@ import stat
 import numpy as np
 
 from . import features as local
-from .entry import ARRAYS as _ARRAYS, JOINT_LISTS as _JOINT_LISTS, LocalEntry, Refusal, first_of
+from .entry import ARRAYS as _ARRAYS, JOINT_LISTS as _JOINT_LISTS, LocalEntry, Refusal, meta_fields
 from .library import open_library, write_library
 
 __all__ = ["LOCAL_PACK", "LocalEntries", "hashed_name"]
@@ -51,10 +51,8 @@ class _Rows(list):
 def _entry(m, arrays):
     if m.get("refused"):
         return Refusal(m["name"], str(m["refused"]))
-    e = LocalEntry(name=m["name"], frames=int(m.get("frames", 0)), first=first_of(m), bones=int(m.get("bones", 0)),
-                   trimmed=tuple(int(f) for f in m.get("trimmed", ())), seconds=np.float32(m.get("seconds", 0.0)),
-                   **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays},
-                   **{k: tuple(str(j) for j in m.get(k, ())) for k in _JOINT_LISTS})
+    e = LocalEntry(**meta_fields(m), seconds=np.float32(m.get("seconds", 0.0)),
+                   **{k: np.asarray(arrays[k], dt) for k, dt in _ARRAYS.items() if k in arrays})
     if (e.windows.ndim != 2 or e.sequence.ndim != 2 or len(e.windows) == 0
             or (e.take is not None and e.take.ndim != 1)):
         raise ValueError("bad shapes")
