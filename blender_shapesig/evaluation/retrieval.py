@@ -38,12 +38,14 @@ def rerank_order(order, k, second):
 
 
 def local_order(q_entry, entries, row, cand, shortlist=local.SHORTLIST):
-    """The local search's ranking of ``cand`` for one query: the first stage's ``row``, its first ``shortlist``
-    scored by ``local.shortlist_scores`` (``rank_clips``' order)."""
+    """The local search's ranking of ``cand`` for one query: the first stage's ``row``, its ``local.shortlisted``
+    scored by ``local.shortlist_scores``, the others in the first stage's order (``rank_clips``' order)."""
     order = first_stage_order(row, cand)
-    head = order[:shortlist]
+    d1 = np.full(len(entries), np.inf)
+    d1[order] = np.arange(len(order))  # the first stage's order over the candidates only (ties broken as it does)
+    head = local.shortlisted(q_entry, entries, d1, shortlist)
     score, _ = local.shortlist_scores(q_entry, [entries[j] for j in head], np.asarray(row)[head])
-    return np.concatenate([head[np.argsort(score, kind="stable")], order[shortlist:]])
+    return np.concatenate([head[np.argsort(score, kind="stable")], order[~np.isin(order, head)]]).astype(int)
 
 
 def local_first_stage(queries, entries):

@@ -280,13 +280,16 @@ def test_joint_lists_are_stored_once_per_rig_and_version_2_files_still_open(tmp_
 
 def test_a_cache_of_an_older_recipe_keeps_working(lib_dir, tmp_path):
     """A cache folder used before the whole take was stored holds entries without it (another settings key, kept in
-    the pack until their files go): the next ranking writes the pack with them (a zero mask: read back as no take),
+    the pack until their files go): the next ranking writes the pack with them (a zero mask: read back as no take;
+    a description of another recipe's width: read back as none),
     ranks as a fresh cache does, and releasing the memory map copies them without a take."""
     items = _items(lib_dir)
     q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
     folder = tmp_path / "cache"
     old = index.SignatureCache(folder)
-    olds = [replace(ls.index_entry(c), take=None, take_mask=None, seconds=0.0, name="old") for c in items[0].clips()]
+    # and a description of another number of parts (the recipe before the arms' numbers had nine): read back as none
+    olds = [replace(ls.index_entry(c), take=None, take_mask=None, seconds=0.0, name="old",
+                    describe=np.arange(len(description.PARTS) + 1, dtype=np.float32)) for c in items[0].clips()]
     old.local.put(items[0].key, "an older recipe", olds)
     old.local.save_pack()
     store = index.SignatureCache(folder)
@@ -295,6 +298,7 @@ def test_a_cache_of_an_older_recipe_keeps_working(lib_dir, tmp_path):
     reopened = index.SignatureCache(folder)
     back = reopened.local.get(items[0].key, "an older recipe")
     assert back is not None and back[0].take is None and len(back[0].windows) == len(olds[0].windows)
+    assert back[0].describe is None
     fresh = reopened.local.get(items[0].key, ls.settings_key())
     assert fresh is not None and fresh[0].take_mask.any()
     reopened.local.release()

@@ -33,6 +33,16 @@ def clips(data_dir):
     }
 
 
+def _described(qe, cands):
+    """What happens in the clips (``description``), written out: the root mean square of the differences of the
+    body's parts, plus for a striking query the arms' (strike, guard), gated by its strike."""
+    q, D = qe.describe.astype(float), np.array([c.describe for c in cands], float)
+    b, k = description.BODY, description.PARTS.index("strike")
+    body = np.sqrt(np.mean((D[:, :b] - q[:b]) ** 2, axis=1))
+    arms = np.sqrt(np.mean((D[:, b:] - q[b:]) ** 2, axis=1)) * min(1.0, max(q[k], 0.0) / description.STRIKE_GATE)
+    return description.WEIGHT * body + description.ARM_WEIGHT * arms
+
+
 def test_local_is_the_default_metric():
     assert DEFAULT_METRIC == "local" and parse_metric("local") == ("local", None)
     with pytest.raises(ShapeSigError, match="first stage cannot be local"):
@@ -51,9 +61,7 @@ def test_rank_orders_and_scores_as_the_local_search(clips):
     d1 = ls.first_stage(qe, entries)
     head = list(np.argsort(d1, kind="stable")[:3])
     score = ls.combine(d1[head], ls.rerank(qe, [entries[i] for i in head]))
-    # plus what happens in the clips (``description``): the root mean square of their descriptions' differences
-    gap = np.array([np.sqrt(np.mean((entries[i].describe.astype(float) - qe.describe) ** 2)) for i in head])
-    score = score + description.WEIGHT * gap
+    score = score + _described(qe, [entries[i] for i in head])
     want = dict(zip((lib[i].name for i in head), score))
     rows = {r.name: r for r in got}
     for name, s in want.items():
@@ -79,9 +87,7 @@ def test_rank_local_rows_made_when_read_equal_the_rule(clips):
     order = np.argsort(d1, kind="stable")
     head = order[:2]
     score = ls.combine(d1[head], ls.rerank(qe, [entries[i] for i in head]))
-    # plus what happens in the clips (``description``): the root mean square of their descriptions' differences
-    gap = np.array([np.sqrt(np.mean((entries[i].describe.astype(float) - qe.describe) ** 2)) for i in head])
-    score = score + description.WEIGHT * gap
+    score = score + _described(qe, [entries[i] for i in head])
     want = [(int(head[k]), score[k], d1[head[k]]) for k in np.argsort(score, kind="stable")]
     want += [(int(i), max(score.max(), 2.0 * d1[i] / d1[head].mean()), d1[i]) for i in order[2:]]
     assert len(rows) == len(entries) == len(want)

@@ -39,13 +39,14 @@ __all__ = ["RATE", "WINDOWS", "HOP", "DIM", "SHORTLIST", "MAX_WINDOWS", "MAX_SEQ
            "POINTS", "SEGMENTS", "Settings", "DEFAULT", "settings_key", "rig_positions", "body_positions", "features",
            "window_vectors", "whole_path", "index_entry", "entry_from_features", "entry_bytes", "stack", "nearest",
            "PREFILTER", "PREFILTER_SHARE", "coarse_windows", "coarse_distances", "gather_rows", "first_stage", "dtw",
-           "rerank", "path_distances", "combine", "search"]
+           "rerank", "path_distances", "combine", "shortlisted", "shortlist_scores", "search"]
 
 RATE = 30.0  # samples per second of the features
 WINDOWS = (0.5, 1.0)  # seconds per window, two scales (clips shorter than a window have one window of that scale)
 HOP = 0.25  # between windows, a fraction of the window
 DIM = 96  # numbers per window in the index
-SHORTLIST = 20  # clips the second stage re-ranks
+SHORTLIST = 25  # clips the second stage re-ranks (the first stage's nearest; plus, for a striking query, the clips
+# nearest by the arms: ``shortlisted``)
 # the index's size: at most this many windows per scale (a longer hop beyond 20 s) and samples of the second stage's
 # sequence (a lower rate beyond 13 s): <= 2 * 80 * 96 * 2 + 200 * 33 * 2 bytes = 43 KB per clip (39 columns, 46 KB,
 # with the action part)
@@ -66,7 +67,7 @@ BAND = 0.25  # Sakoe-Chiba band of the second stage, a fraction of the longer se
 
 # changes when the features change for the same settings (e.g. the leg of a rig without a foot bone): stored
 # entries made by an older recipe are then computed again, never used
-RECIPE_VERSION = 3
+RECIPE_VERSION = 4  # 4: the description's travel once (the ground's for a clip in place) and the arms' numbers
 
 
 class Settings:
@@ -351,15 +352,33 @@ def held_distances(query, candidates: Sequence) -> np.ndarray:
                      for c in candidates])
 
 
+def shortlisted(query, entries: Sequence, d1, n: int = SHORTLIST) -> np.ndarray:
+    """The indices of the entries the second stage re-ranks: the ``n`` nearest by the first stage ``d1``
+    (``nearest``), then, for a query that strikes, the ``description.UNION`` nearest by the arms among the entries
+    with a finite ``d1`` (``description.striking_nearest``) that are not already among them."""
+    d1 = np.asarray(d1, float)
+    head = nearest(d1, max(int(n), 1))
+    if local_description.UNION <= 0 or not local_description.strikes(query):
+        return head
+    pool = np.flatnonzero(np.isfinite(d1))
+    rows = [entries[i].describe for i in pool]
+    width = len(local_description.PARTS)
+    if any(r is None or len(r) != width for r in rows):  # an older recipe's entry (``description.description_of``)
+        rows = [np.full(width, np.nan) if local_description.description_of(entries[i]) is None else r
+                for i, r in zip(pool, rows)]  # no description, never nearest
+    extra = pool[local_description.striking_nearest(query, np.array(rows, np.float64).reshape(len(pool), width))]
+    extra = extra[~np.isin(extra, head)]
+    return np.concatenate([head, extra]).astype(np.int64) if len(extra) else head
+
+
 def shortlist_scores(query, candidates: Sequence, d1, mix: float = MIX, dg=None, global_weight: float = 0.0):
     """(score, d2): the shortlist's final scores (``combine`` of the first stage's ``d1`` and the DTW ``d2``, plus
-    ``description.WEIGHT`` times how far apart what happens in the clips is, leg lengths,
-    ``description.description_distances``; the query's twin first: ``take.twin_first``) and the DTW distances, for
-    the candidates in the first stage's order."""
+    the description's terms, ``description.description_scores``: how far apart what happens in the clips is, leg
+    lengths, and for a striking query what the arms do; the query's twin first: ``take.twin_first``) and the DTW
+    distances, for the candidates in the first stage's order."""
     d2 = rerank(query, candidates)
     score = combine(d1, d2, mix, dg, global_weight)
-    if local_description.WEIGHT:
-        score = score + local_description.WEIGHT * local_description.description_distances(query, candidates)
+    score = score + local_description.description_scores(query, candidates)
     return take.twin_first(query, candidates, score, lambda picked: held_distances(query, picked)), d2
 
 
@@ -371,13 +390,13 @@ def path_distances(query, candidates) -> np.ndarray:
 def search(query, entries: Sequence, shortlist: int = SHORTLIST, mix: float = MIX,
            settings: Settings = DEFAULT, library=None) -> List[int]:
     """The entries' indices, best first: all by ``first_stage`` (on ``library``, the entries' ``stack``, when
-    given), the first ``shortlist`` re-ranked by ``combine`` of both stages (and of the whole paths when
-    ``settings.global_weight``)."""
+    given), the ``shortlisted`` re-ranked by ``shortlist_scores`` (and the whole paths when
+    ``settings.global_weight``), the others after them in the first stage's order."""
     d1 = first_stage(query, entries if library is None else library)
-    order = list(np.argsort(d1, kind="stable"))
-    head = order[:shortlist]
+    head = [int(i) for i in shortlisted(query, entries, d1, shortlist)]
     cands = [entries[i] for i in head]
     dg = path_distances(query, cands) if settings.global_weight else None
     score, _ = shortlist_scores(query, cands, d1[head], mix, dg, settings.global_weight)
-    head = [head[i] for i in np.argsort(score, kind="stable")]
-    return head + order[shortlist:]
+    taken = set(head)
+    return [head[i] for i in np.argsort(score, kind="stable")] + [int(i) for i in np.argsort(d1, kind="stable")
+                                                                   if int(i) not in taken]

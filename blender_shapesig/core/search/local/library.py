@@ -33,6 +33,13 @@ _NO_MASK = np.zeros(len(take.JOINTS), np.uint8)
 _NO_DESCRIPTION = np.full(len(description.PARTS), np.nan, np.float32)  # an older recipe's entry: read back as none
 
 
+def _description(e):
+    """An entry's description as stored: none (NaN) for an entry of an older recipe, without one or with another
+    number of parts (``description.description_of``; one kept in the pack until its file goes)."""
+    d = description.description_of(e)
+    return _NO_DESCRIPTION if d is None else d.astype(np.float32)
+
+
 def coarse_windows(windows, k=COARSE) -> np.ndarray:
     """The clip's prefilter windows (``local.coarse_windows``)."""
     return local.coarse_windows(windows, k)
@@ -117,8 +124,7 @@ def write_library(f, files, fmt):
                    for e in each()))
     put("take_masks", (np.asarray(_NO_MASK if e.take is None else e.take_mask, np.uint8).reshape(len(take.JOINTS))
                        for e in each()))
-    put("descriptions", (np.asarray(_NO_DESCRIPTION if e.describe is None else e.describe, np.float32)
-                         .reshape(len(description.PARTS)) for e in each()))
+    put("descriptions", (_description(e) for e in each()))
     return nc
 
 
@@ -140,8 +146,9 @@ class LibraryFile:
         e = LocalEntry(windows=A["windows"][w0:w1], sequence=A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))],
                        path=A["paths"][k], rows=(id(self), w0, w1, k), **meta_fields(m))
         if self._has is None:
+            described = "descriptions" in A and A["descriptions"].shape[1] == len(description.PARTS)
             self._has = (A["take_masks"].any(axis=1) if "takes" in A else None,
-                         np.isfinite(A["descriptions"]).all(axis=1) if "descriptions" in A else None)
+                         np.isfinite(A["descriptions"]).all(axis=1) if described else None)
         has_take, has_description = self._has
         if has_take is not None and has_take[k]:
             e.take, e.take_mask, e.seconds = A["takes"][k], A["take_masks"][k], np.float32(m.get("seconds", 0.0))

@@ -108,7 +108,8 @@ class RankedRows(Sequence):
     def _order(self):
         """The rows after the shortlist in the first stage's order (sorted at the first read of one)."""
         if self._rest is None:
-            self._rest = np.argsort(self._d1, kind="stable")[len(self._head):]
+            order = np.argsort(self._d1, kind="stable")
+            self._rest = order[~np.isin(order, [i for i, *_ in self._head])]
         return self._rest
 
     def __getitem__(self, k):
@@ -129,7 +130,8 @@ def rank_local(q: LocalEntry, pairs, store: SignatureCache, shortlist=local.SHOR
                ) -> Sequence[Tuple[int, float, float, object]]:
     """[(index into ``pairs``, score, first-stage distance, DTW distance or None)], best first, for every pair
     (item, entry) of readable entries (a ``RankedRows``: rows after the shortlist are made when read). The
-    shortlist's score is ``local.shortlist_scores`` (d2 / mean d2 + mix d1 / mean d1 over the shortlist, the query's
+    shortlist (``local.shortlisted``: the first stage's nearest, and for a striking query the nearest by the arms)
+    is scored by ``local.shortlist_scores`` (d2 / mean d2 + mix d1 / mean d1 over the shortlist, the query's
     twin in another file first); a clip after it
     scores max(the shortlist's worst, (1 + mix) d1 / mean d1): its first stage stands for both terms, and the order
     stays the first stage's."""
@@ -137,7 +139,7 @@ def rank_local(q: LocalEntry, pairs, store: SignatureCache, shortlist=local.SHOR
         return []
     entries = [e for _, e in pairs]
     d1 = local.first_stage(q, store.local.stack(entries), keep=local.PREFILTER)
-    head = local.nearest(d1, max(int(shortlist), 1))  # the rest is sorted only when read (100,000: 9 ms)
+    head = local.shortlisted(q, entries, d1, shortlist)  # the rest is sorted only when read (100,000: 9 ms)
     score, d2 = local.shortlist_scores(q, [entries[i] for i in head], d1[head], mix)
     m1 = max(float(np.mean(d1[head])), 1e-12)
     by = np.argsort(score, kind="stable")
