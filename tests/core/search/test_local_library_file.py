@@ -38,9 +38,11 @@ def _names(results):
     return [(r.name, round(r.distance, 5)) for r in results]
 
 
-def test_ranking_from_the_library_file_equals_the_per_file_store_and_the_search(lib_dir, tmp_path):
+@pytest.mark.parametrize("query", ["08_01.bvh", "09_02.bvh"])  # a walk; a run, whose arms strike (the union)
+def test_ranking_from_the_library_file_equals_the_per_file_store_and_the_search(lib_dir, tmp_path, query):
     items = _items(lib_dir)
-    q = sources.read_one(sources.ClipSpec(str(lib_dir / "08_01.bvh")))
+    q = sources.read_one(sources.ClipSpec(str(lib_dir / query)))
+    assert description.strikes(ls.index_entry(q)) == (query == "09_02.bvh")
     cache = tmp_path / "cache"
     first = index.rank_clips(q, items, cache=index.SignatureCache(cache))  # computes, writes files and the pack
     pack = cache / index.CACHE_SUBDIR / LOCAL_PACK
@@ -48,6 +50,9 @@ def test_ranking_from_the_library_file_equals_the_per_file_store_and_the_search(
     fresh = index.SignatureCache(cache)
     again = index.rank_clips(q, items, cache=fresh)
     assert fresh.stats["writes"] == 0 and isinstance(fresh.local._lib.arrays["windows"].base, np.memmap)
+    # the union's descriptions come from the file's array, row for row the entries' own (``described_rows``)
+    _key, ranked_entries, block = fresh.local._local_memo
+    assert np.array_equal(block["descriptions"], description.described_rows(ranked_entries), equal_nan=True)
     assert _names(again) == _names(first)
     # the scores too: what happens in each clip (``description``) is read back from the file, not dropped
     assert open_library(str(pack)).arrays["descriptions"].shape[1] == len(description.PARTS)

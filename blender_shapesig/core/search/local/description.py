@@ -22,7 +22,7 @@ _WRISTS = [POINTS.index("wrist.L"), POINTS.index("wrist.R")]
 _HEAD = POINTS.index("head")
 
 __all__ = ["PARTS", "BODY", "PERCENTILE", "WEIGHT", "IN_PLACE", "SHOULDER_BAND", "ARM_WEIGHT", "STRIKE_GATE", "UNION",
-           "ground_velocity", "travel_velocity", "describe", "description_of", "description_distances", "arm_distances",
+           "ground_velocity", "travel_velocity", "describe", "description_of", "described_rows", "description_distances", "arm_distances",
            "description_scores", "strikes", "striking_nearest"]
 
 PARTS = ("speed", "forward", "sideways", "rise", "clearance", "vertical", "strike", "guard")
@@ -93,6 +93,15 @@ def description_of(entry):
     """(PARTS,) float64 the entry's description, or None: none stored, or an older recipe's number of parts."""
     d = entry.describe
     return None if d is None or len(d) != len(PARTS) else np.asarray(d, np.float64)
+
+
+def described_rows(entries) -> np.ndarray:
+    """(len(entries), PARTS) float64 the entries' descriptions, a NaN row for an entry without one
+    (``description_of``): the library's for ``striking_nearest``."""
+    rows = [e.describe for e in entries]
+    if any(r is None or len(r) != len(PARTS) for r in rows):
+        rows = [np.full(len(PARTS), np.nan) if description_of(e) is None else r for e, r in zip(entries, rows)]
+    return np.array(rows, np.float64).reshape(len(entries), len(PARTS))
 
 
 def _described(query, candidates):

@@ -352,21 +352,19 @@ def held_distances(query, candidates: Sequence) -> np.ndarray:
                      for c in candidates])
 
 
-def shortlisted(query, entries: Sequence, d1, n: int = SHORTLIST) -> np.ndarray:
+def shortlisted(query, entries: Sequence, d1, n: int = SHORTLIST, described=None) -> np.ndarray:
     """The indices of the entries the second stage re-ranks: the ``n`` nearest by the first stage ``d1``
     (``nearest``), then, for a query that strikes, the ``description.UNION`` nearest by the arms among the entries
-    with a finite ``d1`` (``description.striking_nearest``) that are not already among them."""
+    with a finite ``d1`` (``description.striking_nearest``) that are not already among them. ``described``: the
+    entries' ``description.described_rows`` when known (a library's, memoized with its stack), else read from them."""
     d1 = np.asarray(d1, float)
     head = nearest(d1, max(int(n), 1))
     if local_description.UNION <= 0 or not local_description.strikes(query):
         return head
     pool = np.flatnonzero(np.isfinite(d1))
-    rows = [entries[i].describe for i in pool]
-    width = len(local_description.PARTS)
-    if any(r is None or len(r) != width for r in rows):  # an older recipe's entry (``description.description_of``)
-        rows = [np.full(width, np.nan) if local_description.description_of(entries[i]) is None else r
-                for i, r in zip(pool, rows)]  # no description, never nearest
-    extra = pool[local_description.striking_nearest(query, np.array(rows, np.float64).reshape(len(pool), width))]
+    rows = (local_description.described_rows([entries[i] for i in pool]) if described is None
+            else np.asarray(described, np.float64)[pool])
+    extra = pool[local_description.striking_nearest(query, rows)]
     extra = extra[~np.isin(extra, head)]
     return np.concatenate([head, extra]).astype(np.int64) if len(extra) else head
 

@@ -146,15 +146,21 @@ class LibraryFile:
         e = LocalEntry(windows=A["windows"][w0:w1], sequence=A["sequences"][q0:q1, :int(m.get("seq_dim", _SEQ_DIM))],
                        path=A["paths"][k], rows=(id(self), w0, w1, k), **meta_fields(m))
         if self._has is None:
-            described = "descriptions" in A and A["descriptions"].shape[1] == len(description.PARTS)
+            D = self.descriptions()
             self._has = (A["take_masks"].any(axis=1) if "takes" in A else None,
-                         np.isfinite(A["descriptions"]).all(axis=1) if described else None)
+                         np.isfinite(D).all(axis=1) if D is not None else None)
         has_take, has_description = self._has
         if has_take is not None and has_take[k]:
             e.take, e.take_mask, e.seconds = A["takes"][k], A["take_masks"][k], np.float32(m.get("seconds", 0.0))
         if has_description is not None and has_description[k]:
             e.describe = A["descriptions"][k]
         return e
+
+    def descriptions(self):
+        """(clips, ``description.PARTS``) the clips' descriptions as memory-mapped (NaN rows: none), or None for a file
+        without them or of another recipe's width."""
+        D = self.arrays.get("descriptions")
+        return D if D is not None and D.shape[1] == len(description.PARTS) else None
 
     def stack(self):
         """The whole file as ``local.first_stage``'s library (no copy): windows, norms, coarse and, per clip, its
@@ -165,7 +171,8 @@ class LibraryFile:
                 if k >= 0:
                     starts.append(w0), ends.append(w1)
         return {"windows": self.arrays["windows"], "norms": self.arrays["norms"], "coarse": self.arrays["coarse"],
-                "starts": np.asarray(starts, np.int64), "ends": np.asarray(ends, np.int64)}
+                "starts": np.asarray(starts, np.int64), "ends": np.asarray(ends, np.int64),
+                "descriptions": self.descriptions()}
 
 
 def open_library(fn) -> LibraryFile:

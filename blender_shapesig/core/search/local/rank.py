@@ -138,8 +138,9 @@ def rank_local(q: LocalEntry, pairs, store: SignatureCache, shortlist=local.SHOR
     if not pairs:
         return []
     entries = [e for _, e in pairs]
-    d1 = local.first_stage(q, store.local.stack(entries), keep=local.PREFILTER)
-    head = local.shortlisted(q, entries, d1, shortlist)  # the rest is sorted only when read (100,000: 9 ms)
+    block = store.local.stack(entries)
+    d1 = local.first_stage(q, block, keep=local.PREFILTER)
+    head = local.shortlisted(q, entries, d1, shortlist, block.get("descriptions"))  # the rest: sorted when read
     score, d2 = local.shortlist_scores(q, [entries[i] for i in head], d1[head], mix)
     m1 = max(float(np.mean(d1[head])), 1e-12)
     by = np.argsort(score, kind="stable")

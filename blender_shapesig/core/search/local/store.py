@@ -15,7 +15,7 @@ import stat
 
 import numpy as np
 
-from . import features as local
+from . import description as local_description, features as local
 from .entry import ARRAYS as _ARRAYS, JOINT_LISTS as _JOINT_LISTS, LocalEntry, Refusal, meta_fields
 from .library import open_library, write_library
 
@@ -249,7 +249,9 @@ class LocalEntries:
             whole = len(k) == len(lib.arrays["coarse"]) and np.array_equal(k, np.arange(len(k)))
             block = {"windows": lib.arrays["windows"], "norms": lib.arrays["norms"], "starts": R[:, 0],
                      "ends": R[:, 1], "coarse": lib.arrays["coarse"] if whole else np.asarray(lib.arrays["coarse"][k])}
+            D = lib.descriptions()
+            block["descriptions"] = None if D is None else (D if whole else np.asarray(D[k]))
         else:
-            block = local.stack(entries)
+            block = dict(local.stack(entries), descriptions=local_description.described_rows(entries))
         self._local_memo = (key, list(entries), block)
         return block
