@@ -125,20 +125,14 @@ def trim_key(trim) -> str:
     return f"trim={trim}{_TRIM_VERSION if trim != 'none' else ''}"
 
 
-_AUTO_KEY = []  # "auto" with the tables' version, made at the first call (a Find Similar click keys 1,000 actions)
-
-
 def bone_map_key(bone_map) -> str:
     """The key part of a ``bone_map`` option: the tables' version for "auto", a saved map's content."""
-    if bone_map in (None, "none"):
-        return "none"
-    if bone_map == "auto" and _AUTO_KEY:
-        return _AUTO_KEY[0]
     from ..rigs import TABLES_VERSION
 
+    if bone_map in (None, "none"):
+        return "none"
     if bone_map == "auto":
-        _AUTO_KEY.append(f"auto{TABLES_VERSION}")
-        return _AUTO_KEY[0]
+        return f"auto{TABLES_VERSION}"
     return f"{TABLES_VERSION}:" + file_key(bone_map) if os.path.isfile(bone_map) else f"missing:{bone_map}"
 
 
