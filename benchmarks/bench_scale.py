@@ -11,7 +11,8 @@ copy regenerated from its seed, never all in memory); a copy's whole-take signat
 noise level. Prints JSON: ``clips``; ``query_ms`` and ``query_cpu_ms``
 (median wall and CPU time over Q queries: the first stage with the prefilter, ``keep`` = ``local.PREFILTER`` (or
 ``PREFILTER_SHARE`` of the clips), over the memory-mapped file, plus the DTW re-rank of the shortlist and the twin
-rule (``local.shortlisted``, ``local.shortlist_scores``), what ``rank_local`` runs; numba not loaded, as in a command-line ``rank``); the baselines of the same run:
+rule (``local.shortlisted``, ``local.shortlist_scores``), what ``rank_local`` runs; numba not loaded, as in a
+command-line ``rank``); the baselines of the same run:
 ``previous_query_ms`` / ``_cpu_ms`` (the query as it ran before, kept here: run by run, one DTW at a time;
 ``vs_previous_cpu`` the ratio, ``same_top10_as_previous``) and ``exact_query_ms`` / ``_cpu_ms`` (no prefilter;
 ``speedup_cpu``); ``open_s`` (``open_library`` + its stack in a fresh process); ``bytes_per_clip_disk``;

@@ -35,20 +35,30 @@ MIRROR = [0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9]  # ``rigs.body.POINTS`` left <-> rig
 GATED = {"cols": [11, 17], "w3": 5.0, "u": 3, "sgate": 0.4}
 
 
+def _travel(v):
+    """(3,) the median speed, mean forward and absolute mean sideways velocity of (T, 2) (forward, side), times TIME."""
+    return la.TIME * np.array([np.median(np.hypot(*v.T)), np.mean(v[:, 0]), abs(np.mean(v[:, 1]))])
+
+
+def _heights(c):
+    """(3,) the pelvis' rise, the lower foot's clearance, the pelvis' vertical speed (``action_channels`` ``c``)."""
+    low, pz, P = c[:, 3:5].min(axis=1), c[:, 5], de.PERCENTILE
+    return [np.percentile(pz, P) - np.percentile(pz, 100 - P), np.percentile(low, P),
+            la.TIME * np.percentile(np.abs(c[:, 2]), P)]
+
+
+def _velocities(feat):
+    """(action channels, the pelvis' (T, 2) and the ground's (T, 2) velocities as (forward, side))."""
+    c, g = la.action_channels(feat), de.ground_velocity(feat)
+    return c, np.column_stack([-c[:, 1], c[:, 0]]), np.column_stack([-g[:, 1], g[:, 0]])
+
+
 def describe_travel(mode="clip", ratio=0.5, dirw=0.0, s0=0.1):
     """A ``description.describe`` whose travel is the pelvis' or, for a clip playing in place, the ground's."""
     def describe(feat):
-        c, g = la.action_channels(feat), de.ground_velocity(feat)
-        pv, gv = np.column_stack([-c[:, 1], c[:, 0]]), np.column_stack([-g[:, 1], g[:, 0]])
-        in_place = np.median(np.hypot(*pv.T)) < ratio * np.median(np.hypot(*gv.T))
-        v = gv if in_place else pv
-        t = la.TIME * np.array([np.median(np.hypot(*v.T)), np.mean(v[:, 0]), abs(np.mean(v[:, 1]))])
-        low, pz, P = c[:, 3:5].min(axis=1), c[:, 5], de.PERCENTILE
-        rest = [np.percentile(pz, P) - np.percentile(pz, 100 - P), np.percentile(low, P),
-                la.TIME * np.percentile(np.abs(c[:, 2]), P)]
-        parts = [t, t if mode == "inplace" else [], rest]
-        if mode == "inplace":
-            parts[1] = la.TIME * np.array([np.median(np.hypot(*gv.T)), np.mean(gv[:, 0]), abs(np.mean(gv[:, 1]))])
+        c, pv, gv = _velocities(feat)
+        v = gv if np.median(np.hypot(*pv.T)) < ratio * np.median(np.hypot(*gv.T)) else pv
+        parts = [_travel(v)] + ([_travel(gv)] if mode == "inplace" else []) + [_heights(c)]
         if dirw:
             m = v.mean(axis=0)
             n = float(np.hypot(*m))
@@ -61,14 +71,8 @@ def describe_travel(mode="clip", ratio=0.5, dirw=0.0, s0=0.1):
 def describe_before(feat):
     """The description before this pass (nine numbers: the pelvis' travel and the ground's, both kept; rise,
     clearance, vertical speed), the base every variant here changes."""
-    c, g = la.action_channels(feat), de.ground_velocity(feat)
-    low, pz, P = c[:, 3:5].min(axis=1), c[:, 5], de.PERCENTILE
-
-    def travel(fwd, side):
-        return la.TIME * np.array([np.median(np.hypot(fwd, side)), np.mean(fwd), abs(np.mean(side))])
-    return np.concatenate([travel(-c[:, 1], c[:, 0]), travel(-g[:, 1], g[:, 0]),
-                           [np.percentile(pz, P) - np.percentile(pz, 100 - P), np.percentile(low, P),
-                            la.TIME * np.percentile(np.abs(c[:, 2]), P)]]).astype(np.float32)
+    c, pv, gv = _velocities(feat)
+    return np.concatenate([_travel(pv), _travel(gv), _heights(c)]).astype(np.float32)
 
 
 def velocity_sequence(feat):

@@ -22,8 +22,8 @@ _WRISTS = [POINTS.index("wrist.L"), POINTS.index("wrist.R")]
 _HEAD = POINTS.index("head")
 
 __all__ = ["PARTS", "BODY", "PERCENTILE", "WEIGHT", "IN_PLACE", "SHOULDER_BAND", "ARM_WEIGHT", "STRIKE_GATE", "UNION",
-           "ground_velocity", "travel_velocity", "describe", "description_of", "described_rows", "description_distances", "arm_distances",
-           "description_scores", "strikes", "striking_nearest"]
+           "ground_velocity", "travel_velocity", "describe", "description_of", "described_rows",
+           "description_distances", "arm_distances", "description_scores", "strikes", "striking_nearest"]
 
 PARTS = ("speed", "forward", "sideways", "rise", "clearance", "vertical", "strike", "guard")
 BODY = 6  # the first BODY parts are the body's (``description_distances``), the others the arms' (``arm_distances``)
@@ -98,10 +98,9 @@ def description_of(entry):
 def described_rows(entries) -> np.ndarray:
     """(len(entries), PARTS) float64 the entries' descriptions, a NaN row for an entry without one
     (``description_of``): the library's for ``striking_nearest``."""
-    rows = [e.describe for e in entries]
-    if any(r is None or len(r) != len(PARTS) for r in rows):
-        rows = [np.full(len(PARTS), np.nan) if description_of(e) is None else r for e, r in zip(entries, rows)]
-    return np.array(rows, np.float64).reshape(len(entries), len(PARTS))
+    none = np.full(len(PARTS), np.nan)
+    rows = [description_of(e) for e in entries]
+    return np.array([none if r is None else r for r in rows]).reshape(len(entries), len(PARTS))
 
 
 def _described(query, candidates):
